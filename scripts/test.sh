@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Runs every test of tandem, setting up what they need first:
+#   1. the Python reference environment python_ref/.venv (Pinocchio, casadi,
+#      scipy, example-robot-data, pyarrow from PyPI), rebuilt when
+#      python_ref/requirements.txt changes;
+#   2. formatting and lint checks (cargo fmt, cargo clippy -D warnings);
+#   3. all Rust tests, including the live cross-checks against python_ref/.
+# A missing or broken Python environment is an error, never a skip.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+venv=python_ref/.venv
+stamp="$venv/.requirements.sha256"
+want=$(sha256sum python_ref/requirements.txt | cut -d' ' -f1)
+if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
+  echo "== setting up the Python reference environment in $venv"
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check -r python_ref/requirements.txt
+  echo "$want" > "$stamp"
+fi
+"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow" \
+  || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
+
+echo "== cargo fmt --check"
+cargo fmt --all -- --check
+echo "== cargo clippy"
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+echo "== cargo test"
+cargo test --workspace --all-targets
+cargo test --workspace --doc

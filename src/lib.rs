@@ -1,0 +1,17 @@
+//! tandem: motion for human-robot shared control.
+//!
+//! The pipeline (see `DESIGN.md`): robot models from URDF → collision-free
+//! seeds → KOMO-style trajectory optimization → LQR tracking policies →
+//! per-tick arbitration between a human operator and the policy. This
+//! release provides the first box: [`robot`], URDF models with exact,
+//! allocation-free kinematics cross-checked against Pinocchio.
+//!
+//! ```
+//! use tandem::robot::{KinematicsWorkspace, RobotModel};
+//! let panda = RobotModel::panda();
+//! let mut ws = KinematicsWorkspace::new(&panda);
+//! panda.forward_kinematics(&mut ws, &panda.neutral_configuration()).unwrap();
+//! ```
+
+pub mod cli;
+pub mod robot;

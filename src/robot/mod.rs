@@ -1,0 +1,34 @@
+//! Robot models from URDF: description, compiled kinematic model, forward
+//! kinematics and Jacobians.
+//!
+//! Load a [`RobotDescription`] from a URDF, compile it into a [`RobotModel`]
+//! with a choice of active joints, and evaluate it with a
+//! [`KinematicsWorkspace`] — the model/workspace split of Pinocchio's
+//! `Model`/`Data`: the model is immutable and shared, the workspace is
+//! per-thread and makes every query allocation-free.
+//!
+//! ```
+//! use tandem::robot::{KinematicsWorkspace, RobotModel};
+//! let panda = RobotModel::panda();
+//! let mut ws = KinematicsWorkspace::new(&panda);
+//! panda.forward_kinematics(&mut ws, &[0.0, -0.3, 0.0, -2.2, 0.0, 2.0, 0.8]).unwrap();
+//! let hand = panda.frame_pose(&ws, panda.frame_id("panda_hand").unwrap());
+//! println!("hand at {}", hand.translation.vector);
+//! ```
+
+mod description;
+mod error;
+mod kinematics;
+mod mesh;
+mod model;
+mod placement;
+mod urdf;
+
+pub use description::{
+    CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription,
+};
+pub use error::{RobotError, SourceLocation};
+pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
+pub use mesh::TriMesh;
+pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
+pub use urdf::MeshSearchPath;

@@ -1,0 +1,586 @@
+//! The compiled kinematic model: a [`RobotDescription`] with a choice of
+//! active joints, the others held at fixed values.
+//!
+//! Compilation folds every fixed or held joint into constant placements, so
+//! forward kinematics walks only the moving *bodies* — one per active joint
+//! (plus one per joint that mimics an active joint) and the root. A
+//! [`RobotModel`] is immutable and `Send + Sync`; per-thread mutable state
+//! lives in a [`KinematicsWorkspace`](super::KinematicsWorkspace).
+//!
+//! ```
+//! use tandem::robot::{RobotDescription, RobotModel};
+//! use std::sync::Arc;
+//! let panda = Arc::new(RobotDescription::panda());
+//! let arm = RobotModel::builder(panda)
+//!     .chain("panda_link0", "panda_hand_tcp")
+//!     .hold("panda_finger_joint1", 0.04)
+//!     .build()
+//!     .unwrap();
+//! assert_eq!(arm.nq(), 7);
+//! assert_eq!(arm.joint_names()[0], "panda_joint1");
+//! ```
+
+use super::description::{JointKind, JointLimits, RobotDescription};
+use super::error::{RobotError, suggest};
+use super::placement::Placement;
+use nalgebra::{IsometryMatrix3, Vector3};
+use std::collections::HashMap;
+use std::sync::Arc;
+
+/// How one body moves relative to its parent, in its joint frame.
+/// Axis-aligned axes get their own variants: they make FK cheaper.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Motion {
+    RevoluteX,
+    RevoluteY,
+    RevoluteZ,
+    Revolute(Vector3<f64>),
+    Prismatic(Vector3<f64>),
+}
+
+impl Motion {
+    fn new(kind: &JointKind) -> Option<Motion> {
+        let axis = kind.axis()?.into_inner();
+        let exact = |i: usize| (0..3).all(|k| axis[k] == if k == i { 1.0 } else { 0.0 });
+        Some(match kind {
+            JointKind::Prismatic { .. } => Motion::Prismatic(axis),
+            _ if exact(0) => Motion::RevoluteX,
+            _ if exact(1) => Motion::RevoluteY,
+            _ if exact(2) => Motion::RevoluteZ,
+            _ => Motion::Revolute(axis),
+        })
+    }
+
+    /// Unit axis in the joint frame.
+    pub(crate) fn axis(&self) -> Vector3<f64> {
+        match *self {
+            Motion::RevoluteX => Vector3::x(),
+            Motion::RevoluteY => Vector3::y(),
+            Motion::RevoluteZ => Vector3::z(),
+            Motion::Revolute(a) | Motion::Prismatic(a) => a,
+        }
+    }
+
+    pub(crate) fn is_prismatic(&self) -> bool {
+        matches!(self, Motion::Prismatic(_))
+    }
+}
+
+/// A rigid segment moved by one joint; its frame is that joint's frame.
+#[derive(Debug, Clone)]
+pub(crate) struct Body {
+    /// Parent body (bodies are sorted so `parent < self`); the root is its own parent.
+    pub(crate) parent: usize,
+    /// Joint frame in the parent body frame at zero joint value.
+    pub(crate) placement: Placement,
+    pub(crate) motion: Motion,
+    /// Column of the active joint that drives this body.
+    pub(crate) column: usize,
+    /// Joint value = multiplier · q[column] + offset (1 and 0 unless a mimic).
+    pub(crate) multiplier: f64,
+    pub(crate) offset: f64,
+}
+
+/// What a frame is attached to in the URDF.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameKind {
+    /// A link's frame.
+    Link,
+    /// A joint's frame (which URDF makes equal to its child link's frame).
+    Joint,
+}
+
+/// A named frame rigidly attached to a body.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    pub name: String,
+    pub kind: FrameKind,
+    /// Index of the link (or joint) in the description.
+    pub element: usize,
+    pub(crate) body: usize,
+    /// Pose of the frame in its body frame.
+    pub(crate) placement: Placement,
+}
+
+/// Index of a frame in a [`RobotModel`], from [`RobotModel::frame_id`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct FrameId(pub(crate) usize);
+
+impl FrameId {
+    /// Position of the frame in [`RobotModel::frames`].
+    pub fn index(self) -> usize {
+        self.0
+    }
+}
+
+/// Which joints a model moves.
+#[derive(Debug, Clone, PartialEq)]
+pub enum JointSelection {
+    /// Every movable joint not driven by a mimic, in URDF order.
+    Independent,
+    /// These joints, in this order.
+    Names(Vec<String>),
+    /// The independent movable joints on the path from `root` (a link) to
+    /// `tip` (a link or joint frame), root first.
+    Chain { root: String, tip: String },
+}
+
+/// Builds a [`RobotModel`]; see the module example.
+#[derive(Debug, Clone)]
+pub struct RobotModelBuilder {
+    description: Arc<RobotDescription>,
+    selection: JointSelection,
+    held: Vec<(String, f64)>,
+}
+
+impl RobotModelBuilder {
+    /// Moves exactly these joints, in this order (the order of `q`).
+    pub fn active_joints<S: Into<String>>(mut self, names: impl IntoIterator<Item = S>) -> Self {
+        self.selection = JointSelection::Names(names.into_iter().map(Into::into).collect());
+        self
+    }
+
+    /// Moves the independent joints between link `root` and frame `tip`.
+    pub fn chain(mut self, root: impl Into<String>, tip: impl Into<String>) -> Self {
+        self.selection = JointSelection::Chain {
+            root: root.into(),
+            tip: tip.into(),
+        };
+        self
+    }
+
+    /// Sets the selection directly.
+    pub fn selection(mut self, selection: JointSelection) -> Self {
+        self.selection = selection;
+        self
+    }
+
+    /// Holds an inactive joint at `value` (rad or m). Inactive joints not
+    /// named here sit at 0, or at the middle of their limits when 0 is outside.
+    pub fn hold(mut self, joint: impl Into<String>, value: f64) -> Self {
+        self.held.push((joint.into(), value));
+        self
+    }
+
+    /// Compiles the model.
+    ///
+    /// # Errors
+    /// Unknown joint or frame names, a fixed or mimic joint chosen as active,
+    /// a root that is not an ancestor of the tip, held values outside limits.
+    pub fn build(self) -> Result<RobotModel, RobotError> {
+        RobotModel::compile(self.description, &self.selection, &self.held)
+    }
+}
+
+/// An immutable kinematic model with a fixed set of active joints.
+///
+/// The configuration `q` holds one value per active joint (rad for revolute,
+/// m for prismatic) in the order of [`RobotModel::joint_names`]. All poses are
+/// expressed in the frame of the URDF root link ("world").
+#[derive(Debug, Clone)]
+pub struct RobotModel {
+    description: Arc<RobotDescription>,
+    /// Description indices of the active joints, in q order.
+    active: Vec<usize>,
+    joint_names: Vec<String>,
+    limits: Vec<JointLimits>,
+    /// Value of every description joint when q = 0 for the active ones.
+    held_values: Vec<f64>,
+    pub(crate) bodies: Vec<Body>,
+    frames: Vec<Frame>,
+    frame_lookup: HashMap<String, usize>,
+}
+
+impl RobotModel {
+    /// Starts a model over `description` whose active joints are, unless
+    /// changed, [`JointSelection::Independent`].
+    pub fn builder(description: Arc<RobotDescription>) -> RobotModelBuilder {
+        RobotModelBuilder {
+            description,
+            selection: JointSelection::Independent,
+            held: Vec::new(),
+        }
+    }
+
+    /// The embedded Panda with its 7 arm joints active and the fingers held
+    /// open (0.04 m each).
+    pub fn panda() -> RobotModel {
+        // Both names exist in the embedded URDF, which a unit test checks.
+        Self::builder(Arc::new(RobotDescription::panda()))
+            .chain("panda_link0", "panda_hand_tcp")
+            .hold("panda_finger_joint1", 0.04)
+            .build()
+            .expect("embedded Panda model compiles")
+    }
+
+    /// The description the model was compiled from.
+    pub fn description(&self) -> &Arc<RobotDescription> {
+        &self.description
+    }
+
+    /// Number of active joints (the length of `q`).
+    pub fn nq(&self) -> usize {
+        self.active.len()
+    }
+
+    /// Names of the active joints, in `q` order.
+    pub fn joint_names(&self) -> &[String] {
+        &self.joint_names
+    }
+
+    /// Limits of the active joints, in `q` order.
+    pub fn limits(&self) -> &[JointLimits] {
+        &self.limits
+    }
+
+    /// Description indices of the active joints, in `q` order.
+    pub fn active_joint_indices(&self) -> &[usize] {
+        &self.active
+    }
+
+    /// All frames: one per link, then one per joint, in URDF order.
+    pub fn frames(&self) -> &[Frame] {
+        &self.frames
+    }
+
+    /// The frame with this name; link frames take precedence over joint
+    /// frames of the same name.
+    pub fn frame_id(&self, name: &str) -> Result<FrameId, RobotError> {
+        self.frame_lookup
+            .get(name)
+            .map(|&i| FrameId(i))
+            .ok_or_else(|| RobotError::UnknownFrame {
+                name: name.to_string(),
+                suggestions: suggest(name, self.frames.iter().map(|f| f.name.as_str())),
+            })
+    }
+
+    /// Ids of all frames, in [`frames`](Self::frames) order.
+    pub fn frame_ids(&self) -> impl ExactSizeIterator<Item = FrameId> + use<> {
+        (0..self.frames.len()).map(FrameId)
+    }
+
+    /// The frame of link number `link` of the description.
+    pub fn link_frame(&self, link: usize) -> FrameId {
+        FrameId(link)
+    }
+
+    /// Name of a frame.
+    pub fn frame_name(&self, frame: FrameId) -> &str {
+        &self.frames[frame.0].name
+    }
+
+    /// Checks that `q` has one finite value per active joint.
+    pub fn check_configuration(&self, q: &[f64]) -> Result<(), RobotError> {
+        if q.len() != self.nq() {
+            return Err(RobotError::WrongDof {
+                expected: self.nq(),
+                got: q.len(),
+                joints: self.joint_names.join(", "),
+            });
+        }
+        match q.iter().position(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(index) => Err(RobotError::NonFinite {
+                joint: self.joint_names[index].clone(),
+                index,
+                value: q[index],
+            }),
+        }
+    }
+
+    /// True when every value of `q` lies within its joint's position limits.
+    pub fn within_limits(&self, q: &[f64]) -> bool {
+        q.len() == self.nq() && q.iter().zip(&self.limits).all(|(v, l)| l.contains(*v))
+    }
+
+    /// A configuration in the middle of the limits (0 for unlimited joints).
+    pub fn neutral_configuration(&self) -> Vec<f64> {
+        self.limits.iter().map(default_value).collect()
+    }
+
+    /// The value of every joint of the description (URDF order) at `q`:
+    /// active joints from `q`, mimics from their targets, the rest held.
+    pub fn all_joint_values(&self, q: &[f64]) -> Result<Vec<f64>, RobotError> {
+        self.check_configuration(q)?;
+        let mut values = self.held_values.clone();
+        for (k, &j) in self.active.iter().enumerate() {
+            values[j] = q[k];
+        }
+        let joints = self.description.joints();
+        for j in 0..joints.len() {
+            values[j] = resolve_value(joints, &values, j);
+        }
+        Ok(values)
+    }
+
+    fn compile(
+        description: Arc<RobotDescription>,
+        selection: &JointSelection,
+        held: &[(String, f64)],
+    ) -> Result<RobotModel, RobotError> {
+        let active = select_joints(&description, selection)?;
+        let held_values = held_joint_values(&description, &active, held)?;
+        let mut compiler = Compiler::new(&description, &active, &held_values);
+        compiler.walk(description.root_index(), 0, IsometryMatrix3::identity());
+        let (bodies, link_places) = (compiler.bodies, compiler.link_places);
+        let frames = make_frames(&description, &link_places);
+        let mut frame_lookup = HashMap::new();
+        for (i, f) in frames.iter().enumerate().rev() {
+            frame_lookup.insert(f.name.clone(), i);
+        }
+        let joints = description.joints();
+        Ok(RobotModel {
+            joint_names: active.iter().map(|&j| joints[j].name.clone()).collect(),
+            limits: active.iter().map(|&j| joints[j].limits).collect(),
+            active,
+            held_values,
+            bodies,
+            frames,
+            frame_lookup,
+            description,
+        })
+    }
+}
+
+fn default_value(l: &JointLimits) -> f64 {
+    if l.contains(0.0) {
+        0.0
+    } else {
+        0.5 * (l.lower + l.upper)
+    }
+}
+
+/// Value of joint `j` given the values of independent joints (mimics resolved).
+fn resolve_value(joints: &[super::Joint], values: &[f64], j: usize) -> f64 {
+    match &joints[j].mimic {
+        Some(m) => m.multiplier * resolve_value(joints, values, m.joint) + m.offset,
+        None => values[j],
+    }
+}
+
+fn unknown_joint(desc: &RobotDescription, name: &str) -> RobotError {
+    RobotError::UnknownJoint {
+        name: name.to_string(),
+        suggestions: suggest(name, desc.joints().iter().map(|j| j.name.as_str())),
+    }
+}
+
+fn select_joints(
+    desc: &RobotDescription,
+    selection: &JointSelection,
+) -> Result<Vec<usize>, RobotError> {
+    let joints = desc.joints();
+    let independent = |j: usize| joints[j].kind.is_movable() && joints[j].mimic.is_none();
+    match selection {
+        JointSelection::Independent => Ok((0..joints.len()).filter(|&j| independent(j)).collect()),
+        JointSelection::Names(names) => {
+            let mut out = Vec::with_capacity(names.len());
+            for name in names {
+                let j = desc
+                    .joint_index(name)
+                    .ok_or_else(|| unknown_joint(desc, name))?;
+                let reason = if !joints[j].kind.is_movable() {
+                    Some("it is a fixed joint".to_string())
+                } else {
+                    joints[j]
+                        .mimic
+                        .as_ref()
+                        .map(|m| format!("it mimics '{}'", joints[m.joint].name))
+                };
+                if let Some(reason) = reason {
+                    return Err(RobotError::NotActuable {
+                        joint: name.clone(),
+                        reason,
+                    });
+                }
+                if out.contains(&j) {
+                    return Err(RobotError::NotActuable {
+                        joint: name.clone(),
+                        reason: "it is listed twice".into(),
+                    });
+                }
+                out.push(j);
+            }
+            Ok(out)
+        }
+        JointSelection::Chain { root, tip } => {
+            let tip_link = frame_link(desc, tip)?;
+            let root_link = desc
+                .link_index(root)
+                .ok_or_else(|| RobotError::UnknownFrame {
+                    name: root.clone(),
+                    suggestions: suggest(root, desc.links().iter().map(|l| l.name.as_str())),
+                })?;
+            let path = desc.joints_to_root(tip_link);
+            let start = if root_link == desc.root_index() {
+                0
+            } else {
+                path.iter()
+                    .position(|&j| joints[j].parent == root_link)
+                    .ok_or_else(|| RobotError::NotAChain {
+                        root: root.clone(),
+                        tip: tip.clone(),
+                    })?
+            };
+            Ok(path[start..]
+                .iter()
+                .copied()
+                .filter(|&j| independent(j))
+                .collect())
+        }
+    }
+}
+
+/// The link a frame name belongs to (a link, or a joint's child link).
+fn frame_link(desc: &RobotDescription, name: &str) -> Result<usize, RobotError> {
+    desc.link_index(name)
+        .or_else(|| desc.joint_index(name).map(|j| desc.joints()[j].child))
+        .ok_or_else(|| RobotError::UnknownFrame {
+            name: name.to_string(),
+            suggestions: suggest(
+                name,
+                desc.links()
+                    .iter()
+                    .map(|l| l.name.as_str())
+                    .chain(desc.joints().iter().map(|j| j.name.as_str())),
+            ),
+        })
+}
+
+fn held_joint_values(
+    desc: &RobotDescription,
+    active: &[usize],
+    held: &[(String, f64)],
+) -> Result<Vec<f64>, RobotError> {
+    let joints = desc.joints();
+    let mut values: Vec<f64> = joints.iter().map(|j| default_value(&j.limits)).collect();
+    for (name, value) in held {
+        let j = desc
+            .joint_index(name)
+            .ok_or_else(|| unknown_joint(desc, name))?;
+        let joint = &joints[j];
+        if active.contains(&j) || !joint.kind.is_movable() || joint.mimic.is_some() {
+            return Err(RobotError::NotActuable {
+                joint: name.clone(),
+                reason: "only inactive, independent movable joints can be held".into(),
+            });
+        }
+        if !value.is_finite() || !joint.limits.contains(*value) {
+            return Err(RobotError::HeldValueOutOfRange {
+                joint: name.clone(),
+                value: *value,
+                lower: joint.limits.lower,
+                upper: joint.limits.upper,
+            });
+        }
+        values[j] = *value;
+    }
+    for &j in active {
+        values[j] = 0.0;
+    }
+    Ok(values)
+}
+
+/// Depth-first walk that folds constant joints into placements.
+struct Compiler<'a> {
+    desc: &'a RobotDescription,
+    children: Vec<Vec<usize>>,
+    /// Active column of each description joint, if active.
+    column: Vec<Option<usize>>,
+    held_values: &'a [f64],
+    bodies: Vec<Body>,
+    /// (body, placement in body) of each link.
+    link_places: Vec<(usize, IsometryMatrix3<f64>)>,
+}
+
+impl<'a> Compiler<'a> {
+    fn new(desc: &'a RobotDescription, active: &[usize], held_values: &'a [f64]) -> Self {
+        let mut column = vec![None; desc.joints().len()];
+        for (k, &j) in active.iter().enumerate() {
+            column[j] = Some(k);
+        }
+        Compiler {
+            desc,
+            children: desc.children(),
+            column,
+            held_values,
+            bodies: vec![Body {
+                parent: 0,
+                placement: Placement::new(&IsometryMatrix3::identity()),
+                motion: Motion::RevoluteZ,
+                column: 0,
+                multiplier: 0.0,
+                offset: 0.0,
+            }],
+            link_places: vec![(0, IsometryMatrix3::identity()); desc.links().len()],
+        }
+    }
+
+    /// The active column driving joint `j` (through mimics) with the combined
+    /// multiplier and offset, or `None` when the joint does not move.
+    fn driver(&self, j: usize) -> Option<(usize, f64, f64)> {
+        let joint = &self.desc.joints()[j];
+        joint.kind.is_movable().then_some(())?;
+        match &joint.mimic {
+            None => self.column[j].map(|c| (c, 1.0, 0.0)),
+            Some(m) => {
+                let (c, a, b) = self.driver(m.joint)?;
+                Some((c, m.multiplier * a, m.multiplier * b + m.offset))
+            }
+        }
+    }
+
+    fn walk(&mut self, link: usize, body: usize, place: IsometryMatrix3<f64>) {
+        self.link_places[link] = (body, place);
+        for j in self.children[link].clone() {
+            let joint = &self.desc.joints()[j];
+            let at_joint = place * joint.origin;
+            match (self.driver(j), Motion::new(&joint.kind)) {
+                (Some((column, multiplier, offset)), Some(motion)) => {
+                    self.bodies.push(Body {
+                        parent: body,
+                        placement: Placement::new(&at_joint),
+                        motion,
+                        column,
+                        multiplier,
+                        offset,
+                    });
+                    self.walk(
+                        joint.child,
+                        self.bodies.len() - 1,
+                        IsometryMatrix3::identity(),
+                    );
+                }
+                (_, motion) => {
+                    let value = resolve_value(self.desc.joints(), self.held_values, j);
+                    let moved = motion.map_or(IsometryMatrix3::identity(), |m| {
+                        super::kinematics::joint_motion(&m, value)
+                    });
+                    self.walk(joint.child, body, at_joint * moved);
+                }
+            }
+        }
+    }
+}
+
+fn make_frames(
+    desc: &RobotDescription,
+    link_places: &[(usize, IsometryMatrix3<f64>)],
+) -> Vec<Frame> {
+    let links = desc.links().iter().enumerate().map(|(i, l)| Frame {
+        name: l.name.clone(),
+        kind: FrameKind::Link,
+        element: i,
+        body: link_places[i].0,
+        placement: Placement::new(&link_places[i].1),
+    });
+    let joints = desc.joints().iter().enumerate().map(|(i, j)| Frame {
+        name: j.name.clone(),
+        kind: FrameKind::Joint,
+        element: i,
+        body: link_places[j.child].0,
+        placement: Placement::new(&link_places[j.child].1),
+    });
+    links.chain(joints).collect()
+}

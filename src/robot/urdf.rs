@@ -1,0 +1,609 @@
+//! URDF loading: XML → validated [`RobotDescription`].
+//!
+//! urdf-rs does the XML-to-struct work; roxmltree locates elements so every
+//! error can name a line. Mesh URIs (`package://pkg/…`, `file://…`, relative
+//! paths) resolve against a [`MeshSearchPath`].
+//!
+//! ```
+//! use tandem::robot::{MeshSearchPath, RobotDescription};
+//! let urdf = r#"<robot name="arm">
+//!   <link name="base"/><link name="tip"/>
+//!   <joint name="j" type="revolute"><parent link="base"/><child link="tip"/>
+//!     <axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="2" effort="5"/></joint>
+//! </robot>"#;
+//! let arm = RobotDescription::from_urdf_str(urdf, &MeshSearchPath::default()).unwrap();
+//! assert_eq!(arm.joints().len(), 1);
+//! ```
+
+use super::description::{
+    CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription,
+    link_tree,
+};
+use super::error::{RobotError, SourceLocation};
+use super::mesh::TriMesh;
+use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Unit, Vector3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Where `package://` mesh URIs are looked up.
+///
+/// `package://pkg/rest` resolves to `dir/pkg/rest` for each package directory
+/// `dir`, then to `dir/rest` when `dir` itself is named `pkg`; finally the
+/// ancestors of the URDF file are searched for a folder named `pkg`. Relative
+/// paths resolve against the URDF's folder.
+#[derive(Debug, Clone, Default)]
+pub struct MeshSearchPath {
+    /// Folders that contain packages (like entries of `ROS_PACKAGE_PATH`).
+    pub package_dirs: Vec<PathBuf>,
+}
+
+impl MeshSearchPath {
+    /// A search path over the given package folders.
+    pub fn new(package_dirs: impl IntoIterator<Item = PathBuf>) -> Self {
+        MeshSearchPath {
+            package_dirs: package_dirs.into_iter().collect(),
+        }
+    }
+
+    /// Adds the folders of the `ROS_PACKAGE_PATH` environment variable.
+    pub fn with_ros_package_path(mut self) -> Self {
+        if let Some(paths) = std::env::var_os("ROS_PACKAGE_PATH") {
+            self.package_dirs.extend(std::env::split_paths(&paths));
+        }
+        self
+    }
+
+    /// Candidate files for `uri`, in lookup order.
+    fn candidates(&self, uri: &str, urdf_dir: Option<&Path>) -> Vec<PathBuf> {
+        if let Some(rest) = uri.strip_prefix("package://") {
+            // Some generators write package:///pkg/…; urdfdom tolerates it, so do we.
+            let rest = rest.trim_start_matches('/');
+            let (pkg, inner) = rest.split_once('/').unwrap_or((rest, ""));
+            let mut out = Vec::new();
+            for dir in &self.package_dirs {
+                out.push(dir.join(pkg).join(inner));
+                if dir.file_name().is_some_and(|n| n == pkg) {
+                    out.push(dir.join(inner));
+                }
+            }
+            for anc in urdf_dir.into_iter().flat_map(Path::ancestors) {
+                if anc.file_name().is_some_and(|n| n == pkg) {
+                    out.push(anc.join(inner));
+                }
+            }
+            out
+        } else if let Some(abs) = uri.strip_prefix("file://") {
+            vec![PathBuf::from(abs)]
+        } else {
+            let p = PathBuf::from(uri);
+            match urdf_dir {
+                Some(dir) if p.is_relative() => vec![dir.join(p)],
+                _ => vec![p],
+            }
+        }
+    }
+}
+
+impl RobotDescription {
+    /// Loads and validates a URDF file; meshes are resolved and loaded.
+    pub fn from_urdf_file(
+        path: impl AsRef<Path>,
+        search: &MeshSearchPath,
+    ) -> Result<Self, RobotError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let dir = path.parent().map(|d| {
+            if d.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                d
+            }
+        });
+        parse_urdf_in(&text, &path.display().to_string(), dir, search)
+    }
+
+    /// Parses URDF text; relative mesh paths resolve against the working directory.
+    pub fn from_urdf_str(text: &str, search: &MeshSearchPath) -> Result<Self, RobotError> {
+        parse_urdf(text, "<string>", search)
+    }
+}
+
+pub(crate) fn parse_urdf(
+    text: &str,
+    source: &str,
+    search: &MeshSearchPath,
+) -> Result<RobotDescription, RobotError> {
+    parse_urdf_in(text, source, None, search)
+}
+
+/// Element lines found by roxmltree, keyed by (tag, name).
+struct Lines(HashMap<(&'static str, String), u32>);
+
+impl Lines {
+    fn get(&self, tag: &'static str, name: &str) -> Option<u32> {
+        self.0.get(&(tag, name.to_string())).copied()
+    }
+}
+
+fn parse_urdf_in(
+    text: &str,
+    source: &str,
+    urdf_dir: Option<&Path>,
+    search: &MeshSearchPath,
+) -> Result<RobotDescription, RobotError> {
+    let at = |line: Option<u32>| SourceLocation {
+        source: source.to_string(),
+        line,
+    };
+    let doc = roxmltree::Document::parse(text).map_err(|e| RobotError::MalformedXml {
+        at: at(Some(e.pos().row)),
+        message: e.to_string(),
+    })?;
+    let lines = prevalidate(&doc, source)?;
+    let urdf = urdf_rs::read_from_string(&without_visuals(text, &doc)).map_err(|e| {
+        RobotError::InvalidUrdf {
+            at: at(None),
+            message: e.to_string(),
+        }
+    })?;
+
+    let mut link_ids: HashMap<&str, usize> = HashMap::new();
+    let mut links = Vec::with_capacity(urdf.links.len());
+    for l in &urdf.links {
+        let line = lines.get("link", &l.name);
+        if link_ids.insert(&l.name, links.len()).is_some() {
+            return Err(RobotError::DuplicateName {
+                at: at(line),
+                kind: "link",
+                name: l.name.clone(),
+            });
+        }
+        let collisions = l
+            .collision
+            .iter()
+            .map(|c| collision_element(c, &l.name, &at(line), urdf_dir, search))
+            .collect::<Result<_, _>>()?;
+        links.push(Link {
+            name: l.name.clone(),
+            parent_joint: None,
+            collisions,
+            line,
+        });
+    }
+
+    let mut joints = Vec::with_capacity(urdf.joints.len());
+    let mut joint_ids: HashMap<&str, usize> = HashMap::new();
+    for j in &urdf.joints {
+        let line = lines.get("joint", &j.name);
+        if joint_ids.insert(&j.name, joints.len()).is_some() {
+            return Err(RobotError::DuplicateName {
+                at: at(line),
+                kind: "joint",
+                name: j.name.clone(),
+            });
+        }
+        let find = |role: &'static str, name: &str| {
+            link_ids
+                .get(name)
+                .copied()
+                .ok_or_else(|| RobotError::MissingLink {
+                    at: at(line),
+                    joint: j.name.clone(),
+                    role,
+                    link: name.to_string(),
+                })
+        };
+        joints.push(Joint {
+            name: j.name.clone(),
+            kind: joint_kind(j, &at(line))?,
+            parent: find("parent", &j.parent.link)?,
+            child: find("child", &j.child.link)?,
+            origin: pose(&j.origin, "joint", &j.name, &at(line))?,
+            limits: joint_limits(j, &at(line))?,
+            mimic: None,
+            line,
+        });
+    }
+    let mut load_warnings = Vec::new();
+    resolve_mimics(
+        &urdf.joints,
+        &joint_ids,
+        &mut joints,
+        &at,
+        &mut load_warnings,
+    )?;
+
+    let mut desc = RobotDescription {
+        name: urdf.name.clone(),
+        source: source.to_string(),
+        links,
+        joints,
+        root: 0,
+        load_warnings,
+    };
+    link_tree(&mut desc)?;
+    Ok(desc)
+}
+
+/// The text with every `<visual>` and `<material>` element blanked out
+/// (newlines kept): tandem never uses them, and urdf-rs rejects some that
+/// urdfdom accepts (e.g. `<texture/>` without a filename).
+fn without_visuals(text: &str, doc: &roxmltree::Document) -> String {
+    let mut out = text.to_string();
+    let appearance = |n: &roxmltree::Node| {
+        n.has_tag_name("visual")
+            || (n.has_tag_name("material") && n.parent().is_some_and(|p| p.has_tag_name("robot")))
+    };
+    for node in doc.descendants().filter(appearance) {
+        let range = node.range();
+        let blank: String = text[range.clone()]
+            .chars()
+            .map(|c| if c == '\n' { '\n' } else { ' ' })
+            .collect();
+        out.replace_range(range, &blank);
+    }
+    out
+}
+
+/// Checks what urdf-rs would reject without a line: the root element and joint types.
+fn prevalidate(doc: &roxmltree::Document, source: &str) -> Result<Lines, RobotError> {
+    let line_of = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row;
+    let root = doc.root_element();
+    if root.tag_name().name() != "robot" {
+        return Err(RobotError::InvalidUrdf {
+            at: SourceLocation {
+                source: source.to_string(),
+                line: Some(line_of(&root)),
+            },
+            message: format!(
+                "the root element is <{}>, expected <robot>",
+                root.tag_name().name()
+            ),
+        });
+    }
+    let mut lines = HashMap::new();
+    for node in root.children().filter(roxmltree::Node::is_element) {
+        let tag = match node.tag_name().name() {
+            "link" => "link",
+            "joint" => "joint",
+            _ => continue,
+        };
+        let name = node.attribute("name").unwrap_or_default().to_string();
+        let line = line_of(&node);
+        if tag == "joint" {
+            check_joint_type(&node, &name, line, source)?;
+        }
+        lines.entry((tag, name)).or_insert(line);
+    }
+    Ok(Lines(lines))
+}
+
+fn check_joint_type(
+    node: &roxmltree::Node,
+    name: &str,
+    line: u32,
+    source: &str,
+) -> Result<(), RobotError> {
+    let ty = node.attribute("type").unwrap_or_default();
+    let at = SourceLocation {
+        source: source.to_string(),
+        line: Some(line),
+    };
+    match ty {
+        "revolute" | "continuous" | "prismatic" | "fixed" => Ok(()),
+        "floating" | "planar" | "spherical" => Err(RobotError::UnsupportedJointType {
+            at,
+            joint: name.to_string(),
+            joint_type: ty.to_string(),
+        }),
+        _ => Err(RobotError::UnknownJointType {
+            at,
+            joint: name.to_string(),
+            joint_type: ty.to_string(),
+        }),
+    }
+}
+
+fn finite(
+    value: f64,
+    element: &'static str,
+    name: &str,
+    field: &'static str,
+    at: &SourceLocation,
+) -> Result<f64, RobotError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(RobotError::InvalidValue {
+            at: at.clone(),
+            element,
+            name: name.to_string(),
+            field,
+            value,
+            expected: "a finite number",
+        })
+    }
+}
+
+fn positive(
+    value: f64,
+    element: &'static str,
+    name: &str,
+    field: &'static str,
+    at: &SourceLocation,
+) -> Result<f64, RobotError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(RobotError::InvalidValue {
+            at: at.clone(),
+            element,
+            name: name.to_string(),
+            field,
+            value,
+            expected: "a positive finite number",
+        })
+    }
+}
+
+/// URDF `<origin>`: translation, then fixed-axis roll-pitch-yaw.
+fn pose(
+    p: &urdf_rs::Pose,
+    element: &'static str,
+    name: &str,
+    at: &SourceLocation,
+) -> Result<IsometryMatrix3<f64>, RobotError> {
+    for (field, v) in ["origin x", "origin y", "origin z"]
+        .into_iter()
+        .zip(p.xyz.0)
+    {
+        finite(v, element, name, field, at)?;
+    }
+    for (field, v) in ["origin roll", "origin pitch", "origin yaw"]
+        .into_iter()
+        .zip(p.rpy.0)
+    {
+        finite(v, element, name, field, at)?;
+    }
+    let [x, y, z] = p.xyz.0;
+    let [r, pi, yaw] = p.rpy.0;
+    Ok(IsometryMatrix3::from_parts(
+        Translation3::new(x, y, z),
+        Rotation3::from_euler_angles(r, pi, yaw),
+    ))
+}
+
+fn joint_kind(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointKind, RobotError> {
+    use urdf_rs::JointType as T;
+    if j.joint_type == T::Fixed {
+        return Ok(JointKind::Fixed);
+    }
+    let raw = j.axis.xyz.0;
+    for (field, v) in ["axis x", "axis y", "axis z"].into_iter().zip(raw) {
+        finite(v, "joint", &j.name, field, at)?;
+    }
+    let axis = Unit::try_new(Vector3::from(raw), 1e-12).ok_or_else(|| RobotError::ZeroAxis {
+        at: at.clone(),
+        joint: j.name.clone(),
+        axis: raw,
+    })?;
+    Ok(match j.joint_type {
+        T::Revolute => JointKind::Revolute { axis },
+        T::Continuous => JointKind::Continuous { axis },
+        T::Prismatic => JointKind::Prismatic { axis },
+        // Rejected with a line number by `prevalidate`.
+        _ => {
+            return Err(RobotError::UnsupportedJointType {
+                at: at.clone(),
+                joint: j.name.clone(),
+                joint_type: format!("{:?}", j.joint_type).to_lowercase(),
+            });
+        }
+    })
+}
+
+fn joint_limits(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointLimits, RobotError> {
+    let l = &j.limit;
+    let nonneg = |v: f64, field: &'static str| {
+        if v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(RobotError::InvalidValue {
+                at: at.clone(),
+                element: "joint",
+                name: j.name.clone(),
+                field,
+                value: v,
+                expected: "a non-negative number (or inf)",
+            })
+        }
+    };
+    let velocity = nonneg(l.velocity, "limit velocity")?;
+    let effort = nonneg(l.effort, "limit effort")?;
+    let (lower, upper) = match j.joint_type {
+        urdf_rs::JointType::Continuous | urdf_rs::JointType::Fixed => {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        }
+        _ => (l.lower, l.upper),
+    };
+    if lower.is_nan() || upper.is_nan() || lower > upper {
+        return Err(RobotError::InvalidLimits {
+            at: at.clone(),
+            joint: j.name.clone(),
+            lower,
+            upper,
+        });
+    }
+    Ok(JointLimits {
+        lower,
+        upper,
+        velocity,
+        effort,
+    })
+}
+
+/// Resolves `<mimic>` elements. A mimic naming no joint, or on or of a
+/// fixed joint, is ignored with a warning (urdfdom and Pinocchio ignore
+/// them too); a cycle of mimics is an error.
+fn resolve_mimics(
+    raw: &[urdf_rs::Joint],
+    ids: &HashMap<&str, usize>,
+    joints: &mut [Joint],
+    at: &dyn Fn(Option<u32>) -> SourceLocation,
+    warnings: &mut Vec<String>,
+) -> Result<(), RobotError> {
+    for (i, j) in raw.iter().enumerate() {
+        let Some(m) = &j.mimic else { continue };
+        let invalid = |detail: &str| RobotError::InvalidMimic {
+            at: at(joints[i].line),
+            joint: j.name.clone(),
+            target: m.joint.clone(),
+            detail: detail.to_string(),
+        };
+        let ignored = |why: &str| {
+            format!(
+                "{}: joint '{}' mimics '{}', {why}; the mimic is ignored",
+                at(joints[i].line),
+                j.name,
+                m.joint
+            )
+        };
+        let Some(&target) = ids.get(m.joint.as_str()) else {
+            warnings.push(ignored("which does not exist"));
+            continue;
+        };
+        if !joints[i].kind.is_movable() || !joints[target].kind.is_movable() {
+            warnings.push(ignored("but only movable joints can mimic or be mimicked"));
+            continue;
+        }
+        let multiplier = m.multiplier.unwrap_or(1.0);
+        let offset = m.offset.unwrap_or(0.0);
+        if !multiplier.is_finite() || !offset.is_finite() {
+            return Err(invalid("multiplier and offset must be finite"));
+        }
+        joints[i].mimic = Some(Mimic {
+            joint: target,
+            multiplier,
+            offset,
+        });
+    }
+    check_mimic_cycles(joints, at)
+}
+
+fn check_mimic_cycles(
+    joints: &[Joint],
+    at: &dyn Fn(Option<u32>) -> SourceLocation,
+) -> Result<(), RobotError> {
+    for start in 0..joints.len() {
+        let mut cur = start;
+        let mut steps = 0;
+        while let Some(m) = &joints[cur].mimic {
+            cur = m.joint;
+            steps += 1;
+            if steps > joints.len() {
+                let m0 = joints[start]
+                    .mimic
+                    .as_ref()
+                    .map(|m| joints[m.joint].name.clone());
+                return Err(RobotError::InvalidMimic {
+                    at: at(joints[start].line),
+                    joint: joints[start].name.clone(),
+                    target: m0.unwrap_or_default(),
+                    detail: "mimic relations form a cycle".into(),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+fn collision_element(
+    c: &urdf_rs::Collision,
+    link: &str,
+    at: &SourceLocation,
+    urdf_dir: Option<&Path>,
+    search: &MeshSearchPath,
+) -> Result<CollisionElement, RobotError> {
+    use urdf_rs::Geometry as G;
+    let geometry = match &c.geometry {
+        G::Box { size } => {
+            let mut h = Vector3::zeros();
+            for (i, field) in ["box size x", "box size y", "box size z"]
+                .into_iter()
+                .enumerate()
+            {
+                h[i] = positive(size.0[i], "link", link, field, at)? / 2.0;
+            }
+            Geometry::Box { half_extents: h }
+        }
+        G::Cylinder { radius, length } => Geometry::Cylinder {
+            radius: positive(*radius, "link", link, "cylinder radius", at)?,
+            length: positive(*length, "link", link, "cylinder length", at)?,
+        },
+        G::Capsule { radius, length } => Geometry::Capsule {
+            radius: positive(*radius, "link", link, "capsule radius", at)?,
+            length: positive(*length, "link", link, "capsule length", at)?,
+        },
+        G::Sphere { radius } => Geometry::Sphere {
+            radius: positive(*radius, "link", link, "sphere radius", at)?,
+        },
+        G::Mesh { filename, scale } => {
+            let scale = scale.map_or([1.0; 3], |s| s.0);
+            for (field, v) in ["mesh scale x", "mesh scale y", "mesh scale z"]
+                .into_iter()
+                .zip(scale)
+            {
+                finite(v, "link", link, field, at)?;
+            }
+            load_mesh(filename, scale, link, at, urdf_dir, search)?
+        }
+    };
+    Ok(CollisionElement {
+        name: c.name.clone(),
+        origin: pose(&c.origin, "link", link, at)?,
+        geometry,
+    })
+}
+
+fn load_mesh(
+    uri: &str,
+    scale: [f64; 3],
+    link: &str,
+    at: &SourceLocation,
+    urdf_dir: Option<&Path>,
+    search: &MeshSearchPath,
+) -> Result<Geometry, RobotError> {
+    let candidates = search.candidates(uri, urdf_dir);
+    let Some(path) = candidates.iter().find(|p| p.is_file()).cloned() else {
+        return Err(RobotError::MeshNotFound {
+            at: at.clone(),
+            link: link.to_string(),
+            uri: uri.to_string(),
+            searched: candidates,
+        });
+    };
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let mesh = match ext.as_deref() {
+        Some("stl") => TriMesh::from_stl_file(&path, scale)?,
+        Some("obj") => TriMesh::from_obj_file(&path, scale)?,
+        other => {
+            return Ok(Geometry::UnreadableMesh {
+                uri: uri.to_string(),
+                path,
+                format: other.unwrap_or_default().to_string(),
+            });
+        }
+    };
+    Ok(Geometry::Mesh {
+        uri: uri.to_string(),
+        path,
+        mesh: Arc::new(mesh),
+    })
+}

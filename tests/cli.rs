@@ -1,0 +1,202 @@
+//! The `tandem` binary: JSON contract of `fk`, the `inspect` report, and
+//! errors that exit non-zero with a message instead of a panic.
+
+mod common;
+
+use std::process::{Command, Output};
+
+fn tandem(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tandem"))
+        .args(args)
+        .current_dir(common::repo())
+        .output()
+        .expect("run tandem")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+const PANDA: &str = "problems/robots/panda/panda.urdf";
+const ARM: &str =
+    "panda_joint1,panda_joint2,panda_joint3,panda_joint4,panda_joint5,panda_joint6,panda_joint7";
+
+#[test]
+fn fk_json_is_one_object_with_the_documented_fields() {
+    let o = tandem(&[
+        "fk",
+        PANDA,
+        "--frame",
+        "panda_hand_tcp",
+        "--q",
+        "0,-0.785,0,-2.356,0,1.571,0.785",
+        "--joints",
+        ARM,
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert_eq!(text.trim().lines().count(), 1, "exactly one line: {text}");
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["frame"], "panda_hand_tcp");
+    assert_eq!(v["joints"].as_array().unwrap().len(), 7);
+    assert_eq!(v["translation"].as_array().unwrap().len(), 3);
+    let rot = v["rotation"].as_array().unwrap();
+    assert!(rot.len() == 3 && rot.iter().all(|r| r.as_array().unwrap().len() == 3));
+    let jac = v["jacobian"].as_array().unwrap();
+    assert!(jac.len() == 6 && jac.iter().all(|r| r.as_array().unwrap().len() == 7));
+    // The ready pose puts the TCP about 0.31 m ahead and 0.49 m up.
+    let x = v["translation"][0].as_f64().unwrap();
+    let z = v["translation"][2].as_f64().unwrap();
+    assert!(
+        (x - 0.307).abs() < 0.01 && (z - 0.487).abs() < 0.01,
+        "{x} {z}"
+    );
+    // Gripper pointing down: the TCP z axis is -world z.
+    assert!((v["rotation"][2][2].as_f64().unwrap() + 1.0).abs() < 1e-3);
+}
+
+#[test]
+fn fk_without_joints_uses_all_independent_movable_joints() {
+    // 7 arm joints + finger joint 1 (finger joint 2 mimics it).
+    let o = tandem(&[
+        "fk",
+        PANDA,
+        "--frame",
+        "panda_link8",
+        "--q",
+        "0,0,0,-1,0,1,0,0.02",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["joints"].as_array().unwrap().len(), 8);
+    assert_eq!(v["joints"][7], "panda_finger_joint1");
+}
+
+#[test]
+fn inspect_reports_tree_joints_frames_geometry() {
+    let o = tandem(&["inspect", PANDA]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for needle in [
+        "kinematic tree:",
+        "└─ panda_joint1 (revolute)",
+        "panda_joint4",
+        "position [-3.0718, -0.0698] rad",
+        "mimics panda_finger_joint1",
+        "panda_hand_tcp",
+        "collision geometry:",
+        "sphere",
+        "problems found:",
+    ] {
+        assert!(text.contains(needle), "missing '{needle}' in:\n{text}");
+    }
+}
+
+#[test]
+fn errors_exit_non_zero_with_a_message_and_no_panic() {
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["fk", PANDA, "--frame", "panda_hnd", "--q", "0"],
+            "unknown frame 'panda_hnd'",
+        ),
+        (
+            &[
+                "fk",
+                PANDA,
+                "--frame",
+                "panda_hand",
+                "--q",
+                "0,1",
+                "--joints",
+                ARM,
+            ],
+            "expected 7 joint values",
+        ),
+        (
+            &[
+                "fk",
+                PANDA,
+                "--frame",
+                "panda_hand",
+                "--q",
+                "0,x,0,0,0,0,0",
+                "--joints",
+                ARM,
+            ],
+            "('x') is not a number",
+        ),
+        (
+            &[
+                "fk",
+                PANDA,
+                "--frame",
+                "panda_hand",
+                "--q",
+                "0,NaN,0,-1,0,1,0",
+                "--joints",
+                ARM,
+            ],
+            "non-finite value NaN",
+        ),
+        (
+            &[
+                "fk",
+                PANDA,
+                "--frame",
+                "panda_hand",
+                "--q",
+                "0",
+                "--joints",
+                "panda_joint9",
+            ],
+            "unknown joint 'panda_joint9'",
+        ),
+        (
+            &["inspect", "no/such/file.urdf"],
+            "cannot read no/such/file.urdf",
+        ),
+    ];
+    for (args, message) in cases {
+        let o = tandem(args);
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(message),
+            "{args:?}: expected '{message}' in '{err}'"
+        );
+        assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    }
+}
+
+#[test]
+fn inspect_names_line_of_a_broken_urdf() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.urdf");
+    std::fs::write(&path, "<robot name=\"r\">\n<link name=\"a\"/>\n<joint name=\"j\" type=\"hinge\"><parent link=\"a\"/><child link=\"a\"/></joint>\n</robot>").unwrap();
+    let o = tandem(&["inspect", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("bad.urdf:3") && err.contains("unknown type 'hinge'"),
+        "{err}"
+    );
+}
+
+#[test]
+fn help_teaches() {
+    let o = tandem(&["fk", "--help"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    assert!(
+        text.contains("world-aligned")
+            && text.contains("Example:")
+            && text.contains("--package-dir"),
+        "{text}"
+    );
+}
