@@ -16,20 +16,10 @@ use tandem::robot::{KinematicsWorkspace, ReferenceFrame, RobotModel};
 fn configurations(model: &RobotModel, count: usize) -> Vec<Vec<f64>> {
     let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
     let mut next = move || {
-        state = state
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         (state >> 11) as f64 / (1u64 << 53) as f64
     };
-    (0..count)
-        .map(|_| {
-            model
-                .limits()
-                .iter()
-                .map(|l| l.lower + (l.upper - l.lower) * next())
-                .collect()
-        })
-        .collect()
+    (0..count).map(|_| model.limits().iter().map(|l| l.lower + (l.upper - l.lower) * next()).collect()).collect()
 }
 
 fn kinematics(c: &mut Criterion) {
@@ -43,9 +33,7 @@ fn kinematics(c: &mut Criterion) {
     group.bench_function("fk_all_frames", |b| {
         b.iter(|| {
             i = (i + 1) % configs.len();
-            panda
-                .forward_kinematics(&mut ws, black_box(&configs[i]))
-                .expect("valid q");
+            panda.forward_kinematics(&mut ws, black_box(&configs[i])).expect("valid q");
             panda.update_frame_placements(&mut ws);
             black_box(&ws);
         })
@@ -53,22 +41,16 @@ fn kinematics(c: &mut Criterion) {
     group.bench_function("fk_joints", |b| {
         b.iter(|| {
             i = (i + 1) % configs.len();
-            panda
-                .forward_kinematics(&mut ws, black_box(&configs[i]))
-                .expect("valid q");
+            panda.forward_kinematics(&mut ws, black_box(&configs[i])).expect("valid q");
             black_box(&ws);
         })
     });
     group.bench_function("fk_frame_jacobian", |b| {
         b.iter(|| {
             i = (i + 1) % configs.len();
-            panda
-                .forward_kinematics(&mut ws, black_box(&configs[i]))
-                .expect("valid q");
+            panda.forward_kinematics(&mut ws, black_box(&configs[i])).expect("valid q");
             let pose = panda.frame_pose(&ws, hand);
-            panda
-                .frame_jacobian(&ws, hand, ReferenceFrame::WorldAligned, &mut jac)
-                .expect("7 columns");
+            panda.frame_jacobian(&ws, hand, ReferenceFrame::WorldAligned, &mut jac).expect("7 columns");
             black_box((pose, &jac));
         })
     });

@@ -6,11 +6,7 @@ mod common;
 use std::process::{Command, Output};
 
 fn tandem(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tandem"))
-        .args(args)
-        .current_dir(common::repo())
-        .output()
-        .expect("run tandem")
+    Command::new(env!("CARGO_BIN_EXE_tandem")).args(args).current_dir(common::repo()).output().expect("run tandem")
 }
 
 fn stdout(o: &Output) -> String {
@@ -22,8 +18,7 @@ fn stderr(o: &Output) -> String {
 }
 
 const PANDA: &str = "problems/robots/panda/panda.urdf";
-const ARM: &str =
-    "panda_joint1,panda_joint2,panda_joint3,panda_joint4,panda_joint5,panda_joint6,panda_joint7";
+const ARM: &str = "panda_joint1,panda_joint2,panda_joint3,panda_joint4,panda_joint5,panda_joint6,panda_joint7";
 
 #[test]
 fn fk_json_is_one_object_with_the_documented_fields() {
@@ -52,10 +47,7 @@ fn fk_json_is_one_object_with_the_documented_fields() {
     // The ready pose puts the TCP about 0.31 m ahead and 0.49 m up.
     let x = v["translation"][0].as_f64().unwrap();
     let z = v["translation"][2].as_f64().unwrap();
-    assert!(
-        (x - 0.307).abs() < 0.01 && (z - 0.487).abs() < 0.01,
-        "{x} {z}"
-    );
+    assert!((x - 0.307).abs() < 0.01 && (z - 0.487).abs() < 0.01, "{x} {z}");
     // Gripper pointing down: the TCP z axis is -world z.
     assert!((v["rotation"][2][2].as_f64().unwrap() + 1.0).abs() < 1e-3);
 }
@@ -63,15 +55,7 @@ fn fk_json_is_one_object_with_the_documented_fields() {
 #[test]
 fn fk_without_joints_uses_all_independent_movable_joints() {
     // 7 arm joints + finger joint 1 (finger joint 2 mimics it).
-    let o = tandem(&[
-        "fk",
-        PANDA,
-        "--frame",
-        "panda_link8",
-        "--q",
-        "0,0,0,-1,0,1,0,0.02",
-        "--json",
-    ]);
+    let o = tandem(&["fk", PANDA, "--frame", "panda_link8", "--q", "0,0,0,-1,0,1,0,0.02", "--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(v["joints"].as_array().unwrap().len(), 8);
@@ -101,75 +85,21 @@ fn inspect_reports_tree_joints_frames_geometry() {
 #[test]
 fn errors_exit_non_zero_with_a_message_and_no_panic() {
     let cases: &[(&[&str], &str)] = &[
+        (&["fk", PANDA, "--frame", "panda_hnd", "--q", "0"], "unknown frame 'panda_hnd'"),
+        (&["fk", PANDA, "--frame", "panda_hand", "--q", "0,1", "--joints", ARM], "expected 7 joint values"),
+        (&["fk", PANDA, "--frame", "panda_hand", "--q", "0,x,0,0,0,0,0", "--joints", ARM], "('x') is not a number"),
+        (&["fk", PANDA, "--frame", "panda_hand", "--q", "0,NaN,0,-1,0,1,0", "--joints", ARM], "non-finite value NaN"),
         (
-            &["fk", PANDA, "--frame", "panda_hnd", "--q", "0"],
-            "unknown frame 'panda_hnd'",
-        ),
-        (
-            &[
-                "fk",
-                PANDA,
-                "--frame",
-                "panda_hand",
-                "--q",
-                "0,1",
-                "--joints",
-                ARM,
-            ],
-            "expected 7 joint values",
-        ),
-        (
-            &[
-                "fk",
-                PANDA,
-                "--frame",
-                "panda_hand",
-                "--q",
-                "0,x,0,0,0,0,0",
-                "--joints",
-                ARM,
-            ],
-            "('x') is not a number",
-        ),
-        (
-            &[
-                "fk",
-                PANDA,
-                "--frame",
-                "panda_hand",
-                "--q",
-                "0,NaN,0,-1,0,1,0",
-                "--joints",
-                ARM,
-            ],
-            "non-finite value NaN",
-        ),
-        (
-            &[
-                "fk",
-                PANDA,
-                "--frame",
-                "panda_hand",
-                "--q",
-                "0",
-                "--joints",
-                "panda_joint9",
-            ],
+            &["fk", PANDA, "--frame", "panda_hand", "--q", "0", "--joints", "panda_joint9"],
             "unknown joint 'panda_joint9'",
         ),
-        (
-            &["inspect", "no/such/file.urdf"],
-            "cannot read no/such/file.urdf",
-        ),
+        (&["inspect", "no/such/file.urdf"], "cannot read no/such/file.urdf"),
     ];
     for (args, message) in cases {
         let o = tandem(args);
         let err = stderr(&o);
         assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
-        assert!(
-            err.contains(message),
-            "{args:?}: expected '{message}' in '{err}'"
-        );
+        assert!(err.contains(message), "{args:?}: expected '{message}' in '{err}'");
         assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
     }
 }
@@ -182,10 +112,7 @@ fn inspect_names_line_of_a_broken_urdf() {
     let o = tandem(&["inspect", path.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     let err = stderr(&o);
-    assert!(
-        err.contains("bad.urdf:3") && err.contains("unknown type 'hinge'"),
-        "{err}"
-    );
+    assert!(err.contains("bad.urdf:3") && err.contains("unknown type 'hinge'"), "{err}");
 }
 
 #[test]
@@ -193,10 +120,5 @@ fn help_teaches() {
     let o = tandem(&["fk", "--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    assert!(
-        text.contains("world-aligned")
-            && text.contains("Example:")
-            && text.contains("--package-dir"),
-        "{text}"
-    );
+    assert!(text.contains("world-aligned") && text.contains("Example:") && text.contains("--package-dir"), "{text}");
 }

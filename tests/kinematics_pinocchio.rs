@@ -9,9 +9,7 @@ use common::{ErdRobots, random_configurations, read_f64_file, run_python};
 use nalgebra::Matrix6xX;
 use std::path::Path;
 use std::sync::Arc;
-use tandem::robot::{
-    FrameKind, KinematicsWorkspace, MeshSearchPath, ReferenceFrame, RobotDescription, RobotModel,
-};
+use tandem::robot::{FrameKind, KinematicsWorkspace, MeshSearchPath, ReferenceFrame, RobotDescription, RobotModel};
 
 /// Configurations per arm; the large humanoid trees use fewer to keep the
 /// reference output small (hundreds of frames × 40 joints each).
@@ -34,11 +32,7 @@ fn column_map(model: &RobotModel) -> Vec<(String, usize, f64)> {
             mult *= m.multiplier;
             root = m.joint;
         }
-        let col = model
-            .active_joint_indices()
-            .iter()
-            .position(|&a| a == root)
-            .expect("all independent joints active");
+        let col = model.active_joint_indices().iter().position(|&a| a == root).expect("all independent joints active");
         out.push((j.name.clone(), col, mult));
     }
     out
@@ -57,12 +51,7 @@ fn cross_check_n(label: &str, urdf: &Path, search: &MeshSearchPath, seed: u64, c
         .iter()
         .map(|q| {
             let v = model.all_joint_values(q).unwrap();
-            desc.joints()
-                .iter()
-                .zip(v)
-                .filter(|(j, _)| j.kind.is_movable())
-                .map(|(_, v)| v)
-                .collect()
+            desc.joints().iter().zip(v).filter(|(j, _)| j.kind.is_movable()).map(|(_, v)| v).collect()
         })
         .collect();
     let frames: Vec<serde_json::Value> = model
@@ -79,11 +68,7 @@ fn cross_check_n(label: &str, urdf: &Path, search: &MeshSearchPath, seed: u64, c
     let reference = read_f64_file(out.path());
     let (n_pin, nq, nf) = (columns.len(), model.nq(), model.frames().len());
     let per_frame = 12 + 12 * n_pin;
-    assert_eq!(
-        reference.len(),
-        count * nf * per_frame,
-        "{label}: reference size"
-    );
+    assert_eq!(reference.len(), count * nf * per_frame, "{label}: reference size");
 
     let mut ws = KinematicsWorkspace::new(&model);
     let mut jac = Matrix6xX::zeros(nq);
@@ -100,13 +85,10 @@ fn cross_check_n(label: &str, urdf: &Path, search: &MeshSearchPath, seed: u64, c
                 }
                 max_pose = max_pose.max((pose.translation.vector[i] - r[9 + i]).abs());
             }
-            for (block, reference_frame) in [ReferenceFrame::WorldAligned, ReferenceFrame::Local]
-                .into_iter()
-                .enumerate()
+            for (block, reference_frame) in
+                [ReferenceFrame::WorldAligned, ReferenceFrame::Local].into_iter().enumerate()
             {
-                model
-                    .frame_jacobian(&ws, id, reference_frame, &mut jac)
-                    .unwrap();
+                model.frame_jacobian(&ws, id, reference_frame, &mut jac).unwrap();
                 let pin_j = &r[12 + block * 6 * n_pin..][..6 * n_pin];
                 let mut expected = Matrix6xX::<f64>::zeros(nq);
                 for (p, (_, col, mult)) in columns.iter().enumerate() {
@@ -118,13 +100,8 @@ fn cross_check_n(label: &str, urdf: &Path, search: &MeshSearchPath, seed: u64, c
             }
         }
     }
-    println!(
-        "{label}: {count} configurations × {nf} frames: max |Δpose| = {max_pose:.2e}, max |ΔJ| = {max_jac:.2e}"
-    );
-    assert!(
-        max_pose < TOLERANCE,
-        "{label}: placement error {max_pose:e}"
-    );
+    println!("{label}: {count} configurations × {nf} frames: max |Δpose| = {max_pose:.2e}, max |ΔJ| = {max_jac:.2e}");
+    assert!(max_pose < TOLERANCE, "{label}: placement error {max_pose:e}");
     assert!(max_jac < TOLERANCE, "{label}: Jacobian error {max_jac:e}");
 }
 
@@ -137,34 +114,19 @@ fn embedded_panda_matches_pinocchio() {
 #[test]
 fn example_robot_data_panda_matches_pinocchio() {
     let erd = ErdRobots::load();
-    cross_check(
-        "erd panda",
-        &erd.urdf("panda"),
-        &MeshSearchPath::new([erd.package_dir.clone()]),
-        2,
-    );
+    cross_check("erd panda", &erd.urdf("panda"), &MeshSearchPath::new([erd.package_dir.clone()]), 2);
 }
 
 #[test]
 fn ur10_matches_pinocchio() {
     let erd = ErdRobots::load();
-    cross_check(
-        "erd ur10",
-        &erd.urdf("ur10"),
-        &MeshSearchPath::new([erd.package_dir.clone()]),
-        3,
-    );
+    cross_check("erd ur10", &erd.urdf("ur10"), &MeshSearchPath::new([erd.package_dir.clone()]), 3);
 }
 
 #[test]
 fn so100_matches_pinocchio() {
     let erd = ErdRobots::load();
-    cross_check(
-        "erd so100",
-        &erd.urdf("so100"),
-        &MeshSearchPath::new([erd.package_dir.clone()]),
-        4,
-    );
+    cross_check("erd so100", &erd.urdf("so100"), &MeshSearchPath::new([erd.package_dir.clone()]), 4);
 }
 
 #[test]
@@ -193,11 +155,5 @@ fn talos_humanoid_tree_matches_pinocchio() {
 #[test]
 fn pr2_with_prismatic_continuous_and_mimic_joints_matches_pinocchio() {
     let erd = ErdRobots::load();
-    cross_check_n(
-        "erd pr2",
-        &erd.urdf("pr2"),
-        &MeshSearchPath::new([erd.package_dir.clone()]),
-        7,
-        TREE_CONFIGURATIONS,
-    );
+    cross_check_n("erd pr2", &erd.urdf("pr2"), &MeshSearchPath::new([erd.package_dir.clone()]), 7, TREE_CONFIGURATIONS);
 }

@@ -8,9 +8,7 @@ use nalgebra::{Matrix3xX, Matrix6xX, Point3, Rotation3};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::sync::Arc;
-use tandem::robot::{
-    KinematicsWorkspace, MeshSearchPath, ReferenceFrame, RobotDescription, RobotModel,
-};
+use tandem::robot::{KinematicsWorkspace, MeshSearchPath, ReferenceFrame, RobotDescription, RobotModel};
 
 /// Counts heap allocations made by the current thread.
 struct CountingAllocator;
@@ -72,9 +70,7 @@ fn max_fd_error(model: &RobotModel, configs: &[Vec<f64>]) -> f64 {
     for q in configs {
         for frame in model.frame_ids() {
             model.forward_kinematics(&mut ws, q).unwrap();
-            model
-                .frame_jacobian(&ws, frame, ReferenceFrame::WorldAligned, &mut jac)
-                .unwrap();
+            model.frame_jacobian(&ws, frame, ReferenceFrame::WorldAligned, &mut jac).unwrap();
             for k in 0..model.nq() {
                 let mut qp = q.clone();
                 qp[k] += h;
@@ -88,15 +84,10 @@ fn max_fd_error(model: &RobotModel, configs: &[Vec<f64>]) -> f64 {
                 // precision for tiny angles, where acos-based logs do not.
                 let dr: Rotation3<f64> = plus.rotation * minus.rotation.inverse();
                 let m = dr.matrix();
-                let w = nalgebra::Vector3::new(
-                    m[(2, 1)] - m[(1, 2)],
-                    m[(0, 2)] - m[(2, 0)],
-                    m[(1, 0)] - m[(0, 1)],
-                ) / (4.0 * h);
+                let w = nalgebra::Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)])
+                    / (4.0 * h);
                 for i in 0..3 {
-                    worst = worst
-                        .max((jac[(i, k)] - dp[i]).abs())
-                        .max((jac[(i + 3, k)] - w[i]).abs());
+                    worst = worst.max((jac[(i, k)] - dp[i]).abs()).max((jac[(i + 3, k)] - w[i]).abs());
                 }
             }
         }
@@ -129,12 +120,8 @@ fn local_jacobian_is_the_rotated_world_aligned_one() {
     let frame = panda.frame_id("panda_hand_tcp").unwrap();
     for q in random_configurations(&panda, 50, 13) {
         panda.forward_kinematics(&mut ws, &q).unwrap();
-        panda
-            .frame_jacobian(&ws, frame, ReferenceFrame::WorldAligned, &mut world)
-            .unwrap();
-        panda
-            .frame_jacobian(&ws, frame, ReferenceFrame::Local, &mut local)
-            .unwrap();
+        panda.frame_jacobian(&ws, frame, ReferenceFrame::WorldAligned, &mut world).unwrap();
+        panda.frame_jacobian(&ws, frame, ReferenceFrame::Local, &mut local).unwrap();
         let r = panda.frame_pose(&ws, frame).rotation;
         let back_lin = r.matrix() * local.fixed_rows::<3>(0);
         let back_ang = r.matrix() * local.fixed_rows::<3>(3);
@@ -173,17 +160,10 @@ fn point_jacobian_matches_finite_differences() {
 fn held_joints_are_folded_at_their_values() {
     let desc = Arc::new(RobotDescription::panda());
     let full = RobotModel::builder(desc.clone()).build().unwrap();
-    assert_eq!(
-        full.nq(),
-        8,
-        "7 arm joints and finger 1 (finger 2 mimics it)"
-    );
+    assert_eq!(full.nq(), 8, "7 arm joints and finger 1 (finger 2 mimics it)");
     let arm = RobotModel::panda();
     let finger = arm.frame_id("panda_rightfinger").unwrap();
-    let (mut ws_full, mut ws_arm) = (
-        KinematicsWorkspace::new(&full),
-        KinematicsWorkspace::new(&arm),
-    );
+    let (mut ws_full, mut ws_arm) = (KinematicsWorkspace::new(&full), KinematicsWorkspace::new(&arm));
     for q in random_configurations(&arm, 20, 15) {
         let mut qf = q.clone();
         qf.push(0.04);
@@ -194,11 +174,7 @@ fn held_joints_are_folded_at_their_values() {
         assert!((a.to_homogeneous() - b.to_homogeneous()).abs().max() < 1e-14);
     }
     let values = arm.all_joint_values(&arm.neutral_configuration()).unwrap();
-    let j2 = desc
-        .joints()
-        .iter()
-        .position(|j| j.name == "panda_finger_joint2")
-        .unwrap();
+    let j2 = desc.joints().iter().position(|j| j.name == "panda_finger_joint2").unwrap();
     assert_eq!(values[j2], 0.04, "the mimic finger follows the held finger");
 }
 
@@ -217,23 +193,13 @@ fn hot_paths_do_not_allocate() {
         panda.forward_kinematics(&mut ws, q).unwrap();
         panda.update_frame_placements(&mut ws);
         sink += panda.frame_pose(&ws, frame).translation.x;
-        panda
-            .frame_jacobian(&ws, frame, ReferenceFrame::WorldAligned, &mut jac)
-            .unwrap();
-        panda
-            .frame_jacobian(&ws, frame, ReferenceFrame::Local, &mut jac)
-            .unwrap();
-        sink += panda
-            .point_jacobian(&ws, frame, &point, &mut pjac)
-            .unwrap()
-            .x;
+        panda.frame_jacobian(&ws, frame, ReferenceFrame::WorldAligned, &mut jac).unwrap();
+        panda.frame_jacobian(&ws, frame, ReferenceFrame::Local, &mut jac).unwrap();
+        sink += panda.point_jacobian(&ws, frame, &point, &mut pjac).unwrap().x;
     }
     let made = allocations() - before;
     assert!(sink.is_finite());
-    assert_eq!(
-        made, 0,
-        "kinematics allocated {made} times over 100 configurations"
-    );
+    assert_eq!(made, 0, "kinematics allocated {made} times over 100 configurations");
 }
 
 #[test]

@@ -2,9 +2,7 @@
 //! element, the line and the value — never a panic.
 
 use std::io::Write;
-use tandem::robot::{
-    KinematicsWorkspace, MeshSearchPath, RobotDescription, RobotError, RobotModel,
-};
+use tandem::robot::{KinematicsWorkspace, MeshSearchPath, RobotDescription, RobotError, RobotModel};
 
 const GOOD_JOINT: &str = r#"<joint name="j1" type="revolute"><parent link="base"/><child link="arm"/>
     <axis xyz="0 0 1"/><limit lower="-1" upper="1" velocity="2" effort="5"/></joint>"#;
@@ -47,10 +45,7 @@ fn malformed_xml_names_the_line() {
 #[test]
 fn root_element_must_be_robot() {
     let e = parse("<model name=\"x\"/>").unwrap_err();
-    assert!(
-        matches!(e, RobotError::InvalidUrdf { .. }) && e.to_string().contains("<model>"),
-        "{e}"
-    );
+    assert!(matches!(e, RobotError::InvalidUrdf { .. }) && e.to_string().contains("<model>"), "{e}");
 }
 
 #[test]
@@ -58,13 +53,8 @@ fn joint_naming_a_missing_link() {
     let text = robot(&format!("<link name=\"base\"/>\n{}", GOOD_JOINT));
     let e = parse(&text).unwrap_err();
     match &e {
-        RobotError::MissingLink {
-            joint, link, role, ..
-        } => {
-            assert_eq!(
-                (joint.as_str(), link.as_str(), *role),
-                ("j1", "arm", "child")
-            );
+        RobotError::MissingLink { joint, link, role, .. } => {
+            assert_eq!((joint.as_str(), link.as_str(), *role), ("j1", "arm", "child"));
         }
         other => panic!("unexpected {other}"),
     }
@@ -78,10 +68,7 @@ fn kinematic_loop_is_detected() {
         "<link name=\"base\"/><link name=\"arm\"/>\n{GOOD_JOINT}\n<joint name=\"j2\" type=\"fixed\"><parent link=\"base\"/><child link=\"arm\"/></joint>"
     ));
     let e = parse(&text).unwrap_err();
-    assert!(
-        matches!(e, RobotError::KinematicLoop { .. }) && e.to_string().contains("j2"),
-        "{e}"
-    );
+    assert!(matches!(e, RobotError::KinematicLoop { .. }) && e.to_string().contains("j2"), "{e}");
     // A cycle a → b → a disconnected from the root.
     let text = robot(
         "<link name=\"base\"/><link name=\"a\"/><link name=\"b\"/>\n\
@@ -107,10 +94,7 @@ fn unknown_and_unsupported_joint_types() {
         "<link name=\"base\"/><link name=\"arm\"/>\n<joint name=\"h\" type=\"hinge\"><parent link=\"base\"/><child link=\"arm\"/></joint>",
     );
     let e = parse(&text).unwrap_err();
-    assert!(
-        matches!(&e, RobotError::UnknownJointType { joint_type, .. } if joint_type == "hinge"),
-        "{e}"
-    );
+    assert!(matches!(&e, RobotError::UnknownJointType { joint_type, .. } if joint_type == "hinge"), "{e}");
     assert_eq!(line_of(&e), Some(4));
     let text = robot(
         "<link name=\"base\"/><link name=\"arm\"/>\n<joint name=\"f\" type=\"floating\"><parent link=\"base\"/><child link=\"arm\"/></joint>",
@@ -127,12 +111,7 @@ fn lower_limit_above_upper() {
     );
     let e = parse(&text).unwrap_err();
     match &e {
-        RobotError::InvalidLimits {
-            joint,
-            lower,
-            upper,
-            ..
-        } => {
+        RobotError::InvalidLimits { joint, lower, upper, .. } => {
             assert_eq!((joint.as_str(), *lower, *upper), ("j1", 1.5, -1.0));
         }
         other => panic!("unexpected {other}"),
@@ -142,40 +121,23 @@ fn lower_limit_above_upper() {
 
 #[test]
 fn zero_axis_and_non_finite_numbers() {
-    let text = robot(&format!(
-        "<link name=\"base\"/><link name=\"arm\"/>\n{}",
-        GOOD_JOINT.replace("0 0 1", "0 0 0")
-    ));
-    assert!(matches!(
-        parse(&text).unwrap_err(),
-        RobotError::ZeroAxis { .. }
-    ));
+    let text = robot(&format!("<link name=\"base\"/><link name=\"arm\"/>\n{}", GOOD_JOINT.replace("0 0 1", "0 0 0")));
+    assert!(matches!(parse(&text).unwrap_err(), RobotError::ZeroAxis { .. }));
     let text = robot(&format!(
         "<link name=\"base\"/><link name=\"arm\"/>\n{}",
         GOOD_JOINT.replace("<axis", "<origin xyz=\"0 NaN 0\"/><axis")
     ));
     let e = parse(&text).unwrap_err();
-    assert!(
-        matches!(&e, RobotError::InvalidValue { field, .. } if *field == "origin y"),
-        "{e}"
-    );
-    let text = robot(
-        "<link name=\"base\"><collision><geometry><sphere radius=\"-1\"/></geometry></collision></link>",
-    );
+    assert!(matches!(&e, RobotError::InvalidValue { field, .. } if *field == "origin y"), "{e}");
+    let text = robot("<link name=\"base\"><collision><geometry><sphere radius=\"-1\"/></geometry></collision></link>");
     let e = parse(&text).unwrap_err();
-    assert!(
-        matches!(&e, RobotError::InvalidValue { field, .. } if *field == "sphere radius"),
-        "{e}"
-    );
+    assert!(matches!(&e, RobotError::InvalidValue { field, .. } if *field == "sphere radius"), "{e}");
 }
 
 #[test]
 fn duplicate_names() {
     let e = parse(&robot("<link name=\"a\"/>\n<link name=\"a\"/>")).unwrap_err();
-    assert!(
-        matches!(e, RobotError::DuplicateName { kind: "link", .. }),
-        "{e}"
-    );
+    assert!(matches!(e, RobotError::DuplicateName { kind: "link", .. }), "{e}");
 }
 
 #[test]
@@ -188,21 +150,14 @@ fn mimic_of_unknown_joint_is_ignored_with_a_warning_and_cycles_are_errors() {
     let desc = parse(&text).unwrap();
     assert!(desc.joint("j1").unwrap().mimic.is_none());
     let lint = desc.lint();
-    assert!(
-        lint.iter()
-            .any(|w| w.contains("<string>:4") && w.contains("mimics 'nope'")),
-        "{lint:?}"
-    );
+    assert!(lint.iter().any(|w| w.contains("<string>:4") && w.contains("mimics 'nope'")), "{lint:?}");
     let text = robot(
         "<link name=\"base\"/><link name=\"a\"/><link name=\"b\"/>\n\
          <joint name=\"ja\" type=\"continuous\"><parent link=\"base\"/><child link=\"a\"/><mimic joint=\"jb\"/></joint>\n\
          <joint name=\"jb\" type=\"continuous\"><parent link=\"a\"/><child link=\"b\"/><mimic joint=\"ja\"/></joint>",
     );
     let e = parse(&text).unwrap_err();
-    assert!(
-        matches!(&e, RobotError::InvalidMimic { detail, .. } if detail.contains("cycle")),
-        "{e}"
-    );
+    assert!(matches!(&e, RobotError::InvalidMimic { detail, .. } if detail.contains("cycle")), "{e}");
 }
 
 #[test]
@@ -217,11 +172,7 @@ fn unreadable_mesh_formats_load_and_are_reported() {
     .unwrap();
     let desc = RobotDescription::from_urdf_file(&path, &MeshSearchPath::default()).unwrap();
     let lint = desc.lint();
-    assert!(
-        lint.iter()
-            .any(|w| w.contains("base.dae") && w.contains("cannot read")),
-        "{lint:?}"
-    );
+    assert!(lint.iter().any(|w| w.contains("base.dae") && w.contains("cannot read")), "{lint:?}");
 }
 
 #[test]
@@ -238,12 +189,7 @@ fn missing_mesh_lists_where_it_looked() {
     let search = MeshSearchPath::new([dir.path().join("share")]);
     let e = RobotDescription::from_urdf_file(&path, &search).unwrap_err();
     match &e {
-        RobotError::MeshNotFound {
-            link,
-            uri,
-            searched,
-            at,
-        } => {
+        RobotError::MeshNotFound { link, uri, searched, at } => {
             assert_eq!(link, "base");
             assert_eq!(uri, "package://pkg/meshes/base.stl");
             assert!(searched[0].ends_with("share/pkg/meshes/base.stl"));
@@ -254,26 +200,15 @@ fn missing_mesh_lists_where_it_looked() {
     }
     // A corrupt mesh is an InvalidMesh error naming the file.
     std::fs::create_dir_all(dir.path().join("share/pkg/meshes")).unwrap();
-    std::fs::write(
-        dir.path().join("share/pkg/meshes/base.stl"),
-        b"solid x\nfacet garbage",
-    )
-    .unwrap();
+    std::fs::write(dir.path().join("share/pkg/meshes/base.stl"), b"solid x\nfacet garbage").unwrap();
     let e = RobotDescription::from_urdf_file(&path, &search).unwrap_err();
-    assert!(
-        matches!(e, RobotError::InvalidMesh { .. }) && e.to_string().contains("base.stl"),
-        "{e}"
-    );
+    assert!(matches!(e, RobotError::InvalidMesh { .. }) && e.to_string().contains("base.stl"), "{e}");
 }
 
 #[test]
 fn missing_file_is_an_io_error_naming_the_path() {
-    let e = RobotDescription::from_urdf_file("/no/such/robot.urdf", &MeshSearchPath::default())
-        .unwrap_err();
-    assert!(
-        matches!(e, RobotError::Io { .. }) && e.to_string().contains("/no/such/robot.urdf"),
-        "{e}"
-    );
+    let e = RobotDescription::from_urdf_file("/no/such/robot.urdf", &MeshSearchPath::default()).unwrap_err();
+    assert!(matches!(e, RobotError::Io { .. }) && e.to_string().contains("/no/such/robot.urdf"), "{e}");
 }
 
 #[test]
@@ -286,28 +221,13 @@ fn unknown_frame_suggests_close_names() {
 #[test]
 fn unknown_or_fixed_active_joints() {
     let desc = std::sync::Arc::new(RobotDescription::panda());
-    let e = RobotModel::builder(desc.clone())
-        .active_joints(["panda_joint9"])
-        .build()
-        .unwrap_err();
+    let e = RobotModel::builder(desc.clone()).active_joints(["panda_joint9"]).build().unwrap_err();
     assert!(matches!(e, RobotError::UnknownJoint { .. }), "{e}");
-    let e = RobotModel::builder(desc.clone())
-        .active_joints(["panda_hand_joint"])
-        .build()
-        .unwrap_err();
+    let e = RobotModel::builder(desc.clone()).active_joints(["panda_hand_joint"]).build().unwrap_err();
     assert!(matches!(e, RobotError::NotActuable { .. }), "{e}");
-    let e = RobotModel::builder(desc.clone())
-        .active_joints(["panda_finger_joint2"])
-        .build()
-        .unwrap_err();
-    assert!(
-        e.to_string().contains("mimics 'panda_finger_joint1'"),
-        "{e}"
-    );
-    let e = RobotModel::builder(desc.clone())
-        .chain("panda_hand", "panda_link3")
-        .build()
-        .unwrap_err();
+    let e = RobotModel::builder(desc.clone()).active_joints(["panda_finger_joint2"]).build().unwrap_err();
+    assert!(e.to_string().contains("mimics 'panda_finger_joint1'"), "{e}");
+    let e = RobotModel::builder(desc.clone()).chain("panda_hand", "panda_link3").build().unwrap_err();
     assert!(matches!(e, RobotError::NotAChain { .. }), "{e}");
     let e = RobotModel::builder(desc)
         .chain("panda_link0", "panda_hand")
@@ -322,27 +242,11 @@ fn wrong_length_and_non_finite_configurations() {
     let panda = RobotModel::panda();
     let mut ws = KinematicsWorkspace::new(&panda);
     let e = panda.forward_kinematics(&mut ws, &[0.0; 6]).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            RobotError::WrongDof {
-                expected: 7,
-                got: 6,
-                ..
-            }
-        ),
-        "{e}"
-    );
+    assert!(matches!(e, RobotError::WrongDof { expected: 7, got: 6, .. }), "{e}");
     let mut q = panda.neutral_configuration();
     q[3] = f64::NAN;
     let e = panda.forward_kinematics(&mut ws, &q).unwrap_err();
-    assert!(
-        matches!(&e, RobotError::NonFinite { joint, index: 3, .. } if joint == "panda_joint4"),
-        "{e}"
-    );
+    assert!(matches!(&e, RobotError::NonFinite { joint, index: 3, .. } if joint == "panda_joint4"), "{e}");
     q[3] = f64::INFINITY;
-    assert!(matches!(
-        panda.forward_kinematics(&mut ws, &q),
-        Err(RobotError::NonFinite { .. })
-    ));
+    assert!(matches!(panda.forward_kinematics(&mut ws, &q), Err(RobotError::NonFinite { .. })));
 }

@@ -7,8 +7,8 @@ use std::time::Instant;
 /// Arguments of `tandem demo`.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
-    /// Number of configurations in the sweep from the ready pose.
-    #[arg(long, default_value_t = 5)]
+    /// Number of configurations in the elbow sweep (at least 2).
+    #[arg(long, default_value_t = 7)]
     pub steps: usize,
 }
 
@@ -26,20 +26,19 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
         panda.joint_names().join(", "),
         panda.frames().len()
     );
-    println!(
-        "sweep of joint 1 from the ready pose; tcp position (m) and manipulability sqrt(det(J Jᵀ)):"
-    );
-    let steps = args.steps.max(1);
+    println!("elbow (panda_joint4) sweep from the ready pose: tcp position (m), manipulability sqrt(det(J Jᵀ)):");
+    let steps = args.steps.max(2);
+    let elbow = panda.limits()[3];
     for s in 0..steps {
         let mut q = PANDA_READY;
-        q[0] = -1.0 + 2.0 * s as f64 / (steps.max(2) - 1) as f64;
+        q[3] = elbow.lower + (elbow.upper - elbow.lower) * s as f64 / (steps - 1) as f64;
         panda.forward_kinematics(&mut ws, &q)?;
         panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac)?;
         let p = panda.frame_pose(&ws, tcp).translation.vector;
         let manip = (&jac * jac.transpose()).determinant().max(0.0).sqrt();
         println!(
-            "  q1 = {:>6.3} rad  tcp = [{:>7.4}, {:>7.4}, {:>7.4}]  manipulability = {manip:.5}",
-            q[0], p.x, p.y, p.z
+            "  q4 = {:>7.4} rad  tcp = [{:>7.4}, {:>7.4}, {:>7.4}]  manipulability = {manip:.5}",
+            q[3], p.x, p.y, p.z
         );
     }
     let n = 200_000;
@@ -50,7 +49,7 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
         q[1] += 1e-6 * i as f64;
         panda.forward_kinematics(&mut ws, &q)?;
         panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac)?;
-        checksum += jac[(0, 0)];
+        checksum += jac[(2, 1)];
     }
     let per_call = start.elapsed().as_secs_f64() / f64::from(n) * 1e9;
     println!(

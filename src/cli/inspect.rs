@@ -32,15 +32,7 @@ pub fn report(desc: &RobotDescription) -> String {
         desc.independent_joints().len()
     );
     out.push_str("\nkinematic tree:\n");
-    tree(
-        desc,
-        desc.links()
-            .iter()
-            .position(|l| l.name == desc.root_link())
-            .unwrap_or(0),
-        1,
-        &mut out,
-    );
+    tree(desc, desc.links().iter().position(|l| l.name == desc.root_link()).unwrap_or(0), 1, &mut out);
     out.push_str("\njoints:\n");
     for j in desc.joints() {
         let _ = write!(out, "  {:<28} {:<10}", j.name, j.kind.name());
@@ -49,11 +41,7 @@ pub fn report(desc: &RobotDescription) -> String {
         }
         if j.kind.is_movable() {
             let l = &j.limits;
-            let unit = if matches!(j.kind, JointKind::Prismatic { .. }) {
-                "m"
-            } else {
-                "rad"
-            };
+            let unit = if matches!(j.kind, JointKind::Prismatic { .. }) { "m" } else { "rad" };
             let _ = write!(
                 out,
                 " position [{}, {}] {unit}, velocity {} {unit}/s, effort {}",
@@ -61,13 +49,7 @@ pub fn report(desc: &RobotDescription) -> String {
             );
         }
         if let Some(m) = &j.mimic {
-            let _ = write!(
-                out,
-                " mimics {} (x{} + {})",
-                desc.joints()[m.joint].name,
-                m.multiplier,
-                m.offset
-            );
+            let _ = write!(out, " mimics {} (x{} + {})", desc.joints()[m.joint].name, m.multiplier, m.offset);
         }
         out.push('\n');
     }
@@ -81,19 +63,11 @@ pub fn report(desc: &RobotDescription) -> String {
         if l.collisions.is_empty() {
             continue;
         }
-        let shapes: Vec<String> = l
-            .collisions
-            .iter()
-            .map(|c| shape_summary(&c.geometry))
-            .collect();
+        let shapes: Vec<String> = l.collisions.iter().map(|c| shape_summary(&c.geometry)).collect();
         let _ = writeln!(out, "  {:<28} {}", l.name, summarize(&shapes));
     }
     let problems = desc.lint();
-    let _ = writeln!(
-        out,
-        "\nproblems found: {}",
-        if problems.is_empty() { "none" } else { "" }
-    );
+    let _ = writeln!(out, "\nproblems found: {}", if problems.is_empty() { "none" } else { "" });
     for p in problems {
         let _ = writeln!(out, "  - {p}");
     }
@@ -104,13 +78,7 @@ fn tree(desc: &RobotDescription, link: usize, depth: usize, out: &mut String) {
     let _ = writeln!(out, "{}{}", "  ".repeat(depth), desc.links()[link].name);
     for (j, joint) in desc.joints().iter().enumerate() {
         if joint.parent == link {
-            let _ = writeln!(
-                out,
-                "{}└─ {} ({})",
-                "  ".repeat(depth + 1),
-                desc.joints()[j].name,
-                joint.kind.name()
-            );
+            let _ = writeln!(out, "{}└─ {} ({})", "  ".repeat(depth + 1), desc.joints()[j].name, joint.kind.name());
             tree(desc, joint.child, depth + 2, out);
         }
     }
@@ -126,17 +94,13 @@ fn shape_summary(g: &Geometry) -> String {
         Geometry::Sphere { radius } => format!("sphere r={radius:.3}"),
         Geometry::Mesh { path, mesh, .. } => format!(
             "mesh {} ({} vertices, {} triangles)",
-            path.file_name()
-                .map(|f| f.to_string_lossy().into_owned())
-                .unwrap_or_default(),
+            path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default(),
             mesh.vertices.len(),
             mesh.triangles.len()
         ),
         Geometry::UnreadableMesh { path, format, .. } => format!(
             "mesh {} (unreadable {format})",
-            path.file_name()
-                .map(|f| f.to_string_lossy().into_owned())
-                .unwrap_or_default()
+            path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()
         ),
     }
 }
@@ -153,10 +117,7 @@ fn summarize(shapes: &[String]) -> String {
     if parts.len() > 4 {
         return format!("{} elements ({})", shapes.len(), kinds(shapes));
     }
-    let text: Vec<String> = parts
-        .into_iter()
-        .map(|(s, n)| if n > 1 { format!("{s} ×{n}") } else { s })
-        .collect();
+    let text: Vec<String> = parts.into_iter().map(|(s, n)| if n > 1 { format!("{s} ×{n}") } else { s }).collect();
     text.join(", ")
 }
 

@@ -38,9 +38,7 @@ pub fn parse_values(text: &str) -> Result<Vec<f64>, String> {
     text.split(',')
         .enumerate()
         .map(|(i, s)| {
-            s.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("--q value {} ('{}') is not a number", i + 1, s.trim()))
+            s.trim().parse::<f64>().map_err(|_| format!("--q value {} ('{}') is not a number", i + 1, s.trim()))
         })
         .collect()
 }
@@ -57,11 +55,7 @@ pub(super) fn run(args: &FkArgs) -> Result<(), Box<dyn std::error::Error>> {
     let mut ws = KinematicsWorkspace::new(&model);
     model.forward_kinematics(&mut ws, &q)?;
     let pose = model.frame_pose(&ws, frame);
-    let reference = if args.local {
-        ReferenceFrame::Local
-    } else {
-        ReferenceFrame::WorldAligned
-    };
+    let reference = if args.local { ReferenceFrame::Local } else { ReferenceFrame::WorldAligned };
     let mut jac = Matrix6xX::zeros(model.nq());
     model.frame_jacobian(&ws, frame, reference, &mut jac)?;
     let rot = pose.rotation.matrix();
@@ -82,12 +76,7 @@ pub(super) fn run(args: &FkArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("{out}");
         return Ok(());
     }
-    println!(
-        "frame {} of {} at q = {:?}",
-        args.frame,
-        model.description().name(),
-        q
-    );
+    println!("frame {} of {} at q = {:?}", args.frame, model.description().name(), q);
     println!("joints: {}", model.joint_names().join(", "));
     println!("translation (m): [{:.6}, {:.6}, {:.6}]", t.x, t.y, t.z);
     let (r, p, y) = pose.rotation.euler_angles();
@@ -96,10 +85,7 @@ pub(super) fn run(args: &FkArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("  [{:>10.6} {:>10.6} {:>10.6}]", row[0], row[1], row[2]);
     }
     let label = if args.local { "local" } else { "world-aligned" };
-    println!(
-        "jacobian ({label}, 6x{}; rows vx vy vz wx wy wz):",
-        model.nq()
-    );
+    println!("jacobian ({label}, 6x{}; rows vx vy vz wx wy wz):", model.nq());
     for (name, row) in ["vx", "vy", "vz", "wx", "wy", "wz"].iter().zip(&jacobian) {
         let cells: Vec<String> = row.iter().map(|v| format!("{v:>9.5}")).collect();
         println!("  {name} {}", cells.join(" "));

@@ -62,9 +62,10 @@ pub enum Command {
     /// angular rows (rad/s), world-aligned by default: velocities of the
     /// frame origin expressed in the axes of the URDF root link.
     ///
-    /// Example: tandem fk problems/robots/panda/panda.urdf --frame panda_hand_tcp
-    /// --q 0,-0.785,0,-2.356,0,1.571,0.785 --joints
-    /// panda_joint1,panda_joint2,panda_joint3,panda_joint4,panda_joint5,panda_joint6,panda_joint7 --json
+    /// Example (the embedded Panda's 7 arm joints and finger joint 1):
+    ///   tandem fk problems/robots/panda/panda.urdf --frame panda_hand_tcp
+    ///     --q 0,-0.785,0,-2.356,0,1.571,0.785,0.04 --json
+    #[command(verbatim_doc_comment)]
     Fk(kinematics::FkArgs),
 }
 
@@ -83,8 +84,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
 impl UrdfArgs {
     /// Loads the URDF with the requested search path.
     pub fn load(&self) -> Result<crate::robot::RobotDescription, crate::robot::RobotError> {
-        let search =
-            crate::robot::MeshSearchPath::new(self.package_dirs.clone()).with_ros_package_path();
+        let search = crate::robot::MeshSearchPath::new(self.package_dirs.clone()).with_ros_package_path();
         crate::robot::RobotDescription::from_urdf_file(&self.urdf, &search)
     }
 }

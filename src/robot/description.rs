@@ -45,9 +45,9 @@ impl JointKind {
     /// The motion axis in the joint frame; `None` for fixed joints.
     pub fn axis(&self) -> Option<Unit<Vector3<f64>>> {
         match self {
-            JointKind::Revolute { axis }
-            | JointKind::Continuous { axis }
-            | JointKind::Prismatic { axis } => Some(*axis),
+            JointKind::Revolute { axis } | JointKind::Continuous { axis } | JointKind::Prismatic { axis } => {
+                Some(*axis)
+            }
             JointKind::Fixed => None,
         }
     }
@@ -229,11 +229,7 @@ impl RobotDescription {
     /// Names of the movable joints (revolute, continuous, prismatic) that no
     /// `<mimic>` drives, in URDF order: the default active joints.
     pub fn independent_joints(&self) -> Vec<&str> {
-        self.joints
-            .iter()
-            .filter(|j| j.kind.is_movable() && j.mimic.is_none())
-            .map(|j| j.name.as_str())
-            .collect()
+        self.joints.iter().filter(|j| j.kind.is_movable() && j.mimic.is_none()).map(|j| j.name.as_str()).collect()
     }
 
     /// Child joints of each link, in URDF order.
@@ -264,10 +260,7 @@ impl RobotDescription {
         for j in self.joints.iter().filter(|j| j.kind.is_movable()) {
             let at = self.location(j.line);
             if j.limits.velocity == 0.0 {
-                problems.push(format!(
-                    "{at}: joint '{}' has velocity limit 0, so it cannot move",
-                    j.name
-                ));
+                problems.push(format!("{at}: joint '{}' has velocity limit 0, so it cannot move", j.name));
             }
             if j.limits.lower == j.limits.upper {
                 problems.push(format!(
@@ -276,12 +269,7 @@ impl RobotDescription {
                 ));
             }
         }
-        let bare: Vec<&str> = self
-            .links
-            .iter()
-            .filter(|l| l.collisions.is_empty())
-            .map(|l| l.name.as_str())
-            .collect();
+        let bare: Vec<&str> = self.links.iter().filter(|l| l.collisions.is_empty()).map(|l| l.name.as_str()).collect();
         if !bare.is_empty() {
             problems.push(format!(
                 "{} of {} links have no collision geometry: {}",
@@ -294,11 +282,7 @@ impl RobotDescription {
             for c in &l.collisions {
                 match &c.geometry {
                     Geometry::Mesh { path, mesh, .. } if mesh.triangles.is_empty() => {
-                        problems.push(format!(
-                            "link '{}': mesh {} has no triangles",
-                            l.name,
-                            path.display()
-                        ));
+                        problems.push(format!("link '{}': mesh {} has no triangles", l.name, path.display()));
                     }
                     Geometry::UnreadableMesh { path, format, .. } => problems.push(format!(
                         "link '{}': collision mesh {} is '{format}', which tandem cannot read \
@@ -314,10 +298,7 @@ impl RobotDescription {
     }
 
     pub(crate) fn location(&self, line: Option<u32>) -> SourceLocation {
-        SourceLocation {
-            source: self.source.clone(),
-            line,
-        }
+        SourceLocation { source: self.source.clone(), line }
     }
 
     /// The embedded default robot: a Franka Emika Panda written from the
@@ -326,12 +307,8 @@ impl RobotDescription {
     pub fn panda() -> RobotDescription {
         const PANDA_URDF: &str = include_str!("../../problems/robots/panda/panda.urdf");
         // The embedded file is tested on every build; failing here is a build defect.
-        super::urdf::parse_urdf(
-            PANDA_URDF,
-            "<embedded panda.urdf>",
-            &super::MeshSearchPath::default(),
-        )
-        .expect("embedded Panda URDF is valid")
+        super::urdf::parse_urdf(PANDA_URDF, "<embedded panda.urdf>", &super::MeshSearchPath::default())
+            .expect("embedded Panda URDF is valid")
     }
 }
 
@@ -341,10 +318,7 @@ pub(crate) fn link_tree(desc: &mut RobotDescription) -> Result<(), RobotError> {
         let child = &mut desc.links[joint.child];
         if let Some(other) = child.parent_joint {
             return Err(RobotError::KinematicLoop {
-                at: SourceLocation {
-                    source: desc.source.clone(),
-                    line: joint.line,
-                },
+                at: SourceLocation { source: desc.source.clone(), line: joint.line },
                 detail: format!(
                     "link '{}' is the child of both '{}' and '{}'",
                     child.name, desc.joints[other].name, joint.name
@@ -353,13 +327,9 @@ pub(crate) fn link_tree(desc: &mut RobotDescription) -> Result<(), RobotError> {
         }
         child.parent_joint = Some(j);
     }
-    let roots: Vec<usize> = (0..desc.links.len())
-        .filter(|&l| desc.links[l].parent_joint.is_none())
-        .collect();
+    let roots: Vec<usize> = (0..desc.links.len()).filter(|&l| desc.links[l].parent_joint.is_none()).collect();
     match roots.as_slice() {
-        [] if desc.links.is_empty() => Err(RobotError::NoLinks {
-            at: desc.location(None),
-        }),
+        [] if desc.links.is_empty() => Err(RobotError::NoLinks { at: desc.location(None) }),
         [] => Err(RobotError::KinematicLoop {
             at: desc.location(desc.joints.first().and_then(|j| j.line)),
             detail: "every link has a parent joint, so the joints form a cycle".into(),

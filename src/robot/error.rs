@@ -47,55 +47,30 @@ pub enum RobotError {
     #[error(
         "{at}: joint '{joint}' has unknown type '{joint_type}' (expected revolute, continuous, prismatic or fixed)"
     )]
-    UnknownJointType {
-        at: SourceLocation,
-        joint: String,
-        joint_type: String,
-    },
+    UnknownJointType { at: SourceLocation, joint: String, joint_type: String },
     /// A valid URDF joint type that tandem does not model (floating, planar, spherical).
     #[error(
         "{at}: joint '{joint}' has type '{joint_type}', which tandem does not support (use revolute, continuous, prismatic or fixed)"
     )]
-    UnsupportedJointType {
-        at: SourceLocation,
-        joint: String,
-        joint_type: String,
-    },
+    UnsupportedJointType { at: SourceLocation, joint: String, joint_type: String },
     /// A joint names a parent or child link that the URDF does not define.
     #[error("{at}: joint '{joint}' names {role} link '{link}', which is not defined")]
-    MissingLink {
-        at: SourceLocation,
-        joint: String,
-        role: &'static str,
-        link: String,
-    },
+    MissingLink { at: SourceLocation, joint: String, role: &'static str, link: String },
     /// Two links, or two joints, share a name.
     #[error("{at}: duplicate {kind} name '{name}'")]
-    DuplicateName {
-        at: SourceLocation,
-        kind: &'static str,
-        name: String,
-    },
+    DuplicateName { at: SourceLocation, kind: &'static str, name: String },
     /// The joints do not form a tree: a link has two parents or a cycle exists.
     #[error("{at}: kinematic loop: {detail}")]
     KinematicLoop { at: SourceLocation, detail: String },
     /// More than one link has no parent joint.
     #[error("{at}: the URDF has {} root links ({}); a robot needs exactly one", roots.len(), roots.join(", "))]
-    MultipleRoots {
-        at: SourceLocation,
-        roots: Vec<String>,
-    },
+    MultipleRoots { at: SourceLocation, roots: Vec<String> },
     /// The URDF defines no link.
     #[error("{at}: the URDF defines no link")]
     NoLinks { at: SourceLocation },
     /// A joint's lower position limit is above its upper limit.
     #[error("{at}: joint '{joint}' has lower limit {lower} above upper limit {upper}")]
-    InvalidLimits {
-        at: SourceLocation,
-        joint: String,
-        lower: f64,
-        upper: f64,
-    },
+    InvalidLimits { at: SourceLocation, joint: String, lower: f64, upper: f64 },
     /// A number that must be finite (or non-negative) is not.
     #[error("{at}: {element} '{name}': {field} = {value} is not valid ({expected})")]
     InvalidValue {
@@ -108,42 +83,22 @@ pub enum RobotError {
     },
     /// A revolute or prismatic joint with a zero axis.
     #[error("{at}: joint '{joint}' has a zero-length axis {axis:?}")]
-    ZeroAxis {
-        at: SourceLocation,
-        joint: String,
-        axis: [f64; 3],
-    },
+    ZeroAxis { at: SourceLocation, joint: String, axis: [f64; 3] },
     /// A mimic element names a joint that does not exist, or mimics form a cycle.
     #[error("{at}: joint '{joint}' mimics '{target}': {detail}")]
-    InvalidMimic {
-        at: SourceLocation,
-        joint: String,
-        target: String,
-        detail: String,
-    },
+    InvalidMimic { at: SourceLocation, joint: String, target: String, detail: String },
     /// A mesh URI could not be resolved to an existing file.
     #[error("{at}: link '{link}': mesh '{uri}' not found (looked in: {})", searched.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))]
-    MeshNotFound {
-        at: SourceLocation,
-        link: String,
-        uri: String,
-        searched: Vec<PathBuf>,
-    },
+    MeshNotFound { at: SourceLocation, link: String, uri: String, searched: Vec<PathBuf> },
     /// A mesh file exists but could not be parsed.
     #[error("mesh {path}: {message}")]
     InvalidMesh { path: PathBuf, message: String },
     /// No frame (link or joint) has this name.
     #[error("unknown frame '{name}'{}", did_you_mean(suggestions))]
-    UnknownFrame {
-        name: String,
-        suggestions: Vec<String>,
-    },
+    UnknownFrame { name: String, suggestions: Vec<String> },
     /// No joint has this name.
     #[error("unknown joint '{name}'{}", did_you_mean(suggestions))]
-    UnknownJoint {
-        name: String,
-        suggestions: Vec<String>,
-    },
+    UnknownJoint { name: String, suggestions: Vec<String> },
     /// A joint chosen as active cannot be: fixed, or driven by a mimic.
     #[error("joint '{joint}' cannot be active: {reason}")]
     NotActuable { joint: String, reason: String },
@@ -152,37 +107,20 @@ pub enum RobotError {
     NotAChain { root: String, tip: String },
     /// A held (inactive) joint value is outside the joint's limits or not finite.
     #[error("held value {value} for joint '{joint}' is outside its limits [{lower}, {upper}]")]
-    HeldValueOutOfRange {
-        joint: String,
-        value: f64,
-        lower: f64,
-        upper: f64,
-    },
+    HeldValueOutOfRange { joint: String, value: f64, lower: f64, upper: f64 },
     /// A configuration with the wrong number of values.
     #[error("expected {expected} joint values ({joints}), got {got}")]
-    WrongDof {
-        expected: usize,
-        got: usize,
-        joints: String,
-    },
+    WrongDof { expected: usize, got: usize, joints: String },
     /// A configuration containing NaN or an infinity.
     #[error("joint '{joint}' (index {index}) has non-finite value {value}")]
-    NonFinite {
-        joint: String,
-        index: usize,
-        value: f64,
-    },
+    NonFinite { joint: String, index: usize, value: f64 },
     /// An output buffer of the wrong shape (a programming error of the caller).
     #[error("output has {got} columns, the model has {expected} active joints")]
     OutputShape { expected: usize, got: usize },
 }
 
 fn did_you_mean(suggestions: &[String]) -> String {
-    if suggestions.is_empty() {
-        String::new()
-    } else {
-        format!(" (did you mean {}?)", suggestions.join(", "))
-    }
+    if suggestions.is_empty() { String::new() } else { format!(" (did you mean {}?)", suggestions.join(", ")) }
 }
 
 /// Up to three names closest to `name` by edit distance, for "did you mean".
@@ -193,11 +131,7 @@ pub(crate) fn suggest<'a>(name: &str, candidates: impl Iterator<Item = &'a str>)
         .collect();
     scored.sort();
     scored.dedup_by(|a, b| a.1 == b.1);
-    scored
-        .into_iter()
-        .take(3)
-        .map(|(_, c)| c.to_string())
-        .collect()
+    scored.into_iter().take(3).map(|(_, c)| c.to_string()).collect()
 }
 
 fn edit_distance(a: &str, b: &str) -> usize {

@@ -22,9 +22,7 @@
 
 use super::error::RobotError;
 use super::model::{FrameId, Motion, RobotModel};
-use nalgebra::{
-    IsometryMatrix3, Matrix3, Matrix3xX, Matrix6xX, Point3, Rotation3, Translation3, Vector3,
-};
+use nalgebra::{IsometryMatrix3, Matrix3, Matrix3xX, Matrix6xX, Point3, Rotation3, Translation3, Vector3};
 
 /// The frame in which a Jacobian's rows are expressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,9 +62,7 @@ impl KinematicsWorkspace {
 /// The displacement of a joint of kind `motion` at `value` (rad or m).
 pub(crate) fn joint_motion(motion: &Motion, value: f64) -> IsometryMatrix3<f64> {
     match *motion {
-        Motion::Prismatic(axis) => {
-            IsometryMatrix3::from_parts(Translation3::from(axis * value), Rotation3::identity())
-        }
+        Motion::Prismatic(axis) => IsometryMatrix3::from_parts(Translation3::from(axis * value), Rotation3::identity()),
         _ => IsometryMatrix3::from_parts(
             Translation3::identity(),
             Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(motion.axis()), value),
@@ -118,20 +114,12 @@ impl RobotModel {
     /// # Errors
     /// [`RobotError::WrongDof`] or [`RobotError::NonFinite`] for a bad `q`;
     /// the workspace is then left unchanged.
-    pub fn forward_kinematics(
-        &self,
-        ws: &mut KinematicsWorkspace,
-        q: &[f64],
-    ) -> Result<(), RobotError> {
+    pub fn forward_kinematics(&self, ws: &mut KinematicsWorkspace, q: &[f64]) -> Result<(), RobotError> {
         self.check_configuration(q)?;
         let poses = &mut ws.body_poses;
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
             let mut pose = body.placement.after(&poses[body.parent]);
-            apply_motion(
-                &mut pose,
-                &body.motion,
-                body.multiplier * q[body.column] + body.offset,
-            );
+            apply_motion(&mut pose, &body.motion, body.multiplier * q[body.column] + body.offset);
             poses[b] = pose;
         }
         Ok(())
@@ -169,18 +157,13 @@ impl RobotModel {
         // Slice fill: nalgebra's element iterator is several times slower here.
         let data = out.as_mut_slice();
         data.fill(0.0);
-        self.accumulate_columns(
-            ws,
-            self.frames()[frame.0].body,
-            &pose.translation.vector,
-            |k, lin, ang| {
-                let col = &mut data[6 * k..6 * k + 6];
-                for i in 0..3 {
-                    col[i] += lin[i];
-                    col[i + 3] += ang[i];
-                }
-            },
-        );
+        self.accumulate_columns(ws, self.frames()[frame.0].body, &pose.translation.vector, |k, lin, ang| {
+            let col = &mut data[6 * k..6 * k + 6];
+            for i in 0..3 {
+                col[i] += lin[i];
+                col[i + 3] += ang[i];
+            }
+        });
         if reference == ReferenceFrame::Local {
             let rt = pose.rotation.matrix().transpose();
             for col in data.chunks_exact_mut(6) {
@@ -209,26 +192,14 @@ impl RobotModel {
         self.check_columns(out.ncols())?;
         let world = self.frame_pose(ws, frame) * point;
         out.as_mut_slice().fill(0.0);
-        self.accumulate_columns(
-            ws,
-            self.frames()[frame.0].body,
-            &world.coords,
-            |k, lin, _| {
-                out.column_mut(k).add_assign(&lin);
-            },
-        );
+        self.accumulate_columns(ws, self.frames()[frame.0].body, &world.coords, |k, lin, _| {
+            out.column_mut(k).add_assign(&lin);
+        });
         Ok(world)
     }
 
     fn check_columns(&self, got: usize) -> Result<(), RobotError> {
-        if got == self.nq() {
-            Ok(())
-        } else {
-            Err(RobotError::OutputShape {
-                expected: self.nq(),
-                got,
-            })
-        }
+        if got == self.nq() { Ok(()) } else { Err(RobotError::OutputShape { expected: self.nq(), got }) }
     }
 
     /// Calls `add(column, linear, angular)` for each body between `body` and

@@ -28,53 +28,30 @@ impl TriMesh {
     /// [`RobotError::Io`] when the file cannot be read, [`RobotError::InvalidMesh`]
     /// when it is not a valid STL or holds non-finite coordinates.
     pub fn from_stl_file(path: &Path, scale: [f64; 3]) -> Result<TriMesh, RobotError> {
-        let mut file = std::fs::File::open(path).map_err(|source| RobotError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let invalid = |message: String| RobotError::InvalidMesh {
-            path: path.to_path_buf(),
-            message,
-        };
-        let stl = stl_io::read_stl(&mut file)
-            .map_err(|e| invalid(format!("not a valid STL file: {e}")))?;
+        let mut file =
+            std::fs::File::open(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
+        let invalid = |message: String| RobotError::InvalidMesh { path: path.to_path_buf(), message };
+        let stl = stl_io::read_stl(&mut file).map_err(|e| invalid(format!("not a valid STL file: {e}")))?;
         let vertices: Vec<Point3<f64>> = stl
             .vertices
             .iter()
             .map(|v| {
-                Point3::new(
-                    f64::from(v.0[0]) * scale[0],
-                    f64::from(v.0[1]) * scale[1],
-                    f64::from(v.0[2]) * scale[2],
-                )
+                Point3::new(f64::from(v.0[0]) * scale[0], f64::from(v.0[1]) * scale[1], f64::from(v.0[2]) * scale[2])
             })
             .collect();
-        if let Some(bad) = vertices
-            .iter()
-            .position(|v| !v.coords.iter().all(|c| c.is_finite()))
-        {
+        if let Some(bad) = vertices.iter().position(|v| !v.coords.iter().all(|c| c.is_finite())) {
             return Err(invalid(format!("vertex {bad} has a non-finite coordinate")));
         }
         if vertices.is_empty() {
             return Err(invalid("the mesh has no vertices".into()));
         }
-        let to_u32 =
-            |i: usize| u32::try_from(i).map_err(|_| invalid("more than 2^32 vertices".into()));
+        let to_u32 = |i: usize| u32::try_from(i).map_err(|_| invalid("more than 2^32 vertices".into()));
         let triangles = stl
             .faces
             .iter()
-            .map(|f| {
-                Ok([
-                    to_u32(f.vertices[0])?,
-                    to_u32(f.vertices[1])?,
-                    to_u32(f.vertices[2])?,
-                ])
-            })
+            .map(|f| Ok([to_u32(f.vertices[0])?, to_u32(f.vertices[1])?, to_u32(f.vertices[2])?]))
             .collect::<Result<Vec<_>, RobotError>>()?;
-        Ok(TriMesh {
-            vertices,
-            triangles,
-        })
+        Ok(TriMesh { vertices, triangles })
     }
 
     /// Loads a Wavefront OBJ file (`v` and `f` records; polygons are fanned
@@ -84,14 +61,9 @@ impl TriMesh {
     /// [`RobotError::Io`] when the file cannot be read, [`RobotError::InvalidMesh`]
     /// naming the line of a malformed record.
     pub fn from_obj_file(path: &Path, scale: [f64; 3]) -> Result<TriMesh, RobotError> {
-        let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        parse_obj(&text, scale).map_err(|message| RobotError::InvalidMesh {
-            path: path.to_path_buf(),
-            message,
-        })
+        let text =
+            std::fs::read_to_string(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
+        parse_obj(&text, scale).map_err(|message| RobotError::InvalidMesh { path: path.to_path_buf(), message })
     }
 
     /// Axis-aligned bounding box `(min, max)` of the vertices.
@@ -140,10 +112,7 @@ fn parse_obj(text: &str, scale: [f64; 3]) -> Result<TriMesh, String> {
     if vertices.is_empty() {
         return Err("the mesh has no vertices".into());
     }
-    Ok(TriMesh {
-        vertices,
-        triangles,
-    })
+    Ok(TriMesh { vertices, triangles })
 }
 
 /// OBJ face index (`7`, `7/1`, `7//3`, or negative, relative to the end) → 0-based.
@@ -151,10 +120,7 @@ fn obj_index(field: &str, count: usize) -> Option<u32> {
     let raw: i64 = field.split('/').next()?.parse().ok()?;
     let count = i64::try_from(count).ok()?;
     let idx = if raw < 0 { count + raw } else { raw - 1 };
-    (0..count)
-        .contains(&idx)
-        .then(|| u32::try_from(idx).ok())
-        .flatten()
+    (0..count).contains(&idx).then(|| u32::try_from(idx).ok()).flatten()
 }
 
 #[cfg(test)]

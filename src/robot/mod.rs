@@ -24,9 +24,7 @@ mod model;
 mod placement;
 mod urdf;
 
-pub use description::{
-    CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription,
-};
+pub use description::{CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription};
 pub use error::{RobotError, SourceLocation};
 pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;

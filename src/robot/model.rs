@@ -142,10 +142,7 @@ impl RobotModelBuilder {
 
     /// Moves the independent joints between link `root` and frame `tip`.
     pub fn chain(mut self, root: impl Into<String>, tip: impl Into<String>) -> Self {
-        self.selection = JointSelection::Chain {
-            root: root.into(),
-            tip: tip.into(),
-        };
+        self.selection = JointSelection::Chain { root: root.into(), tip: tip.into() };
         self
     }
 
@@ -195,11 +192,7 @@ impl RobotModel {
     /// Starts a model over `description` whose active joints are, unless
     /// changed, [`JointSelection::Independent`].
     pub fn builder(description: Arc<RobotDescription>) -> RobotModelBuilder {
-        RobotModelBuilder {
-            description,
-            selection: JointSelection::Independent,
-            held: Vec::new(),
-        }
+        RobotModelBuilder { description, selection: JointSelection::Independent, held: Vec::new() }
     }
 
     /// The embedded Panda with its 7 arm joints active and the fingers held
@@ -246,13 +239,10 @@ impl RobotModel {
     /// The frame with this name; link frames take precedence over joint
     /// frames of the same name.
     pub fn frame_id(&self, name: &str) -> Result<FrameId, RobotError> {
-        self.frame_lookup
-            .get(name)
-            .map(|&i| FrameId(i))
-            .ok_or_else(|| RobotError::UnknownFrame {
-                name: name.to_string(),
-                suggestions: suggest(name, self.frames.iter().map(|f| f.name.as_str())),
-            })
+        self.frame_lookup.get(name).map(|&i| FrameId(i)).ok_or_else(|| RobotError::UnknownFrame {
+            name: name.to_string(),
+            suggestions: suggest(name, self.frames.iter().map(|f| f.name.as_str())),
+        })
     }
 
     /// Ids of all frames, in [`frames`](Self::frames) order.
@@ -281,11 +271,9 @@ impl RobotModel {
         }
         match q.iter().position(|v| !v.is_finite()) {
             None => Ok(()),
-            Some(index) => Err(RobotError::NonFinite {
-                joint: self.joint_names[index].clone(),
-                index,
-                value: q[index],
-            }),
+            Some(index) => {
+                Err(RobotError::NonFinite { joint: self.joint_names[index].clone(), index, value: q[index] })
+            }
         }
     }
 
@@ -344,11 +332,7 @@ impl RobotModel {
 }
 
 fn default_value(l: &JointLimits) -> f64 {
-    if l.contains(0.0) {
-        0.0
-    } else {
-        0.5 * (l.lower + l.upper)
-    }
+    if l.contains(0.0) { 0.0 } else { 0.5 * (l.lower + l.upper) }
 }
 
 /// Value of joint `j` given the values of independent joints (mimics resolved).
@@ -366,10 +350,7 @@ fn unknown_joint(desc: &RobotDescription, name: &str) -> RobotError {
     }
 }
 
-fn select_joints(
-    desc: &RobotDescription,
-    selection: &JointSelection,
-) -> Result<Vec<usize>, RobotError> {
+fn select_joints(desc: &RobotDescription, selection: &JointSelection) -> Result<Vec<usize>, RobotError> {
     let joints = desc.joints();
     let independent = |j: usize| joints[j].kind.is_movable() && joints[j].mimic.is_none();
     match selection {
@@ -377,28 +358,17 @@ fn select_joints(
         JointSelection::Names(names) => {
             let mut out = Vec::with_capacity(names.len());
             for name in names {
-                let j = desc
-                    .joint_index(name)
-                    .ok_or_else(|| unknown_joint(desc, name))?;
+                let j = desc.joint_index(name).ok_or_else(|| unknown_joint(desc, name))?;
                 let reason = if !joints[j].kind.is_movable() {
                     Some("it is a fixed joint".to_string())
                 } else {
-                    joints[j]
-                        .mimic
-                        .as_ref()
-                        .map(|m| format!("it mimics '{}'", joints[m.joint].name))
+                    joints[j].mimic.as_ref().map(|m| format!("it mimics '{}'", joints[m.joint].name))
                 };
                 if let Some(reason) = reason {
-                    return Err(RobotError::NotActuable {
-                        joint: name.clone(),
-                        reason,
-                    });
+                    return Err(RobotError::NotActuable { joint: name.clone(), reason });
                 }
                 if out.contains(&j) {
-                    return Err(RobotError::NotActuable {
-                        joint: name.clone(),
-                        reason: "it is listed twice".into(),
-                    });
+                    return Err(RobotError::NotActuable { joint: name.clone(), reason: "it is listed twice".into() });
                 }
                 out.push(j);
             }
@@ -406,46 +376,34 @@ fn select_joints(
         }
         JointSelection::Chain { root, tip } => {
             let tip_link = frame_link(desc, tip)?;
-            let root_link = desc
-                .link_index(root)
-                .ok_or_else(|| RobotError::UnknownFrame {
-                    name: root.clone(),
-                    suggestions: suggest(root, desc.links().iter().map(|l| l.name.as_str())),
-                })?;
+            let root_link = desc.link_index(root).ok_or_else(|| RobotError::UnknownFrame {
+                name: root.clone(),
+                suggestions: suggest(root, desc.links().iter().map(|l| l.name.as_str())),
+            })?;
             let path = desc.joints_to_root(tip_link);
             let start = if root_link == desc.root_index() {
                 0
             } else {
                 path.iter()
                     .position(|&j| joints[j].parent == root_link)
-                    .ok_or_else(|| RobotError::NotAChain {
-                        root: root.clone(),
-                        tip: tip.clone(),
-                    })?
+                    .ok_or_else(|| RobotError::NotAChain { root: root.clone(), tip: tip.clone() })?
             };
-            Ok(path[start..]
-                .iter()
-                .copied()
-                .filter(|&j| independent(j))
-                .collect())
+            Ok(path[start..].iter().copied().filter(|&j| independent(j)).collect())
         }
     }
 }
 
 /// The link a frame name belongs to (a link, or a joint's child link).
 fn frame_link(desc: &RobotDescription, name: &str) -> Result<usize, RobotError> {
-    desc.link_index(name)
-        .or_else(|| desc.joint_index(name).map(|j| desc.joints()[j].child))
-        .ok_or_else(|| RobotError::UnknownFrame {
+    desc.link_index(name).or_else(|| desc.joint_index(name).map(|j| desc.joints()[j].child)).ok_or_else(|| {
+        RobotError::UnknownFrame {
             name: name.to_string(),
             suggestions: suggest(
                 name,
-                desc.links()
-                    .iter()
-                    .map(|l| l.name.as_str())
-                    .chain(desc.joints().iter().map(|j| j.name.as_str())),
+                desc.links().iter().map(|l| l.name.as_str()).chain(desc.joints().iter().map(|j| j.name.as_str())),
             ),
-        })
+        }
+    })
 }
 
 fn held_joint_values(
@@ -456,9 +414,7 @@ fn held_joint_values(
     let joints = desc.joints();
     let mut values: Vec<f64> = joints.iter().map(|j| default_value(&j.limits)).collect();
     for (name, value) in held {
-        let j = desc
-            .joint_index(name)
-            .ok_or_else(|| unknown_joint(desc, name))?;
+        let j = desc.joint_index(name).ok_or_else(|| unknown_joint(desc, name))?;
         let joint = &joints[j];
         if active.contains(&j) || !joint.kind.is_movable() || joint.mimic.is_some() {
             return Err(RobotError::NotActuable {
@@ -546,17 +502,12 @@ impl<'a> Compiler<'a> {
                         multiplier,
                         offset,
                     });
-                    self.walk(
-                        joint.child,
-                        self.bodies.len() - 1,
-                        IsometryMatrix3::identity(),
-                    );
+                    self.walk(joint.child, self.bodies.len() - 1, IsometryMatrix3::identity());
                 }
                 (_, motion) => {
                     let value = resolve_value(self.desc.joints(), self.held_values, j);
-                    let moved = motion.map_or(IsometryMatrix3::identity(), |m| {
-                        super::kinematics::joint_motion(&m, value)
-                    });
+                    let moved =
+                        motion.map_or(IsometryMatrix3::identity(), |m| super::kinematics::joint_motion(&m, value));
                     self.walk(joint.child, body, at_joint * moved);
                 }
             }
@@ -564,10 +515,7 @@ impl<'a> Compiler<'a> {
     }
 }
 
-fn make_frames(
-    desc: &RobotDescription,
-    link_places: &[(usize, IsometryMatrix3<f64>)],
-) -> Vec<Frame> {
+fn make_frames(desc: &RobotDescription, link_places: &[(usize, IsometryMatrix3<f64>)]) -> Vec<Frame> {
     let links = desc.links().iter().enumerate().map(|(i, l)| Frame {
         name: l.name.clone(),
         kind: FrameKind::Link,

@@ -38,9 +38,7 @@ impl Placement {
         let mut sign = [0.0; 3];
         let mut permutation = true;
         for j in 0..3 {
-            let unit: Vec<usize> = (0..3)
-                .filter(|&i| (r[(i, j)].abs() - 1.0).abs() < SNAP)
-                .collect();
+            let unit: Vec<usize> = (0..3).filter(|&i| (r[(i, j)].abs() - 1.0).abs() < SNAP).collect();
             let zeros = (0..3).filter(|&i| r[(i, j)].abs() < SNAP).count();
             if unit.len() == 1 && zeros == 2 {
                 axis[j] = unit[0];
@@ -117,10 +115,7 @@ mod tests {
         for (rpy, kind) in [
             ([0.0, 0.0, 0.0], "identity"),
             ([std::f64::consts::FRAC_PI_2, 0.0, 0.0], "perm"),
-            (
-                [-std::f64::consts::FRAC_PI_2, 0.0, std::f64::consts::PI],
-                "perm",
-            ),
+            ([-std::f64::consts::FRAC_PI_2, 0.0, std::f64::consts::PI], "perm"),
             ([1.57079632679, 0.0, 0.0], "general"),
             ([0.1, 0.2, 0.3], "general"),
         ] {
@@ -135,13 +130,8 @@ mod tests {
                 _ => p.kind,
             };
             assert_eq!(p.kind, expected, "{rpy:?}");
-            assert_ne!(
-                matches!(p.kind, RotationKind::SignedPermutation { .. }),
-                kind != "perm"
-            );
-            let diff = (p.after(&pose).to_homogeneous() - (pose * iso).to_homogeneous())
-                .abs()
-                .max();
+            assert_ne!(matches!(p.kind, RotationKind::SignedPermutation { .. }), kind != "perm");
+            let diff = (p.after(&pose).to_homogeneous() - (pose * iso).to_homogeneous()).abs().max();
             assert!(diff < 1e-15, "{rpy:?}: {diff:e}");
         }
     }

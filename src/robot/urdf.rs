@@ -16,8 +16,7 @@
 //! ```
 
 use super::description::{
-    CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription,
-    link_tree,
+    CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription, link_tree,
 };
 use super::error::{RobotError, SourceLocation};
 use super::mesh::TriMesh;
@@ -41,9 +40,7 @@ pub struct MeshSearchPath {
 impl MeshSearchPath {
     /// A search path over the given package folders.
     pub fn new(package_dirs: impl IntoIterator<Item = PathBuf>) -> Self {
-        MeshSearchPath {
-            package_dirs: package_dirs.into_iter().collect(),
-        }
+        MeshSearchPath { package_dirs: package_dirs.into_iter().collect() }
     }
 
     /// Adds the folders of the `ROS_PACKAGE_PATH` environment variable.
@@ -87,22 +84,11 @@ impl MeshSearchPath {
 
 impl RobotDescription {
     /// Loads and validates a URDF file; meshes are resolved and loaded.
-    pub fn from_urdf_file(
-        path: impl AsRef<Path>,
-        search: &MeshSearchPath,
-    ) -> Result<Self, RobotError> {
+    pub fn from_urdf_file(path: impl AsRef<Path>, search: &MeshSearchPath) -> Result<Self, RobotError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| RobotError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        let dir = path.parent().map(|d| {
-            if d.as_os_str().is_empty() {
-                Path::new(".")
-            } else {
-                d
-            }
-        });
+        let text =
+            std::fs::read_to_string(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
+        let dir = path.parent().map(|d| if d.as_os_str().is_empty() { Path::new(".") } else { d });
         parse_urdf_in(&text, &path.display().to_string(), dir, search)
     }
 
@@ -112,11 +98,7 @@ impl RobotDescription {
     }
 }
 
-pub(crate) fn parse_urdf(
-    text: &str,
-    source: &str,
-    search: &MeshSearchPath,
-) -> Result<RobotDescription, RobotError> {
+pub(crate) fn parse_urdf(text: &str, source: &str, search: &MeshSearchPath) -> Result<RobotDescription, RobotError> {
     parse_urdf_in(text, source, None, search)
 }
 
@@ -135,44 +117,26 @@ fn parse_urdf_in(
     urdf_dir: Option<&Path>,
     search: &MeshSearchPath,
 ) -> Result<RobotDescription, RobotError> {
-    let at = |line: Option<u32>| SourceLocation {
-        source: source.to_string(),
-        line,
-    };
-    let doc = roxmltree::Document::parse(text).map_err(|e| RobotError::MalformedXml {
-        at: at(Some(e.pos().row)),
-        message: e.to_string(),
-    })?;
+    let at = |line: Option<u32>| SourceLocation { source: source.to_string(), line };
+    let doc = roxmltree::Document::parse(text)
+        .map_err(|e| RobotError::MalformedXml { at: at(Some(e.pos().row)), message: e.to_string() })?;
     let lines = prevalidate(&doc, source)?;
-    let urdf = urdf_rs::read_from_string(&without_visuals(text, &doc)).map_err(|e| {
-        RobotError::InvalidUrdf {
-            at: at(None),
-            message: e.to_string(),
-        }
-    })?;
+    let urdf = urdf_rs::read_from_string(&without_visuals(text, &doc))
+        .map_err(|e| RobotError::InvalidUrdf { at: at(None), message: e.to_string() })?;
 
     let mut link_ids: HashMap<&str, usize> = HashMap::new();
     let mut links = Vec::with_capacity(urdf.links.len());
     for l in &urdf.links {
         let line = lines.get("link", &l.name);
         if link_ids.insert(&l.name, links.len()).is_some() {
-            return Err(RobotError::DuplicateName {
-                at: at(line),
-                kind: "link",
-                name: l.name.clone(),
-            });
+            return Err(RobotError::DuplicateName { at: at(line), kind: "link", name: l.name.clone() });
         }
         let collisions = l
             .collision
             .iter()
             .map(|c| collision_element(c, &l.name, &at(line), urdf_dir, search))
             .collect::<Result<_, _>>()?;
-        links.push(Link {
-            name: l.name.clone(),
-            parent_joint: None,
-            collisions,
-            line,
-        });
+        links.push(Link { name: l.name.clone(), parent_joint: None, collisions, line });
     }
 
     let mut joints = Vec::with_capacity(urdf.joints.len());
@@ -180,22 +144,15 @@ fn parse_urdf_in(
     for j in &urdf.joints {
         let line = lines.get("joint", &j.name);
         if joint_ids.insert(&j.name, joints.len()).is_some() {
-            return Err(RobotError::DuplicateName {
-                at: at(line),
-                kind: "joint",
-                name: j.name.clone(),
-            });
+            return Err(RobotError::DuplicateName { at: at(line), kind: "joint", name: j.name.clone() });
         }
         let find = |role: &'static str, name: &str| {
-            link_ids
-                .get(name)
-                .copied()
-                .ok_or_else(|| RobotError::MissingLink {
-                    at: at(line),
-                    joint: j.name.clone(),
-                    role,
-                    link: name.to_string(),
-                })
+            link_ids.get(name).copied().ok_or_else(|| RobotError::MissingLink {
+                at: at(line),
+                joint: j.name.clone(),
+                role,
+                link: name.to_string(),
+            })
         };
         joints.push(Joint {
             name: j.name.clone(),
@@ -209,22 +166,10 @@ fn parse_urdf_in(
         });
     }
     let mut load_warnings = Vec::new();
-    resolve_mimics(
-        &urdf.joints,
-        &joint_ids,
-        &mut joints,
-        &at,
-        &mut load_warnings,
-    )?;
+    resolve_mimics(&urdf.joints, &joint_ids, &mut joints, &at, &mut load_warnings)?;
 
-    let mut desc = RobotDescription {
-        name: urdf.name.clone(),
-        source: source.to_string(),
-        links,
-        joints,
-        root: 0,
-        load_warnings,
-    };
+    let mut desc =
+        RobotDescription { name: urdf.name.clone(), source: source.to_string(), links, joints, root: 0, load_warnings };
     link_tree(&mut desc)?;
     Ok(desc)
 }
@@ -235,15 +180,11 @@ fn parse_urdf_in(
 fn without_visuals(text: &str, doc: &roxmltree::Document) -> String {
     let mut out = text.to_string();
     let appearance = |n: &roxmltree::Node| {
-        n.has_tag_name("visual")
-            || (n.has_tag_name("material") && n.parent().is_some_and(|p| p.has_tag_name("robot")))
+        n.has_tag_name("visual") || (n.has_tag_name("material") && n.parent().is_some_and(|p| p.has_tag_name("robot")))
     };
     for node in doc.descendants().filter(appearance) {
         let range = node.range();
-        let blank: String = text[range.clone()]
-            .chars()
-            .map(|c| if c == '\n' { '\n' } else { ' ' })
-            .collect();
+        let blank: String = text[range.clone()].chars().map(|c| if c == '\n' { '\n' } else { ' ' }).collect();
         out.replace_range(range, &blank);
     }
     out
@@ -255,14 +196,8 @@ fn prevalidate(doc: &roxmltree::Document, source: &str) -> Result<Lines, RobotEr
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         return Err(RobotError::InvalidUrdf {
-            at: SourceLocation {
-                source: source.to_string(),
-                line: Some(line_of(&root)),
-            },
-            message: format!(
-                "the root element is <{}>, expected <robot>",
-                root.tag_name().name()
-            ),
+            at: SourceLocation { source: source.to_string(), line: Some(line_of(&root)) },
+            message: format!("the root element is <{}>, expected <robot>", root.tag_name().name()),
         });
     }
     let mut lines = HashMap::new();
@@ -282,29 +217,15 @@ fn prevalidate(doc: &roxmltree::Document, source: &str) -> Result<Lines, RobotEr
     Ok(Lines(lines))
 }
 
-fn check_joint_type(
-    node: &roxmltree::Node,
-    name: &str,
-    line: u32,
-    source: &str,
-) -> Result<(), RobotError> {
+fn check_joint_type(node: &roxmltree::Node, name: &str, line: u32, source: &str) -> Result<(), RobotError> {
     let ty = node.attribute("type").unwrap_or_default();
-    let at = SourceLocation {
-        source: source.to_string(),
-        line: Some(line),
-    };
+    let at = SourceLocation { source: source.to_string(), line: Some(line) };
     match ty {
         "revolute" | "continuous" | "prismatic" | "fixed" => Ok(()),
-        "floating" | "planar" | "spherical" => Err(RobotError::UnsupportedJointType {
-            at,
-            joint: name.to_string(),
-            joint_type: ty.to_string(),
-        }),
-        _ => Err(RobotError::UnknownJointType {
-            at,
-            joint: name.to_string(),
-            joint_type: ty.to_string(),
-        }),
+        "floating" | "planar" | "spherical" => {
+            Err(RobotError::UnsupportedJointType { at, joint: name.to_string(), joint_type: ty.to_string() })
+        }
+        _ => Err(RobotError::UnknownJointType { at, joint: name.to_string(), joint_type: ty.to_string() }),
     }
 }
 
@@ -357,24 +278,15 @@ fn pose(
     name: &str,
     at: &SourceLocation,
 ) -> Result<IsometryMatrix3<f64>, RobotError> {
-    for (field, v) in ["origin x", "origin y", "origin z"]
-        .into_iter()
-        .zip(p.xyz.0)
-    {
+    for (field, v) in ["origin x", "origin y", "origin z"].into_iter().zip(p.xyz.0) {
         finite(v, element, name, field, at)?;
     }
-    for (field, v) in ["origin roll", "origin pitch", "origin yaw"]
-        .into_iter()
-        .zip(p.rpy.0)
-    {
+    for (field, v) in ["origin roll", "origin pitch", "origin yaw"].into_iter().zip(p.rpy.0) {
         finite(v, element, name, field, at)?;
     }
     let [x, y, z] = p.xyz.0;
     let [r, pi, yaw] = p.rpy.0;
-    Ok(IsometryMatrix3::from_parts(
-        Translation3::new(x, y, z),
-        Rotation3::from_euler_angles(r, pi, yaw),
-    ))
+    Ok(IsometryMatrix3::from_parts(Translation3::new(x, y, z), Rotation3::from_euler_angles(r, pi, yaw)))
 }
 
 fn joint_kind(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointKind, RobotError> {
@@ -425,25 +337,13 @@ fn joint_limits(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointLimits, 
     let velocity = nonneg(l.velocity, "limit velocity")?;
     let effort = nonneg(l.effort, "limit effort")?;
     let (lower, upper) = match j.joint_type {
-        urdf_rs::JointType::Continuous | urdf_rs::JointType::Fixed => {
-            (f64::NEG_INFINITY, f64::INFINITY)
-        }
+        urdf_rs::JointType::Continuous | urdf_rs::JointType::Fixed => (f64::NEG_INFINITY, f64::INFINITY),
         _ => (l.lower, l.upper),
     };
     if lower.is_nan() || upper.is_nan() || lower > upper {
-        return Err(RobotError::InvalidLimits {
-            at: at.clone(),
-            joint: j.name.clone(),
-            lower,
-            upper,
-        });
+        return Err(RobotError::InvalidLimits { at: at.clone(), joint: j.name.clone(), lower, upper });
     }
-    Ok(JointLimits {
-        lower,
-        upper,
-        velocity,
-        effort,
-    })
+    Ok(JointLimits { lower, upper, velocity, effort })
 }
 
 /// Resolves `<mimic>` elements. A mimic naming no joint, or on or of a
@@ -465,12 +365,7 @@ fn resolve_mimics(
             detail: detail.to_string(),
         };
         let ignored = |why: &str| {
-            format!(
-                "{}: joint '{}' mimics '{}', {why}; the mimic is ignored",
-                at(joints[i].line),
-                j.name,
-                m.joint
-            )
+            format!("{}: joint '{}' mimics '{}', {why}; the mimic is ignored", at(joints[i].line), j.name, m.joint)
         };
         let Some(&target) = ids.get(m.joint.as_str()) else {
             warnings.push(ignored("which does not exist"));
@@ -485,19 +380,12 @@ fn resolve_mimics(
         if !multiplier.is_finite() || !offset.is_finite() {
             return Err(invalid("multiplier and offset must be finite"));
         }
-        joints[i].mimic = Some(Mimic {
-            joint: target,
-            multiplier,
-            offset,
-        });
+        joints[i].mimic = Some(Mimic { joint: target, multiplier, offset });
     }
     check_mimic_cycles(joints, at)
 }
 
-fn check_mimic_cycles(
-    joints: &[Joint],
-    at: &dyn Fn(Option<u32>) -> SourceLocation,
-) -> Result<(), RobotError> {
+fn check_mimic_cycles(joints: &[Joint], at: &dyn Fn(Option<u32>) -> SourceLocation) -> Result<(), RobotError> {
     for start in 0..joints.len() {
         let mut cur = start;
         let mut steps = 0;
@@ -505,10 +393,7 @@ fn check_mimic_cycles(
             cur = m.joint;
             steps += 1;
             if steps > joints.len() {
-                let m0 = joints[start]
-                    .mimic
-                    .as_ref()
-                    .map(|m| joints[m.joint].name.clone());
+                let m0 = joints[start].mimic.as_ref().map(|m| joints[m.joint].name.clone());
                 return Err(RobotError::InvalidMimic {
                     at: at(joints[start].line),
                     joint: joints[start].name.clone(),
@@ -532,10 +417,7 @@ fn collision_element(
     let geometry = match &c.geometry {
         G::Box { size } => {
             let mut h = Vector3::zeros();
-            for (i, field) in ["box size x", "box size y", "box size z"]
-                .into_iter()
-                .enumerate()
-            {
+            for (i, field) in ["box size x", "box size y", "box size z"].into_iter().enumerate() {
                 h[i] = positive(size.0[i], "link", link, field, at)? / 2.0;
             }
             Geometry::Box { half_extents: h }
@@ -548,25 +430,16 @@ fn collision_element(
             radius: positive(*radius, "link", link, "capsule radius", at)?,
             length: positive(*length, "link", link, "capsule length", at)?,
         },
-        G::Sphere { radius } => Geometry::Sphere {
-            radius: positive(*radius, "link", link, "sphere radius", at)?,
-        },
+        G::Sphere { radius } => Geometry::Sphere { radius: positive(*radius, "link", link, "sphere radius", at)? },
         G::Mesh { filename, scale } => {
             let scale = scale.map_or([1.0; 3], |s| s.0);
-            for (field, v) in ["mesh scale x", "mesh scale y", "mesh scale z"]
-                .into_iter()
-                .zip(scale)
-            {
+            for (field, v) in ["mesh scale x", "mesh scale y", "mesh scale z"].into_iter().zip(scale) {
                 finite(v, "link", link, field, at)?;
             }
             load_mesh(filename, scale, link, at, urdf_dir, search)?
         }
     };
-    Ok(CollisionElement {
-        name: c.name.clone(),
-        origin: pose(&c.origin, "link", link, at)?,
-        geometry,
-    })
+    Ok(CollisionElement { name: c.name.clone(), origin: pose(&c.origin, "link", link, at)?, geometry })
 }
 
 fn load_mesh(
@@ -586,10 +459,7 @@ fn load_mesh(
             searched: candidates,
         });
     };
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     let mesh = match ext.as_deref() {
         Some("stl") => TriMesh::from_stl_file(&path, scale)?,
         Some("obj") => TriMesh::from_obj_file(&path, scale)?,
@@ -601,9 +471,5 @@ fn load_mesh(
             });
         }
     };
-    Ok(Geometry::Mesh {
-        uri: uri.to_string(),
-        path,
-        mesh: Arc::new(mesh),
-    })
+    Ok(Geometry::Mesh { uri: uri.to_string(), path, mesh: Arc::new(mesh) })
 }

@@ -40,18 +40,9 @@ pub fn run_python(script: &str, args: &[&str], stdin: &str) -> String {
         .stderr(Stdio::piped())
         .spawn()
         .expect("start the reference Python");
-    child
-        .stdin
-        .take()
-        .expect("stdin is piped")
-        .write_all(stdin.as_bytes())
-        .expect("write request");
+    child.stdin.take().expect("stdin is piped").write_all(stdin.as_bytes()).expect("write request");
     let out = child.wait_with_output().expect("reference Python ran");
-    assert!(
-        out.status.success(),
-        "python_ref/{script} {args:?} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "python_ref/{script} {args:?} failed:\n{}", String::from_utf8_lossy(&out.stderr));
     String::from_utf8(out.stdout).expect("utf-8 output")
 }
 
@@ -63,8 +54,7 @@ pub struct ErdRobots {
 
 impl ErdRobots {
     pub fn load() -> Self {
-        let v: serde_json::Value =
-            serde_json::from_str(&run_python("pin_reference.py", &["robots"], "")).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&run_python("pin_reference.py", &["robots"], "")).unwrap();
         ErdRobots {
             package_dir: PathBuf::from(v["package_dir"].as_str().unwrap()),
             robots: v["robots"].as_object().unwrap().clone(),
@@ -79,10 +69,7 @@ impl ErdRobots {
 /// Reads a little-endian f64 file.
 pub fn read_f64_file(path: &Path) -> Vec<f64> {
     let bytes = std::fs::read(path).unwrap();
-    bytes
-        .chunks_exact(8)
-        .map(|c| f64::from_le_bytes(c.try_into().unwrap()))
-        .collect()
+    bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect()
 }
 
 /// `count` seeded random configurations within the model's limits (±π for
@@ -100,11 +87,7 @@ pub fn random_configurations(model: &RobotModel, count: usize, seed: u64) -> Vec
                     } else {
                         (-std::f64::consts::PI, std::f64::consts::PI)
                     };
-                    if hi > lo {
-                        rng.random_range(lo..=hi)
-                    } else {
-                        lo
-                    }
+                    if hi > lo { rng.random_range(lo..=hi) } else { lo }
                 })
                 .collect()
         })
