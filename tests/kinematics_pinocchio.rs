@@ -157,3 +157,33 @@ fn pr2_with_prismatic_continuous_and_mimic_joints_matches_pinocchio() {
     let erd = ErdRobots::load();
     cross_check_n("erd pr2", &erd.urdf("pr2"), &MeshSearchPath::new([erd.package_dir.clone()]), 7, TREE_CONFIGURATIONS);
 }
+
+/// Our Panda is written from Franka's published parameters; its frames must
+/// coincide with example-robot-data's Panda wherever both name a frame.
+#[test]
+fn embedded_panda_frames_match_example_robot_data_panda() {
+    let erd = ErdRobots::load();
+    let theirs =
+        RobotDescription::from_urdf_file(erd.urdf("panda"), &MeshSearchPath::new([erd.package_dir.clone()])).unwrap();
+    let theirs = RobotModel::builder(Arc::new(theirs)).build().unwrap();
+    let ours = RobotModel::builder(Arc::new(RobotDescription::panda())).build().unwrap();
+    assert_eq!(ours.joint_names(), theirs.joint_names());
+    let shared: Vec<_> = ours
+        .frame_ids()
+        .filter_map(|f| theirs.frame_id(ours.frame_name(f)).ok().map(|g| (f, g)))
+        .filter(|&(f, g)| ours.frames()[f.index()].kind == theirs.frames()[g.index()].kind)
+        .collect();
+    assert!(shared.len() >= 20, "only {} shared frames", shared.len());
+    let (mut wa, mut wb) = (KinematicsWorkspace::new(&ours), KinematicsWorkspace::new(&theirs));
+    let mut worst = 0.0f64;
+    for q in random_configurations(&ours, CONFIGURATIONS, 8) {
+        ours.forward_kinematics(&mut wa, &q).unwrap();
+        theirs.forward_kinematics(&mut wb, &q).unwrap();
+        for &(f, g) in &shared {
+            let d = ours.frame_pose(&wa, f).to_homogeneous() - theirs.frame_pose(&wb, g).to_homogeneous();
+            worst = worst.max(d.abs().max());
+        }
+    }
+    println!("tandem vs example-robot-data Panda: {} shared frames, max |Δ| = {worst:.2e}", shared.len());
+    assert!(worst < TOLERANCE, "{worst:e}");
+}

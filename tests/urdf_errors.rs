@@ -250,3 +250,32 @@ fn wrong_length_and_non_finite_configurations() {
     q[3] = f64::INFINITY;
     assert!(matches!(panda.forward_kinematics(&mut ws, &q), Err(RobotError::NonFinite { .. })));
 }
+
+#[test]
+fn structural_mistakes_name_their_line() {
+    let cases = [
+        (
+            "<link name=\"a\"><collision><geometry><box size=\"1 2\"/></geometry></collision></link>",
+            "must be 3 numbers",
+        ),
+        (
+            "<link name=\"a\"/><link name=\"b\"/>\n<joint name=\"j\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><limit lower=\"x\" upper=\"1\" velocity=\"1\"/></joint>",
+            "<limit lower=\"x\"> must be a number",
+        ),
+        (
+            "<link name=\"a\"/><link name=\"b\"/>\n<joint name=\"j\" type=\"fixed\"><child link=\"b\"/></joint>",
+            "no <parent link",
+        ),
+        (
+            "<link name=\"a\"/><link name=\"b\"/>\n<joint name=\"j\" type=\"prismatic\"><parent link=\"a\"/><child link=\"b\"/></joint>",
+            "has no <limit",
+        ),
+        ("<link/>", "has no name attribute"),
+    ];
+    for (body, message) in cases {
+        let e = parse(&robot(body)).unwrap_err();
+        assert!(matches!(e, RobotError::InvalidUrdf { .. }), "{e}");
+        assert!(e.to_string().contains(message), "expected '{message}' in '{e}'");
+        assert!(line_of(&e).is_some(), "no line in '{e}'");
+    }
+}

@@ -23,6 +23,7 @@ mod mesh;
 mod model;
 mod placement;
 mod urdf;
+mod xml_checks;
 
 pub use description::{CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription};
 pub use error::{RobotError, SourceLocation};

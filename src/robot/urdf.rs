@@ -20,6 +20,7 @@ use super::description::{
 };
 use super::error::{RobotError, SourceLocation};
 use super::mesh::TriMesh;
+use super::xml_checks::{prevalidate, without_visuals};
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Unit, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -102,15 +103,6 @@ pub(crate) fn parse_urdf(text: &str, source: &str, search: &MeshSearchPath) -> R
     parse_urdf_in(text, source, None, search)
 }
 
-/// Element lines found by roxmltree, keyed by (tag, name).
-struct Lines(HashMap<(&'static str, String), u32>);
-
-impl Lines {
-    fn get(&self, tag: &'static str, name: &str) -> Option<u32> {
-        self.0.get(&(tag, name.to_string())).copied()
-    }
-}
-
 fn parse_urdf_in(
     text: &str,
     source: &str,
@@ -172,61 +164,6 @@ fn parse_urdf_in(
         RobotDescription { name: urdf.name.clone(), source: source.to_string(), links, joints, root: 0, load_warnings };
     link_tree(&mut desc)?;
     Ok(desc)
-}
-
-/// The text with every `<visual>` and `<material>` element blanked out
-/// (newlines kept): tandem never uses them, and urdf-rs rejects some that
-/// urdfdom accepts (e.g. `<texture/>` without a filename).
-fn without_visuals(text: &str, doc: &roxmltree::Document) -> String {
-    let mut out = text.to_string();
-    let appearance = |n: &roxmltree::Node| {
-        n.has_tag_name("visual") || (n.has_tag_name("material") && n.parent().is_some_and(|p| p.has_tag_name("robot")))
-    };
-    for node in doc.descendants().filter(appearance) {
-        let range = node.range();
-        let blank: String = text[range.clone()].chars().map(|c| if c == '\n' { '\n' } else { ' ' }).collect();
-        out.replace_range(range, &blank);
-    }
-    out
-}
-
-/// Checks what urdf-rs would reject without a line: the root element and joint types.
-fn prevalidate(doc: &roxmltree::Document, source: &str) -> Result<Lines, RobotError> {
-    let line_of = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row;
-    let root = doc.root_element();
-    if root.tag_name().name() != "robot" {
-        return Err(RobotError::InvalidUrdf {
-            at: SourceLocation { source: source.to_string(), line: Some(line_of(&root)) },
-            message: format!("the root element is <{}>, expected <robot>", root.tag_name().name()),
-        });
-    }
-    let mut lines = HashMap::new();
-    for node in root.children().filter(roxmltree::Node::is_element) {
-        let tag = match node.tag_name().name() {
-            "link" => "link",
-            "joint" => "joint",
-            _ => continue,
-        };
-        let name = node.attribute("name").unwrap_or_default().to_string();
-        let line = line_of(&node);
-        if tag == "joint" {
-            check_joint_type(&node, &name, line, source)?;
-        }
-        lines.entry((tag, name)).or_insert(line);
-    }
-    Ok(Lines(lines))
-}
-
-fn check_joint_type(node: &roxmltree::Node, name: &str, line: u32, source: &str) -> Result<(), RobotError> {
-    let ty = node.attribute("type").unwrap_or_default();
-    let at = SourceLocation { source: source.to_string(), line: Some(line) };
-    match ty {
-        "revolute" | "continuous" | "prismatic" | "fixed" => Ok(()),
-        "floating" | "planar" | "spherical" => {
-            Err(RobotError::UnsupportedJointType { at, joint: name.to_string(), joint_type: ty.to_string() })
-        }
-        _ => Err(RobotError::UnknownJointType { at, joint: name.to_string(), joint_type: ty.to_string() }),
-    }
 }
 
 fn finite(
