@@ -166,45 +166,32 @@ fn parse_urdf_in(
     Ok(desc)
 }
 
-fn finite(
-    value: f64,
+/// The element whose numbers are checked, for error messages.
+struct Owner<'a> {
     element: &'static str,
-    name: &str,
-    field: &'static str,
-    at: &SourceLocation,
-) -> Result<f64, RobotError> {
-    if value.is_finite() {
-        Ok(value)
-    } else {
-        Err(RobotError::InvalidValue {
-            at: at.clone(),
-            element,
-            name: name.to_string(),
-            field,
-            value,
-            expected: "a finite number",
-        })
-    }
+    name: &'a str,
+    at: &'a SourceLocation,
 }
 
-fn positive(
-    value: f64,
-    element: &'static str,
-    name: &str,
-    field: &'static str,
-    at: &SourceLocation,
-) -> Result<f64, RobotError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        Err(RobotError::InvalidValue {
-            at: at.clone(),
-            element,
-            name: name.to_string(),
-            field,
-            value,
-            expected: "a positive finite number",
-        })
+impl Owner<'_> {
+    fn check(&self, field: &'static str, value: f64, ok: bool, expected: &'static str) -> Result<f64, RobotError> {
+        if ok {
+            return Ok(value);
+        }
+        let (at, element, name) = (self.at.clone(), self.element, self.name.to_string());
+        Err(RobotError::InvalidValue { at, element, name, field, value, expected })
+    }
+
+    fn finite(&self, field: &'static str, value: f64) -> Result<f64, RobotError> {
+        self.check(field, value, value.is_finite(), "a finite number")
+    }
+
+    fn positive(&self, field: &'static str, value: f64) -> Result<f64, RobotError> {
+        self.check(field, value, value.is_finite() && value > 0.0, "a positive finite number")
+    }
+
+    fn non_negative(&self, field: &'static str, value: f64) -> Result<f64, RobotError> {
+        self.check(field, value, value >= 0.0, "a non-negative number (or inf)")
     }
 }
 
@@ -216,10 +203,10 @@ fn pose(
     at: &SourceLocation,
 ) -> Result<IsometryMatrix3<f64>, RobotError> {
     for (field, v) in ["origin x", "origin y", "origin z"].into_iter().zip(p.xyz.0) {
-        finite(v, element, name, field, at)?;
+        Owner { element, name, at }.finite(field, v)?;
     }
     for (field, v) in ["origin roll", "origin pitch", "origin yaw"].into_iter().zip(p.rpy.0) {
-        finite(v, element, name, field, at)?;
+        Owner { element, name, at }.finite(field, v)?;
     }
     let [x, y, z] = p.xyz.0;
     let [r, pi, yaw] = p.rpy.0;
@@ -233,7 +220,7 @@ fn joint_kind(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointKind, Robo
     }
     let raw = j.axis.xyz.0;
     for (field, v) in ["axis x", "axis y", "axis z"].into_iter().zip(raw) {
-        finite(v, "joint", &j.name, field, at)?;
+        Owner { element: "joint", name: &j.name, at }.finite(field, v)?;
     }
     let axis = Unit::try_new(Vector3::from(raw), 1e-12).ok_or_else(|| RobotError::ZeroAxis {
         at: at.clone(),
@@ -257,22 +244,9 @@ fn joint_kind(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointKind, Robo
 
 fn joint_limits(j: &urdf_rs::Joint, at: &SourceLocation) -> Result<JointLimits, RobotError> {
     let l = &j.limit;
-    let nonneg = |v: f64, field: &'static str| {
-        if v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(RobotError::InvalidValue {
-                at: at.clone(),
-                element: "joint",
-                name: j.name.clone(),
-                field,
-                value: v,
-                expected: "a non-negative number (or inf)",
-            })
-        }
-    };
-    let velocity = nonneg(l.velocity, "limit velocity")?;
-    let effort = nonneg(l.effort, "limit effort")?;
+    let owner = Owner { element: "joint", name: &j.name, at };
+    let velocity = owner.non_negative("limit velocity", l.velocity)?;
+    let effort = owner.non_negative("limit effort", l.effort)?;
     let (lower, upper) = match j.joint_type {
         urdf_rs::JointType::Continuous | urdf_rs::JointType::Fixed => (f64::NEG_INFINITY, f64::INFINITY),
         _ => (l.lower, l.upper),
@@ -350,28 +324,29 @@ fn collision_element(
     urdf_dir: Option<&Path>,
     search: &MeshSearchPath,
 ) -> Result<CollisionElement, RobotError> {
+    let owner = Owner { element: "link", name: link, at };
     use urdf_rs::Geometry as G;
     let geometry = match &c.geometry {
         G::Box { size } => {
             let mut h = Vector3::zeros();
             for (i, field) in ["box size x", "box size y", "box size z"].into_iter().enumerate() {
-                h[i] = positive(size.0[i], "link", link, field, at)? / 2.0;
+                h[i] = owner.positive(field, size.0[i])? / 2.0;
             }
             Geometry::Box { half_extents: h }
         }
         G::Cylinder { radius, length } => Geometry::Cylinder {
-            radius: positive(*radius, "link", link, "cylinder radius", at)?,
-            length: positive(*length, "link", link, "cylinder length", at)?,
+            radius: owner.positive("cylinder radius", *radius)?,
+            length: owner.positive("cylinder length", *length)?,
         },
         G::Capsule { radius, length } => Geometry::Capsule {
-            radius: positive(*radius, "link", link, "capsule radius", at)?,
-            length: positive(*length, "link", link, "capsule length", at)?,
+            radius: owner.positive("capsule radius", *radius)?,
+            length: owner.positive("capsule length", *length)?,
         },
-        G::Sphere { radius } => Geometry::Sphere { radius: positive(*radius, "link", link, "sphere radius", at)? },
+        G::Sphere { radius } => Geometry::Sphere { radius: owner.positive("sphere radius", *radius)? },
         G::Mesh { filename, scale } => {
             let scale = scale.map_or([1.0; 3], |s| s.0);
             for (field, v) in ["mesh scale x", "mesh scale y", "mesh scale z"].into_iter().zip(scale) {
-                finite(v, "link", link, field, at)?;
+                owner.finite(field, v)?;
             }
             load_mesh(filename, scale, link, at, urdf_dir, search)?
         }
