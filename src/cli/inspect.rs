@@ -67,7 +67,8 @@ pub fn report(desc: &RobotDescription) -> String {
         let _ = writeln!(out, "  {:<28} {}", l.name, summarize(&shapes));
     }
     let problems = desc.lint();
-    let _ = writeln!(out, "\nproblems found: {}", if problems.is_empty() { "none" } else { "" });
+    let count = if problems.is_empty() { "none".to_string() } else { problems.len().to_string() };
+    let _ = writeln!(out, "\nproblems found: {count}");
     for p in problems {
         let _ = writeln!(out, "  - {p}");
     }

@@ -269,14 +269,10 @@ impl RobotDescription {
                 ));
             }
         }
-        let bare: Vec<&str> = self.links.iter().filter(|l| l.collisions.is_empty()).map(|l| l.name.as_str()).collect();
-        if !bare.is_empty() {
-            problems.push(format!(
-                "{} of {} links have no collision geometry: {}",
-                bare.len(),
-                self.links.len(),
-                bare.join(", ")
-            ));
+        // Frame-only links (flanges, tool points) normally carry no geometry;
+        // a robot with none at all cannot be collision-checked.
+        if self.links.iter().all(|l| l.collisions.is_empty()) {
+            problems.push("no link has collision geometry, so collision checks will see nothing".to_string());
         }
         for l in &self.links {
             for c in &l.collisions {
