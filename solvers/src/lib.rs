@@ -2,7 +2,9 @@
 //!
 //! This crate takes residual functions, matrices and vectors; it never sees a
 //! robot, a frame or a joint. Today it holds finite-difference derivatives,
-//! used to check every analytic Jacobian in tandem; the DARE, Gauss-Newton /
+//! used to check every analytic Jacobian in tandem, and the discrete-time
+//! Riccati solvers behind LQR tracking ([`riccati`]: the DARE by structure-
+//! preserving doubling, and the finite-horizon recursion); the Gauss-Newton /
 //! Levenberg-Marquardt, augmented-Lagrangian and QP/SOCP layers join it as the
 //! pipeline grows.
 //!
@@ -21,3 +23,4 @@
 //! ```
 
 pub mod finite_diff;
+pub mod riccati;
