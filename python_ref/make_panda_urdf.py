@@ -109,26 +109,33 @@ INERTIA = {
 
 # Spheres per link (chosen by hand from the K-vs-excess trade-off; see README).
 N_SPHERES = {
-    "panda_link0": 6,
+    "panda_link0": 7,
     "panda_link1": 6,
     "panda_link2": 6,
     "panda_link3": 6,
     "panda_link4": 6,
-    "panda_link5": 8,
+    "panda_link5": 7,
     "panda_link6": 6,
     "panda_link7": 5,
-    "panda_hand": 7,
+    "panda_hand": 6,
     "panda_leftfinger": 3,
     "panda_rightfinger": 3,
 }
 
-FIT_SPACING = 3.0e-3  # surface sample spacing used for fitting [m]
-SHELL_SPACING = 5.0e-3  # grid spacing of the outside-shell samples (excess volume) [m]
+FIT_SPACING = 4.0e-3  # surface sample spacing used for fitting [m]
+SHELL_SPACING = 6.0e-3  # grid spacing of the outside-shell samples (excess volume) [m]
 SHELL_WIDTH = 0.025  # shell thickness [m]
-CHECK_SPACING = 0.25e-3  # dense surface sample spacing used for the coverage check [m]
-EXCESS_SPACING = 1.0e-3  # sample spacing on the sphere-union boundary for excess stats [m]
+COVER_SPACING = 0.25e-3  # structured surface sample spacing for the final exact cover [m]
+# Every surface point lies within 1.12 * COVER_SPACING of a structured sample (see
+# sample_surface_grid), so adding this margin makes the spheres provably cover the whole
+# mesh surface, not just the samples.
+COVER_MARGIN = 1.12 * COVER_SPACING
+SCHEDULE = [(3.0, 30.0), (1.0, 1e3), (0.5, 1e4)]  # (tau [mm], penalty weight)
+MAXITER = 200
+CHECK_SPACING = 0.2e-3  # dense surface sample spacing used for the coverage check [m]
+EXCESS_SPACING = 1.5e-3  # sample spacing on the sphere-union boundary for excess stats [m]
 DECIMALS = 4  # sphere centres/radii written with 0.1 mm resolution (radii rounded up)
-N_RESTARTS = int(__import__("os").environ.get("RESTARTS", 4))
+N_RESTARTS = int(__import__("os").environ.get("RESTARTS", 6))
 FK_SAMPLES = 2000
 FK_TOL = 1e-9
 
@@ -252,6 +259,30 @@ def sample_triangles(tris: np.ndarray, spacing: float) -> np.ndarray:
     return np.concatenate(out)
 
 
+def sample_surface_grid(tris: np.ndarray, spacing: float) -> np.ndarray:
+    """Deterministic structured samples: per triangle, lines parallel to its longest edge AB
+    at most `spacing` apart, each sampled every <= `spacing` (vertices and edges included).
+    The angles at A and B are <= 90 deg, so any surface point projects onto the longer
+    neighbouring line within its extent: it is within sqrt(1 + 1/4) * spacing < 1.12 * spacing
+    of a sample.  Cheap on slivers (about 2 * area / spacing^2 points)."""
+    out = []
+    for tri in tris:
+        e = [np.linalg.norm(tri[(i + 1) % 3] - tri[i]) for i in range(3)]
+        i = int(np.argmax(e))
+        A, B, Cc = tri[i], tri[(i + 1) % 3], tri[(i + 2) % 3]
+        L = e[i]
+        if L == 0:
+            out.append(tri)
+            continue
+        H = np.linalg.norm(np.cross(B - A, Cc - A)) / L
+        n2 = max(1, int(math.ceil(H / spacing)))
+        for t in np.arange(n2 + 1) / n2:
+            p0, p1 = (1 - t) * A + t * Cc, (1 - t) * B + t * Cc
+            n1 = max(1, int(math.ceil((1 - t) * L / spacing)))
+            out.append(p0 + np.outer(np.arange(n1 + 1) / n1, p1 - p0))
+    return np.concatenate(out)
+
+
 def sample_surface(tris: np.ndarray, spacing: float, rng) -> np.ndarray:
     """Vertices + points every `spacing` along edges + ~1 random point per spacing^2 of area."""
     out = [tris.reshape(-1, 3)]
@@ -363,14 +394,17 @@ def refine(pts, C, R, iters=30):
     return C, R
 
 
-def cover(pts, C, R):
+def cover(pts, C, R, chunk=200000):
     """Keep the centres; give each point to the sphere it is closest to covering and set
     the radii to cover exactly their points (drops spheres that end up empty)."""
-    e = np.linalg.norm(pts[:, None] - C[None], axis=2) - R[None]
-    a = e.argmin(1)
-    keep = [i for i in range(len(C)) if np.any(a == i)]
-    R2 = np.array([np.linalg.norm(pts[a == i] - C[i], axis=1).max() for i in keep])
-    return C[keep], R2
+    R2 = np.full(len(C), -1.0)
+    for s in range(0, len(pts), chunk):
+        q = pts[s:s + chunk]
+        d = np.sqrt(((q[:, None] - C[None]) ** 2).sum(-1))
+        a = (d - R[None]).argmin(1)
+        np.maximum.at(R2, a, d[np.arange(len(q)), a])
+    keep = R2 >= 0
+    return C[keep], R2[keep]
 
 
 def shell_points(solids, spacing, width, rng):
@@ -423,7 +457,7 @@ def smooth_fit(P, S, w, C0, R0, schedule):
         return val, np.r_[gC.ravel(), gR]
 
     for tau, lam in schedule:
-        x = minimize(f, x, args=(tau, lam), jac=True, method="L-BFGS-B", options={"maxiter": 400}).x
+        x = minimize(f, x, args=(tau, lam), jac=True, method="L-BFGS-B", options={"maxiter": MAXITER}).x
     return x[:3 * k].reshape(k, 3), x[3 * k:]
 
 
@@ -445,8 +479,9 @@ def union_boundary_samples(C, R, spacing):
     return np.concatenate(pts)
 
 
-def excess_stats(C, R, solids, spacing, exact=True, tree=None):
-    """Excess = distance from the sphere-union boundary to the enclosed solid (0 inside it)."""
+def excess_stats(C, R, solids, spacing, exact=True, tree=None, above_z=None):
+    """Excess = distance from the sphere-union boundary to the enclosed solid (0 inside it).
+    Returns (max, area-weighted mean); with above_z, only boundary points with z >= above_z."""
     b = union_boundary_samples(C, R, spacing)
     tris = np.concatenate(solids)
     if exact:
@@ -457,13 +492,16 @@ def excess_stats(C, R, solids, spacing, exact=True, tree=None):
         d[inside] = 0.0
     else:
         d = tree.query(b)[0]
+    if above_z is not None:
+        d = d[b[:, 2] >= above_z]
     return float(d.max()), float(d.mean())
 
 
 def round_spheres(C, R, cover_pts):
-    """Round centres to the output resolution, then radii up so every point stays covered."""
+    """Round centres to the output resolution, re-cover the points exactly, add COVER_MARGIN
+    and round the radii up to the output resolution."""
     C, R = cover(cover_pts, np.round(C, DECIMALS), R)
-    return C, np.ceil(R * 10 ** DECIMALS - 1e-9) / 10 ** DECIMALS
+    return C, np.ceil((R + COVER_MARGIN) * 10 ** DECIMALS) / 10 ** DECIMALS
 
 
 def fit_link(name, solids, k, seed=0):
@@ -472,11 +510,10 @@ def fit_link(name, solids, k, seed=0):
     tris = np.concatenate(solids)
     area = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1).sum()
     P = sample_surface(tris, FIT_SPACING, rng)
-    Pd = sample_surface(tris, 1e-3, rng)
     S = shell_points(solids, SHELL_SPACING, SHELL_WIDTH, rng)
     w = SHELL_SPACING ** 3 / area * 1e3  # [mm] per shell point: excess volume / area
     tree = cKDTree(sample_surface(tris, 0.5e-3, rng))
-    schedule = [(4.0, 10.0), (2.0, 100.0), (1.0, 1e3), (0.5, 1e4)]
+    schedule = SCHEDULE
     best = None
     for _ in range(N_RESTARTS):
         init, lab = kmeans2(P, k, minit="++", seed=rng, iter=30)
@@ -484,12 +521,11 @@ def fit_link(name, solids, k, seed=0):
         C, R = smooth_fit(P * 1e3, S * 1e3, w, C0 * 1e3, R0 * 1e3, schedule)
         C, R = cover(P, C * 1e-3, R * 1e-3)
         C, R = refine(P, C, R)
-        C, R = cover(Pd, C, R)
         mx, mean = excess_stats(C, R, solids, 2e-3, exact=False, tree=tree)
         score = mean + 0.25 * mx
         if best is None or score < best[0]:
             best = (score, C, R)
-    return round_spheres(best[1], best[2], Pd)
+    return round_spheres(best[1], best[2], np.concatenate([tris.reshape(-1, 3), sample_surface_grid(tris, COVER_SPACING)]))
 
 
 # ---------------------------------------------------------------------------------
@@ -513,22 +549,22 @@ def urdf_text(spheres: dict[str, tuple[np.ndarray, np.ndarray]]) -> str:
         out.append(f'  <link name="{name}">')
         if name in INERTIA:
             m, com, (ixx, ixy, ixz, iyy, iyz, izz) = INERTIA[name]
-            out += [
+            out.extend([
                 "    <inertial>",
                 f'      <origin xyz="{xyz_text(com)}" rpy="0 0 0"/>',
                 f'      <mass value="{fmt(m)}"/>',
                 f'      <inertia ixx="{fmt(ixx)}" ixy="{fmt(ixy)}" ixz="{fmt(ixz)}" '
                 f'iyy="{fmt(iyy)}" iyz="{fmt(iyz)}" izz="{fmt(izz)}"/>',
                 "    </inertial>",
-            ]
+            ])
         if name in spheres:
             for i, (c, r) in enumerate(zip(*spheres[name])):
-                out += [
+                out.extend([
                     f'    <collision name="{name}_s{i}">',
                     f'      <origin xyz="{" ".join(fmt_round(x) for x in c)}" rpy="0 0 0"/>',
                     f'      <geometry><sphere radius="{fmt_round(r)}"/></geometry>',
                     "    </collision>",
-                ]
+                ])
         out.append("  </link>")
 
     def joint(name, jtype, parent, child, xyz, rpy, axis=None, limit=None, mimic=None):
@@ -658,18 +694,19 @@ def check_kinematics(urdf: Path) -> dict:
 
 
 def check_spheres(spheres, solids) -> dict:
-    rng = np.random.default_rng(7)
     out = {}
     for name, (C, R) in spheres.items():
         tris = np.concatenate(solids[name])
         verts = np.unique(tris.reshape(-1, 3), axis=0)
         vgap = (np.linalg.norm(verts[:, None] - C[None], axis=2) - R[None]).min(1).max()
-        dense = sample_surface(tris, CHECK_SPACING, rng)
+        dense = sample_surface_grid(tris, CHECK_SPACING)
         dgap = max((np.linalg.norm(ch[:, None] - C[None], axis=2) - R[None]).min(1).max()
-                   for ch in np.array_split(dense, max(1, len(dense) // 50000)))
+                   for ch in np.array_split(dense, max(1, len(dense) // 200000)))
         mx, mean = excess_stats(C, R, solids[name], EXCESS_SPACING)
         out[name] = dict(n=len(R), nverts=len(verts), vgap=float(vgap), ndense=len(dense), dgap=float(dgap),
                          max=mx, mean=mean, rmin=float(R.min()), rmax=float(R.max()))
+        if name == "panda_link0":  # the base sits on its mounting plane z = 0
+            out[name]["above"] = excess_stats(C, R, solids[name], EXCESS_SPACING, above_z=0.0)
     return out
 
 
@@ -685,8 +722,13 @@ def order_spheres(C, R):
 
 
 def _fit_one(args):
+    import time
+
     name, k, seed = args
-    return name, fit_link(name, link_solids()[name], k, seed)
+    t = time.time()
+    res = fit_link(name, link_solids()[name], k, seed)
+    print(f"  fitted {name}: {len(res[1])} spheres in {time.time() - t:.0f} s", flush=True)
+    return name, res
 
 
 def main() -> int:
@@ -727,6 +769,9 @@ def main() -> int:
               f"vertex gap {c['vgap']*1e3:+.3f} mm ({c['nverts']} verts), dense gap {c['dgap']*1e3:+.3f} mm "
               f"({c['ndense']} pts) | excess max {c['max']*1e3:5.1f} mean {c['mean']*1e3:5.1f} mm")
         ok &= c["vgap"] <= 0 and c["dgap"] <= 0
+        if "above" in c:
+            print(f"{'':18s} (above its mounting plane z >= 0: excess max {c['above'][0]*1e3:.1f} "
+                  f"mean {c['above'][1]*1e3:.1f} mm)")
     allmax = max(c["max"] for c in cov.values())
     print(f"total spheres {tot}; excess max {allmax*1e3:.1f} mm")
     OUT_README.write_text(readme_text(kin, cov))
@@ -751,7 +796,121 @@ def read_spheres(urdf: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 def readme_text(kin, cov) -> str:
-    return "README PLACEHOLDER\n"
+    dh_rows = "\n".join(
+        f"| {n.replace('panda_', '') if n != 'panda_joint8' else 'flange (joint8, fixed)'} | {fmt(a)} | {fmt(d)} | "
+        f"{ {0.0: '0', HALF_PI: 'π/2', -HALF_PI: '−π/2'}[al] } |"
+        for n, a, d, al in DH
+    )
+    lim_rows = "\n".join(
+        f"| {n.replace('panda_', '')} | {fmt(lo)} | {fmt(hi)} | {fmt(v)} | {fmt(e)} |" for n, (lo, hi, v, e) in ARM_LIMITS.items()
+    )
+    tot = sum(c["n"] for c in cov.values())
+    sph_rows = "\n".join(
+        f"| {n} | {c['n']} | {c['rmin']*1e3:.1f}–{c['rmax']*1e3:.1f} | {c['max']*1e3:.1f} | {c['mean']*1e3:.1f} |"
+        for n, c in cov.items()
+    )
+    allmax = max(c["max"] for c in cov.values())
+    # area-weighted mean is not meaningful across links of very different size: report the plain average
+    avgmean = sum(c["mean"] for c in cov.values()) / len(cov)
+    above = cov["panda_link0"]["above"]
+    fk = kin[False]
+    fkm = kin[True]
+    diffs = "; ".join(kin["limit_diffs"]) or "none"
+    return f"""# Panda — tandem's embedded default robot
+
+`panda.urdf` is the Franka Emika Panda arm with the Franka Hand.  It is **generated** by
+[`python_ref/make_panda_urdf.py`](../../../python_ref/make_panda_urdf.py); do not edit it by hand.
+
+## Where the numbers come from
+
+* **Kinematics** — Franka's published Denavit–Hartenberg table (Craig / modified convention,
+  `ⁱ⁻¹Tᵢ = RotX(α)·TransX(a)·RotZ(θᵢ)·TransZ(d)`), from Franka's "Robot and interface
+  specifications" documentation:
+
+  | joint | a [m] | d [m] | α |
+  |---|---|---|---|
+{dh_rows}
+
+  Each row becomes a URDF joint origin `xyz = (a, −sin α·d, cos α·d)`, `rpy = (α, 0, 0)` with
+  `axis = 0 0 1` (α written as full-precision ±1.5707963267948966).  The flange row is the fixed
+  joint `panda_joint8` (`panda_link7` → `panda_link8`).
+* **Joint limits** — Franka datasheet:
+
+  | joint | lower [rad] | upper [rad] | velocity [rad/s] | effort [Nm] |
+  |---|---|---|---|---|
+{lim_rows}
+
+* **Hand** (franka_description conventions) — fixed `panda_hand_joint` from `panda_link8`
+  with `rpy = (0, 0, −π/4)`; prismatic `panda_finger_joint1` (→ `panda_leftfinger`, axis +y)
+  and `panda_finger_joint2` (→ `panda_rightfinger`, axis −y, `<mimic joint="panda_finger_joint1"/>`),
+  both at `z = {fmt(FINGER_Z)}` in `panda_hand`, travel {fmt(FINGER_LIMIT[0])}–{fmt(FINGER_LIMIT[1])} m each,
+  {fmt(FINGER_LIMIT[2])} m/s, effort {fmt(FINGER_LIMIT[3])} N.
+* **Inertials** — masses / CoMs / inertia tensors copied from the public franka_description
+  values (as shipped in example-robot-data's `panda.urdf`).
+* **Collision** — spheres only (see below); no meshes are shipped.
+
+## Frames
+
+Link and joint names and all frames are those of franka_description / example-robot-data
+(`panda_link0` … `panda_link8`, `panda_hand`, `panda_leftfinger`, `panda_rightfinger`,
+`panda_joint1` … `panda_joint8`, `panda_hand_joint`, `panda_finger_joint1/2`):
+`panda_link0` is the base (mounting plate, z up); `panda_link{{i}}` rotates about its own z by qᵢ;
+`panda_link8` is the flange ({fmt(DH[-1][2])} m along `panda_link7` z); `panda_hand` is the flange
+turned −45° about z.
+
+**Gripper frame: `panda_hand_tcp`** (fixed joint `panda_hand_tcp_joint`), `z = {fmt(TCP_Z)}` m from
+`panda_hand` with the same orientation: Franka's TCP, the centre between the fingertips; z is the
+approach direction, the fingers move along ±y.
+
+Checked by the generator with Pinocchio (`pin.buildModelFromUrdf`) against example-robot-data's
+`panda.urdf`, on {FK_SAMPLES} random configurations within the limits (finger joints included):
+all {fk['frames']} frames present in both models agree to max |ΔR| = {fk['eR']:.1e},
+max |Δp| = {fk['ep']:.1e} m (with `mimic=True`: {fkm['eR']:.1e} / {fkm['ep']:.1e} m).  A direct
+product of the DH matrices reproduces `panda_link8` and `panda_hand_tcp` to {kin['dh_err']:.1e}.
+Differences in limits / inertias vs example-robot-data: {diffs}.
+
+## Collision spheres
+
+Each link has several `<collision name="<link>_s<i>">` elements with `<sphere>` geometry
+({tot} spheres in total; `panda_link8` and `panda_hand_tcp` have none).  They **enclose** the
+example-robot-data collision meshes (`meshes/collision/*.stl`; for the fingers `finger.stl` plus
+the four finger collision boxes of example-robot-data's `panda.urdf`, the right finger rotated by
+π about z).  The final radii exactly cover a structured surface sampling with
+{COVER_SPACING*1e3:g} mm spacing plus a margin of {COVER_MARGIN*1e3:.2f} mm, which bounds the distance
+from any surface point to a sample, so the whole mesh surface is enclosed, not just the samples.
+The generator checks it independently: every mesh vertex and a {CHECK_SPACING*1e3:g} mm surface
+sampling lie inside at least one sphere.  Centres are written with 0.1 mm resolution, radii
+rounded up to 0.1 mm.
+
+*Excess* = distance from a point on the boundary of the sphere union to the enclosed mesh
+(0 where inside it), sampled uniformly over the union boundary; max is the worst bulge, mean is
+area-weighted.
+
+| link | spheres | radii [mm] | excess max [mm] | excess mean [mm] |
+|---|---|---|---|---|
+{sph_rows}
+
+Overall: {tot} spheres, worst excess {allmax*1e3:.1f} mm, mean excess (average over links)
+{avgmean*1e3:.1f} mm.  Spheres are poor at flat faces: the large values are bulges over the flat
+joint-housing end caps (mostly into the neighbouring link, whose collisions with its parent are
+normally not checked) and under the flat bottom of `panda_link0` (below its mounting plane; counting
+only the part above z = 0, `panda_link0` has excess max {above[0]*1e3:.1f} mm, mean
+{above[1]*1e3:.1f} mm).  The cylindrical parts are covered more tightly.
+
+Fitting (per link): k-means++ initialisation on surface samples, then minimisation of the
+(smoothed) union volume outside the mesh with a coverage penalty, exact re-covering, and a
+monotone shrink step (each sphere replaced by the minimum ball of the points it covers); best of
+{N_RESTARTS} restarts.  Sphere counts per link are set in `N_SPHERES` in the script.
+
+## Regenerating
+
+```sh
+python_ref/.venv/bin/python python_ref/make_panda_urdf.py
+```
+
+(venv with `pin` (Pinocchio) 4.1, numpy, scipy, example-robot-data).  Deterministic; rewrites
+`panda.urdf` and this README and prints all checks, exiting non-zero if one fails.
+"""
 
 
 if __name__ == "__main__" and len(sys.argv) > 1 and sys.argv[1] == "--explore":

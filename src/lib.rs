@@ -15,4 +15,5 @@
 
 pub mod cli;
 pub mod control;
+pub mod plot;
 pub mod robot;

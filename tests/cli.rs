@@ -122,3 +122,22 @@ fn help_teaches() {
     let text = stdout(&o);
     assert!(text.contains("world-aligned") && text.contains("Example") && text.contains("--package-dir"), "{text}");
 }
+
+#[test]
+fn policy_rolls_out_to_the_goal_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("policy.svg");
+    let o = tandem(&["policy", "--time-varying", "--plot", svg.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    // Every rollout ends within 1e-4 rad of the goal.
+    for line in text.lines().filter(|l| l.contains("rollout from")) {
+        let miss: f64 = line.split("ends ").nth(1).and_then(|s| s.split(' ').next()).unwrap().parse().unwrap();
+        assert!(miss < 1e-4, "{line}");
+    }
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert!(picture.starts_with("<svg") && picture.contains("polyline") && picture.contains("marker-end"));
+    let o = tandem(&["policy", "--slice", "1,9"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--slice"), "{}", stderr(&o));
+}

@@ -13,6 +13,7 @@
 mod demo;
 mod inspect;
 mod kinematics;
+mod policy;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -67,6 +68,16 @@ pub enum Command {
     ///     --q 0,-0.785,0,-2.356,0,1.571,0.785,0.04 --json
     #[command(verbatim_doc_comment)]
     Fk(kinematics::FkArgs),
+    /// Build an LQR tracking policy (the seed's Algorithm 1) for a joint
+    /// reference, roll it out from perturbed starts, time its queries and
+    /// optionally plot it (Fig. 3.9 style).
+    ///
+    /// The reference defaults to a 3 s minimum-jerk motion of the embedded
+    /// Panda; --reference takes a CSV (joint-name header, one row per
+    /// waypoint, --dt apart).
+    ///
+    /// Example: tandem policy --time-varying --plot policy.svg
+    Policy(policy::PolicyArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -78,6 +89,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Demo(args) => demo::run(&args),
         Command::Inspect(args) => inspect::run(&args),
         Command::Fk(args) => kinematics::run(&args),
+        Command::Policy(args) => policy::run(&args),
     }
 }
 

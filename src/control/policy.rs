@@ -190,6 +190,25 @@ impl TrackingPolicy {
         Ok(found)
     }
 
+    /// Closed-loop rollout of a kinematic arm (`q ← q + q̇·dt`, `q̇` the
+    /// policy's command) from rest at `start` for `steps` ticks; returns the
+    /// visited configurations, `start` first.
+    pub fn rollout(&self, start: &[f64], steps: usize) -> Result<Vec<Vec<f64>>, ControlError> {
+        let n = self.reference.dof();
+        let dt = self.reference.dt();
+        let mut ws = self.workspace();
+        let (mut q, mut v, mut command) = (start.to_vec(), vec![0.0; n], vec![0.0; n]);
+        let mut path = Vec::with_capacity(steps + 1);
+        path.push(q.clone());
+        for _ in 0..steps {
+            self.query(&mut ws, &q, Some(&v), &mut command)?;
+            v.copy_from_slice(&command);
+            q.iter_mut().zip(&v).for_each(|(q, v)| *q += v * dt);
+            path.push(q.clone());
+        }
+        Ok(path)
+    }
+
     /// Closest waypoint: a window around the hint, widened to the whole
     /// reference on the first call or when the best lies on the window edge
     /// (the hint is lost).

@@ -1,0 +1,168 @@
+//! `tandem policy`: an LQR tracking policy for the embedded Panda, its
+//! closed-loop behaviour, and a Fig. 3.9-style picture of it.
+
+use crate::control::{ControlError, GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use crate::plot::SvgPlot;
+use crate::robot::RobotModel;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use super::demo::PANDA_READY;
+
+/// A goal configuration of the embedded Panda reached from the ready pose.
+const PANDA_GOAL: [f64; 7] = [0.6, -0.2, -0.3, -1.9, 0.2, 1.8, 0.4];
+
+/// Arguments of `tandem policy`.
+#[derive(Debug, clap::Args)]
+pub struct PolicyArgs {
+    /// Reference CSV (header of joint names, one row per waypoint). Default:
+    /// a 3 s minimum-jerk motion of the Panda from its ready pose.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Time step between waypoints and control ticks (s).
+    #[arg(long, default_value_t = 0.01)]
+    pub dt: f64,
+    /// Weight on position error.
+    #[arg(long, default_value_t = 100.0)]
+    pub q_weight: f64,
+    /// Weight on velocity error.
+    #[arg(long, default_value_t = 1.0)]
+    pub v_weight: f64,
+    /// Weight on acceleration (the control).
+    #[arg(long, default_value_t = 0.1)]
+    pub r_weight: f64,
+    /// Use time-varying gains from the finite-horizon Riccati recursion.
+    #[arg(long)]
+    pub time_varying: bool,
+    /// The two joints (1-based) spanning the plotted slice.
+    #[arg(long, value_name = "A,B", default_value = "1,2")]
+    pub slice: String,
+    /// Write a Fig. 3.9-style SVG: reference, rollouts from nearby starts,
+    /// policy velocity arrows, in the slice of two joints.
+    #[arg(long, value_name = "FILE.svg")]
+    pub plot: Option<PathBuf>,
+}
+
+pub(super) fn run(args: &PolicyArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let reference = match &args.reference {
+        Some(path) => JointTrajectory::from_csv(path, args.dt)?,
+        None => {
+            let joints = RobotModel::panda().joint_names().to_vec();
+            JointTrajectory::minimum_jerk(joints, &PANDA_READY, &PANDA_GOAL, 3.0, args.dt)?
+        }
+    };
+    let weights = TrackingWeights { position: args.q_weight, velocity: args.v_weight, control: args.r_weight };
+    let schedule = if args.time_varying { GainSchedule::TimeVarying } else { GainSchedule::Constant };
+    let (a, b) = parse_slice(&args.slice, reference.dof())?;
+    let policy = TrackingPolicy::new(reference, weights, schedule)?;
+    let r = policy.reference();
+    let k = policy.gain(0);
+    println!(
+        "reference: {} waypoints of {} joints, dt = {} s; gains {:?}: K(0) position {:.3}, velocity {:.3}",
+        r.len(),
+        r.dof(),
+        r.dt(),
+        schedule,
+        k[(0, 0)],
+        k[(0, r.dof())]
+    );
+    let starts = nearby_starts(r.position(0), 8);
+    let steps = r.len() + (3.0 / r.dt()) as usize;
+    let mut rollouts = Vec::new();
+    for start in &starts {
+        let path = policy.rollout(start, steps)?;
+        let miss = distance(path.last().map_or(start.as_slice(), Vec::as_slice), r.goal());
+        println!(
+            "  rollout from a start {:.3} rad off: ends {miss:.2e} rad from the goal",
+            distance(start, r.position(0))
+        );
+        rollouts.push(path);
+    }
+    report_query_time(&policy)?;
+    if let Some(file) = &args.plot {
+        std::fs::write(file, field_plot(&policy, &rollouts, a, b)?)?;
+        println!("wrote {}", file.display());
+    }
+    Ok(())
+}
+
+/// Starts displaced from `q0` in a ring, in every joint, by up to 0.2 rad.
+fn nearby_starts(q0: &[f64], count: usize) -> Vec<Vec<f64>> {
+    (0..count)
+        .map(|i| {
+            let phase = std::f64::consts::TAU * i as f64 / count as f64;
+            q0.iter().enumerate().map(|(j, q)| q + 0.2 * (phase + j as f64).sin()).collect()
+        })
+        .collect()
+}
+
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+}
+
+fn report_query_time(policy: &TrackingPolicy) -> Result<(), ControlError> {
+    let r = policy.reference();
+    let mut ws = policy.workspace();
+    let mut command = vec![0.0; r.dof()];
+    let start = Instant::now();
+    let n = 200_000;
+    for i in 0..n {
+        policy.query(&mut ws, r.position(i % r.len()), None, &mut command)?;
+    }
+    let ns = start.elapsed().as_secs_f64() * 1e9 / n as f64;
+    println!("policy query: {ns:.0} ns per call over {n} calls (see `cargo bench --bench control` for medians)");
+    Ok(())
+}
+
+fn parse_slice(text: &str, dof: usize) -> Result<(usize, usize), String> {
+    let parts: Vec<usize> = text
+        .split(',')
+        .map(|s| s.trim().parse::<usize>().map_err(|_| format!("--slice: '{}' is not a joint number", s.trim())))
+        .collect::<Result<_, _>>()?;
+    match parts.as_slice() {
+        [a, b] if *a >= 1 && *b >= 1 && *a <= dof && *b <= dof && a != b => Ok((a - 1, b - 1)),
+        _ => Err(format!("--slice needs two different joint numbers between 1 and {dof}, got '{text}'")),
+    }
+}
+
+/// Reference (dashed), rollouts (colours) and policy arrows around the path.
+fn field_plot(policy: &TrackingPolicy, rollouts: &[Vec<Vec<f64>>], a: usize, b: usize) -> Result<String, ControlError> {
+    let r = policy.reference();
+    let names = r.joints();
+    let mut plot = SvgPlot::new(
+        "LQR tracking policy: reference, rollouts from nearby starts, velocity field",
+        &format!("{} (rad)", names[a]),
+        &format!("{} (rad)", names[b]),
+    );
+    let project = |q: &[f64]| (q[a], q[b]);
+    let colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22"];
+    for (i, path) in rollouts.iter().enumerate() {
+        let pts: Vec<(f64, f64)> = path.iter().map(|q| project(q)).collect();
+        plot.line(&pts, colors[i % colors.len()], 1.5, (i == 0).then_some("rollouts from nearby starts"));
+        plot.marker(pts[0], colors[i % colors.len()], 3.0);
+    }
+    let reference: Vec<(f64, f64)> = (0..r.len()).map(|i| project(r.position(i))).collect();
+    plot.dashed_line(&reference, "#333", 2.0, Some("reference"));
+    plot.marker(project(r.goal()), "#000", 5.0);
+    // Policy commands on a lattice around the reference, arrows scaled so the
+    // longest spans 6% of the reference's extent.
+    let mut ws = policy.workspace();
+    let mut command = vec![0.0; r.dof()];
+    let mut arrows = Vec::new();
+    for i in (0..r.len()).step_by((r.len() / 12).max(1)) {
+        for (da, db) in [(-0.15, -0.15), (-0.15, 0.15), (0.15, -0.15), (0.15, 0.15), (0.0, 0.0)] {
+            let mut q = r.position(i).to_vec();
+            q[a] += da;
+            q[b] += db;
+            policy.query(&mut ws, &q, None, &mut command)?;
+            arrows.push((project(&q), (command[a], command[b])));
+        }
+    }
+    let extent = reference.iter().fold(0.0f64, |m, p| m.max(distance(&[p.0, p.1], &[reference[0].0, reference[0].1])));
+    let longest = arrows.iter().fold(0.0f64, |m, (_, v)| m.max(v.0.hypot(v.1))).max(1e-12);
+    let scale = 0.06 * extent.max(0.1) / longest;
+    for (from, v) in arrows {
+        plot.arrow(from, (from.0 + scale * v.0, from.1 + scale * v.1), "#d62728");
+    }
+    Ok(plot.render(800.0, 600.0))
+}
