@@ -42,6 +42,9 @@ pub enum RobotError {
     /// Well-formed XML that is not a valid URDF (missing attribute, bad number…).
     #[error("{at}: invalid URDF: {message}")]
     InvalidUrdf { at: SourceLocation, message: String },
+    /// An SRDF that is malformed or names links or joints the robot lacks.
+    #[error("{at}: invalid SRDF: {message}")]
+    InvalidSrdf { at: SourceLocation, message: String },
     /// A joint `type` outside revolute, continuous, prismatic, fixed, floating,
     /// planar, spherical.
     #[error(

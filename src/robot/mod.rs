@@ -22,6 +22,7 @@ mod kinematics;
 mod mesh;
 mod model;
 mod placement;
+mod srdf;
 mod urdf;
 mod xml_checks;
 
@@ -30,4 +31,5 @@ pub use error::{RobotError, SourceLocation};
 pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;
 pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
+pub use srdf::{DisabledPair, Group, GroupState, Srdf};
 pub use urdf::MeshSearchPath;
