@@ -19,6 +19,7 @@ checks, exits non-zero if any check fails.  Deterministic (fixed seeds).
 from __future__ import annotations
 
 import math
+import os
 import struct
 import sys
 from pathlib import Path
@@ -26,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from scipy.cluster.vq import kmeans2
 from scipy.optimize import minimize
-from scipy.spatial import ConvexHull, Delaunay, cKDTree
+from scipy.spatial import ConvexHull, cKDTree
 
 REPO = Path(__file__).resolve().parents[1]
 OUT_DIR = REPO / "problems" / "robots" / "panda"
@@ -76,7 +77,7 @@ ARM_LIMITS = {
     "panda_joint7": (-2.8973, 2.8973, 2.61, 12.0),
 }
 # Franka Hand: each finger 0..40 mm (80 mm stroke), 0.2 m/s (franka_description values).
-FINGER_LIMIT = (0.0, 0.04, 0.2, 20.0)
+FINGER_LIMIT = (0.0, 0.04, 0.2, 70.0)  # 70 N: the Franka Hand's rated continuous force
 FINGER_Z = 0.0584  # finger joint origin above panda_hand (franka_description)
 HAND_YAW = -math.pi / 4  # panda_hand is rotated -45 deg about z w.r.t. the flange
 TCP_Z = 0.1034  # Franka Hand TCP (fingertip centre) above panda_hand
@@ -135,7 +136,7 @@ MAXITER = 200
 CHECK_SPACING = 0.2e-3  # dense surface sample spacing used for the coverage check [m]
 EXCESS_SPACING = 1.5e-3  # sample spacing on the sphere-union boundary for excess stats [m]
 DECIMALS = 4  # sphere centres/radii written with 0.1 mm resolution (radii rounded up)
-N_RESTARTS = int(__import__("os").environ.get("RESTARTS", 6))
+N_RESTARTS = 6
 FK_SAMPLES = 2000
 FK_TOL = 1e-9
 
@@ -244,19 +245,6 @@ def link_solids() -> dict[str, list[np.ndarray]]:
     solids["panda_leftfinger"] = left
     solids["panda_rightfinger"] = right
     return solids
-
-
-def sample_triangles(tris: np.ndarray, spacing: float) -> np.ndarray:
-    """Barycentric-grid samples of each triangle (vertices and edges included), with at
-    most `spacing` between neighbours along the longest edge (dense on slivers)."""
-    out = []
-    for a, b, c in tris:
-        n = max(1, int(math.ceil(max(np.linalg.norm(b - a), np.linalg.norm(c - a), np.linalg.norm(c - b)) / spacing)))
-        i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
-        keep = (i + j) <= n
-        u, v = i[keep] / n, j[keep] / n
-        out.append(a + np.outer(u, b - a) + np.outer(v, c - a))
-    return np.concatenate(out)
 
 
 def sample_surface_grid(tris: np.ndarray, spacing: float) -> np.ndarray:
@@ -546,6 +534,9 @@ def urdf_text(spheres: dict[str, tuple[np.ndarray, np.ndarray]]) -> str:
     ]
 
     def link(name):
+        if name not in INERTIA and name not in spheres:  # massless frame (flange, TCP)
+            out.append(f'  <link name="{name}"/>')
+            return
         out.append(f'  <link name="{name}">')
         if name in INERTIA:
             m, com, (ixx, ixy, ixz, iyy, iyz, izz) = INERTIA[name]
@@ -733,7 +724,6 @@ def _fit_one(args):
 
 def main() -> int:
     from concurrent.futures import ProcessPoolExecutor
-    import os
 
     solids = link_solids()
     jobs = [(name, k, i) for i, (name, k) in enumerate(N_SPHERES.items())]
@@ -797,12 +787,12 @@ def read_spheres(urdf: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 def readme_text(kin, cov) -> str:
     dh_rows = "\n".join(
-        f"| {n.replace('panda_', '') if n != 'panda_joint8' else 'flange (joint8, fixed)'} | {fmt(a)} | {fmt(d)} | "
+        f"  | {n.replace('panda_', '') if n != 'panda_joint8' else 'flange (joint8, fixed)'} | {fmt(a)} | {fmt(d)} | "
         f"{ {0.0: '0', HALF_PI: 'π/2', -HALF_PI: '−π/2'}[al] } |"
         for n, a, d, al in DH
     )
     lim_rows = "\n".join(
-        f"| {n.replace('panda_', '')} | {fmt(lo)} | {fmt(hi)} | {fmt(v)} | {fmt(e)} |" for n, (lo, hi, v, e) in ARM_LIMITS.items()
+        f"  | {n.replace('panda_', '')} | {fmt(lo)} | {fmt(hi)} | {fmt(v)} | {fmt(e)} |" for n, (lo, hi, v, e) in ARM_LIMITS.items()
     )
     tot = sum(c["n"] for c in cov.values())
     sph_rows = "\n".join(
@@ -864,10 +854,12 @@ approach direction, the fingers move along ±y.
 
 Checked by the generator with Pinocchio (`pin.buildModelFromUrdf`) against example-robot-data's
 `panda.urdf`, on {FK_SAMPLES} random configurations within the limits (finger joints included):
-all {fk['frames']} frames present in both models agree to max |ΔR| = {fk['eR']:.1e},
-max |Δp| = {fk['ep']:.1e} m (with `mimic=True`: {fkm['eR']:.1e} / {fkm['ep']:.1e} m).  A direct
-product of the DH matrices reproduces `panda_link8` and `panda_hand_tcp` to {kin['dh_err']:.1e}.
-Differences in limits / inertias vs example-robot-data: {diffs}.
+all {fk['frames']} frames present in both models (every link and joint frame, including
+`panda_hand_tcp`) agree to max |ΔR| = {fk['eR']:.1e}, max |Δp| = {fk['ep']:.1e} m (also with
+`mimic=True`: {fkm['eR']:.1e} / {fkm['ep']:.1e} m) — the DH-derived origins come out as the same
+floating-point numbers as example-robot-data's.  A direct product of the DH matrices reproduces
+`panda_link8` and `panda_hand_tcp` to {kin['dh_err']:.1e}.  Differences in limits / inertias vs
+example-robot-data: {diffs} (example-robot-data uses 100; 70 N is the Franka Hand's rated continuous grasp force).
 
 ## Collision spheres
 
@@ -908,21 +900,24 @@ monotone shrink step (each sphere replaced by the minimum ball of the points it 
 python_ref/.venv/bin/python python_ref/make_panda_urdf.py
 ```
 
-(venv with `pin` (Pinocchio) 4.1, numpy, scipy, example-robot-data).  Deterministic; rewrites
-`panda.urdf` and this README and prints all checks, exiting non-zero if one fails.
+(venv with `pin` (Pinocchio) 4.1, numpy, scipy, example-robot-data; about 10 min on 2 cores, the
+sphere fitting runs one process per core).  Fixed seeds; rewrites `panda.urdf` and this README and
+prints all checks, exiting non-zero if one fails.
 """
 
 
-if __name__ == "__main__" and len(sys.argv) > 1 and sys.argv[1] == "--explore":
+def explore(names, ks=range(3, 10)) -> None:
+    """`make_panda_urdf.py --explore LINK...`: print excess vs sphere count (to pick N_SPHERES)."""
     solids = link_solids()
-    for name in sys.argv[2:]:
-        for k in map(int, __import__("os").environ.get("KS", "4 5 6 7 8").split()):
-            N_SPHERES[name] = k
+    for name in names:
+        for k in ks:
             C, R = fit_link(name, solids[name], k)
             mx, mean = excess_stats(C, R, solids[name], 3e-3)
-            print(f"{name} k={k}: max {mx*1e3:.1f} mm mean {mean*1e3:.1f} mm, r {np.round(R*1e3,1)}", flush=True)
-    sys.exit(0)
+            print(f"{name} k={k}: {len(R)} spheres, excess max {mx*1e3:.1f} mean {mean*1e3:.1f} mm", flush=True)
 
 
 if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--explore":
+        explore(sys.argv[2:])
+        sys.exit(0)
     sys.exit(main())
