@@ -3,26 +3,13 @@
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use tandem::control::{ControlError, GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
 
-struct CountingAllocator;
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|a| a.set(a.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
+mod common;
+
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: common::alloc::CountingAllocator = common::alloc::CountingAllocator;
 
 const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 const GOAL: [f64; 7] = [0.6, -0.2, -0.3, -1.9, 0.2, 1.8, 0.4];
@@ -116,11 +103,11 @@ fn queries_do_not_allocate() {
     let mut ws = policy.workspace();
     let mut command = [0.0; 7];
     let v = [0.01; 7];
-    let before = ALLOCATIONS.with(Cell::get);
+    let before = common::alloc::allocations();
     for i in 0..policy.reference().len() {
         policy.query(&mut ws, policy.reference().position(i), Some(&v), &mut command).unwrap();
     }
-    assert_eq!(ALLOCATIONS.with(Cell::get) - before, 0);
+    assert_eq!(common::alloc::allocations() - before, 0);
 }
 
 #[test]

@@ -5,38 +5,13 @@ mod common;
 
 use common::random_configurations;
 use nalgebra::{Matrix3xX, Matrix6xX, Point3, Rotation3};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::sync::Arc;
 use tandem::robot::{KinematicsWorkspace, MeshSearchPath, ReferenceFrame, RobotDescription, RobotModel};
 
-/// Counts heap allocations made by the current thread.
-struct CountingAllocator;
-
-thread_local! {
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-unsafe impl GlobalAlloc for CountingAllocator {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.with(|a| a.set(a.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.with(|a| a.set(a.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: CountingAllocator = CountingAllocator;
+static GLOBAL: common::alloc::CountingAllocator = common::alloc::CountingAllocator;
 
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
+use common::alloc::allocations;
 
 /// A small tree robot exercising every joint kind, an oblique axis, a
 /// prismatic joint, a mimic with multiplier and offset, and a branch.

@@ -14,7 +14,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 use std::path::PathBuf;
-use tandem_solvers::riccati::{DareProblem, DareSettings, DareWorkspace};
+use tandem_solvers::riccati::{DareProblem, DareSettings, DareWorkspace, double_integrator};
 
 struct Case {
     name: &'static str,
@@ -37,13 +37,9 @@ fn random_case(name: &'static str, n: usize, m: usize, seed: u64) -> Case {
 }
 
 fn panda_double_integrator() -> Case {
-    let (j, dt) = (7, 0.01);
+    let j = 7;
     let i = DMatrix::<f64>::identity(j, j);
-    let mut a = DMatrix::identity(2 * j, 2 * j);
-    a.view_mut((0, j), (j, j)).copy_from(&(&i * dt));
-    let mut b = DMatrix::zeros(2 * j, j);
-    b.view_mut((0, 0), (j, j)).copy_from(&(&i * (dt * dt / 2.0)));
-    b.view_mut((j, 0), (j, j)).copy_from(&(&i * dt));
+    let (a, b) = double_integrator(j, 0.01);
     let q = DMatrix::from_diagonal(&nalgebra::DVector::from_fn(2 * j, |k, _| if k < j { 100.0 } else { 1.0 }));
     Case { name: "n14_m7", a, b, q, r: &i * 0.1 }
 }

@@ -16,9 +16,11 @@
 //! let policy = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant)?;
 //! let mut ws = policy.workspace();
 //! let mut command = [0.0; 2];
-//! // Pushed 0.1 rad off the start, the policy pulls joint 1 back.
-//! policy.query(&mut ws, &[0.1, 0.0], None, &mut command)?;
-//! assert!(command[0] < 0.0);
+//! // Pushed 0.1 rad off the start against the motion of joint 2 (which
+//! // heads to -0.5), the policy pulls joint 2 back down.
+//! let found = policy.query(&mut ws, &[0.0, 0.1], None, &mut command)?;
+//! assert_eq!(found.index, 0);
+//! assert!(command[1] < 0.0);
 //! # Ok::<(), tandem::control::ControlError>(())
 //! ```
 

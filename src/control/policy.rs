@@ -2,7 +2,9 @@
 
 use super::{ControlError, JointTrajectory};
 use nalgebra::DMatrix;
-use tandem_solvers::riccati::{DareProblem, DareSettings, LinearDynamics, finite_horizon_riccati, solve_dare};
+use tandem_solvers::riccati::{
+    DareProblem, DareSettings, LinearDynamics, double_integrator, finite_horizon_riccati, solve_dare,
+};
 
 /// Weights of the tracking cost `Σ eᵀQe + νᵀRν`, per joint: `Q =
 /// diag(position, velocity)` on the error state, `R = control` on the
@@ -99,7 +101,7 @@ impl TrackingPolicy {
         if ![w.position, w.velocity, w.control].iter().all(|x| x.is_finite() && *x > 0.0) {
             return Err(ControlError::InvalidWeights { weights });
         }
-        let (a, b, q, r) = double_integrator(reference.dof(), reference.dt(), &weights);
+        let (a, b, q, r) = double_integrator_problem(reference.dof(), reference.dt(), &weights);
         let dare = solve_dare(&DareProblem::new(&a, &b, &q, &r), &DareSettings::default())?;
         let gains = match schedule {
             GainSchedule::Constant => vec![dare.k],
@@ -252,22 +254,18 @@ fn check_vector(what: &'static str, x: &[f64], n: usize) -> Result<(), ControlEr
     }
 }
 
-/// Error dynamics of `n` decoupled double integrators sampled every `dt`:
-/// `A = [[I, dt I], [0, I]]`, `B = [[dt²/2 I], [dt I]]`, with the weights.
-fn double_integrator(
+/// Error dynamics of `n` decoupled double integrators sampled every `dt`,
+/// with the tracking weights as `Q = diag(position·I, velocity·I)`, `R = control·I`.
+fn double_integrator_problem(
     n: usize,
     dt: f64,
     w: &TrackingWeights,
 ) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
-    let mut a = DMatrix::identity(2 * n, 2 * n);
-    let mut b = DMatrix::zeros(2 * n, n);
-    let mut q = DMatrix::zeros(2 * n, 2 * n);
-    for j in 0..n {
-        a[(j, n + j)] = dt;
-        b[(j, j)] = 0.5 * dt * dt;
-        b[(n + j, j)] = dt;
-        q[(j, j)] = w.position;
-        q[(n + j, n + j)] = w.velocity;
-    }
+    let (a, b) = double_integrator(n, dt);
+    let q = DMatrix::from_fn(2 * n, 2 * n, |i, j| match (i == j, i < n) {
+        (false, _) => 0.0,
+        (true, true) => w.position,
+        (true, false) => w.velocity,
+    });
     (a, b, q, DMatrix::identity(n, n) * w.control)
 }

@@ -2,6 +2,8 @@
 //! environment and seeded random configurations.
 #![allow(dead_code)]
 
+pub mod alloc;
+
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::io::Write;

@@ -158,3 +158,17 @@ fn check_dynamics(dynamics: &LinearDynamics<'_>, n: usize, m: usize, horizon: us
         }
     }
 }
+
+/// `dof` decoupled double integrators sampled every `dt` seconds, with
+/// state `x = [p, ṗ]` (2·dof) and input `u = p̈` (dof), held constant over
+/// a step: `A = [[I, dt·I], [0, I]]`, `B = [[dt²/2·I], [dt·I]]`.
+pub fn double_integrator(dof: usize, dt: f64) -> (DMatrix<f64>, DMatrix<f64>) {
+    let mut a = DMatrix::identity(2 * dof, 2 * dof);
+    let mut b = DMatrix::zeros(2 * dof, dof);
+    for j in 0..dof {
+        a[(j, dof + j)] = dt;
+        b[(j, j)] = 0.5 * dt * dt;
+        b[(dof + j, j)] = dt;
+    }
+    (a, b)
+}

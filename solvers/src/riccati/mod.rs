@@ -37,7 +37,7 @@ mod finite_horizon;
 mod validate;
 
 pub use dare::{DareProblem, DareSettings, DareSolution, DareStats, DareWorkspace, solve_dare};
-pub use finite_horizon::{FiniteHorizonSolution, LinearDynamics, finite_horizon_riccati};
+pub use finite_horizon::{FiniteHorizonSolution, LinearDynamics, double_integrator, finite_horizon_riccati};
 
 /// Why a Riccati solve returned no answer.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
