@@ -147,3 +147,17 @@ fn references_load_from_csv() {
     let e = JointTrajectory::from_csv(&path, 0.1).unwrap_err();
     assert!(e.to_string().contains("ref.csv:3") && e.to_string().contains("'x'"), "{e}");
 }
+
+#[test]
+fn a_workspace_from_another_policy_still_works() {
+    let long = TrackingPolicy::new(panda_reference(), TrackingWeights::default(), GainSchedule::Constant).unwrap();
+    let joints = vec!["a".to_string(), "b".to_string()];
+    let short_ref = JointTrajectory::minimum_jerk(joints, &[0.0, 0.0], &[0.1, 0.1], 0.1, 0.01).unwrap();
+    let short = TrackingPolicy::new(short_ref, TrackingWeights::default(), GainSchedule::Constant).unwrap();
+    let mut ws = long.workspace();
+    let mut command = [0.0; 7];
+    long.query(&mut ws, long.reference().goal(), None, &mut command).unwrap();
+    let mut small = [0.0; 2];
+    let found = short.query(&mut ws, &[0.05, 0.05], None, &mut small).unwrap();
+    assert!(found.index < short.reference().len());
+}

@@ -162,6 +162,9 @@ impl TrackingPolicy {
     ) -> Result<PolicyQuery, ControlError> {
         let n = self.reference.dof();
         check_vector("q", q, n)?;
+        if ws.error.len() != 2 * n {
+            ws.error.resize(2 * n, 0.0); // a workspace made for another policy: resized once
+        }
         if let Some(v) = velocity {
             check_vector("velocity", v, n)?;
         }
@@ -216,7 +219,8 @@ impl TrackingPolicy {
     /// (the hint is lost).
     fn closest(&self, ws: &mut PolicyWorkspace, q: &[f64]) -> PolicyQuery {
         let last = self.reference.len() - 1;
-        if let Some(hint) = ws.hint {
+        // A hint past the end (a workspace made for another policy) is lost.
+        if let Some(hint) = ws.hint.filter(|&h| h <= last) {
             let (lo, hi) = (hint.saturating_sub(self.window), (hint + self.window).min(last));
             let best = self.best_in(q, lo, hi);
             let on_edge = (best.index == lo && lo > 0) || (best.index == hi && hi < last);
