@@ -5,6 +5,11 @@ Usage:
   pin_reference.py robots
       One JSON object on stdout: the example-robot-data package folder and
       the URDF paths of the robots the tests use.
+  pin_reference.py meshes < request.json
+      Request: {"urdf": path, "package_dir": path}. Loads the collision
+      geometry with Pinocchio (meshes read by coal through assimp) and prints
+      {"objects": [{"name", "frame", "vertices", "min": [x,y,z], "max": [x,y,z]}]}
+      for every mesh object, bounds in the object's own frame (scaled).
   pin_reference.py kinematics < request.json
       Request: {"urdf": path, "joints": [names], "frames": [{"name": str,
       "kind": "link"|"joint"}], "q": [[values in `joints` order], ...],
@@ -48,6 +53,10 @@ def erd_robots():
         "double_pendulum_continuous": "double_pendulum_description/urdf/double_pendulum_continuous.urdf",
         "talos": "talos_data/robots/talos_full_v2.urdf",
         "pr2": "pr2_description/urdf/pr2.urdf",
+        "baxter": "baxter_description/urdf/baxter.urdf",
+        "tiago": "tiago_description/robots/tiago.urdf",
+        "kinova": "kinova_description/robots/kinova.urdf",
+        "hyq": "hyq_description/robots/hyq_no_sensors.urdf",
     }
     # package://example-robot-data/robots/... resolves against the folder holding example-robot-data.
     return {
@@ -107,13 +116,26 @@ def kinematics(req):
             "pinocchio_version": pin.__version__}
 
 
+def meshes(req):
+    model = pin.buildModelFromUrdf(req["urdf"])
+    geom = pin.buildGeomFromUrdf(model, req["urdf"], pin.GeometryType.COLLISION, package_dirs=[req["package_dir"]])
+    out = []
+    for obj in geom.geometryObjects:
+        g = obj.geometry
+        if not hasattr(g, "num_vertices") or g.num_vertices == 0:
+            continue
+        v = np.array(g.vertices())
+        out.append({"name": obj.name, "frame": model.frames[obj.parentFrame].name, "vertices": int(len(v)),
+                    "min": v.min(axis=0).tolist(), "max": v.max(axis=0).tolist()})
+    return {"objects": out}
+
+
 def main():
-    if len(sys.argv) != 2 or sys.argv[1] not in ("robots", "kinematics"):
+    commands = {"robots": lambda: erd_robots(), "kinematics": lambda: kinematics(json.load(sys.stdin)),
+                "meshes": lambda: meshes(json.load(sys.stdin))}
+    if len(sys.argv) != 2 or sys.argv[1] not in commands:
         raise SystemExit(__doc__)
-    if sys.argv[1] == "robots":
-        result = erd_robots()
-    else:
-        result = kinematics(json.load(sys.stdin))
+    result = commands[sys.argv[1]]()
     json.dump(result, sys.stdout)
     sys.stdout.write("\n")
 

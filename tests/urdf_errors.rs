@@ -163,16 +163,22 @@ fn mimic_of_unknown_joint_is_ignored_with_a_warning_and_cycles_are_errors() {
 #[test]
 fn unreadable_mesh_formats_load_and_are_reported() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("base.dae"), "<COLLADA/>").unwrap();
+    std::fs::write(dir.path().join("base.mesh"), "ogre binary").unwrap();
     let path = dir.path().join("r.urdf");
-    std::fs::write(
-        &path,
-        robot("<link name=\"base\"><collision><geometry><mesh filename=\"base.dae\"/></geometry></collision></link>"),
-    )
-    .unwrap();
+    let urdf = |file: &str| {
+        robot(&format!(
+            "<link name=\"base\"><collision><geometry><mesh filename=\"{file}\"/></geometry></collision></link>"
+        ))
+    };
+    std::fs::write(&path, urdf("base.mesh")).unwrap();
     let desc = RobotDescription::from_urdf_file(&path, &MeshSearchPath::default()).unwrap();
     let lint = desc.lint();
-    assert!(lint.iter().any(|w| w.contains("base.dae") && w.contains("cannot read")), "{lint:?}");
+    assert!(lint.iter().any(|w| w.contains("base.mesh") && w.contains("cannot read")), "{lint:?}");
+    // COLLADA is read; a broken one is an error naming the file.
+    std::fs::write(dir.path().join("base.dae"), "<COLLADA/>").unwrap();
+    std::fs::write(&path, urdf("base.dae")).unwrap();
+    let e = RobotDescription::from_urdf_file(&path, &MeshSearchPath::default()).unwrap_err();
+    assert!(matches!(e, RobotError::InvalidMesh { .. }) && e.to_string().contains("base.dae"), "{e}");
 }
 
 #[test]

@@ -66,6 +66,15 @@ impl TriMesh {
         parse_obj(&text, scale).map_err(|message| RobotError::InvalidMesh { path: path.to_path_buf(), message })
     }
 
+    /// Loads the triangles of a COLLADA (`.dae`) file's visual scene, with
+    /// its node transforms and unit, multiplying coordinates by `scale`.
+    pub fn from_collada_file(path: &Path, scale: [f64; 3]) -> Result<TriMesh, RobotError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
+        super::collada::parse_collada(&text, scale)
+            .map_err(|message| RobotError::InvalidMesh { path: path.to_path_buf(), message })
+    }
+
     /// Axis-aligned bounding box `(min, max)` of the vertices.
     pub fn aabb(&self) -> (Point3<f64>, Point3<f64>) {
         let mut lo = Point3::from([f64::INFINITY; 3]);

@@ -16,6 +16,7 @@
 //! println!("hand at {}", hand.translation.vector);
 //! ```
 
+mod collada;
 mod description;
 mod error;
 mod kinematics;

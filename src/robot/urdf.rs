@@ -375,6 +375,7 @@ fn load_mesh(
     let mesh = match ext.as_deref() {
         Some("stl") => TriMesh::from_stl_file(&path, scale)?,
         Some("obj") => TriMesh::from_obj_file(&path, scale)?,
+        Some("dae") => TriMesh::from_collada_file(&path, scale)?,
         other => {
             return Ok(Geometry::UnreadableMesh {
                 uri: uri.to_string(),
