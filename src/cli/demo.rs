@@ -33,8 +33,7 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
         let mut q = PANDA_READY;
         q[3] = elbow.lower + (elbow.upper - elbow.lower) * s as f64 / (steps - 1) as f64;
         panda.forward_kinematics(&mut ws, &q)?;
-        panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac)?;
-        let p = panda.frame_pose(&ws, tcp).translation.vector;
+        let p = panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac)?.translation.vector;
         let manip = (&jac * jac.transpose()).determinant().max(0.0).sqrt();
         println!(
             "  q4 = {:>7.4} rad  tcp = [{:>7.4}, {:>7.4}, {:>7.4}]  manipulability = {manip:.5}",

@@ -54,10 +54,9 @@ pub(super) fn run(args: &FkArgs) -> Result<(), Box<dyn std::error::Error>> {
     let q = parse_values(&args.q)?;
     let mut ws = KinematicsWorkspace::new(&model);
     model.forward_kinematics(&mut ws, &q)?;
-    let pose = model.frame_pose(&ws, frame);
     let reference = if args.local { ReferenceFrame::Local } else { ReferenceFrame::WorldAligned };
     let mut jac = Matrix6xX::zeros(model.nq());
-    model.frame_jacobian(&ws, frame, reference, &mut jac)?;
+    let pose = model.frame_jacobian(&ws, frame, reference, &mut jac)?;
     let rot = pose.rotation.matrix();
     let rows = |m: &dyn Fn(usize, usize) -> f64, r: usize, c: usize| -> Vec<Vec<f64>> {
         (0..r).map(|i| (0..c).map(|k| m(i, k)).collect()).collect()

@@ -14,9 +14,8 @@
 //! let tcp = panda.frame_id("panda_hand_tcp").unwrap();
 //! let q = panda.neutral_configuration();
 //! panda.forward_kinematics(&mut ws, &q).unwrap();
-//! let pose = panda.frame_pose(&ws, tcp);
 //! let mut jac = Matrix6xX::zeros(panda.nq());
-//! panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac).unwrap();
+//! let pose = panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac).unwrap();
 //! assert!(pose.translation.vector.norm() > 0.3);
 //! ```
 
@@ -141,7 +140,9 @@ impl RobotModel {
     }
 
     /// Geometric Jacobian (6 × nq, linear rows then angular) of `frame`,
-    /// from the last forward kinematics, written into `out`.
+    /// from the last forward kinematics, written into `out`. Returns the
+    /// frame's world pose, which the Jacobian needs anyway, so callers that
+    /// want both compose it once.
     ///
     /// # Errors
     /// [`RobotError::OutputShape`] when `out` does not have nq columns.
@@ -151,7 +152,7 @@ impl RobotModel {
         frame: FrameId,
         reference: ReferenceFrame,
         out: &mut Matrix6xX<f64>,
-    ) -> Result<(), RobotError> {
+    ) -> Result<IsometryMatrix3<f64>, RobotError> {
         self.check_columns(out.ncols())?;
         let pose = self.frame_pose(ws, frame);
         // Slice fill: nalgebra's element iterator is several times slower here.
@@ -173,7 +174,7 @@ impl RobotModel {
                 col[3..].copy_from_slice(ang.as_slice());
             }
         }
-        Ok(())
+        Ok(pose)
     }
 
     /// Jacobian (3 × nq, world axes) of the velocity of a point fixed on a
@@ -216,13 +217,7 @@ impl RobotModel {
         while body != 0 {
             let b = &self.bodies[body];
             let pose = &ws.body_poses[body];
-            let r = pose.rotation.matrix();
-            let axis = match b.motion {
-                Motion::RevoluteX => r.column(0).into_owned(),
-                Motion::RevoluteY => r.column(1).into_owned(),
-                Motion::RevoluteZ => r.column(2).into_owned(),
-                Motion::Revolute(a) | Motion::Prismatic(a) => r * a,
-            };
+            let axis = b.motion.world_axis(pose.rotation.matrix());
             if b.motion.is_prismatic() {
                 add(b.column, axis * b.multiplier, Vector3::zeros());
             } else {

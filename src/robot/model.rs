@@ -61,6 +61,18 @@ impl Motion {
         }
     }
 
+    /// The axis in world coordinates for a joint frame with rotation `r`;
+    /// axis-aligned axes are a column of `r`, no product needed.
+    #[inline(always)]
+    pub(crate) fn world_axis(&self, r: &nalgebra::Matrix3<f64>) -> Vector3<f64> {
+        match *self {
+            Motion::RevoluteX => r.column(0).into_owned(),
+            Motion::RevoluteY => r.column(1).into_owned(),
+            Motion::RevoluteZ => r.column(2).into_owned(),
+            Motion::Revolute(a) | Motion::Prismatic(a) => r * a,
+        }
+    }
+
     pub(crate) fn is_prismatic(&self) -> bool {
         matches!(self, Motion::Prismatic(_))
     }
