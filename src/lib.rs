@@ -14,6 +14,8 @@
 //! ```
 
 pub mod cli;
+pub mod collision;
 pub mod control;
 pub mod plot;
 pub mod robot;
+pub mod scene;

@@ -122,7 +122,7 @@ pub enum RobotError {
     OutputShape { expected: usize, got: usize },
 }
 
-fn did_you_mean(suggestions: &[String]) -> String {
+pub(crate) fn did_you_mean(suggestions: &[String]) -> String {
     if suggestions.is_empty() { String::new() } else { format!(" (did you mean {}?)", suggestions.join(", ")) }
 }
 

@@ -199,6 +199,38 @@ impl RobotModel {
         Ok(world)
     }
 
+    /// Adds `direction · v_k(p)` to `out[k]` for every active joint `k`,
+    /// where `v_k(p)` is the velocity of world point `p` (fixed on body
+    /// `body`) for a unit velocity of joint `k`: a point Jacobian projected
+    /// on one direction, without forming it.
+    pub(crate) fn add_projected_point_velocity(
+        &self,
+        ws: &KinematicsWorkspace,
+        body: usize,
+        p: &Vector3<f64>,
+        direction: &Vector3<f64>,
+        out: &mut [f64],
+    ) {
+        self.accumulate_columns(ws, body, p, |k, lin, _| out[k] += direction.dot(&lin));
+    }
+
+    /// Index of the body carrying `frame`, and the frame's pose in it.
+    pub(crate) fn frame_in_body(&self, frame: FrameId) -> (usize, IsometryMatrix3<f64>) {
+        let f = &self.frames()[frame.0];
+        (f.body, f.placement.after(&IsometryMatrix3::identity()))
+    }
+
+    /// World pose of body `body` as of the last forward kinematics.
+    #[inline]
+    pub(crate) fn body_pose<'w>(&self, ws: &'w KinematicsWorkspace, body: usize) -> &'w IsometryMatrix3<f64> {
+        &ws.body_poses[body]
+    }
+
+    /// Parent of body `body` (the root is its own parent).
+    pub(crate) fn parent_body(&self, body: usize) -> usize {
+        self.bodies[body].parent
+    }
+
     fn check_columns(&self, got: usize) -> Result<(), RobotError> {
         if got == self.nq() { Ok(()) } else { Err(RobotError::OutputShape { expected: self.nq(), got }) }
     }

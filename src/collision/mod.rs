@@ -1,0 +1,62 @@
+//! Collision checking and signed distances between the robot and its scene.
+//!
+//! A [`CollisionModel`] compiles the robot's URDF collision elements (one
+//! group per link; primitives as they are, meshes as convex hulls), the
+//! scene's obstacles and objects, and the list of pairs to check: every
+//! robot link against every obstacle and free object, attached objects
+//! against both, and self-collision pairs between links that are neither on
+//! the same rigid body nor parent and child, minus the pairs an SRDF
+//! disables and the contacts the scene allows. Queries run over a
+//! per-thread [`CollisionWorkspace`] and allocate nothing.
+//!
+//! ```
+//! use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+//! use tandem::robot::RobotModel;
+//! use tandem::scene::{Obstacle, Scene};
+//! use nalgebra::IsometryMatrix3;
+//! use std::sync::Arc;
+//! let panda = Arc::new(RobotModel::panda());
+//! let mut scene = Scene::new();
+//! scene.add_obstacle(Obstacle::new("ball", Shape::sphere(0.1), IsometryMatrix3::translation(0.5, 0.0, 0.4))).unwrap();
+//! let model = CollisionModel::builder(panda.clone()).scene(&scene).build().unwrap();
+//! let mut ws = CollisionWorkspace::new(&model);
+//! let q = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+//! assert!(model.collision_free(&mut ws, &q).unwrap());
+//! let closest = model.min_distance(&mut ws, &q).unwrap().unwrap();
+//! let mut gradient = [0.0; 7];
+//! model.distance_gradient(&ws, &closest, &mut gradient).unwrap();
+//! println!("{:?} at {:.3} m", model.pair_names(closest.pair), closest.signed.distance);
+//! ```
+
+mod distance;
+mod model;
+mod query;
+mod shape;
+
+pub use distance::{SignedDistance, closer_than, signed_distance};
+pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
+pub use query::{CollisionWorkspace, PairDistance};
+pub use shape::{ConvexHull, Shape};
+
+use crate::robot::RobotError;
+use thiserror::Error;
+
+/// Errors building collision shapes and models.
+#[derive(Debug, Error)]
+pub enum CollisionError {
+    /// A dimension that is not finite and positive.
+    #[error("invalid {what}: {value} (must be finite and positive)")]
+    InvalidShape { what: &'static str, value: f64 },
+    /// A mesh whose vertices span no volume.
+    #[error("cannot build a convex hull from {points} points (need at least 4 finite, non-coplanar points)")]
+    DegenerateHull { points: usize },
+    /// A link whose collision mesh tandem cannot read.
+    #[error("link '{link}' has a collision mesh in a format tandem cannot read (use STL, OBJ or COLLADA)")]
+    UnreadableMesh { link: String },
+    /// A name (link, obstacle, object) that matches nothing.
+    #[error("no link, obstacle or object named '{name}'{}", crate::robot::did_you_mean(suggestions))]
+    UnknownName { name: String, suggestions: Vec<String> },
+    /// A robot-side error (unknown frame, …).
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+}

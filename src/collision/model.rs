@@ -1,0 +1,355 @@
+//! The compiled collision model: every collision object of the robot and
+//! the scene, grouped by rigid body, with the list of pairs to check.
+
+use super::CollisionError;
+use super::shape::Shape;
+use crate::robot::{RobotDescription, RobotModel, Srdf};
+use crate::scene::Scene;
+use nalgebra::{IsometryMatrix3, Point3, Vector3};
+use std::ops::Range;
+use std::sync::Arc;
+
+/// Where a collision object comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectSource {
+    /// Collision element `element` (URDF order) of link `link` (description index).
+    RobotLink { link: usize, element: usize },
+    /// Obstacle `index` of the scene.
+    Obstacle(usize),
+    /// Object `index` of the scene (free or attached).
+    Object(usize),
+}
+
+/// One shape placed on a body (or in the world).
+#[derive(Debug, Clone)]
+pub(crate) struct CollisionObject {
+    pub(crate) group: usize,
+    pub(crate) shape: Shape,
+    /// Pose of the shape in its body frame (world for static objects).
+    pub(crate) local: IsometryMatrix3<f64>,
+    /// Bounding radius including the padding.
+    pub(crate) radius: f64,
+    /// Padding added to this object (m): robot and attached objects only.
+    pub(crate) padding: f64,
+    pub(crate) source: ObjectSource,
+    /// World bounding box of a static object.
+    pub(crate) aabb: Option<(Point3<f64>, Point3<f64>)>,
+}
+
+/// A rigid set of objects: a robot link, an attached object, an obstacle.
+#[derive(Debug, Clone)]
+pub(crate) struct Group {
+    pub(crate) name: String,
+    /// The body carrying the group; `None` for static groups.
+    pub(crate) body: Option<usize>,
+    pub(crate) objects: Range<usize>,
+    /// Bounding-ball centre, in the body frame (world for static groups).
+    pub(crate) center: Point3<f64>,
+    pub(crate) radius: f64,
+    pub(crate) aabb: Option<(Point3<f64>, Point3<f64>)>,
+}
+
+/// Two groups checked against each other, and their object pairs.
+#[derive(Debug, Clone)]
+pub(crate) struct GroupPair {
+    pub(crate) a: usize,
+    pub(crate) b: usize,
+    pub(crate) pairs: Range<usize>,
+}
+
+/// The robot and its scene as collision geometry, with the pairs to check.
+/// Immutable and `Send + Sync`; queries run with a
+/// [`CollisionWorkspace`](super::CollisionWorkspace). See the
+/// [module example](super).
+#[derive(Debug, Clone)]
+pub struct CollisionModel {
+    pub(crate) robot: Arc<RobotModel>,
+    pub(crate) objects: Vec<CollisionObject>,
+    pub(crate) groups: Vec<Group>,
+    pub(crate) group_pairs: Vec<GroupPair>,
+    /// Object index pairs, grouped by group pair.
+    pub(crate) pairs: Vec<[u32; 2]>,
+    padding: f64,
+}
+
+/// Builds a [`CollisionModel`].
+#[derive(Debug, Clone)]
+pub struct CollisionModelBuilder {
+    robot: Arc<RobotModel>,
+    scene: Scene,
+    disabled: Vec<(String, String)>,
+    padding: f64,
+    geometry: Option<Arc<RobotDescription>>,
+}
+
+impl CollisionModelBuilder {
+    /// The obstacles and objects to check against (default: none).
+    pub fn scene(mut self, scene: &Scene) -> Self {
+        self.scene = scene.clone();
+        self
+    }
+
+    /// Leaves out the robot link pairs the SRDF disables (`disable_collisions`).
+    pub fn srdf(mut self, srdf: &Srdf) -> Self {
+        self.disabled.extend(srdf.disabled_pairs.iter().map(|p| (p.link1.clone(), p.link2.clone())));
+        self
+    }
+
+    /// Inflates every robot shape and attached object by `padding` (m, ≥ 0):
+    /// distances are reported to the padded shapes.
+    pub fn padding(mut self, padding: f64) -> Self {
+        self.padding = padding;
+        self
+    }
+
+    /// Takes the links' collision geometry from another description of the
+    /// same robot (matched by link name), e.g. a spherized URDF.
+    pub fn geometry_from(mut self, description: Arc<RobotDescription>) -> Self {
+        self.geometry = Some(description);
+        self
+    }
+
+    /// Compiles the model.
+    ///
+    /// # Errors
+    /// A negative or non-finite padding, a mesh tandem cannot read, a
+    /// geometry description naming links the robot lacks, an attachment to
+    /// an unknown frame, allowed-contact names that match nothing.
+    pub fn build(self) -> Result<CollisionModel, CollisionError> {
+        if !(self.padding.is_finite() && self.padding >= 0.0) {
+            return Err(CollisionError::InvalidShape { what: "padding", value: self.padding });
+        }
+        let mut compiler = Compiler { robot: &self.robot, objects: Vec::new(), groups: Vec::new() };
+        compiler.robot_links(self.geometry.as_deref().unwrap_or(self.robot.description()), self.padding)?;
+        compiler.scene(&self.scene, self.padding)?;
+        let Compiler { objects, groups, .. } = compiler;
+        // Links without geometry are legal names too (nothing to allow, but not a typo).
+        let links = self.robot.description().links().iter().map(|l| l.name.as_str());
+        let names: Vec<&str> = groups.iter().map(|g| g.name.as_str()).chain(links).collect();
+        for (a, b) in self.scene.allowed_contacts() {
+            for n in [a, b] {
+                if !names.contains(&n.as_str()) {
+                    return Err(CollisionError::UnknownName {
+                        name: n.clone(),
+                        suggestions: crate::robot::suggest_names(n, names.iter().copied()),
+                    });
+                }
+            }
+        }
+        let is_excluded = |a: &Group, b: &Group| {
+            let listed = |list: &[(String, String)]| {
+                list.iter().any(|(x, y)| (*x == a.name && *y == b.name) || (*x == b.name && *y == a.name))
+            };
+            match (a.body, b.body) {
+                (None, None) => true,
+                (Some(ba), Some(bb)) => {
+                    ba == bb
+                        || self.robot.parent_body(ba) == bb
+                        || self.robot.parent_body(bb) == ba
+                        || listed(&self.disabled)
+                        || listed(self.scene.allowed_contacts())
+                }
+                _ => listed(self.scene.allowed_contacts()),
+            }
+        };
+        let (group_pairs, pairs) = pair_up(&groups, is_excluded);
+        Ok(CollisionModel { robot: self.robot, objects, groups, group_pairs, pairs, padding: self.padding })
+    }
+}
+
+/// Every non-excluded group pair, moving-versus-static first (the likelier
+/// collisions, for early exit), with their object pairs.
+fn pair_up(groups: &[Group], excluded: impl Fn(&Group, &Group) -> bool) -> (Vec<GroupPair>, Vec<[u32; 2]>) {
+    let mut candidates: Vec<(usize, usize)> = Vec::new();
+    for a in 0..groups.len() {
+        for b in a + 1..groups.len() {
+            if !excluded(&groups[a], &groups[b]) {
+                candidates.push((a, b));
+            }
+        }
+    }
+    candidates.sort_by_key(|&(a, b)| groups[a].body.is_some() && groups[b].body.is_some());
+    let (mut group_pairs, mut pairs) = (Vec::new(), Vec::new());
+    for (a, b) in candidates {
+        // Static groups always come second, so queries can rely on it.
+        let (a, b) = if groups[a].body.is_none() { (b, a) } else { (a, b) };
+        let start = pairs.len();
+        for i in groups[a].objects.clone() {
+            for j in groups[b].objects.clone() {
+                pairs.push([i as u32, j as u32]);
+            }
+        }
+        group_pairs.push(GroupPair { a, b, pairs: start..pairs.len() });
+    }
+    (group_pairs, pairs)
+}
+
+struct Compiler<'a> {
+    robot: &'a RobotModel,
+    objects: Vec<CollisionObject>,
+    groups: Vec<Group>,
+}
+
+impl Compiler<'_> {
+    fn robot_links(&mut self, geometry: &RobotDescription, padding: f64) -> Result<(), CollisionError> {
+        let own = self.robot.description();
+        if let Some(stray) = geometry.links().iter().find(|l| own.link(&l.name).is_none()) {
+            return Err(CollisionError::UnknownName {
+                name: stray.name.clone(),
+                suggestions: crate::robot::suggest_names(&stray.name, own.links().iter().map(|l| l.name.as_str())),
+            });
+        }
+        for (li, link) in own.links().iter().enumerate() {
+            let Some(source) = geometry.link(&link.name) else { continue };
+            let (body, in_body) = self.robot.frame_in_body(self.robot.link_frame(li));
+            let start = self.objects.len();
+            for (k, element) in source.collisions.iter().enumerate() {
+                let shape = Shape::from_geometry(&element.geometry)?
+                    .ok_or_else(|| CollisionError::UnreadableMesh { link: link.name.clone() })?;
+                let source = ObjectSource::RobotLink { link: li, element: k };
+                self.push_object(shape, in_body * element.origin, padding, source, false);
+            }
+            self.push_group(&link.name, Some(body), start);
+        }
+        Ok(())
+    }
+
+    fn scene(&mut self, scene: &Scene, padding: f64) -> Result<(), CollisionError> {
+        for (i, o) in scene.obstacles().iter().enumerate() {
+            let start = self.objects.len();
+            self.push_object(o.shape.clone(), o.pose, 0.0, ObjectSource::Obstacle(i), true);
+            self.push_group(&o.name, None, start);
+        }
+        for (i, o) in scene.objects().iter().enumerate() {
+            let start = self.objects.len();
+            match &o.attachment {
+                Some(att) => {
+                    let frame = self.robot.frame_id(&att.frame)?;
+                    let (body, in_body) = self.robot.frame_in_body(frame);
+                    self.push_object(o.shape.clone(), in_body * att.pose, padding, ObjectSource::Object(i), false);
+                    self.push_group(&o.name, Some(body), start);
+                }
+                None => {
+                    self.push_object(o.shape.clone(), o.pose, 0.0, ObjectSource::Object(i), true);
+                    self.push_group(&o.name, None, start);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn push_object(
+        &mut self,
+        shape: Shape,
+        local: IsometryMatrix3<f64>,
+        padding: f64,
+        source: ObjectSource,
+        is_static: bool,
+    ) {
+        let aabb = is_static.then(|| world_aabb(&shape, &local));
+        let radius = shape.bounding_radius() + padding;
+        let group = self.groups.len();
+        self.objects.push(CollisionObject { group, shape, local, radius, padding, source, aabb });
+    }
+
+    /// Closes a group over the objects pushed since `start` (none: no group).
+    fn push_group(&mut self, name: &str, body: Option<usize>, start: usize) {
+        let objects = &self.objects[start..];
+        if objects.is_empty() {
+            return;
+        }
+        let n = objects.len() as f64;
+        let center = Point3::from(objects.iter().map(|o| o.local.translation.vector).sum::<Vector3<f64>>() / n);
+        let radius =
+            objects.iter().map(|o| (o.local.translation.vector - center.coords).norm() + o.radius).fold(0.0, f64::max);
+        let aabb = body.is_none().then(|| {
+            objects.iter().filter_map(|o| o.aabb).fold(
+                (Point3::from(Vector3::repeat(f64::INFINITY)), Point3::from(Vector3::repeat(f64::NEG_INFINITY))),
+                |(lo, hi), (a, b)| (lo.inf(&a), hi.sup(&b)),
+            )
+        });
+        let objects = start..self.objects.len();
+        self.groups.push(Group { name: name.to_string(), body, objects, center, radius, aabb });
+    }
+}
+
+/// Tight world bounding box of a shape at `pose`.
+fn world_aabb(shape: &Shape, pose: &IsometryMatrix3<f64>) -> (Point3<f64>, Point3<f64>) {
+    let r = pose.rotation.matrix();
+    let axis = r.column(2).into_owned();
+    // Half extent of a disc of radius ρ normal to `axis`, along world axis i.
+    let disc = |rho: f64| axis.map(|a| rho * (1.0 - a * a).max(0.0).sqrt());
+    let half = match shape {
+        Shape::Sphere { radius } => Vector3::repeat(*radius),
+        Shape::Capsule { radius, half_length } => axis.abs() * *half_length + Vector3::repeat(*radius),
+        Shape::Cylinder { radius, half_length } => axis.abs() * *half_length + disc(*radius),
+        Shape::Box { half_extents } => r.abs() * half_extents,
+        Shape::Convex(hull) => {
+            let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+            for p in hull.polyhedron.points() {
+                let w = pose * Point3::new(p.x, p.y, p.z);
+                lo = lo.inf(&w.coords);
+                hi = hi.sup(&w.coords);
+            }
+            return (lo.into(), hi.into());
+        }
+    };
+    let c = pose.translation.vector;
+    ((c - half).into(), (c + half).into())
+}
+
+impl CollisionModel {
+    /// Starts a model of `robot` alone, with its own URDF collision geometry,
+    /// no padding and the default self-collision pairs: every pair of links
+    /// on different bodies that are not parent and child.
+    pub fn builder(robot: Arc<RobotModel>) -> CollisionModelBuilder {
+        CollisionModelBuilder { robot, scene: Scene::new(), disabled: Vec::new(), padding: 0.0, geometry: None }
+    }
+
+    /// The robot model the configurations refer to.
+    pub fn robot(&self) -> &Arc<RobotModel> {
+        &self.robot
+    }
+
+    /// Padding of robot shapes (m).
+    pub fn padding(&self) -> f64 {
+        self.padding
+    }
+
+    /// Number of object pairs checked.
+    pub fn pair_count(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Number of collision objects (robot elements, then obstacles, then objects).
+    pub fn object_count(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// Where object `index` comes from.
+    pub fn object_source(&self, index: usize) -> ObjectSource {
+        self.objects[index].source
+    }
+
+    /// The objects of pair `pair`: (a, b) indices, a on the robot side.
+    pub fn pair_objects(&self, pair: usize) -> (usize, usize) {
+        let [a, b] = self.pairs[pair];
+        (a as usize, b as usize)
+    }
+
+    /// Body names (link, obstacle or object) of pair `pair`.
+    pub fn pair_names(&self, pair: usize) -> (&str, &str) {
+        let (a, b) = self.pair_objects(pair);
+        (self.group_name(a), self.group_name(b))
+    }
+
+    /// Name of the body (link, obstacle or object) holding object `index`.
+    pub fn group_name(&self, object: usize) -> &str {
+        &self.groups[self.objects[object].group].name
+    }
+
+    /// Pairs of bodies checked against each other, by name.
+    pub fn body_pairs(&self) -> impl Iterator<Item = (&str, &str)> {
+        self.group_pairs.iter().map(|g| (self.groups[g.a].name.as_str(), self.groups[g.b].name.as_str()))
+    }
+}

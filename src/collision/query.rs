@@ -1,0 +1,274 @@
+//! Collision queries over a [`CollisionModel`] and a [`CollisionWorkspace`]:
+//! boolean checks, signed distances with witness points and their
+//! gradients, minimum distance, and motion (edge) validation. None of them
+//! allocates once the workspace exists (penetrating box/cylinder/hull pairs,
+//! which need EPA, excepted).
+
+use super::distance::{SignedDistance, closer_than, signed_distance};
+use super::model::{CollisionModel, Group};
+use crate::robot::{KinematicsWorkspace, RobotError};
+use nalgebra::{IsometryMatrix3, Point3, Vector3};
+
+/// Per-thread mutable state of collision queries.
+#[derive(Debug, Clone)]
+pub struct CollisionWorkspace {
+    kinematics: KinematicsWorkspace,
+    /// World pose of every object (static ones set once).
+    poses: Vec<IsometryMatrix3<f64>>,
+    /// World bounding-ball centre of every group.
+    centers: Vec<Point3<f64>>,
+    distances: Vec<PairDistance>,
+    q: Vec<f64>,
+}
+
+/// Signed distance of one object pair.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairDistance {
+    /// Index of the pair; names from [`CollisionModel::pair_names`].
+    pub pair: usize,
+    /// Distance between the (padded) shapes: `a` on the robot side, `b`
+    /// the other; see [`SignedDistance`].
+    pub signed: SignedDistance,
+}
+
+impl CollisionWorkspace {
+    /// Allocates the workspace for `model`; reuse it across calls.
+    pub fn new(model: &CollisionModel) -> Self {
+        let poses = model.objects.iter().map(|o| o.local).collect();
+        let centers = model.groups.iter().map(|g| g.center).collect();
+        CollisionWorkspace {
+            kinematics: KinematicsWorkspace::new(&model.robot),
+            poses,
+            centers,
+            distances: Vec::with_capacity(model.pairs.len()),
+            q: vec![0.0; model.robot.nq()],
+        }
+    }
+
+    /// The kinematics state of the last query (frame poses at that `q`).
+    pub fn kinematics(&self) -> &KinematicsWorkspace {
+        &self.kinematics
+    }
+}
+
+/// Squared distance from `p` to a box.
+fn aabb_distance_squared(p: &Point3<f64>, (lo, hi): &(Point3<f64>, Point3<f64>)) -> f64 {
+    let d = (lo - p).sup(&Vector3::zeros()).sup(&(p - hi));
+    d.norm_squared()
+}
+
+impl CollisionModel {
+    /// Places every moving object at `q`.
+    fn place(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
+        self.robot.forward_kinematics(&mut ws.kinematics, q)?;
+        for (g, group) in self.groups.iter().enumerate() {
+            let Some(body) = group.body else { continue };
+            let pose = self.robot.body_pose(&ws.kinematics, body);
+            ws.centers[g] = pose * group.center;
+            for i in group.objects.clone() {
+                ws.poses[i] = pose * self.objects[i].local;
+            }
+        }
+        Ok(())
+    }
+
+    /// Lower bound of the distance between two groups' shapes (m).
+    fn group_bound(&self, ws: &CollisionWorkspace, a: usize, b: usize) -> f64 {
+        let (ga, gb): (&Group, &Group) = (&self.groups[a], &self.groups[b]);
+        match &gb.aabb {
+            Some(aabb) => aabb_distance_squared(&ws.centers[a], aabb).sqrt() - ga.radius,
+            None => (ws.centers[b] - ws.centers[a]).norm() - ga.radius - gb.radius,
+        }
+    }
+
+    /// Lower bound of the distance between two objects' shapes (m).
+    fn object_bound(&self, ws: &CollisionWorkspace, i: usize, j: usize) -> f64 {
+        let (oi, oj) = (&self.objects[i], &self.objects[j]);
+        let ci = Point3::from(ws.poses[i].translation.vector);
+        match &oj.aabb {
+            Some(aabb) => aabb_distance_squared(&ci, aabb).sqrt() - oi.radius,
+            None => (ws.poses[j].translation.vector - ci.coords).norm() - oi.radius - oj.radius,
+        }
+    }
+
+    /// Exact signed distance of pair `pair` at the placed poses.
+    fn pair_distance(&self, ws: &CollisionWorkspace, pair: usize) -> PairDistance {
+        let [i, j] = self.pairs[pair].map(|k| k as usize);
+        let (oi, oj) = (&self.objects[i], &self.objects[j]);
+        let mut d = signed_distance(&oi.shape, &ws.poses[i], &oj.shape, &ws.poses[j]);
+        // Padding inflates each shape along the normal.
+        d.distance -= oi.padding + oj.padding;
+        d.point_a += d.normal * oi.padding;
+        d.point_b -= d.normal * oj.padding;
+        PairDistance { pair, signed: d }
+    }
+
+    /// True when no checked pair of (padded) shapes touches at `q`. Stops
+    /// at the first collision; bounding balls and boxes prune far pairs.
+    ///
+    /// # Errors
+    /// A `q` of the wrong length or with non-finite values.
+    pub fn collision_free(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<bool, RobotError> {
+        self.place(ws, q)?;
+        Ok(self.placed_collision_free(ws))
+    }
+
+    fn placed_collision_free(&self, ws: &CollisionWorkspace) -> bool {
+        for gp in &self.group_pairs {
+            if self.group_bound(ws, gp.a, gp.b) > 0.0 {
+                continue;
+            }
+            for pair in gp.pairs.clone() {
+                let [i, j] = self.pairs[pair].map(|k| k as usize);
+                if self.object_bound(ws, i, j) > 0.0 {
+                    continue;
+                }
+                let (oi, oj) = (&self.objects[i], &self.objects[j]);
+                if closer_than(&oi.shape, &ws.poses[i], &oj.shape, &ws.poses[j], oi.padding + oj.padding) {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    /// Signed distances at `q` of every pair closer than `cutoff` (m; pass
+    /// `f64::INFINITY` for all pairs), in pair order. Pairs whose bounding
+    /// volumes are already `cutoff` apart are skipped without computing.
+    ///
+    /// # Errors
+    /// A `q` of the wrong length or with non-finite values.
+    pub fn distances<'w>(
+        &self,
+        ws: &'w mut CollisionWorkspace,
+        q: &[f64],
+        cutoff: f64,
+    ) -> Result<&'w [PairDistance], RobotError> {
+        self.place(ws, q)?;
+        ws.distances.clear();
+        for gp in &self.group_pairs {
+            if self.group_bound(ws, gp.a, gp.b) >= cutoff {
+                continue;
+            }
+            for pair in gp.pairs.clone() {
+                let [i, j] = self.pairs[pair].map(|k| k as usize);
+                if self.object_bound(ws, i, j) >= cutoff {
+                    continue;
+                }
+                let d = self.pair_distance(ws, pair);
+                if d.signed.distance < cutoff {
+                    ws.distances.push(d);
+                }
+            }
+        }
+        Ok(&ws.distances)
+    }
+
+    /// The closest pair at `q` (the deepest when penetrating); `None` when
+    /// the model checks no pair. Branch and bound on bounding volumes.
+    ///
+    /// # Errors
+    /// A `q` of the wrong length or with non-finite values.
+    pub fn min_distance(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<Option<PairDistance>, RobotError> {
+        self.place(ws, q)?;
+        let mut best: Option<PairDistance> = None;
+        let bound = |best: &Option<PairDistance>| best.map_or(f64::INFINITY, |b| b.signed.distance);
+        for gp in &self.group_pairs {
+            if self.group_bound(ws, gp.a, gp.b) >= bound(&best) {
+                continue;
+            }
+            for pair in gp.pairs.clone() {
+                let [i, j] = self.pairs[pair].map(|k| k as usize);
+                if self.object_bound(ws, i, j) >= bound(&best) {
+                    continue;
+                }
+                let d = self.pair_distance(ws, pair);
+                if d.signed.distance < bound(&best) {
+                    best = Some(d);
+                }
+            }
+        }
+        Ok(best)
+    }
+
+    /// Gradient of `d.signed.distance` with respect to `q` (1/rad or 1/m
+    /// per active joint), written into `out`, for a distance returned by
+    /// [`distances`](Self::distances) or [`min_distance`](Self::min_distance)
+    /// with this workspace and not re-queried since.
+    ///
+    /// It is `nᵀ (J_b(p_b) − J_a(p_a))`: the normal projected on the
+    /// relative velocity of the witness points.
+    ///
+    /// # Errors
+    /// [`RobotError::OutputShape`] when `out` does not hold nq values.
+    pub fn distance_gradient(
+        &self,
+        ws: &CollisionWorkspace,
+        d: &PairDistance,
+        out: &mut [f64],
+    ) -> Result<(), RobotError> {
+        if out.len() != self.robot.nq() {
+            return Err(RobotError::OutputShape { expected: self.robot.nq(), got: out.len() });
+        }
+        out.fill(0.0);
+        let [i, j] = self.pairs[d.pair].map(|k| k as usize);
+        let s = &d.signed;
+        for (object, point, direction) in [(i, &s.point_a, -s.normal), (j, &s.point_b, s.normal)] {
+            if let Some(body) = self.groups[self.objects[object].group].body {
+                self.robot.add_projected_point_velocity(&ws.kinematics, body, &point.coords, &direction, out);
+            }
+        }
+        Ok(())
+    }
+
+    /// True when the straight joint-space motion from `q0` to `q1` is
+    /// collision-free at `resolution`: configurations are checked so that
+    /// no joint moves more than `resolution` (rad or m) between two checked
+    /// ones, both ends included, coarse to fine for an early exit.
+    ///
+    /// # Errors
+    /// Bad configurations; a non-positive or non-finite `resolution`
+    /// ([`RobotError::NonFinite`] names it as joint `resolution`).
+    pub fn motion_free(
+        &self,
+        ws: &mut CollisionWorkspace,
+        q0: &[f64],
+        q1: &[f64],
+        resolution: f64,
+    ) -> Result<bool, RobotError> {
+        self.robot.check_configuration(q0)?;
+        self.robot.check_configuration(q1)?;
+        if !(resolution.is_finite() && resolution > 0.0) {
+            return Err(RobotError::NonFinite { joint: "resolution".into(), index: 0, value: resolution });
+        }
+        let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
+        let steps = ((span / resolution).ceil() as usize).max(1);
+        let check = |ws: &mut CollisionWorkspace, k: usize| {
+            let t = k as f64 / steps as f64;
+            let mut q = std::mem::take(&mut ws.q);
+            for ((v, a), b) in q.iter_mut().zip(q0).zip(q1) {
+                *v = a + (b - a) * t;
+            }
+            let free = self.collision_free(ws, &q);
+            ws.q = q;
+            free
+        };
+        if !check(ws, steps)? || !check(ws, 0)? {
+            return Ok(false);
+        }
+        // Odd multiples of `half` at each level: every interior step once.
+        let mut stride = steps.next_power_of_two();
+        while stride > 1 {
+            let half = stride / 2;
+            let mut k = half;
+            while k < steps {
+                if !check(ws, k)? {
+                    return Ok(false);
+                }
+                k += stride;
+            }
+            stride = half;
+        }
+        Ok(true)
+    }
+}

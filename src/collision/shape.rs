@@ -1,0 +1,165 @@
+//! Collision shapes, in their own frame.
+//!
+//! Spheres, capsules, boxes and cylinders are kept as parameters: their
+//! distances to each other are computed in closed form where one exists
+//! (see [`signed_distance`](super::signed_distance)). Meshes become their
+//! convex hull, held as a parry3d polyhedron.
+
+use super::CollisionError;
+use crate::robot::{Geometry, TriMesh};
+use nalgebra::{Point3, Vector3};
+use parry3d_f64::shape::ConvexPolyhedron;
+use std::sync::Arc;
+
+/// A convex collision shape in its own frame (metres). Axial shapes
+/// (capsule, cylinder) are centred on the origin along z.
+#[derive(Debug, Clone)]
+pub enum Shape {
+    Sphere {
+        radius: f64,
+    },
+    /// A segment from −half_length to +half_length along z, swept by a ball.
+    Capsule {
+        radius: f64,
+        half_length: f64,
+    },
+    Box {
+        half_extents: Vector3<f64>,
+    },
+    Cylinder {
+        radius: f64,
+        half_length: f64,
+    },
+    /// The convex hull of a mesh.
+    Convex(Arc<ConvexHull>),
+}
+
+/// The convex hull of a point set, with its bounding radius about the
+/// shape origin.
+#[derive(Debug, Clone)]
+pub struct ConvexHull {
+    pub(crate) polyhedron: ConvexPolyhedron,
+    radius: f64,
+    vertex_count: usize,
+}
+
+impl ConvexHull {
+    /// The hull of `points` (m, shape frame).
+    ///
+    /// # Errors
+    /// [`CollisionError::DegenerateHull`] when the points are fewer than 4,
+    /// not finite, or coplanar.
+    pub fn new(points: &[Point3<f64>]) -> Result<ConvexHull, CollisionError> {
+        let finite = points.iter().all(|p| p.coords.iter().all(|c| c.is_finite()));
+        let glam: Vec<_> = points.iter().map(|p| parry3d_f64::math::Vector::new(p.x, p.y, p.z)).collect();
+        let polyhedron = (finite && points.len() >= 4)
+            .then(|| ConvexPolyhedron::from_convex_hull(&glam))
+            .flatten()
+            .ok_or(CollisionError::DegenerateHull { points: points.len() })?;
+        let radius = polyhedron.points().iter().map(|p| p.length()).fold(0.0, f64::max);
+        let vertex_count = polyhedron.points().len();
+        Ok(ConvexHull { polyhedron, radius, vertex_count })
+    }
+
+    /// Number of hull vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.vertex_count
+    }
+}
+
+impl Shape {
+    /// A sphere of `radius` (m).
+    pub fn sphere(radius: f64) -> Shape {
+        Shape::Sphere { radius }
+    }
+
+    /// A box of full side lengths `size` (m).
+    pub fn cuboid(size: [f64; 3]) -> Shape {
+        Shape::Box { half_extents: Vector3::from(size) / 2.0 }
+    }
+
+    /// A cylinder along z of full `length` (m).
+    pub fn cylinder(radius: f64, length: f64) -> Shape {
+        Shape::Cylinder { radius, half_length: length / 2.0 }
+    }
+
+    /// A capsule along z whose cylindrical part is `length` long (m).
+    pub fn capsule(radius: f64, length: f64) -> Shape {
+        Shape::Capsule { radius, half_length: length / 2.0 }
+    }
+
+    /// The convex hull of a triangle mesh's vertices.
+    ///
+    /// # Errors
+    /// See [`ConvexHull::new`].
+    pub fn convex_hull_of(mesh: &TriMesh) -> Result<Shape, CollisionError> {
+        Ok(Shape::Convex(Arc::new(ConvexHull::new(&mesh.vertices)?)))
+    }
+
+    /// The collision shape of a URDF geometry; meshes become their convex
+    /// hull. `None` for a mesh whose format tandem cannot read.
+    ///
+    /// # Errors
+    /// A degenerate mesh hull.
+    pub fn from_geometry(geometry: &Geometry) -> Result<Option<Shape>, CollisionError> {
+        Ok(Some(match geometry {
+            Geometry::Sphere { radius } => Shape::sphere(*radius),
+            Geometry::Box { half_extents } => Shape::Box { half_extents: *half_extents },
+            Geometry::Cylinder { radius, length } => Shape::cylinder(*radius, *length),
+            Geometry::Capsule { radius, length } => Shape::capsule(*radius, *length),
+            Geometry::Mesh { mesh, .. } => Shape::convex_hull_of(mesh)?,
+            Geometry::UnreadableMesh { .. } => return Ok(None),
+        }))
+    }
+
+    /// Short kind name: `sphere`, `capsule`, `box`, `cylinder`, `convex`.
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Shape::Sphere { .. } => "sphere",
+            Shape::Capsule { .. } => "capsule",
+            Shape::Box { .. } => "box",
+            Shape::Cylinder { .. } => "cylinder",
+            Shape::Convex(_) => "convex",
+        }
+    }
+
+    /// Radius of the smallest origin-centred ball holding the shape (m).
+    pub fn bounding_radius(&self) -> f64 {
+        match self {
+            Shape::Sphere { radius } => *radius,
+            Shape::Capsule { radius, half_length } => radius + half_length,
+            Shape::Box { half_extents } => half_extents.norm(),
+            Shape::Cylinder { radius, half_length } => radius.hypot(*half_length),
+            Shape::Convex(hull) => hull.radius,
+        }
+    }
+
+    /// Checks that every dimension is finite and positive.
+    ///
+    /// # Errors
+    /// [`CollisionError::InvalidShape`] naming the bad dimension.
+    pub fn validate(&self) -> Result<(), CollisionError> {
+        let check = |what: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(CollisionError::InvalidShape { what, value: v }) }
+        };
+        match self {
+            Shape::Sphere { radius } => check("sphere radius", *radius),
+            Shape::Capsule { radius, half_length } => {
+                check("capsule radius", *radius)?;
+                // A zero-length capsule is a sphere: allowed.
+                check("capsule length", half_length + f64::MIN_POSITIVE)
+            }
+            Shape::Box { half_extents } => half_extents.iter().try_for_each(|h| check("box size", *h)),
+            Shape::Cylinder { radius, half_length } => {
+                check("cylinder radius", *radius)?;
+                check("cylinder length", *half_length)
+            }
+            Shape::Convex(_) => Ok(()),
+        }
+    }
+
+    /// parry3d's cylinder runs along y, ours along z: its pose must be turned.
+    pub(crate) fn needs_y_to_z(&self) -> bool {
+        matches!(self, Shape::Cylinder { .. })
+    }
+}

@@ -1,0 +1,338 @@
+//! Problem families: one base problem plus distributions over its start
+//! configuration, object poses and extra obstacles, sampled reproducibly
+//! from (seed, id).
+
+use super::problem::{Problem, ProblemError, Source};
+use super::toml_source::KeyPath;
+use super::{Obstacle, Scene};
+use crate::collision::{CollisionModel, CollisionWorkspace, Shape, signed_distance};
+use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Deserialize;
+use std::path::Path;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFamily {
+    base: String,
+    name: String,
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    start: RawStartDistribution,
+    #[serde(default)]
+    objects: Vec<RawObjectDistribution>,
+    #[serde(default)]
+    obstacles: Option<RawObstacleDistribution>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawStartDistribution {
+    #[serde(default)]
+    jitter: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObjectDistribution {
+    name: String,
+    x: Option<[f64; 2]>,
+    y: Option<[f64; 2]>,
+    yaw: Option<[f64; 2]>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObstacleDistribution {
+    count: [usize; 2],
+    shapes: Vec<String>,
+    size: [f64; 2],
+    region_min: [f64; 3],
+    region_max: [f64; 3],
+    #[serde(default = "default_clearance")]
+    clearance: f64,
+}
+
+fn default_clearance() -> f64 {
+    0.05
+}
+
+/// Uniform range `[lo, hi]`.
+type Range2 = [f64; 2];
+
+#[derive(Debug, Clone)]
+struct ObjectDistribution {
+    object: String,
+    x: Option<Range2>,
+    y: Option<Range2>,
+    yaw: Option<Range2>,
+}
+
+#[derive(Debug, Clone)]
+struct ObstacleDistribution {
+    count: [usize; 2],
+    shapes: Vec<String>,
+    size: Range2,
+    region: [Vector3<f64>; 2],
+    clearance: f64,
+}
+
+/// A family of problems around a base problem; see the module docs and
+/// `problems/README.md`.
+#[derive(Debug, Clone)]
+pub struct ProblemFamily {
+    pub name: String,
+    pub description: String,
+    pub base: Problem,
+    start_jitter: f64,
+    objects: Vec<ObjectDistribution>,
+    obstacles: Option<ObstacleDistribution>,
+}
+
+/// One sampled problem and how its sampling went.
+#[derive(Debug, Clone)]
+pub struct FamilySample {
+    pub id: u64,
+    /// The seed this sample's random stream was drawn from.
+    pub seed: u64,
+    pub problem: Problem,
+    /// Obstacles that could not be placed clear of the robot and objects
+    /// within the attempt budget (and were left out).
+    pub skipped_obstacles: usize,
+}
+
+/// Largest tries for a collision-free start or a clear obstacle placement.
+const ATTEMPTS: usize = 100;
+
+/// Seed of sample `id` of a run seeded `seed`: a SplitMix64 mix, so
+/// neighbouring ids get unrelated streams.
+pub fn sample_seed(seed: u64, id: u64) -> u64 {
+    let mut z = seed ^ id.wrapping_mul(0x9E37_79B9_7F4A_7C15).wrapping_add(0xD1B5_4A32_D192_ED03);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+impl ProblemFamily {
+    /// Loads a family file; its `base` problem is resolved against the
+    /// family file's folder.
+    ///
+    /// # Errors
+    /// [`ProblemError`] naming the file, key and line (of the family file, or
+    /// of the base problem file for errors there).
+    pub fn from_file(path: impl AsRef<Path>) -> Result<ProblemFamily, ProblemError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.into(), source })?;
+        let origin = path.display().to_string();
+        let base = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
+        let src = Source { origin: &origin, text: &text, base };
+        let raw: RawFamily = toml::from_str(&text).map_err(|e| src.toml_error(&e))?;
+        let problem = Problem::from_file(src.resolve(&raw.base))?;
+        raw.build(&src, problem)
+    }
+
+    /// Sample `id` of the family for run seed `seed`: the same (seed, id)
+    /// always gives the same problem. Starts are jittered until
+    /// collision-free (the base start when no draw is); obstacles are placed
+    /// clear of the start arm, the objects and the space above grasp frames.
+    ///
+    /// # Errors
+    /// The base problem's collision model cannot be built.
+    pub fn sample(&self, seed: u64, id: u64) -> Result<FamilySample, crate::collision::CollisionError> {
+        let stream_seed = sample_seed(seed, id);
+        let mut rng = ChaCha8Rng::seed_from_u64(stream_seed);
+        let mut problem = self.base.clone();
+        for d in &self.objects {
+            move_object(&mut problem.scene, d, &mut rng);
+        }
+        problem.start = self.sample_start(&problem, &mut rng)?;
+        let mut skipped = 0;
+        if let Some(d) = &self.obstacles {
+            let count = rng.random_range(d.count[0]..=d.count[1]);
+            for k in 0..count {
+                match place_obstacle(&problem, d, k, &mut rng)? {
+                    Some(o) => problem.scene.add_obstacle(o).expect("fresh name and validated shape"),
+                    None => skipped += 1,
+                }
+            }
+        }
+        problem.name = format!("{}#{id}", self.name);
+        Ok(FamilySample { id, seed: stream_seed, problem, skipped_obstacles: skipped })
+    }
+
+    fn sample_start(
+        &self,
+        problem: &Problem,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Vec<f64>, crate::collision::CollisionError> {
+        if self.start_jitter == 0.0 {
+            return Ok(problem.start.clone());
+        }
+        let model = problem.collision_model()?;
+        let mut ws = CollisionWorkspace::new(&model);
+        for _ in 0..ATTEMPTS {
+            let q: Vec<f64> = problem
+                .start
+                .iter()
+                .zip(problem.robot.limits())
+                .map(|(v, l)| (v + rng.random_range(-self.start_jitter..=self.start_jitter)).clamp(l.lower, l.upper))
+                .collect();
+            if model.collision_free(&mut ws, &q)? {
+                return Ok(q);
+            }
+        }
+        Ok(problem.start.clone())
+    }
+}
+
+fn move_object(scene: &mut Scene, d: &ObjectDistribution, rng: &mut ChaCha8Rng) {
+    let Some(obj) = scene.objects.iter_mut().find(|o| o.name == d.object) else { return };
+    let mut draw = |r: &Option<Range2>| r.map(|[a, b]| rng.random_range(a..=b));
+    let (x, y, yaw) = (draw(&d.x), draw(&d.y), draw(&d.yaw));
+    let t = &mut obj.pose.translation.vector;
+    t.x = x.unwrap_or(t.x);
+    t.y = y.unwrap_or(t.y);
+    if let Some(yaw) = yaw {
+        obj.pose.rotation = Rotation3::from_axis_angle(&Vector3::z_axis(), yaw) * obj.pose.rotation;
+    }
+}
+
+/// A random obstacle clear of the start arm, the objects and the space
+/// 0.25 m above each grasp frame; `None` after [`ATTEMPTS`] failures.
+fn place_obstacle(
+    problem: &Problem,
+    d: &ObstacleDistribution,
+    k: usize,
+    rng: &mut ChaCha8Rng,
+) -> Result<Option<Obstacle>, crate::collision::CollisionError> {
+    for _ in 0..ATTEMPTS {
+        let shape_name = &d.shapes[rng.random_range(0..d.shapes.len())];
+        let s = rng.random_range(d.size[0]..=d.size[1]);
+        let shape = match shape_name.as_str() {
+            "sphere" => Shape::sphere(s / 2.0),
+            "cylinder" => Shape::cylinder(s / 2.0, s),
+            "capsule" => Shape::capsule(s / 4.0, s / 2.0),
+            _ => Shape::cuboid([s, s * rng.random_range(0.5..=1.5), s * rng.random_range(0.5..=1.5)]),
+        };
+        let p = Vector3::from_fn(|i, _| rng.random_range(d.region[0][i]..=d.region[1][i]));
+        let yaw = rng.random_range(-std::f64::consts::PI..=std::f64::consts::PI);
+        let pose =
+            IsometryMatrix3::from_parts(Translation3::from(p), Rotation3::from_axis_angle(&Vector3::z_axis(), yaw));
+        let obstacle = Obstacle::new(format!("random_{k}"), shape, pose);
+        if is_clear(problem, &obstacle, d.clearance)? {
+            return Ok(Some(obstacle));
+        }
+    }
+    Ok(None)
+}
+
+fn is_clear(problem: &Problem, o: &Obstacle, clearance: f64) -> Result<bool, crate::collision::CollisionError> {
+    let scene = &problem.scene;
+    for obj in scene.objects() {
+        if signed_distance(&o.shape, &o.pose, &obj.shape, &obj.pose).distance < clearance {
+            return Ok(false);
+        }
+        for g in &obj.grasps {
+            // The approach corridor: a capsule from the grasp frame up 0.25 m.
+            let top = obj.pose * g.pose;
+            let corridor = IsometryMatrix3::from_parts(
+                Translation3::from(top.translation.vector + Vector3::z() * 0.125),
+                Rotation3::identity(),
+            );
+            if signed_distance(&o.shape, &o.pose, &Shape::capsule(0.08, 0.25), &corridor).distance < clearance {
+                return Ok(false);
+            }
+        }
+    }
+    for other in scene.obstacles() {
+        if signed_distance(&o.shape, &o.pose, &other.shape, &other.pose).distance < 0.0 {
+            return Ok(false);
+        }
+    }
+    let mut alone = Scene::new();
+    alone.add_obstacle(o.clone()).expect("validated obstacle");
+    let model = CollisionModel::builder(problem.robot.clone()).scene(&alone).build()?;
+    let mut ws = CollisionWorkspace::new(&model);
+    // Only pairs with the obstacle count: the arm's own clearance is not at stake.
+    let near = model.distances(&mut ws, &problem.start, clearance)?;
+    Ok(near.iter().all(|d| model.pair_names(d.pair).1 != o.name))
+}
+
+impl RawFamily {
+    fn build(self, src: &Source, base: Problem) -> Result<ProblemFamily, ProblemError> {
+        let root = KeyPath::root();
+        let jitter = self.start.jitter;
+        if !(jitter.is_finite() && jitter >= 0.0) {
+            return Err(src.error(&root.key("start").key("jitter"), format!("must be zero or positive, got {jitter}")));
+        }
+        let range = |path: KeyPath, r: Option<Range2>| match r {
+            Some([a, b]) if !(a.is_finite() && b.is_finite() && a <= b) => {
+                Err(src.error(&path, format!("must be [low, high] with low ≤ high, got [{a}, {b}]")))
+            }
+            _ => Ok(r),
+        };
+        let mut objects = Vec::new();
+        for (i, o) in self.objects.into_iter().enumerate() {
+            let p = root.key("objects").index(i);
+            if base.scene.object(&o.name).is_none() {
+                return Err(src.error(&p.key("name"), format!("the base problem has no object '{}'", o.name)));
+            }
+            objects.push(ObjectDistribution {
+                x: range(p.key("x"), o.x)?,
+                y: range(p.key("y"), o.y)?,
+                yaw: range(p.key("yaw"), o.yaw)?,
+                object: o.name,
+            });
+        }
+        let obstacles = match self.obstacles {
+            Some(o) => Some(o.build(src)?),
+            None => None,
+        };
+        Ok(ProblemFamily {
+            name: self.name,
+            description: self.description,
+            base,
+            start_jitter: jitter,
+            objects,
+            obstacles,
+        })
+    }
+}
+
+impl RawObstacleDistribution {
+    fn build(self, src: &Source) -> Result<ObstacleDistribution, ProblemError> {
+        let p = KeyPath::root().key("obstacles");
+        if self.count[0] > self.count[1] || self.count[1] > 1000 {
+            return Err(src.error(&p.key("count"), "must be [min, max] with min ≤ max ≤ 1000"));
+        }
+        if self.shapes.is_empty() {
+            return Err(src.error(&p.key("shapes"), "needs at least one shape"));
+        }
+        for (i, s) in self.shapes.iter().enumerate() {
+            if !["box", "sphere", "cylinder", "capsule"].contains(&s.as_str()) {
+                let msg = format!("unknown shape '{s}' (expected box, sphere, cylinder or capsule)");
+                return Err(src.error(&p.key("shapes").index(i), msg));
+            }
+        }
+        let [lo, hi] = self.size;
+        if !(lo > 0.0 && lo <= hi && hi.is_finite()) {
+            return Err(src.error(&p.key("size"), format!("must be [low, high] with 0 < low ≤ high, got [{lo}, {hi}]")));
+        }
+        let (min, max) = (Vector3::from(self.region_min), Vector3::from(self.region_max));
+        if let Some(i) = (0..3).find(|&i| !(min[i].is_finite() && max[i].is_finite() && min[i] <= max[i])) {
+            return Err(src.error(&p.key("region_max").index(i), "region_max must be finite and ≥ region_min"));
+        }
+        if !(self.clearance.is_finite() && self.clearance >= 0.0) {
+            return Err(src.error(&p.key("clearance"), "must be zero or positive"));
+        }
+        Ok(ObstacleDistribution {
+            count: self.count,
+            shapes: self.shapes,
+            size: self.size,
+            region: [min, max],
+            clearance: self.clearance,
+        })
+    }
+}

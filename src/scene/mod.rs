@@ -1,0 +1,279 @@
+//! The robot's surroundings: static obstacles, a table, and graspable
+//! objects with named grasp frames, each with a pose in the world (the URDF
+//! root frame). Objects can be attached to a robot frame (grasped) and
+//! detached again; problem files ([`Problem`]) describe a scene and a task.
+//!
+//! ```
+//! use tandem::collision::Shape;
+//! use tandem::scene::{Obstacle, Scene, SceneObject};
+//! use nalgebra::IsometryMatrix3;
+//! let mut scene = Scene::new();
+//! scene.add_obstacle(Obstacle::table("table", [0.5, 0.0, 0.3], [0.8, 1.0], 0.04)).unwrap();
+//! let mut box_ = SceneObject::new("box", Shape::cuboid([0.06, 0.06, 0.12]), IsometryMatrix3::translation(0.5, 0.0, 0.36));
+//! box_.add_grasp("top", IsometryMatrix3::translation(0.0, 0.0, 0.03));
+//! scene.add_object(box_).unwrap();
+//! let grasp = scene.grasp_pose("box", "top").unwrap();
+//! assert!((grasp.translation.z - 0.39).abs() < 1e-12);
+//! ```
+
+mod family;
+mod problem;
+mod problem_file;
+mod toml_source;
+
+pub use family::{FamilySample, ProblemFamily, sample_seed};
+pub use problem::{
+    BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
+    RobotSpec, TimeRange,
+};
+
+use crate::collision::{CollisionError, Shape};
+use crate::robot::suggest_names;
+use nalgebra::IsometryMatrix3;
+use thiserror::Error;
+
+/// A fixed obstacle.
+#[derive(Debug, Clone)]
+pub struct Obstacle {
+    pub name: String,
+    pub shape: Shape,
+    /// Pose of the shape frame in the world.
+    pub pose: IsometryMatrix3<f64>,
+}
+
+impl Obstacle {
+    /// An obstacle of `shape` at `pose`.
+    pub fn new(name: impl Into<String>, shape: Shape, pose: IsometryMatrix3<f64>) -> Obstacle {
+        Obstacle { name: name.into(), shape, pose }
+    }
+
+    /// A table top: a horizontal slab of `size` (x, y) and `thickness` (m)
+    /// whose upper surface is centred on `top_center` (world, m).
+    pub fn table(name: impl Into<String>, top_center: [f64; 3], size: [f64; 2], thickness: f64) -> Obstacle {
+        let [x, y, z] = top_center;
+        Obstacle::new(
+            name,
+            Shape::cuboid([size[0], size[1], thickness]),
+            IsometryMatrix3::translation(x, y, z - thickness / 2.0),
+        )
+    }
+}
+
+/// A named frame on an object where a gripper frame should go to grasp it.
+#[derive(Debug, Clone)]
+pub struct GraspFrame {
+    pub name: String,
+    /// Pose of the grasp frame in the object frame.
+    pub pose: IsometryMatrix3<f64>,
+}
+
+/// Where an object is held: a robot frame and the object's pose in it.
+#[derive(Debug, Clone)]
+pub struct Attachment {
+    /// Name of the robot frame (link or joint) holding the object.
+    pub frame: String,
+    /// Pose of the object frame in that robot frame.
+    pub pose: IsometryMatrix3<f64>,
+}
+
+/// A movable object: lies in the world until attached to the robot.
+#[derive(Debug, Clone)]
+pub struct SceneObject {
+    pub name: String,
+    pub shape: Shape,
+    /// World pose while not attached (the last pose before attachment otherwise).
+    pub pose: IsometryMatrix3<f64>,
+    pub grasps: Vec<GraspFrame>,
+    pub attachment: Option<Attachment>,
+}
+
+impl SceneObject {
+    /// A free object of `shape` at world `pose`, with no grasp frame yet.
+    pub fn new(name: impl Into<String>, shape: Shape, pose: IsometryMatrix3<f64>) -> SceneObject {
+        SceneObject { name: name.into(), shape, pose, grasps: Vec::new(), attachment: None }
+    }
+
+    /// Adds a grasp frame at `pose` in the object frame.
+    pub fn add_grasp(&mut self, name: impl Into<String>, pose: IsometryMatrix3<f64>) {
+        self.grasps.push(GraspFrame { name: name.into(), pose });
+    }
+}
+
+/// Errors editing a scene.
+#[derive(Debug, Error)]
+pub enum SceneError {
+    /// Two obstacles or objects share a name.
+    #[error("the scene already has an obstacle or object named '{0}'")]
+    DuplicateName(String),
+    /// No object (or obstacle) of this name.
+    #[error("the scene has no {kind} named '{name}'{}", crate::robot::did_you_mean(suggestions))]
+    Unknown { kind: &'static str, name: String, suggestions: Vec<String> },
+    /// A shape with a bad dimension.
+    #[error("'{name}': {source}")]
+    Shape {
+        name: String,
+        #[source]
+        source: Box<CollisionError>,
+    },
+    /// A pose with NaN or infinite entries.
+    #[error("'{0}' has a non-finite pose")]
+    NonFinitePose(String),
+    /// Attaching an object that is already attached, or detaching a free one.
+    #[error("object '{name}' is {state}")]
+    AttachmentState { name: String, state: &'static str },
+}
+
+/// Obstacles and objects around the robot; see the module example.
+#[derive(Debug, Clone, Default)]
+pub struct Scene {
+    obstacles: Vec<Obstacle>,
+    objects: Vec<SceneObject>,
+    /// Pairs of names (robot links, obstacles, objects) allowed to touch.
+    allowed: Vec<(String, String)>,
+}
+
+fn finite_pose(pose: &IsometryMatrix3<f64>) -> bool {
+    pose.rotation.matrix().iter().chain(pose.translation.vector.iter()).all(|v| v.is_finite())
+}
+
+impl Scene {
+    /// An empty scene.
+    pub fn new() -> Scene {
+        Scene::default()
+    }
+
+    /// Adds a fixed obstacle.
+    ///
+    /// # Errors
+    /// A duplicate name, a bad shape or a non-finite pose.
+    pub fn add_obstacle(&mut self, obstacle: Obstacle) -> Result<(), SceneError> {
+        self.check_new(&obstacle.name, &obstacle.shape, &obstacle.pose)?;
+        self.obstacles.push(obstacle);
+        Ok(())
+    }
+
+    /// Adds a movable object.
+    ///
+    /// # Errors
+    /// As [`add_obstacle`](Self::add_obstacle); grasp poses must be finite too.
+    pub fn add_object(&mut self, object: SceneObject) -> Result<(), SceneError> {
+        self.check_new(&object.name, &object.shape, &object.pose)?;
+        if object.grasps.iter().any(|g| !finite_pose(&g.pose)) {
+            return Err(SceneError::NonFinitePose(object.name));
+        }
+        self.objects.push(object);
+        Ok(())
+    }
+
+    fn check_new(&self, name: &str, shape: &Shape, pose: &IsometryMatrix3<f64>) -> Result<(), SceneError> {
+        if self.obstacle(name).is_some() || self.object(name).is_some() {
+            return Err(SceneError::DuplicateName(name.to_string()));
+        }
+        shape.validate().map_err(|source| SceneError::Shape { name: name.to_string(), source: Box::new(source) })?;
+        if !finite_pose(pose) {
+            return Err(SceneError::NonFinitePose(name.to_string()));
+        }
+        Ok(())
+    }
+
+    /// Lets `a` and `b` (robot link, obstacle or object names) touch: the
+    /// pair is left out of collision checking.
+    pub fn allow_contact(&mut self, a: impl Into<String>, b: impl Into<String>) {
+        self.allowed.push((a.into(), b.into()));
+    }
+
+    /// Whether `a` and `b` were allowed to touch (in either order).
+    pub fn is_contact_allowed(&self, a: &str, b: &str) -> bool {
+        self.allowed.iter().any(|(x, y)| (x == a && y == b) || (x == b && y == a))
+    }
+
+    /// The allowed pairs, as given.
+    pub fn allowed_contacts(&self) -> &[(String, String)] {
+        &self.allowed
+    }
+
+    pub fn obstacles(&self) -> &[Obstacle] {
+        &self.obstacles
+    }
+
+    pub fn objects(&self) -> &[SceneObject] {
+        &self.objects
+    }
+
+    pub fn obstacle(&self, name: &str) -> Option<&Obstacle> {
+        self.obstacles.iter().find(|o| o.name == name)
+    }
+
+    pub fn object(&self, name: &str) -> Option<&SceneObject> {
+        self.objects.iter().find(|o| o.name == name)
+    }
+
+    fn object_mut(&mut self, name: &str) -> Result<&mut SceneObject, SceneError> {
+        let suggestions = suggest_names(name, self.objects.iter().map(|o| o.name.as_str()));
+        self.objects.iter_mut().find(|o| o.name == name).ok_or_else(|| SceneError::Unknown {
+            kind: "object",
+            name: name.to_string(),
+            suggestions,
+        })
+    }
+
+    /// World pose of grasp frame `grasp` of a free object.
+    ///
+    /// # Errors
+    /// Unknown object or grasp name.
+    pub fn grasp_pose(&self, object: &str, grasp: &str) -> Result<IsometryMatrix3<f64>, SceneError> {
+        let unknown = |kind, name: &str, names: Vec<&str>| SceneError::Unknown {
+            kind,
+            name: name.to_string(),
+            suggestions: suggest_names(name, names.into_iter()),
+        };
+        let obj = self
+            .object(object)
+            .ok_or_else(|| unknown("object", object, self.objects.iter().map(|o| o.name.as_str()).collect()))?;
+        let g = obj
+            .grasps
+            .iter()
+            .find(|g| g.name == grasp)
+            .ok_or_else(|| unknown("grasp frame", grasp, obj.grasps.iter().map(|g| g.name.as_str()).collect()))?;
+        Ok(obj.pose * g.pose)
+    }
+
+    /// Attaches `object` to robot frame `frame`, held at `pose_in_frame`
+    /// (the object frame in the robot frame). Collision checking then moves
+    /// it with that frame; rebuild the [`CollisionModel`](crate::collision::CollisionModel).
+    ///
+    /// # Errors
+    /// Unknown object, an object already attached, a non-finite pose.
+    pub fn attach(
+        &mut self,
+        object: &str,
+        frame: impl Into<String>,
+        pose_in_frame: IsometryMatrix3<f64>,
+    ) -> Result<(), SceneError> {
+        if !finite_pose(&pose_in_frame) {
+            return Err(SceneError::NonFinitePose(object.to_string()));
+        }
+        let obj = self.object_mut(object)?;
+        if obj.attachment.is_some() {
+            return Err(SceneError::AttachmentState { name: object.to_string(), state: "already attached" });
+        }
+        obj.attachment = Some(Attachment { frame: frame.into(), pose: pose_in_frame });
+        Ok(())
+    }
+
+    /// Releases `object` at world pose `pose`.
+    ///
+    /// # Errors
+    /// Unknown object, an object not attached, a non-finite pose.
+    pub fn detach(&mut self, object: &str, pose: IsometryMatrix3<f64>) -> Result<(), SceneError> {
+        if !finite_pose(&pose) {
+            return Err(SceneError::NonFinitePose(object.to_string()));
+        }
+        let obj = self.object_mut(object)?;
+        if obj.attachment.take().is_none() {
+            return Err(SceneError::AttachmentState { name: object.to_string(), state: "not attached" });
+        }
+        obj.pose = pose;
+        Ok(())
+    }
+}

@@ -1,0 +1,301 @@
+//! Problem files: a robot, a scene, a start, a goal, and the settings of
+//! the planner and optimizer, in TOML (format in `problems/README.md`).
+
+use super::Scene;
+use super::problem_file::RawProblem;
+use super::toml_source::{KeyPath, line_of, line_of_path, path_at};
+use crate::collision::{CollisionError, CollisionModel};
+use crate::robot::{JointSelection, RobotDescription, RobotModel, Srdf};
+use nalgebra::{IsometryMatrix3, Vector3};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use thiserror::Error;
+
+/// Errors loading a problem (or family) file: what is wrong, in which file,
+/// at which key and line.
+#[derive(Debug, Error)]
+pub enum ProblemError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML, or a key is unknown, has the wrong type
+    /// or an out-of-range value, or names something that does not exist.
+    #[error("{file}{}: {}{message}", line.map(|l| format!(":{l}")).unwrap_or_default(), key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default())]
+    Invalid { file: String, line: Option<u32>, key: Option<String>, message: String },
+}
+
+/// What the motion must achieve.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Goal {
+    /// Reach this configuration (one value per active joint).
+    Joints(Vec<f64>),
+    /// Bring robot frame `frame` to `position` (world, m); when given, also
+    /// to `orientation`, or point its `axis` (its own x, y or z) along
+    /// world `direction`.
+    Pose {
+        frame: String,
+        position: Vector3<f64>,
+        orientation: Option<nalgebra::Rotation3<f64>>,
+        axis_alignment: Option<(usize, Vector3<f64>)>,
+    },
+    /// Grasp scene object `object` at its grasp frame `grasp` with the gripper frame.
+    Grasp { object: String, grasp: String },
+}
+
+/// RRT-Connect settings (used by the planner).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannerSettings {
+    /// Random seed of the planner.
+    pub seed: u64,
+    /// Largest joint-space step of a tree extension (rad, Euclidean).
+    pub step: f64,
+    /// Edge validation resolution: largest joint move between checks (rad).
+    pub resolution: f64,
+    /// Wall-clock budget (s).
+    pub time_limit: f64,
+    /// Iteration budget.
+    pub max_iterations: usize,
+}
+
+impl Default for PlannerSettings {
+    fn default() -> Self {
+        PlannerSettings { seed: 0, step: 0.5, resolution: 0.02, time_limit: 1.0, max_iterations: 100_000 }
+    }
+}
+
+/// How an objective enters the optimization problem.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjectiveKind {
+    /// A sum-of-squares cost.
+    SumOfSquares,
+    /// An equality constraint.
+    Equality,
+    /// An inequality constraint (feature ≤ 0).
+    Inequality,
+}
+
+/// A span of the motion, as fractions of its duration (0 = start, 1 = end).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeRange {
+    pub start: f64,
+    pub end: f64,
+}
+
+/// One objective of the optimizer, as data: feature, time range, kind,
+/// scale, target and order (see DESIGN.md, "objectives as data").
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectiveSpec {
+    /// Feature name: `joint_state`, `joint_limits`, `position`,
+    /// `position_difference`, `scalar_product`, `orientation_difference`,
+    /// `collision`, `control`.
+    pub feature: String,
+    /// Frames the feature reads: robot frames, objects (`box`) or grasp
+    /// frames (`box/top`).
+    pub frames: Vec<String>,
+    /// Frame axes (`x`, `y`, `z`) for `scalar_product`.
+    pub axes: Vec<usize>,
+    pub time: TimeRange,
+    pub kind: ObjectiveKind,
+    pub scale: f64,
+    pub target: Option<Vec<f64>>,
+    /// 0: the feature itself; 1: its velocity; 2: its acceleration.
+    pub order: u8,
+    /// Safety margin (m or rad) for `collision` and `joint_limits`.
+    pub margin: f64,
+}
+
+/// Trajectory optimizer settings and objectives.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OptimizerSettings {
+    /// Number of optimized configurations q_1..q_T.
+    pub horizon: usize,
+    /// Duration of the motion (s).
+    pub duration: f64,
+    /// Order k of the problem: configurations before q_1 fixed to the start.
+    pub order: u8,
+    pub max_iterations: usize,
+    pub objectives: Vec<ObjectiveSpec>,
+}
+
+impl Default for OptimizerSettings {
+    fn default() -> Self {
+        OptimizerSettings { horizon: 50, duration: 5.0, order: 2, max_iterations: 100, objectives: Vec::new() }
+    }
+}
+
+/// How the robot is loaded.
+#[derive(Debug, Clone)]
+pub struct RobotSpec {
+    pub urdf: PathBuf,
+    pub srdf: Option<PathBuf>,
+    /// A second URDF of the same robot whose collision geometry replaces the
+    /// first's (e.g. a sphere-set approximation).
+    pub collision_urdf: Option<PathBuf>,
+    pub selection: JointSelection,
+    pub hold: Vec<(String, f64)>,
+    /// The gripper (end-effector) frame.
+    pub gripper: Option<String>,
+    /// Collision padding of the robot shapes (m).
+    pub padding: f64,
+}
+
+/// A loaded, validated problem.
+#[derive(Debug, Clone)]
+pub struct Problem {
+    pub name: String,
+    pub description: String,
+    /// Where it came from (a path, or `<builtin:NAME>`).
+    pub origin: String,
+    pub robot_spec: RobotSpec,
+    pub robot: Arc<RobotModel>,
+    pub srdf: Option<Srdf>,
+    pub collision_geometry: Option<Arc<RobotDescription>>,
+    pub scene: Scene,
+    pub start: Vec<f64>,
+    pub goal: Goal,
+    pub planner: PlannerSettings,
+    pub optimizer: OptimizerSettings,
+}
+
+/// The problem files shipped with tandem, by name, embedded in the binary.
+pub const BUILTIN_PROBLEMS: [(&str, &str); 3] = [
+    ("panda_reach", include_str!("../../problems/panda_reach.toml")),
+    ("panda_reach_obstacle", include_str!("../../problems/panda_reach_obstacle.toml")),
+    ("panda_grasp_box", include_str!("../../problems/panda_grasp_box.toml")),
+];
+
+/// Context for building errors: the file and its text.
+pub(crate) struct Source<'a> {
+    pub(crate) origin: &'a str,
+    pub(crate) text: &'a str,
+    /// Folder relative paths are resolved against; `None` for builtins.
+    pub(crate) base: Option<&'a Path>,
+}
+
+impl Source<'_> {
+    /// An error at `path`, located by line.
+    pub(crate) fn error(&self, path: &KeyPath, message: impl Into<String>) -> ProblemError {
+        let key = path.to_string();
+        ProblemError::Invalid {
+            file: self.origin.to_string(),
+            line: line_of_path(self.text, path),
+            key: (!key.is_empty()).then_some(key),
+            message: message.into(),
+        }
+    }
+
+    /// A TOML syntax or serde error, with the key found from its span.
+    pub(crate) fn toml_error(&self, e: &toml::de::Error) -> ProblemError {
+        let span = e.span();
+        let key = span.as_ref().and_then(|s| path_at(self.text, s.start)).map(|p| p.to_string());
+        ProblemError::Invalid {
+            file: self.origin.to_string(),
+            line: span.map(|s| line_of(self.text, s.start)),
+            key: key.filter(|k| !k.is_empty()),
+            message: e.message().trim().to_string(),
+        }
+    }
+
+    /// `relative` resolved against the file's folder; builtins resolve the
+    /// shipped Panda paths to the embedded robot.
+    pub(crate) fn resolve(&self, relative: &str) -> PathBuf {
+        match self.base {
+            Some(base) => base.join(relative),
+            None => PathBuf::from(relative),
+        }
+    }
+}
+
+impl Problem {
+    /// Loads and validates a problem file; relative paths in it are
+    /// resolved against its folder.
+    ///
+    /// # Errors
+    /// [`ProblemError`] naming the file, key and line.
+    pub fn from_file(path: impl AsRef<Path>) -> Result<Problem, ProblemError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.into(), source })?;
+        let origin = path.display().to_string();
+        let base = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
+        Problem::from_source(&Source { origin: &origin, text: &text, base })
+    }
+
+    /// One of the shipped problems ([`BUILTIN_PROBLEMS`]), embedded in the
+    /// binary: it loads anywhere, with the embedded Panda.
+    ///
+    /// # Errors
+    /// An unknown name.
+    pub fn builtin(name: &str) -> Result<Problem, ProblemError> {
+        let (_, text) = BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == name).ok_or_else(|| ProblemError::Invalid {
+            file: format!("<builtin:{name}>"),
+            line: None,
+            key: None,
+            message: format!(
+                "no builtin problem named '{name}' (have: {})",
+                BUILTIN_PROBLEMS.map(|(n, _)| n).join(", ")
+            ),
+        })?;
+        Problem::from_source(&Source { origin: &format!("<builtin:{name}>"), text, base: None })
+    }
+
+    /// Parses problem text as if read from `origin`, resolving relative
+    /// paths against `base` (or, with `None`, mapping the shipped Panda
+    /// paths to the embedded robot).
+    ///
+    /// # Errors
+    /// As [`from_file`](Self::from_file).
+    pub fn from_str_with(text: &str, origin: &str, base: Option<&Path>) -> Result<Problem, ProblemError> {
+        Problem::from_source(&Source { origin, text, base })
+    }
+
+    pub(crate) fn from_source(src: &Source) -> Result<Problem, ProblemError> {
+        let raw: RawProblem = toml::from_str(src.text).map_err(|e| src.toml_error(&e))?;
+        raw.into_problem(src)
+    }
+
+    /// The world pose of the grasp target, for a grasp goal.
+    pub fn grasp_target(&self) -> Option<IsometryMatrix3<f64>> {
+        match &self.goal {
+            Goal::Grasp { object, grasp } => self.scene.grasp_pose(object, grasp).ok(),
+            _ => None,
+        }
+    }
+
+    /// The collision model of the robot in this scene, with the SRDF's
+    /// disabled pairs, the padding, and — for a grasp goal — contact between
+    /// the target object and the links rigidly attached to the gripper allowed.
+    ///
+    /// # Errors
+    /// See [`CollisionModelBuilder::build`](crate::collision::CollisionModelBuilder::build).
+    pub fn collision_model(&self) -> Result<CollisionModel, CollisionError> {
+        let mut scene = self.scene.clone();
+        if let (Goal::Grasp { object, .. }, Some(gripper)) = (&self.goal, &self.robot_spec.gripper) {
+            for link in self.links_moving_with(gripper)? {
+                scene.allow_contact(link, object.clone());
+            }
+        }
+        let mut builder = CollisionModel::builder(self.robot.clone()).scene(&scene).padding(self.robot_spec.padding);
+        if let Some(srdf) = &self.srdf {
+            builder = builder.srdf(srdf);
+        }
+        if let Some(geometry) = &self.collision_geometry {
+            builder = builder.geometry_from(geometry.clone());
+        }
+        builder.build()
+    }
+
+    /// Names of the links on the same rigid body as `frame`.
+    fn links_moving_with(&self, frame: &str) -> Result<Vec<String>, CollisionError> {
+        let robot = &self.robot;
+        let (body, _) = robot.frame_in_body(robot.frame_id(frame)?);
+        let links = robot.description().links();
+        Ok((0..links.len())
+            .filter(|&l| robot.frame_in_body(robot.link_frame(l)).0 == body)
+            .map(|l| links[l].name.clone())
+            .collect())
+    }
+}

@@ -1,0 +1,655 @@
+//! The TOML layout of problem files (serde), and its validation into a
+//! [`Problem`]. Every check names the key it rejects.
+
+use super::problem::{
+    Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec, Source,
+    TimeRange,
+};
+use super::toml_source::KeyPath;
+use super::{Obstacle, Scene, SceneObject};
+use crate::collision::Shape;
+use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh};
+use nalgebra::{IsometryMatrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawProblem {
+    name: String,
+    #[serde(default)]
+    description: String,
+    robot: RawRobot,
+    #[serde(default)]
+    pub(crate) scene: RawScene,
+    pub(crate) start: RawStart,
+    goal: RawGoal,
+    #[serde(default)]
+    planner: RawPlanner,
+    #[serde(default)]
+    optimizer: RawOptimizer,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRobot {
+    urdf: String,
+    srdf: Option<String>,
+    collision_urdf: Option<String>,
+    #[serde(default)]
+    package_dirs: Vec<String>,
+    joints: Option<Vec<String>>,
+    chain: Option<[String; 2]>,
+    group: Option<String>,
+    #[serde(default)]
+    hold: BTreeMap<String, f64>,
+    gripper: Option<String>,
+    #[serde(default)]
+    padding: f64,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawScene {
+    pub(crate) table: Option<RawTable>,
+    #[serde(default)]
+    pub(crate) obstacles: Vec<RawBody>,
+    #[serde(default)]
+    pub(crate) objects: Vec<RawBody>,
+    #[serde(default)]
+    allowed_contacts: Vec<[String; 2]>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawTable {
+    #[serde(default = "table_name")]
+    name: String,
+    /// Centre of the top surface (world, m).
+    pub(crate) top: [f64; 3],
+    size: [f64; 2],
+    #[serde(default = "table_thickness")]
+    thickness: f64,
+}
+
+fn table_name() -> String {
+    "table".into()
+}
+
+fn table_thickness() -> f64 {
+    0.04
+}
+
+/// An obstacle or object: name, shape, pose (and grasps for objects).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawBody {
+    pub(crate) name: String,
+    shape: String,
+    pub(crate) size: Option<Vec<f64>>,
+    pub(crate) radius: Option<f64>,
+    pub(crate) length: Option<f64>,
+    mesh: Option<String>,
+    scale: Option<[f64; 3]>,
+    #[serde(default)]
+    pub(crate) position: [f64; 3],
+    pub(crate) rpy: Option<[f64; 3]>,
+    quaternion: Option<[f64; 4]>,
+    #[serde(default)]
+    grasps: Vec<RawGrasp>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGrasp {
+    name: String,
+    #[serde(default)]
+    position: [f64; 3],
+    rpy: Option<[f64; 3]>,
+    quaternion: Option<[f64; 4]>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawStart {
+    pub(crate) q: Vec<f64>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGoal {
+    q: Option<Vec<f64>>,
+    frame: Option<String>,
+    position: Option<[f64; 3]>,
+    rpy: Option<[f64; 3]>,
+    quaternion: Option<[f64; 4]>,
+    axis: Option<String>,
+    direction: Option<[f64; 3]>,
+    grasp: Option<String>,
+    grasp_frame: Option<String>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlanner {
+    seed: Option<u64>,
+    step: Option<f64>,
+    resolution: Option<f64>,
+    time_limit: Option<f64>,
+    max_iterations: Option<usize>,
+}
+
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawOptimizer {
+    horizon: Option<usize>,
+    duration: Option<f64>,
+    order: Option<u8>,
+    max_iterations: Option<usize>,
+    #[serde(default)]
+    objectives: Vec<RawObjective>,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObjective {
+    feature: String,
+    #[serde(default)]
+    frames: Vec<String>,
+    #[serde(default)]
+    axes: Vec<String>,
+    time: Option<[f64; 2]>,
+    #[serde(default = "sos")]
+    kind: String,
+    #[serde(default = "one")]
+    scale: f64,
+    target: Option<Vec<f64>>,
+    #[serde(default)]
+    order: u8,
+    #[serde(default)]
+    margin: f64,
+}
+
+fn sos() -> String {
+    "sos".into()
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Range checks that name the key.
+pub(crate) struct Check<'a, 'b> {
+    src: &'a Source<'b>,
+}
+
+impl Check<'_, '_> {
+    fn positive(&self, path: &KeyPath, v: f64) -> Result<f64, ProblemError> {
+        if v.is_finite() && v > 0.0 { Ok(v) } else { Err(self.src.error(path, format!("must be positive, got {v}"))) }
+    }
+
+    fn non_negative(&self, path: &KeyPath, v: f64) -> Result<f64, ProblemError> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(v)
+        } else {
+            Err(self.src.error(path, format!("must be zero or positive, got {v}")))
+        }
+    }
+
+    fn finite(&self, path: &KeyPath, v: &[f64]) -> Result<(), ProblemError> {
+        match v.iter().position(|x| !x.is_finite()) {
+            Some(i) => Err(self.src.error(&path.index(i), format!("must be finite, got {}", v[i]))),
+            None => Ok(()),
+        }
+    }
+
+    fn pose(
+        &self,
+        path: &KeyPath,
+        position: &[f64; 3],
+        rpy: &Option<[f64; 3]>,
+        quaternion: &Option<[f64; 4]>,
+    ) -> Result<IsometryMatrix3<f64>, ProblemError> {
+        self.finite(&path.key("position"), position)?;
+        let rotation = match (rpy, quaternion) {
+            (Some(_), Some(_)) => {
+                return Err(self.src.error(&path.key("quaternion"), "give rpy or quaternion, not both"));
+            }
+            (Some(r), None) => {
+                self.finite(&path.key("rpy"), r)?;
+                Rotation3::from_euler_angles(r[0], r[1], r[2])
+            }
+            (None, Some(q)) => {
+                self.finite(&path.key("quaternion"), q)?;
+                let quat = nalgebra::Quaternion::new(q[3], q[0], q[1], q[2]);
+                if (quat.norm() - 1.0).abs() > 1e-3 {
+                    let msg = format!("must be a unit quaternion [x, y, z, w], has norm {:.4}", quat.norm());
+                    return Err(self.src.error(&path.key("quaternion"), msg));
+                }
+                UnitQuaternion::from_quaternion(quat).to_rotation_matrix()
+            }
+            (None, None) => Rotation3::identity(),
+        };
+        Ok(IsometryMatrix3::from_parts(Translation3::from(Vector3::from(*position)), rotation))
+    }
+
+    fn shape(&self, path: &KeyPath, b: &RawBody) -> Result<Shape, ProblemError> {
+        let need = |key: &str, v: Option<f64>| {
+            v.ok_or_else(|| self.src.error(&path.key(key), format!("a {} needs `{key}`", b.shape)))
+                .and_then(|v| self.positive(&path.key(key), v))
+        };
+        let unused = |keys: &[(&str, bool)]| match keys.iter().find(|(_, present)| *present) {
+            Some((k, _)) => Err(self.src.error(&path.key(k), format!("does not apply to a {}", b.shape))),
+            None => Ok(()),
+        };
+        let (size, radius, length) = (b.size.is_some(), b.radius.is_some(), b.length.is_some());
+        let mesh = b.mesh.is_some() || b.scale.is_some();
+        match b.shape.as_str() {
+            "box" => {
+                unused(&[("radius", radius), ("length", length), ("mesh", mesh)])?;
+                let s = b.size.as_deref().ok_or_else(|| self.src.error(&path.key("size"), "a box needs `size`"))?;
+                if s.len() != 3 {
+                    return Err(self.src.error(&path.key("size"), format!("must hold 3 lengths, has {}", s.len())));
+                }
+                for (i, v) in s.iter().enumerate() {
+                    self.positive(&path.key("size").index(i), *v)?;
+                }
+                Ok(Shape::cuboid([s[0], s[1], s[2]]))
+            }
+            "sphere" => {
+                unused(&[("size", size), ("length", length), ("mesh", mesh)])?;
+                Ok(Shape::sphere(need("radius", b.radius)?))
+            }
+            "cylinder" | "capsule" => {
+                unused(&[("size", size), ("mesh", mesh)])?;
+                let (r, l) = (need("radius", b.radius)?, need("length", b.length)?);
+                Ok(if b.shape == "cylinder" { Shape::cylinder(r, l) } else { Shape::capsule(r, l) })
+            }
+            "mesh" => {
+                unused(&[("size", size), ("radius", radius), ("length", length)])?;
+                self.mesh(path, b)
+            }
+            other => Err(self.src.error(
+                &path.key("shape"),
+                format!("unknown shape '{other}' (expected box, sphere, cylinder, capsule or mesh)"),
+            )),
+        }
+    }
+
+    fn mesh(&self, path: &KeyPath, b: &RawBody) -> Result<Shape, ProblemError> {
+        let key = path.key("mesh");
+        let file = b.mesh.as_deref().ok_or_else(|| self.src.error(&key, "a mesh needs `mesh` (an STL or OBJ file)"))?;
+        let scale = b.scale.unwrap_or([1.0; 3]);
+        for (i, v) in scale.iter().enumerate() {
+            self.positive(&path.key("scale").index(i), *v)?;
+        }
+        let full = self.src.resolve(file);
+        let loaded = match full.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+            Some("obj") => TriMesh::from_obj_file(&full, scale),
+            _ => TriMesh::from_stl_file(&full, scale),
+        };
+        let mesh = loaded.map_err(|e| self.src.error(&key, e.to_string()))?;
+        Shape::convex_hull_of(&mesh).map_err(|e| self.src.error(&key, e.to_string()))
+    }
+}
+
+impl RawProblem {
+    pub(crate) fn into_problem(self, src: &Source) -> Result<Problem, ProblemError> {
+        let check = Check { src };
+        let root = KeyPath::root();
+        let (robot_spec, robot, srdf, collision_geometry) = self.robot.load(&check, &root.key("robot"))?;
+        let scene = self.scene.build(&check, &robot)?;
+        let start_path = root.key("start").key("q");
+        check_configuration(&check, &robot, &start_path, &self.start.q)?;
+        let goal = self.goal.build(&check, &root.key("goal"), &robot, &scene)?;
+        let planner = self.planner.build(&check, &root.key("planner"))?;
+        let optimizer = self.optimizer.build(&check, &root.key("optimizer"), &robot, &scene)?;
+        Ok(Problem {
+            name: self.name,
+            description: self.description,
+            origin: src.origin.to_string(),
+            robot_spec,
+            robot,
+            srdf,
+            collision_geometry,
+            scene,
+            start: self.start.q,
+            goal,
+            planner,
+            optimizer,
+        })
+    }
+}
+
+fn check_configuration(check: &Check, robot: &RobotModel, path: &KeyPath, q: &[f64]) -> Result<(), ProblemError> {
+    if q.len() != robot.nq() {
+        let names = robot.joint_names().join(", ");
+        return Err(check
+            .src
+            .error(path, format!("has {} values, the robot has {} active joints ({names})", q.len(), robot.nq())));
+    }
+    check.finite(path, q)?;
+    for (i, (v, l)) in q.iter().zip(robot.limits()).enumerate() {
+        if !l.contains(*v) {
+            let msg = format!("{} = {v} is outside its limits [{}, {}]", robot.joint_names()[i], l.lower, l.upper);
+            return Err(check.src.error(&path.index(i), msg));
+        }
+    }
+    Ok(())
+}
+
+type LoadedRobot = (RobotSpec, Arc<RobotModel>, Option<Srdf>, Option<Arc<RobotDescription>>);
+
+impl RawRobot {
+    fn load(self, check: &Check, path: &KeyPath) -> Result<LoadedRobot, ProblemError> {
+        let src = check.src;
+        let search = MeshSearchPath::new(self.package_dirs.iter().map(|d| src.resolve(d)));
+        let description = |key: &str, file: &str| -> Result<Arc<RobotDescription>, ProblemError> {
+            if src.base.is_none() && file == "robots/panda/panda.urdf" {
+                return Ok(Arc::new(RobotDescription::panda()));
+            }
+            RobotDescription::from_urdf_file(src.resolve(file), &search)
+                .map(Arc::new)
+                .map_err(|e| src.error(&path.key(key), e.to_string()))
+        };
+        let desc = description("urdf", &self.urdf)?;
+        let srdf = match &self.srdf {
+            Some(file) => {
+                let s =
+                    Srdf::from_srdf_file(src.resolve(file)).map_err(|e| src.error(&path.key("srdf"), e.to_string()))?;
+                s.check_against(&desc).map_err(|e| src.error(&path.key("srdf"), e.to_string()))?;
+                Some(s)
+            }
+            None => None,
+        };
+        let selection = match (&self.joints, &self.chain, &self.group) {
+            (Some(j), None, None) => JointSelection::Names(j.clone()),
+            (None, Some([root, tip]), None) => JointSelection::Chain { root: root.clone(), tip: tip.clone() },
+            (None, None, Some(g)) => {
+                let srdf = srdf.as_ref().ok_or_else(|| src.error(&path.key("group"), "a group needs `srdf`"))?;
+                srdf.joint_selection(g).map_err(|e| src.error(&path.key("group"), e.to_string()))?
+            }
+            (None, None, None) => JointSelection::Independent,
+            _ => return Err(src.error(path, "give one of `joints`, `chain` or `group`, not several")),
+        };
+        let mut builder = RobotModel::builder(desc.clone()).selection(selection.clone());
+        for (joint, value) in &self.hold {
+            builder = builder.hold(joint.clone(), *value);
+        }
+        let key = if self.hold.is_empty() { "urdf" } else { "hold" };
+        let robot = Arc::new(builder.build().map_err(|e| src.error(&path.key(key), e.to_string()))?);
+        if let Some(g) = &self.gripper {
+            robot.frame_id(g).map_err(|e| src.error(&path.key("gripper"), e.to_string()))?;
+        }
+        let padding = check.non_negative(&path.key("padding"), self.padding)?;
+        let collision_geometry = match &self.collision_urdf {
+            Some(file) => Some(description("collision_urdf", file)?),
+            None => None,
+        };
+        let spec = RobotSpec {
+            urdf: src.resolve(&self.urdf),
+            srdf: self.srdf.as_deref().map(|f| src.resolve(f)),
+            collision_urdf: self.collision_urdf.as_deref().map(|f| src.resolve(f)),
+            selection,
+            hold: self.hold.into_iter().collect(),
+            gripper: self.gripper,
+            padding,
+        };
+        Ok((spec, robot, srdf, collision_geometry))
+    }
+}
+
+impl RawScene {
+    pub(crate) fn build(&self, check: &Check, robot: &RobotModel) -> Result<Scene, ProblemError> {
+        let path = KeyPath::root().key("scene");
+        let mut scene = Scene::new();
+        let err = |p: &KeyPath, e: super::SceneError| check.src.error(p, e.to_string());
+        if let Some(t) = &self.table {
+            let p = path.key("table");
+            check.finite(&p.key("top"), &t.top)?;
+            check.positive(&p.key("size").index(0), t.size[0])?;
+            check.positive(&p.key("size").index(1), t.size[1])?;
+            check.positive(&p.key("thickness"), t.thickness)?;
+            scene.add_obstacle(Obstacle::table(t.name.clone(), t.top, t.size, t.thickness)).map_err(|e| err(&p, e))?;
+        }
+        for (i, b) in self.obstacles.iter().enumerate() {
+            let p = path.key("obstacles").index(i);
+            if !b.grasps.is_empty() {
+                return Err(check.src.error(&p.key("grasps"), "obstacles have no grasps (make it an object)"));
+            }
+            let shape = check.shape(&p, b)?;
+            let pose = check.pose(&p, &b.position, &b.rpy, &b.quaternion)?;
+            scene.add_obstacle(Obstacle::new(b.name.clone(), shape, pose)).map_err(|e| err(&p.key("name"), e))?;
+        }
+        for (i, b) in self.objects.iter().enumerate() {
+            let p = path.key("objects").index(i);
+            let mut object = SceneObject::new(
+                b.name.clone(),
+                check.shape(&p, b)?,
+                check.pose(&p, &b.position, &b.rpy, &b.quaternion)?,
+            );
+            for (k, g) in b.grasps.iter().enumerate() {
+                object.add_grasp(
+                    g.name.clone(),
+                    check.pose(&p.key("grasps").index(k), &g.position, &g.rpy, &g.quaternion)?,
+                );
+            }
+            scene.add_object(object).map_err(|e| err(&p.key("name"), e))?;
+        }
+        let links: Vec<&str> = robot.description().links().iter().map(|l| l.name.as_str()).collect();
+        for (i, [a, b]) in self.allowed_contacts.iter().enumerate() {
+            for (k, n) in [a, b].into_iter().enumerate() {
+                let known = links.contains(&n.as_str()) || scene.obstacle(n).is_some() || scene.object(n).is_some();
+                if !known {
+                    let p = path.key("allowed_contacts").index(i).index(k);
+                    return Err(check.src.error(&p, format!("no link, obstacle or object named '{n}'")));
+                }
+            }
+            scene.allow_contact(a.clone(), b.clone());
+        }
+        Ok(scene)
+    }
+}
+
+fn axis_index(name: &str) -> Option<usize> {
+    ["x", "y", "z"].iter().position(|a| *a == name)
+}
+
+impl RawGoal {
+    fn build(self, check: &Check, path: &KeyPath, robot: &RobotModel, scene: &Scene) -> Result<Goal, ProblemError> {
+        let src = check.src;
+        let pose_keys = self.frame.is_some() || self.position.is_some();
+        match (self.q, pose_keys, self.grasp) {
+            (Some(q), false, None) => {
+                check_configuration(check, robot, &path.key("q"), &q)?;
+                Ok(Goal::Joints(q))
+            }
+            (None, true, None) => {
+                let frame = self.frame.ok_or_else(|| src.error(path, "a pose goal needs `frame`"))?;
+                robot.frame_id(&frame).map_err(|e| src.error(&path.key("frame"), e.to_string()))?;
+                let position = self.position.ok_or_else(|| src.error(path, "a pose goal needs `position`"))?;
+                check.finite(&path.key("position"), &position)?;
+                let orientation = match (self.rpy, self.quaternion) {
+                    (None, None) => None,
+                    (r, q) => Some(check.pose(path, &position, &r, &q)?.rotation),
+                };
+                let axis_alignment = match (self.axis, self.direction) {
+                    (None, None) => None,
+                    (Some(a), Some(d)) => {
+                        let axis = axis_index(&a).ok_or_else(|| src.error(&path.key("axis"), "must be x, y or z"))?;
+                        let dir = Vector3::from(d);
+                        if dir.norm().is_nan() || dir.norm() <= 1e-9 || !dir.iter().all(|v| v.is_finite()) {
+                            return Err(src.error(&path.key("direction"), "must be a non-zero finite vector"));
+                        }
+                        Some((axis, dir.normalize()))
+                    }
+                    _ => return Err(src.error(path, "`axis` and `direction` go together")),
+                };
+                Ok(Goal::Pose { frame, position: position.into(), orientation, axis_alignment })
+            }
+            (None, false, Some(object)) => {
+                let obj = scene
+                    .object(&object)
+                    .ok_or_else(|| src.error(&path.key("grasp"), format!("the scene has no object '{object}'")))?;
+                let grasp = match self.grasp_frame {
+                    Some(g) => g,
+                    None => obj.grasps.first().map(|g| g.name.clone()).ok_or_else(|| {
+                        src.error(&path.key("grasp"), format!("object '{object}' has no grasp frame"))
+                    })?,
+                };
+                scene.grasp_pose(&object, &grasp).map_err(|e| src.error(&path.key("grasp_frame"), e.to_string()))?;
+                Ok(Goal::Grasp { object, grasp })
+            }
+            _ => Err(src.error(path, "give exactly one kind of goal: `q`, a pose (`frame`, `position`, …) or `grasp`")),
+        }
+    }
+}
+
+impl RawPlanner {
+    fn build(self, check: &Check, path: &KeyPath) -> Result<PlannerSettings, ProblemError> {
+        let d = PlannerSettings::default();
+        let pos = |key: &str, v: Option<f64>, default: f64| check.positive(&path.key(key), v.unwrap_or(default));
+        let max_iterations = self.max_iterations.unwrap_or(d.max_iterations);
+        if max_iterations == 0 {
+            return Err(check.src.error(&path.key("max_iterations"), "must be at least 1"));
+        }
+        Ok(PlannerSettings {
+            seed: self.seed.unwrap_or(d.seed),
+            step: pos("step", self.step, d.step)?,
+            resolution: pos("resolution", self.resolution, d.resolution)?,
+            time_limit: pos("time_limit", self.time_limit, d.time_limit)?,
+            max_iterations,
+        })
+    }
+}
+
+/// Features and the keys each one reads.
+const FEATURES: [(&str, usize, bool); 8] = [
+    ("joint_state", 0, false),
+    ("joint_limits", 0, false),
+    ("position", 1, false),
+    ("position_difference", 2, false),
+    ("scalar_product", 2, true),
+    ("orientation_difference", 2, false),
+    ("collision", 0, false),
+    ("control", 0, false),
+];
+
+impl RawOptimizer {
+    fn build(
+        self,
+        check: &Check,
+        path: &KeyPath,
+        robot: &RobotModel,
+        scene: &Scene,
+    ) -> Result<OptimizerSettings, ProblemError> {
+        let src = check.src;
+        let d = OptimizerSettings::default();
+        let horizon = self.horizon.unwrap_or(d.horizon);
+        if !(2..=100_000).contains(&horizon) {
+            return Err(src.error(&path.key("horizon"), format!("must be between 2 and 100000, got {horizon}")));
+        }
+        let order = self.order.unwrap_or(d.order);
+        if !(1..=2).contains(&order) {
+            return Err(src.error(&path.key("order"), format!("must be 1 or 2, got {order}")));
+        }
+        let mut objectives = Vec::new();
+        for (i, o) in self.objectives.into_iter().enumerate() {
+            objectives.push(o.build(check, &path.key("objectives").index(i), robot, scene)?);
+        }
+        Ok(OptimizerSettings {
+            horizon,
+            duration: check.positive(&path.key("duration"), self.duration.unwrap_or(d.duration))?,
+            order,
+            max_iterations: self.max_iterations.unwrap_or(d.max_iterations).max(1),
+            objectives,
+        })
+    }
+}
+
+impl RawObjective {
+    fn build(
+        self,
+        check: &Check,
+        path: &KeyPath,
+        robot: &RobotModel,
+        scene: &Scene,
+    ) -> Result<ObjectiveSpec, ProblemError> {
+        let src = check.src;
+        let names = FEATURES.map(|f| f.0).join(", ");
+        let &(_, frame_count, uses_axes) = FEATURES.iter().find(|f| f.0 == self.feature).ok_or_else(|| {
+            src.error(&path.key("feature"), format!("unknown feature '{}' (expected one of {names})", self.feature))
+        })?;
+        if self.frames.len() != frame_count {
+            let msg = format!("feature {} reads {frame_count} frame(s), got {}", self.feature, self.frames.len());
+            return Err(src.error(&path.key("frames"), msg));
+        }
+        for (k, f) in self.frames.iter().enumerate() {
+            if !frame_exists(robot, scene, f) {
+                let msg =
+                    format!("'{f}' is neither a robot frame, an object, nor an object's grasp frame (object/grasp)");
+                return Err(src.error(&path.key("frames").index(k), msg));
+            }
+        }
+        let axes = if uses_axes {
+            if self.axes.len() != 2 {
+                return Err(src.error(&path.key("axes"), "scalar_product needs two axes, e.g. [\"z\", \"z\"]"));
+            }
+            let mut axes = Vec::new();
+            for (k, a) in self.axes.iter().enumerate() {
+                axes.push(axis_index(a).ok_or_else(|| src.error(&path.key("axes").index(k), "must be x, y or z"))?);
+            }
+            axes
+        } else if !self.axes.is_empty() {
+            return Err(src.error(&path.key("axes"), format!("does not apply to feature {}", self.feature)));
+        } else {
+            Vec::new()
+        };
+        let time = match self.time {
+            None => TimeRange { start: 0.0, end: 1.0 },
+            Some([a, b]) if (0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b) && a <= b => {
+                TimeRange { start: a, end: b }
+            }
+            Some([a, b]) => {
+                return Err(src.error(
+                    &path.key("time"),
+                    format!("must be [start, end] with 0 ≤ start ≤ end ≤ 1, got [{a}, {b}]"),
+                ));
+            }
+        };
+        let kind = match self.kind.as_str() {
+            "sos" => ObjectiveKind::SumOfSquares,
+            "eq" => ObjectiveKind::Equality,
+            "ineq" => ObjectiveKind::Inequality,
+            other => {
+                return Err(src.error(&path.key("kind"), format!("unknown kind '{other}' (expected sos, eq or ineq)")));
+            }
+        };
+        if self.order > 2 {
+            return Err(src.error(&path.key("order"), format!("must be 0, 1 or 2, got {}", self.order)));
+        }
+        if let Some(t) = &self.target {
+            check.finite(&path.key("target"), t)?;
+        }
+        Ok(ObjectiveSpec {
+            feature: self.feature,
+            frames: self.frames,
+            axes,
+            time,
+            kind,
+            scale: check.positive(&path.key("scale"), self.scale)?,
+            target: self.target,
+            order: self.order,
+            margin: check.non_negative(&path.key("margin"), self.margin)?,
+        })
+    }
+}
+
+/// A robot frame, an object, or `object/grasp`.
+fn frame_exists(robot: &RobotModel, scene: &Scene, name: &str) -> bool {
+    name == "world"
+        || robot.frame_id(name).is_ok()
+        || scene.object(name).is_some()
+        || name.split_once('/').is_some_and(|(o, g)| scene.grasp_pose(o, g).is_ok())
+}
