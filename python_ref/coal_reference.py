@@ -134,6 +134,13 @@ def distances(req):
     gdata = pin.GeometryData(geom)
     for r in gdata.distanceRequests:
         r.enable_signed_distance = True  # coal 3's default, made explicit
+        # coal's GJK/EPA stop at 1e-6 by default, which is the cross-check's
+        # tolerance itself: tighten them so the reference is exact for curved
+        # shapes (cylinders) too. Closed-form pairs are unaffected.
+        r.gjk_tolerance = 1e-10
+        r.epa_tolerance = 1e-8
+        r.gjk_max_iterations = 1000
+        r.epa_max_iterations = 1000
     configs = req["configurations"]
     qs = []
     for values in configs:

@@ -266,6 +266,7 @@ fn general(a: &Shape, pose_a: &IsometryMatrix3<f64>, b: &Shape, pose_b: &Isometr
     let contact = with_parry(a, |ga| with_parry(b, |gb| query::contact(&pa, ga, &pb, gb, PREDICTION)));
     let p = |x: parry3d_f64::math::Vector| Point3::new(x.x, x.y, x.z);
     match contact {
+        Ok(Some(c)) if c.dist > 0.0 => refine_separated(a, pose_a, b, pose_b, p(c.point1), p(c.point2)),
         Ok(Some(c)) => SignedDistance {
             distance: c.dist,
             point_a: p(c.point1),
@@ -279,6 +280,52 @@ fn general(a: &Shape, pose_a: &IsometryMatrix3<f64>, b: &Shape, pose_b: &Isometr
             balls(&ca, a.bounding_radius(), &cb, b.bounding_radius())
         }
     }
+}
+
+/// The surface point of a primitive closest to `p` (world); `None` for hulls.
+fn surface(shape: &Shape, pose: &IsometryMatrix3<f64>, p: &Point3<f64>) -> Option<Point3<f64>> {
+    Some(match shape {
+        Shape::Sphere { radius } => {
+            let c = Point3::from(pose.translation.vector);
+            c + (p - c).try_normalize(0.0).unwrap_or_else(Vector3::z) * *radius
+        }
+        Shape::Capsule { radius, half_length } => {
+            let (a, b) = segment(pose, *half_length);
+            let c = closest_point_segment(p, &a, &b);
+            c + (p - c).try_normalize(0.0).unwrap_or_else(Vector3::z) * *radius
+        }
+        Shape::Box { half_extents } => in_shape_frame(pose, p, |l| point_box(l, half_extents)).point,
+        Shape::Cylinder { radius, half_length } => in_shape_frame(pose, p, |l| point_cylinder(l, *radius, *half_length)).point,
+        Shape::Convex(_) => return None,
+    })
+}
+
+/// GJK stops early on curved shapes (cylinders), up to ~1e-6 m long:
+/// alternating projections between the two surfaces, which never increase
+/// the distance, polish its witness points to machine precision.
+fn refine_separated(
+    a: &Shape,
+    pose_a: &IsometryMatrix3<f64>,
+    b: &Shape,
+    pose_b: &IsometryMatrix3<f64>,
+    mut point_a: Point3<f64>,
+    mut point_b: Point3<f64>,
+) -> SignedDistance {
+    for _ in 0..64 {
+        let Some(next_b) = surface(b, pose_b, &point_a) else { break };
+        let Some(next_a) = surface(a, pose_a, &next_b) else { break };
+        if (next_b - next_a).norm() > (point_b - point_a).norm() {
+            break;
+        }
+        let moved = (next_a - point_a).norm() + (next_b - point_b).norm();
+        (point_a, point_b) = (next_a, next_b);
+        if moved < 1e-14 {
+            break;
+        }
+    }
+    let d = point_b - point_a;
+    let distance = d.norm();
+    SignedDistance { distance, point_a, point_b, normal: d / distance }
 }
 
 #[cfg(test)]

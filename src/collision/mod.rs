@@ -29,6 +29,7 @@
 //! ```
 
 mod distance;
+mod exchange;
 mod model;
 mod query;
 mod shape;

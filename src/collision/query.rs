@@ -191,6 +191,17 @@ impl CollisionModel {
         Ok(best)
     }
 
+    /// World pose of object `object` (see [`object_count`](Self::object_count))
+    /// as placed by the last query with `ws`.
+    pub fn object_world_pose<'w>(&self, ws: &'w CollisionWorkspace, object: usize) -> &'w IsometryMatrix3<f64> {
+        &ws.poses[object]
+    }
+
+    /// Shape of object `object`.
+    pub fn object_shape(&self, object: usize) -> &super::Shape {
+        &self.objects[object].shape
+    }
+
     /// Gradient of `d.signed.distance` with respect to `q` (1/rad or 1/m
     /// per active joint), written into `out`, for a distance returned by
     /// [`distances`](Self::distances) or [`min_distance`](Self::min_distance)

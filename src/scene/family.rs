@@ -129,7 +129,13 @@ impl ProblemFamily {
         let base = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
         let src = Source { origin: &origin, text: &text, base };
         let raw: RawFamily = toml::from_str(&text).map_err(|e| src.toml_error(&e))?;
-        let problem = Problem::from_file(src.resolve(&raw.base))?;
+        let problem = Problem::from_file(src.resolve(&raw.base)).map_err(|e| match e {
+            // Errors inside the base file name that file; a missing one is the family's.
+            ProblemError::Io { path, source } => {
+                src.error(&KeyPath::root().key("base"), format!("cannot read {}: {source}", path.display()))
+            }
+            e => e,
+        })?;
         raw.build(&src, problem)
     }
 
@@ -253,7 +259,12 @@ fn is_clear(problem: &Problem, o: &Obstacle, clearance: f64) -> Result<bool, cra
     }
     let mut alone = Scene::new();
     alone.add_obstacle(o.clone()).expect("validated obstacle");
-    let model = CollisionModel::builder(problem.robot.clone()).scene(&alone).build()?;
+    // The robot's own collision geometry and padding, as in `Problem::collision_model`.
+    let mut builder = CollisionModel::builder(problem.robot.clone()).scene(&alone).padding(problem.robot_spec.padding);
+    if let Some(geometry) = &problem.collision_geometry {
+        builder = builder.geometry_from(geometry.clone());
+    }
+    let model = builder.build()?;
     let mut ws = CollisionWorkspace::new(&model);
     // Only pairs with the obstacle count: the arm's own clearance is not at stake.
     let near = model.distances(&mut ws, &problem.start, clearance)?;

@@ -188,6 +188,12 @@ impl Source<'_> {
         }
     }
 
+    /// Of the keys `keys` of the table at `table`, the one written last in
+    /// the file (to point at the key that conflicts with an earlier one).
+    pub(crate) fn last_in_file<'k>(&self, table: &KeyPath, keys: &[&'k str]) -> &'k str {
+        keys.iter().copied().max_by_key(|k| line_of_path(self.text, &table.key(k))).unwrap_or_default()
+    }
+
     /// A TOML syntax or serde error, with the key found from its span.
     pub(crate) fn toml_error(&self, e: &toml::de::Error) -> ProblemError {
         let span = e.span();

@@ -371,7 +371,17 @@ impl RawRobot {
                 srdf.joint_selection(g).map_err(|e| src.error(&path.key("group"), e.to_string()))?
             }
             (None, None, None) => JointSelection::Independent,
-            _ => return Err(src.error(path, "give one of `joints`, `chain` or `group`, not several")),
+            (j, c, g) => {
+                let given: Vec<&str> = [("joints", j.is_some()), ("chain", c.is_some()), ("group", g.is_some())]
+                    .into_iter()
+                    .filter_map(|(k, present)| present.then_some(k))
+                    .collect();
+                let last = src.last_in_file(path, &given);
+                let others: Vec<String> = given.iter().filter(|k| **k != last).map(|k| format!("`{k}`")).collect();
+                let msg =
+                    format!("conflicts with {}: give only one of `joints`, `chain` or `group`", others.join(" and "));
+                return Err(src.error(&path.key(last), msg));
+            }
         };
         let mut builder = RobotModel::builder(desc.clone()).selection(selection.clone());
         for (joint, value) in &self.hold {
@@ -430,6 +440,10 @@ impl RawScene {
                 check.pose(&p, &b.position, &b.rpy, &b.quaternion)?,
             );
             for (k, g) in b.grasps.iter().enumerate() {
+                if b.grasps[..k].iter().any(|other| other.name == g.name) {
+                    let msg = format!("'{}' has two grasp frames named '{}'", b.name, g.name);
+                    return Err(check.src.error(&p.key("grasps").index(k).key("name"), msg));
+                }
                 object.add_grasp(
                     g.name.clone(),
                     check.pose(&p.key("grasps").index(k), &g.position, &g.rpy, &g.quaternion)?,
@@ -460,12 +474,35 @@ impl RawGoal {
     fn build(self, check: &Check, path: &KeyPath, robot: &RobotModel, scene: &Scene) -> Result<Goal, ProblemError> {
         let src = check.src;
         let pose_keys = self.frame.is_some() || self.position.is_some();
+        // The first key of each goal kind given, to name a conflict.
+        let kinds: Vec<&str> = [
+            ("q", self.q.is_some()),
+            (if self.frame.is_some() { "frame" } else { "position" }, pose_keys),
+            ("grasp", self.grasp.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(k, present)| present.then_some(k))
+        .collect();
+        // Keys that only some goal kinds read.
+        let unused = |kind: &str, keys: &[(&str, bool)]| match keys.iter().find(|(_, present)| *present) {
+            Some((k, _)) => Err(src.error(&path.key(k), format!("does not apply to a {kind} goal"))),
+            None => Ok(()),
+        };
+        let orientation_keys = [
+            ("rpy", self.rpy.is_some()),
+            ("quaternion", self.quaternion.is_some()),
+            ("axis", self.axis.is_some()),
+            ("direction", self.direction.is_some()),
+        ];
         match (self.q, pose_keys, self.grasp) {
             (Some(q), false, None) => {
+                unused("joint", &orientation_keys)?;
+                unused("joint", &[("grasp_frame", self.grasp_frame.is_some())])?;
                 check_configuration(check, robot, &path.key("q"), &q)?;
                 Ok(Goal::Joints(q))
             }
             (None, true, None) => {
+                unused("pose", &[("grasp_frame", self.grasp_frame.is_some())])?;
                 let frame = self.frame.ok_or_else(|| src.error(path, "a pose goal needs `frame`"))?;
                 robot.frame_id(&frame).map_err(|e| src.error(&path.key("frame"), e.to_string()))?;
                 let position = self.position.ok_or_else(|| src.error(path, "a pose goal needs `position`"))?;
@@ -489,6 +526,7 @@ impl RawGoal {
                 Ok(Goal::Pose { frame, position: position.into(), orientation, axis_alignment })
             }
             (None, false, Some(object)) => {
+                unused("grasp", &orientation_keys)?;
                 let obj = scene
                     .object(&object)
                     .ok_or_else(|| src.error(&path.key("grasp"), format!("the scene has no object '{object}'")))?;
@@ -500,6 +538,15 @@ impl RawGoal {
                 };
                 scene.grasp_pose(&object, &grasp).map_err(|e| src.error(&path.key("grasp_frame"), e.to_string()))?;
                 Ok(Goal::Grasp { object, grasp })
+            }
+            _ if kinds.len() > 1 => {
+                let last = src.last_in_file(path, &kinds);
+                let others: Vec<String> = kinds.iter().filter(|k| **k != last).map(|k| format!("`{k}`")).collect();
+                let msg = format!(
+                    "conflicts with {}: give exactly one kind of goal: `q`, a pose (`frame`, `position`, …) or `grasp`",
+                    others.join(" and ")
+                );
+                Err(src.error(&path.key(last), msg))
             }
             _ => Err(src.error(path, "give exactly one kind of goal: `q`, a pose (`frame`, `position`, …) or `grasp`")),
         }
@@ -558,11 +605,15 @@ impl RawOptimizer {
         for (i, o) in self.objectives.into_iter().enumerate() {
             objectives.push(o.build(check, &path.key("objectives").index(i), robot, scene)?);
         }
+        let max_iterations = self.max_iterations.unwrap_or(d.max_iterations);
+        if max_iterations == 0 {
+            return Err(src.error(&path.key("max_iterations"), "must be at least 1"));
+        }
         Ok(OptimizerSettings {
             horizon,
             duration: check.positive(&path.key("duration"), self.duration.unwrap_or(d.duration))?,
             order,
-            max_iterations: self.max_iterations.unwrap_or(d.max_iterations).max(1),
+            max_iterations,
             objectives,
         })
     }

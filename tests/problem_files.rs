@@ -1,0 +1,866 @@
+//! Problem files and problem families: every shipped file loads and makes
+//! sense (collision-free start and goals, a reachable grasp target, a wall
+//! that is actually in the way), families sample reproducibly, and every
+//! kind of bad file is reported with its file name, line and key.
+
+use std::path::{Path, PathBuf};
+use tandem::collision::{CollisionWorkspace, Shape};
+use tandem::scene::{BUILTIN_PROBLEMS, Goal, ObjectiveKind, Problem, ProblemError, ProblemFamily};
+use tempfile::TempDir;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn shipped(name: &str) -> PathBuf {
+    repo().join("problems").join(name)
+}
+
+// ---------------------------------------------------------------------------
+// (a) The shipped problem files.
+
+/// Problem files shipped in `problems/`, without the family file.
+fn shipped_problem_names() -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(repo().join("problems"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .filter(|p| !std::fs::read_to_string(p).unwrap().lines().any(|l| l.starts_with("base =")))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn every_shipped_problem_is_a_builtin() {
+    let mut builtins: Vec<String> = BUILTIN_PROBLEMS.iter().map(|(n, _)| n.to_string()).collect();
+    builtins.sort();
+    assert_eq!(shipped_problem_names(), builtins);
+    for (name, text) in BUILTIN_PROBLEMS {
+        assert_eq!(std::fs::read_to_string(shipped(&format!("{name}.toml"))).unwrap(), text, "{name}");
+    }
+}
+
+#[test]
+fn shipped_problems_load_from_file_and_as_builtins() {
+    for (name, _) in BUILTIN_PROBLEMS {
+        let path = shipped(&format!("{name}.toml"));
+        let file = Problem::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+        let builtin = Problem::builtin(name).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(file.name, name);
+        assert_eq!(builtin.name, name);
+        assert!(!file.description.is_empty(), "{name} has no description");
+        assert_eq!(file.origin, path.display().to_string());
+        assert_eq!(builtin.origin, format!("<builtin:{name}>"));
+        assert_eq!(file.start, builtin.start, "{name}");
+        assert_eq!(file.goal, builtin.goal, "{name}");
+        assert_eq!(file.planner, builtin.planner, "{name}");
+        assert_eq!(file.optimizer, builtin.optimizer, "{name}");
+        assert_eq!(file.robot.joint_names(), builtin.robot.joint_names(), "{name}");
+        assert_eq!(file.robot.nq(), 7, "{name}");
+        assert_eq!(file.start.len(), 7, "{name}");
+        assert_eq!(file.robot_spec.gripper.as_deref(), Some("panda_hand_tcp"), "{name}");
+        let names = |p: &Problem| {
+            let o: Vec<String> = p.scene.obstacles().iter().map(|o| o.name.clone()).collect();
+            let b: Vec<String> = p.scene.objects().iter().map(|o| o.name.clone()).collect();
+            (o, b, p.scene.allowed_contacts().to_vec())
+        };
+        assert_eq!(names(&file), names(&builtin), "{name}");
+        assert!(file.scene.obstacle("table").is_some(), "{name} has a table");
+        assert!(file.scene.is_contact_allowed("table", "panda_link0"), "{name}");
+        // Every shipped problem constrains joint limits and collisions.
+        for feature in ["joint_limits", "collision"] {
+            let o = file.optimizer.objectives.iter().find(|o| o.feature == feature).unwrap();
+            assert_eq!(o.kind, ObjectiveKind::Inequality, "{name}: {feature}");
+        }
+    }
+}
+
+#[test]
+fn unknown_builtin_lists_the_builtins() {
+    let e = Problem::builtin("panda_fly").unwrap_err().to_string();
+    assert!(e.starts_with("<builtin:panda_fly>: "), "{e}");
+    assert!(e.contains("panda_reach, panda_reach_obstacle, panda_grasp_box"), "{e}");
+}
+
+#[test]
+fn shipped_starts_and_joint_goals_are_collision_free() {
+    for (name, _) in BUILTIN_PROBLEMS {
+        for problem in [Problem::from_file(shipped(&format!("{name}.toml"))).unwrap(), Problem::builtin(name).unwrap()]
+        {
+            let model = problem.collision_model().unwrap();
+            let mut ws = CollisionWorkspace::new(&model);
+            assert!(model.collision_free(&mut ws, &problem.start).unwrap(), "{name}: start collides");
+            if let Goal::Joints(q) = &problem.goal {
+                assert!(model.collision_free(&mut ws, q).unwrap(), "{name}: goal collides");
+            }
+        }
+    }
+}
+
+#[test]
+fn goal_kinds_of_the_shipped_problems() {
+    let reach = Problem::builtin("panda_reach").unwrap();
+    let Goal::Pose { frame, position, orientation, axis_alignment } = &reach.goal else { panic!("{:?}", reach.goal) };
+    assert_eq!(frame, "panda_hand_tcp");
+    assert_eq!(position.as_slice(), &[0.5, 0.3, 0.3]);
+    assert!(orientation.is_none());
+    let (axis, direction) = axis_alignment.unwrap();
+    assert_eq!(axis, 2);
+    assert_eq!(direction.as_slice(), &[0.0, 0.0, -1.0]);
+    assert!(reach.grasp_target().is_none());
+
+    assert!(matches!(Problem::builtin("panda_reach_obstacle").unwrap().goal, Goal::Joints(_)));
+}
+
+#[test]
+fn grasp_goal_target_pose_exists() {
+    let problem = Problem::from_file(shipped("panda_grasp_box.toml")).unwrap();
+    assert_eq!(problem.goal, Goal::Grasp { object: "box".into(), grasp: "center".into() });
+    let target = problem.grasp_target().expect("the grasp target exists");
+    // The middle of the box at (0.5, 0.1, 0.06), the gripper's z pointing down.
+    assert!((target.translation.vector - nalgebra::Vector3::new(0.5, 0.1, 0.06)).norm() < 1e-12);
+    assert!((target.rotation * nalgebra::Vector3::z() + nalgebra::Vector3::z()).norm() < 1e-12);
+    let approach = problem.scene.grasp_pose("box", "approach").unwrap();
+    assert!((approach.translation.z - 0.21).abs() < 1e-12);
+}
+
+#[test]
+fn grasp_goal_allows_contact_between_the_object_and_the_hand_only() {
+    let problem = Problem::builtin("panda_grasp_box").unwrap();
+    let model = problem.collision_model().unwrap();
+    let checked_with_box: Vec<&str> =
+        model.body_pairs().filter(|(_, b)| *b == "box").map(|(a, _)| a).collect::<Vec<_>>();
+    for hand in ["panda_hand", "panda_hand_tcp"] {
+        assert!(!checked_with_box.contains(&hand), "{hand} is still checked against the box: {checked_with_box:?}");
+    }
+    for arm in ["panda_link3", "panda_link5"] {
+        assert!(checked_with_box.contains(&arm), "{arm} is not checked against the box: {checked_with_box:?}");
+    }
+    // A joint goal allows nothing extra.
+    let reach = Problem::builtin("panda_reach_obstacle").unwrap();
+    let model = reach.collision_model().unwrap();
+    assert!(model.body_pairs().any(|(a, b)| a == "panda_hand" && b == "wall"));
+}
+
+#[test]
+fn reach_obstacle_straight_motion_collides() {
+    let problem = Problem::from_file(shipped("panda_reach_obstacle.toml")).unwrap();
+    let Goal::Joints(goal) = &problem.goal else { panic!("{:?}", problem.goal) };
+    let model = problem.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    assert!(model.collision_free(&mut ws, &problem.start).unwrap());
+    assert!(model.collision_free(&mut ws, goal).unwrap());
+    assert!(!model.motion_free(&mut ws, &problem.start, goal, 0.01).unwrap(), "the wall is not in the way");
+    // Without the wall the same motion is free: it is the wall that blocks it.
+    let mut without = problem.clone();
+    let mut scene = tandem::scene::Scene::new();
+    for o in problem.scene.obstacles().iter().filter(|o| o.name != "wall") {
+        scene.add_obstacle(o.clone()).unwrap();
+    }
+    for (a, b) in problem.scene.allowed_contacts() {
+        scene.allow_contact(a.clone(), b.clone());
+    }
+    without.scene = scene;
+    let model = without.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    assert!(model.motion_free(&mut ws, &problem.start, goal, 0.01).unwrap());
+}
+
+#[test]
+fn relative_paths_resolve_against_the_file_folder() {
+    let dir = TempDir::new().unwrap();
+    std::fs::create_dir(dir.path().join("robot")).unwrap();
+    std::fs::copy(shipped("robots/panda/panda.urdf"), dir.path().join("robot/arm.urdf")).unwrap();
+    // A tetrahedron, as OBJ and as ASCII STL.
+    std::fs::write(
+        dir.path().join("tet.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n",
+    )
+    .unwrap();
+    let facet = |a: &str, b: &str, c: &str| {
+        format!("facet normal 0 0 0\nouter loop\nvertex {a}\nvertex {b}\nvertex {c}\nendloop\nendfacet\n")
+    };
+    let (o, x, y, z) = ("0 0 0", "1 0 0", "0 1 0", "0 0 1");
+    let stl =
+        format!("solid tet\n{}{}{}{}endsolid tet\n", facet(o, x, y), facet(o, x, z), facet(o, y, z), facet(x, y, z));
+    std::fs::write(dir.path().join("tet.stl"), stl).unwrap();
+    let text = r#"name = "relative"
+
+[robot]
+urdf = "robot/arm.urdf"
+joints = ["panda_joint1", "panda_joint2", "panda_joint3", "panda_joint4", "panda_joint5", "panda_joint6", "panda_joint7"]
+
+[start]
+q = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+
+[goal]
+q = [0.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]
+
+[[scene.obstacles]]
+name = "obj_mesh"
+shape = "mesh"
+mesh = "tet.obj"
+scale = [0.1, 0.2, 0.3]
+position = [0.6, 0.5, 0.5]
+
+[[scene.obstacles]]
+name = "stl_mesh"
+shape = "mesh"
+mesh = "tet.stl"
+position = [0.6, -0.5, 0.5]
+quaternion = [0.0, 0.0, 0.7071067811865476, 0.7071067811865476]
+"#;
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, text).unwrap();
+    // Load from another working directory's point of view: the paths are
+    // relative to the file, not to the process.
+    let problem = Problem::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(problem.robot_spec.urdf, dir.path().join("robot/arm.urdf"));
+    let extent = |name: &str| {
+        let Shape::Convex(hull) = &problem.scene.obstacle(name).unwrap().shape else { panic!("not a hull") };
+        format!("{hull:?}")
+    };
+    assert!(!extent("obj_mesh").is_empty());
+    assert!(!extent("stl_mesh").is_empty());
+    let rotated = problem.scene.obstacle("stl_mesh").unwrap().pose.rotation;
+    assert!((rotated * nalgebra::Vector3::x() - nalgebra::Vector3::y()).norm() < 1e-12);
+}
+
+#[test]
+fn rpy_is_fixed_axis_roll_pitch_yaw_like_urdf() {
+    let dir = TempDir::new().unwrap();
+    let text = problem(&[
+        ROBOT,
+        START,
+        JOINT_GOAL,
+        "[[scene.obstacles]]\nname = \"a\"\nshape = \"sphere\"\nradius = 0.05\nposition = [1.0, 1.0, 1.0]\nrpy = [0.3, 0.2, 0.1]\n",
+        "[[scene.obstacles]]\nname = \"b\"\nshape = \"sphere\"\nradius = 0.05\nposition = [1.0, -1.0, 1.0]\n",
+    ]);
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, text).unwrap();
+    let problem = Problem::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    let r = problem.scene.obstacle("a").unwrap().pose.rotation;
+    let (x, y, z) = (nalgebra::Vector3::x_axis(), nalgebra::Vector3::y_axis(), nalgebra::Vector3::z_axis());
+    let expected = nalgebra::Rotation3::from_axis_angle(&z, 0.1)
+        * nalgebra::Rotation3::from_axis_angle(&y, 0.2)
+        * nalgebra::Rotation3::from_axis_angle(&x, 0.3);
+    assert!((r.matrix() - expected.matrix()).norm() < 1e-12);
+    let b = problem.scene.obstacle("b").unwrap().pose;
+    assert_eq!(b.rotation, nalgebra::Rotation3::identity());
+    assert_eq!(b.translation.vector.as_slice(), &[1.0, -1.0, 1.0]);
+}
+
+// ---------------------------------------------------------------------------
+// (b) The shipped family.
+
+fn family() -> ProblemFamily {
+    ProblemFamily::from_file(shipped("panda_grasp_family.toml")).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Everything sampled, as comparable text: start, object poses, obstacles
+/// (name, shape, pose).
+fn fingerprint(p: &Problem) -> String {
+    let objects: Vec<String> = p.scene.objects().iter().map(|o| format!("{} {:?}", o.name, o.pose)).collect();
+    let obstacles: Vec<String> =
+        p.scene.obstacles().iter().map(|o| format!("{} {:?} {:?}", o.name, o.shape, o.pose)).collect();
+    format!("{}\n{:?}\n{objects:?}\n{obstacles:?}", p.name, p.start)
+}
+
+#[test]
+fn family_loads() {
+    let f = family();
+    assert_eq!(f.name, "panda_grasp_family");
+    assert!(!f.description.is_empty());
+    assert_eq!(f.base.name, "panda_grasp_box");
+    assert!(matches!(f.base.goal, Goal::Grasp { .. }));
+}
+
+#[test]
+fn family_samples_are_deterministic() {
+    let f = family();
+    let a = f.sample(7, 3).unwrap();
+    let b = family().sample(7, 3).unwrap();
+    assert_eq!(a.id, 3);
+    assert_eq!(a.seed, b.seed);
+    assert_eq!(a.seed, tandem::scene::sample_seed(7, 3));
+    assert_eq!(fingerprint(&a.problem), fingerprint(&b.problem));
+    assert_eq!(a.problem.start, b.problem.start);
+    assert_eq!(a.problem.scene.object("box").unwrap().pose, b.problem.scene.object("box").unwrap().pose);
+    assert_eq!(a.skipped_obstacles, b.skipped_obstacles);
+    assert_eq!(a.problem.name, "panda_grasp_family#3");
+    // Sampling other ids in between changes nothing.
+    for id in 0..5 {
+        f.sample(7, id).unwrap();
+    }
+    assert_eq!(fingerprint(&f.sample(7, 3).unwrap().problem), fingerprint(&a.problem));
+    // Other ids and other seeds give other problems.
+    let c = f.sample(7, 4).unwrap();
+    assert_ne!(a.problem.start, c.problem.start);
+    assert_ne!(a.problem.scene.object("box").unwrap().pose, c.problem.scene.object("box").unwrap().pose);
+    let d = f.sample(8, 3).unwrap();
+    assert_ne!(a.problem.start, d.problem.start);
+    // The base problem is left alone.
+    assert_eq!(f.base.start, Problem::builtin("panda_grasp_box").unwrap().start);
+}
+
+#[test]
+fn family_samples_are_valid() {
+    let f = family();
+    let base_box = f.base.scene.object("box").unwrap().pose;
+    let mut fingerprints = std::collections::HashSet::new();
+    let mut random_obstacles = 0;
+    for id in 0..200 {
+        let s = f.sample(1, id).unwrap();
+        let p = &s.problem;
+        assert!(fingerprints.insert(fingerprint(p)), "sample {id} repeats an earlier one");
+        for ((v, l), name) in p.start.iter().zip(p.robot.limits()).zip(p.robot.joint_names()) {
+            assert!(l.contains(*v), "sample {id}: {name} = {v} outside [{}, {}]", l.lower, l.upper);
+        }
+        for (v, b) in p.start.iter().zip(&f.base.start) {
+            assert!((v - b).abs() <= 0.3 + 1e-12, "sample {id}: start jitter beyond 0.3 rad");
+        }
+        // The box moved within its ranges and stays on the table.
+        let b = p.scene.object("box").unwrap().pose;
+        let t = b.translation.vector;
+        assert!((0.4..=0.6).contains(&t.x) && (-0.3..=0.3).contains(&t.y), "sample {id}: box at {t:?}");
+        assert_eq!(t.z, base_box.translation.z);
+        assert!((b.rotation * nalgebra::Vector3::z() - nalgebra::Vector3::z()).norm() < 1e-12);
+        assert!(p.grasp_target().is_some());
+
+        let model = p.collision_model().unwrap();
+        let mut ws = CollisionWorkspace::new(&model);
+        assert!(model.collision_free(&mut ws, &p.start).unwrap(), "sample {id}: start collides");
+        let random: Vec<&str> =
+            p.scene.obstacles().iter().map(|o| o.name.as_str()).filter(|n| n.starts_with("random_")).collect();
+        assert!(random.len() + s.skipped_obstacles <= 2, "sample {id}");
+        random_obstacles += random.len();
+        // Every random obstacle clears the start arm by the family's clearance.
+        for d in model.distances(&mut ws, &p.start, 0.05 - 1e-9).unwrap() {
+            let (a, b) = model.pair_names(d.pair);
+            assert!(
+                !random.contains(&a) && !random.contains(&b),
+                "sample {id}: {a} and {b} are {} m apart",
+                d.signed.distance
+            );
+        }
+        for o in p.scene.obstacles().iter().filter(|o| random.contains(&o.name.as_str())) {
+            let c = o.pose.translation.vector;
+            assert!((0.25..=0.75).contains(&c.x) && (-0.6..=0.6).contains(&c.y) && (0.25..=0.8).contains(&c.z));
+        }
+    }
+    assert!(random_obstacles > 100, "only {random_obstacles} random obstacles in 200 samples");
+}
+
+// ---------------------------------------------------------------------------
+// (c) Errors: every kind names the file, the line and the key.
+
+fn urdf() -> String {
+    format!("{}/problems/robots/panda/panda.urdf", env!("CARGO_MANIFEST_DIR"))
+}
+
+const ROBOT: &str = r#"[robot]
+urdf = "@URDF@"
+chain = ["panda_link0", "panda_hand_tcp"]
+hold = { panda_finger_joint1 = 0.04 }
+gripper = "panda_hand_tcp"
+"#;
+
+const START: &str = "[start]\nq = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]\n";
+
+const JOINT_GOAL: &str = "[goal]\nq = [0.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]\n";
+
+const BOX: &str = r#"[[scene.objects]]
+name = "box"
+shape = "box"
+size = [0.06, 0.06, 0.12]
+position = [0.5, 0.1, 0.06]
+grasps = [
+    { name = "top", position = [0.0, 0.0, 0.06], rpy = [3.141592653589793, 0.0, 0.0] },
+]
+"#;
+
+/// A problem file of these sections, after a `name`.
+fn problem(sections: &[&str]) -> String {
+    let mut text = String::from("name = \"bad\"\n");
+    for s in sections {
+        text.push('\n');
+        text.push_str(s);
+    }
+    text.replace("@URDF@", &urdf())
+}
+
+/// 1-based line of the only line of `text` containing `marker`.
+#[track_caller]
+fn line_of(text: &str, marker: &str) -> usize {
+    let lines: Vec<usize> = text.lines().enumerate().filter(|(_, l)| l.contains(marker)).map(|(i, _)| i + 1).collect();
+    assert_eq!(lines.len(), 1, "`{marker}` is on lines {lines:?} of\n{text}");
+    lines[0]
+}
+
+/// Writes `text` as `file_name` in a fresh folder, loads it with `load`,
+/// and checks the error reads "path:line: key: …message…", the line being
+/// that of `marker`.
+#[track_caller]
+fn expect<T: std::fmt::Debug>(
+    load: fn(&Path) -> Result<T, ProblemError>,
+    file_name: &str,
+    text: &str,
+    marker: &str,
+    key: &str,
+    message: &str,
+) {
+    let dir = TempDir::new().unwrap();
+    let path = dir.path().join(file_name);
+    std::fs::write(&path, text).unwrap();
+    let e = load(&path).expect_err("the file loads");
+    let line = line_of(text, marker);
+    let shown = e.to_string();
+    let head = format!("{}:{line}: {key}: ", path.display());
+    assert!(shown.starts_with(&head), "expected `{head}…`\n     got `{shown}`\nfor\n{text}");
+    assert!(shown.contains(message), "`{message}` is not in `{shown}`");
+    let ProblemError::Invalid { file, line: Some(l), key: Some(k), .. } = &e else { panic!("{e:?}") };
+    assert_eq!((file.as_str(), *l as usize, k.as_str()), (path.display().to_string().as_str(), line, key));
+}
+
+#[track_caller]
+fn expect_problem_error(text: &str, marker: &str, key: &str, message: &str) {
+    expect(|p| Problem::from_file(p), "bad.toml", text, marker, key, message);
+}
+
+#[track_caller]
+fn expect_family_error(text: &str, marker: &str, key: &str, message: &str) {
+    expect(|p| ProblemFamily::from_file(p), "family.toml", text, marker, key, message);
+}
+
+#[test]
+fn the_error_fixture_is_valid() {
+    let dir = TempDir::new().unwrap();
+    let path = dir.path().join("good.toml");
+    let grasp = "[goal]\ngrasp = \"box\"\n";
+    for text in [problem(&[ROBOT, START, JOINT_GOAL]), problem(&[ROBOT, START, grasp, BOX])] {
+        std::fs::write(&path, &text).unwrap();
+        Problem::from_file(&path).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    }
+    let p = Problem::from_file(&path).unwrap();
+    // The first grasp frame is the default.
+    assert_eq!(p.goal, Goal::Grasp { object: "box".into(), grasp: "top".into() });
+}
+
+#[test]
+fn missing_file() {
+    let e = Problem::from_file("/nonexistent/p.toml").unwrap_err().to_string();
+    assert!(e.starts_with("cannot read /nonexistent/p.toml: "), "{e}");
+}
+
+#[test]
+fn toml_syntax_error() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL, "[optimizer]\nhorizon = = 50\n"]);
+    let dir = TempDir::new().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, &text).unwrap();
+    let e = Problem::from_file(&path).unwrap_err().to_string();
+    let head = format!("{}:{}: ", path.display(), line_of(&text, "horizon = = 50"));
+    assert!(e.starts_with(&head), "expected `{head}…`, got `{e}`");
+}
+
+#[test]
+fn unknown_key_at_top_level() {
+    let text = problem(&[ROBOT, "colour = \"red\"\n", START, JOINT_GOAL]);
+    // `colour` after [robot] belongs to the robot table; put it first instead.
+    let text = text.replacen("name = \"bad\"\n", "name = \"bad\"\ncolour = \"red\"\n", 1).replacen(
+        "gripper = \"panda_hand_tcp\"\n\ncolour = \"red\"\n",
+        "gripper = \"panda_hand_tcp\"\n",
+        1,
+    );
+    expect_problem_error(&text, "colour", "colour", "unknown field `colour`");
+}
+
+#[test]
+fn unknown_key_in_robot() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace("gripper =", "end_effector =");
+    expect_problem_error(&text, "end_effector", "robot.end_effector", "unknown field `end_effector`");
+}
+
+#[test]
+fn unknown_key_in_an_obstacle() {
+    let wall = "[[scene.obstacles]]\nname = \"wall\"\nshape = \"sphere\"\nradius = 0.1\n\n\
+                [[scene.obstacles]]\nname = \"post\"\nshape = \"sphere\"\nradios = 0.1\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "radios", "scene.obstacles[1].radios", "unknown field `radios`");
+}
+
+#[test]
+fn unknown_key_in_an_objective() {
+    let objectives = "[[optimizer.objectives]]\nfeature = \"control\"\n\n\
+                      [[optimizer.objectives]]\nfeature = \"collision\"\nkind = \"ineq\"\nweight = 2.0\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, objectives]);
+    expect_problem_error(&text, "weight", "optimizer.objectives[1].weight", "unknown field `weight`");
+}
+
+#[test]
+fn string_for_a_number() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL, "[optimizer]\nhorizon = \"fifty\"\n"]);
+    expect_problem_error(&text, "fifty", "optimizer.horizon", "invalid type");
+}
+
+#[test]
+fn two_element_position() {
+    let wall = "[[scene.obstacles]]\nname = \"wall\"\nshape = \"sphere\"\nradius = 0.1\nposition = [0.5, 0.2]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "position = [0.5, 0.2]", "scene.obstacles[0].position", "3");
+}
+
+#[test]
+fn negative_radius() {
+    let wall = "[[scene.obstacles]]\nname = \"post\"\nshape = \"cylinder\"\nradius = -0.1\nlength = 0.5\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "radius = -0.1", "scene.obstacles[0].radius", "must be positive, got -0.1");
+}
+
+#[test]
+fn zero_box_size() {
+    let wall = "[[scene.obstacles]]\nname = \"wall\"\nshape = \"box\"\nsize = [\n    0.3,\n    0.0,\n    0.5,\n]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "0.0,", "scene.obstacles[0].size[1]", "must be positive, got 0");
+}
+
+#[test]
+fn box_size_with_two_values() {
+    let wall = "[[scene.obstacles]]\nname = \"wall\"\nshape = \"box\"\nsize = [0.3, 0.5]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "size", "scene.obstacles[0].size", "must hold 3 lengths, has 2");
+}
+
+#[test]
+fn missing_shape_dimension() {
+    let wall = "[[scene.obstacles]]\nname = \"ball\"\nshape = \"sphere\"\nposition = [0.5, 0.0, 0.5]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "name = \"ball\"", "scene.obstacles[0].radius", "a sphere needs `radius`");
+}
+
+#[test]
+fn dimension_of_another_shape() {
+    let wall = "[[scene.obstacles]]\nname = \"ball\"\nshape = \"sphere\"\nradius = 0.1\nlength = 0.2\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "length", "scene.obstacles[0].length", "does not apply to a sphere");
+}
+
+#[test]
+fn table_with_zero_thickness() {
+    let table = "[scene.table]\ntop = [0.3, 0.0, 0.0]\nsize = [1.4, 1.6]\nthickness = 0.0\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, table]);
+    expect_problem_error(&text, "thickness", "scene.table.thickness", "must be positive");
+}
+
+#[test]
+fn negative_padding() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace("gripper = \"panda_hand_tcp\"\n", "padding = -0.01\n");
+    expect_problem_error(&text, "padding", "robot.padding", "must be zero or positive, got -0.01");
+}
+
+#[test]
+fn start_outside_a_joint_limit() {
+    let start = "[start]\nq = [\n    0.0,\n    -0.785,\n    0.0,\n    0.5,\n    0.0,\n    1.571,\n    0.785,\n]\n";
+    let text = problem(&[ROBOT, start, JOINT_GOAL]);
+    expect_problem_error(&text, "0.5,", "start.q[3]", "panda_joint4 = 0.5 is outside its limits [-3.0718, -0.0698]");
+}
+
+#[test]
+fn goal_outside_a_joint_limit() {
+    let goal = "[goal]\nq = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 3.0]\n";
+    let text = problem(&[ROBOT, START, goal]);
+    expect_problem_error(&text, "3.0]", "goal.q[6]", "panda_joint7 = 3 is outside its limits");
+}
+
+#[test]
+fn wrong_number_of_start_values() {
+    let start = "[start]\nq = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571]\n";
+    let text = problem(&[ROBOT, start, JOINT_GOAL]);
+    expect_problem_error(&text, "1.571]", "start.q", "has 6 values, the robot has 7 active joints (panda_joint1, ");
+}
+
+#[test]
+fn horizon_of_one() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL, "[optimizer]\nduration = 3.0\nhorizon = 1\n"]);
+    expect_problem_error(&text, "horizon", "optimizer.horizon", "must be between 2 and 100000, got 1");
+}
+
+#[test]
+fn zero_planner_step() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL, "[planner]\nseed = 3\nstep = 0.0\n"]);
+    expect_problem_error(&text, "step", "planner.step", "must be positive, got 0");
+}
+
+#[test]
+fn objective_time_backwards() {
+    let o = "[[optimizer.objectives]]\nfeature = \"joint_state\"\ntime = [0.8, 0.2]\nkind = \"eq\"\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(&text, "time", "optimizer.objectives[0].time", "0 ≤ start ≤ end ≤ 1, got [0.8, 0.2]");
+}
+
+#[test]
+fn unknown_feature() {
+    let o = "[[optimizer.objectives]]\nfeature = \"control\"\n\n[[optimizer.objectives]]\nfeature = \"speed\"\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(
+        &text,
+        "speed",
+        "optimizer.objectives[1].feature",
+        "unknown feature 'speed' (expected one of ",
+    );
+}
+
+#[test]
+fn wrong_number_of_feature_frames() {
+    let o = "[[optimizer.objectives]]\nfeature = \"position_difference\"\nframes = [\"panda_hand_tcp\"]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(&text, "frames", "optimizer.objectives[0].frames", "reads 2 frame(s), got 1");
+}
+
+#[test]
+fn unknown_shape() {
+    let wall = "[[scene.obstacles]]\nname = \"cone\"\nshape = \"cone\"\nradius = 0.1\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "shape", "scene.obstacles[0].shape", "unknown shape 'cone' (expected box, sphere, ");
+}
+
+#[test]
+fn unknown_objective_kind() {
+    let o = "[[optimizer.objectives]]\nfeature = \"collision\"\nkind = \"hard\"\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(
+        &text,
+        "hard",
+        "optimizer.objectives[0].kind",
+        "unknown kind 'hard' (expected sos, eq or ineq)",
+    );
+}
+
+#[test]
+fn non_unit_quaternion() {
+    let o = "[[scene.obstacles]]\nname = \"b\"\nshape = \"sphere\"\nradius = 0.1\nquaternion = [0.0, 0.0, 0.0, 2.0]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(&text, "quaternion", "scene.obstacles[0].quaternion", "unit quaternion [x, y, z, w]");
+}
+
+#[test]
+fn unknown_gripper_frame() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace("\"panda_hand_tcp\"\n", "\"panda_hand_tpc\"\n");
+    expect_problem_error(&text, "panda_hand_tpc", "robot.gripper", "panda_hand_tpc");
+}
+
+#[test]
+fn grasp_of_a_missing_object() {
+    let text = problem(&[ROBOT, START, "[goal]\ngrasp = \"cup\"\n", BOX]);
+    expect_problem_error(&text, "cup", "goal.grasp", "the scene has no object 'cup'");
+}
+
+#[test]
+fn missing_grasp_frame() {
+    let text = problem(&[ROBOT, START, "[goal]\ngrasp = \"box\"\ngrasp_frame = \"side\"\n", BOX]);
+    expect_problem_error(&text, "side", "goal.grasp_frame", "no grasp frame named 'side'");
+}
+
+#[test]
+fn grasp_of_an_object_without_grasp_frames() {
+    let ball = "[[scene.objects]]\nname = \"ball\"\nshape = \"sphere\"\nradius = 0.03\nposition = [0.5, 0.0, 0.03]\n";
+    let text = problem(&[ROBOT, START, "[goal]\ngrasp = \"ball\"\n", ball]);
+    expect_problem_error(&text, "grasp = ", "goal.grasp", "object 'ball' has no grasp frame");
+}
+
+#[test]
+fn objective_frame_naming_nothing() {
+    let o = "[[optimizer.objectives]]\nfeature = \"position_difference\"\nframes = [\n    \"panda_hand_tcp\",\n    \"box/bottom\",\n]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, BOX, o]);
+    expect_problem_error(&text, "box/bottom", "optimizer.objectives[0].frames[1]", "'box/bottom' is neither");
+}
+
+#[test]
+fn allowed_contact_naming_nothing() {
+    let scene = "[scene]\nallowed_contacts = [[\"panda_link0\", \"table\"]]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, scene]);
+    expect_problem_error(&text, "allowed", "scene.allowed_contacts[0][1]", "no link, obstacle or object named 'table'");
+}
+
+#[test]
+fn duplicate_scene_names() {
+    let table = "[scene.table]\ntop = [0.3, 0.0, 0.0]\nsize = [1.4, 1.6]\n\n\
+                 [[scene.obstacles]]\nname = \"table\"\nshape = \"sphere\"\nradius = 0.1\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, table]);
+    expect_problem_error(
+        &text,
+        "name = \"table\"",
+        "scene.obstacles[0].name",
+        "already has an obstacle or object named 'table'",
+    );
+}
+
+#[test]
+fn duplicate_grasp_names() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL, BOX]).replace(
+        "    { name = \"top\", position = [0.0, 0.0, 0.06], rpy = [3.141592653589793, 0.0, 0.0] },\n",
+        "    { name = \"top\", position = [0.0, 0.0, 0.06] },\n    { name = \"top\", position = [0.0, 0.0, -0.06] },\n",
+    );
+    expect_problem_error(&text, "-0.06", "scene.objects[0].grasps[1].name", "two grasp frames named 'top'");
+}
+
+#[test]
+fn grasps_on_an_obstacle() {
+    let wall =
+        "[[scene.obstacles]]\nname = \"ball\"\nshape = \"sphere\"\nradius = 0.1\ngrasps = [{ name = \"top\" }]\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
+    expect_problem_error(&text, "grasps", "scene.obstacles[0].grasps", "make it an object");
+}
+
+#[test]
+fn missing_urdf_file() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace(&urdf(), "/nonexistent/robot.urdf");
+    expect_problem_error(&text, "nonexistent", "robot.urdf", "/nonexistent/robot.urdf");
+}
+
+#[test]
+fn missing_mesh_file() {
+    let o = "[[scene.obstacles]]\nname = \"m\"\nshape = \"mesh\"\nmesh = \"missing.stl\"\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(&text, "missing.stl", "scene.obstacles[0].mesh", "missing.stl");
+}
+
+#[test]
+fn group_without_srdf() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL])
+        .replace("chain = [\"panda_link0\", \"panda_hand_tcp\"]", "group = \"panda_arm\"");
+    expect_problem_error(&text, "group", "robot.group", "a group needs `srdf`");
+}
+
+#[test]
+fn joints_and_chain_both() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace(
+        "hold =",
+        "joints = [\"panda_joint1\", \"panda_joint2\", \"panda_joint3\", \"panda_joint4\", \"panda_joint5\", \"panda_joint6\", \"panda_joint7\"]\nhold =",
+    );
+    expect_problem_error(&text, "joints", "robot.joints", "give only one of `joints`, `chain` or `group`");
+}
+
+#[test]
+fn rpy_and_quaternion_both() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL, BOX]).replace(
+        "position = [0.5, 0.1, 0.06]\n",
+        "position = [0.5, 0.1, 0.06]\nrpy = [0.0, 0.0, 0.1]\nquaternion = [0.0, 0.0, 0.0, 1.0]\n",
+    );
+    expect_problem_error(&text, "quaternion", "scene.objects[0].quaternion", "give rpy or quaternion, not both");
+}
+
+#[test]
+fn two_goal_kinds() {
+    let goal = "[goal]\nq = [0.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]\ngrasp = \"box\"\n";
+    let text = problem(&[ROBOT, START, goal, BOX]);
+    expect_problem_error(&text, "grasp = ", "goal.grasp", "give exactly one kind of goal");
+}
+
+#[test]
+fn goal_key_of_another_goal_kind() {
+    let goal = "[goal]\ngrasp = \"box\"\ndirection = [0.0, 0.0, -1.0]\n";
+    let text = problem(&[ROBOT, START, goal, BOX]);
+    expect_problem_error(&text, "direction", "goal.direction", "does not apply to a grasp goal");
+    let goal = "[goal]\nq = [0.5, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]\ngrasp_frame = \"top\"\n";
+    let text = problem(&[ROBOT, START, goal, BOX]);
+    expect_problem_error(&text, "grasp_frame", "goal.grasp_frame", "does not apply to a joint goal");
+}
+
+#[test]
+fn pose_goal_without_position() {
+    let goal = "[goal]\nframe = \"panda_hand_tcp\"\naxis = \"z\"\ndirection = [0.0, 0.0, -1.0]\n";
+    let text = problem(&[ROBOT, START, goal]);
+    expect_problem_error(&text, "[goal]", "goal", "a pose goal needs `position`");
+}
+
+#[test]
+fn missing_goal() {
+    let text = problem(&[ROBOT, START]);
+    let dir = TempDir::new().unwrap();
+    let path = dir.path().join("bad.toml");
+    std::fs::write(&path, &text).unwrap();
+    let e = Problem::from_file(&path).unwrap_err().to_string();
+    assert!(e.starts_with(&format!("{}:", path.display())), "{e}");
+    assert!(e.contains("missing field `goal`"), "{e}");
+}
+
+// Family errors.
+
+fn family_text(body: &str) -> String {
+    format!("base = \"{}\"\nname = \"fam\"\n\n{body}", shipped("panda_grasp_box.toml").display())
+}
+
+#[test]
+fn family_fixture_is_valid_and_relative_base_works() {
+    let dir = TempDir::new().unwrap();
+    std::fs::write(dir.path().join("f.toml"), family_text("[[objects]]\nname = \"box\"\nx = [0.4, 0.6]\n")).unwrap();
+    ProblemFamily::from_file(dir.path().join("f.toml")).unwrap_or_else(|e| panic!("{e}"));
+    // A relative base resolves against the family file's folder.
+    let f = ProblemFamily::from_file(shipped("panda_grasp_family.toml")).unwrap();
+    assert_eq!(f.base.origin, shipped("panda_grasp_box.toml").display().to_string());
+}
+
+#[test]
+fn family_with_a_missing_base() {
+    let text = "# a family\nname = \"fam\"\nbase = \"no_such_problem.toml\"\n";
+    expect_family_error(text, "base", "base", "cannot read");
+}
+
+#[test]
+fn family_base_with_an_error_names_the_base_file() {
+    let dir = TempDir::new().unwrap();
+    let base = problem(&[ROBOT, START, JOINT_GOAL, "[optimizer]\nhorizon = 1\n"]);
+    std::fs::write(dir.path().join("base.toml"), &base).unwrap();
+    std::fs::write(dir.path().join("fam.toml"), "base = \"base.toml\"\nname = \"fam\"\n").unwrap();
+    let e = ProblemFamily::from_file(dir.path().join("fam.toml")).unwrap_err().to_string();
+    let head = format!("{}:{}: optimizer.horizon: ", dir.path().join("base.toml").display(), line_of(&base, "horizon"));
+    assert!(e.starts_with(&head), "expected `{head}…`, got `{e}`");
+}
+
+#[test]
+fn family_unknown_object() {
+    let text = family_text("[[objects]]\nname = \"cup\"\nx = [0.4, 0.6]\n");
+    expect_family_error(&text, "cup", "objects[0].name", "the base problem has no object 'cup'");
+}
+
+#[test]
+fn family_unknown_key() {
+    let text = family_text("[start]\njitter = 0.1\nspread = 0.2\n");
+    expect_family_error(&text, "spread", "start.spread", "unknown field `spread`");
+}
+
+#[test]
+fn family_negative_jitter() {
+    let text = family_text("[start]\njitter = -0.1\n");
+    expect_family_error(&text, "jitter", "start.jitter", "must be zero or positive");
+}
+
+#[test]
+fn family_range_min_above_max() {
+    let text = family_text("[[objects]]\nname = \"box\"\nx = [0.4, 0.6]\nyaw = [1.0, -1.0]\n");
+    expect_family_error(&text, "yaw", "objects[0].yaw", "low ≤ high, got [1, -1]");
+}
+
+const OBSTACLES: &str = "[obstacles]\ncount = [0, 2]\nshapes = [\"box\", \"sphere\"]\nsize = [0.04, 0.1]\n\
+                         region_min = [0.25, -0.6, 0.25]\nregion_max = [0.75, 0.6, 0.8]\n";
+
+#[test]
+fn family_obstacle_ranges() {
+    let dir = TempDir::new().unwrap();
+    std::fs::write(dir.path().join("f.toml"), family_text(OBSTACLES)).unwrap();
+    ProblemFamily::from_file(dir.path().join("f.toml")).unwrap_or_else(|e| panic!("{e}"));
+
+    let text = family_text(&OBSTACLES.replace("[0, 2]", "[3, 2]"));
+    expect_family_error(&text, "count", "obstacles.count", "min ≤ max ≤ 1000, got [3, 2]");
+    let text = family_text(&OBSTACLES.replace("[0.04, 0.1]", "[0.1, 0.04]"));
+    expect_family_error(&text, "size", "obstacles.size", "0 < low ≤ high, got [0.1, 0.04]");
+    let text = family_text(&OBSTACLES.replace("[0.75, 0.6, 0.8]", "[0.75, 0.6, 0.2]"));
+    expect_family_error(&text, "region_max", "obstacles.region_max[2]", "≥ region_min");
+    let text = family_text(&OBSTACLES.replace("\"sphere\"", "\"mesh\""));
+    expect_family_error(&text, "shapes", "obstacles.shapes[1]", "unknown shape 'mesh'");
+    let text = family_text(&format!("{OBSTACLES}clearance = -0.01\n"));
+    expect_family_error(&text, "clearance", "obstacles.clearance", "must be zero or positive");
+}
