@@ -14,7 +14,10 @@ use tandem::robot::RobotModel;
 use tandem::scene::{Obstacle, Scene};
 
 fn pose(p: [f64; 3], rpy: [f64; 3]) -> IsometryMatrix3<f64> {
-    IsometryMatrix3::from_parts(Translation3::from(Vector3::from(p)), Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]))
+    IsometryMatrix3::from_parts(
+        Translation3::from(Vector3::from(p)),
+        Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
 }
 
 /// Obstacles spread through the arm's reach so that random configurations
@@ -76,13 +79,25 @@ fn signed_distances_match_coal_on_1000_configurations() {
             let r = &reference[(c * pairs + d.pair) * 10..][..10];
             if coal_cylinder_cap_case(&model, &ws, d.pair, &scene) {
                 // coal over-estimates the depth there: ours is the true, shallower one.
-                assert!(d.signed.distance >= r[0] - 1e-9, "{:?}: {} vs coal {}", model.pair_names(d.pair), d.signed.distance, r[0]);
+                assert!(
+                    d.signed.distance >= r[0] - 1e-9,
+                    "{:?}: {} vs coal {}",
+                    model.pair_names(d.pair),
+                    d.signed.distance,
+                    r[0]
+                );
                 cap_cases += 1;
                 continue;
             }
             let err = (d.signed.distance - r[0]).abs();
             worst_d = worst_d.max(err);
-            assert!(err < 1e-6, "config {c} pair {:?}: tandem {} coal {}", model.pair_names(d.pair), d.signed.distance, r[0]);
+            assert!(
+                err < 1e-6,
+                "config {c} pair {:?}: tandem {} coal {}",
+                model.pair_names(d.pair),
+                d.signed.distance,
+                r[0]
+            );
             if d.signed.distance < 0.0 {
                 penetrating += 1;
             } else if d.signed.distance > 1e-6 {
@@ -92,7 +107,11 @@ fn signed_distances_match_coal_on_1000_configurations() {
                     .max((s.point_b - Point3::new(r[4], r[5], r[6])).norm())
                     .max((s.normal - Vector3::new(r[7], r[8], r[9])).norm());
                 worst_points = worst_points.max(e);
-                assert!(e < 1e-6, "config {c} pair {:?}: witness points/normal differ by {e:e}", model.pair_names(d.pair));
+                assert!(
+                    e < 1e-6,
+                    "config {c} pair {:?}: witness points/normal differ by {e:e}",
+                    model.pair_names(d.pair)
+                );
             }
         }
     }
@@ -127,8 +146,12 @@ fn gjk_epa_pairs_match_coal() {
     let description = tandem::robot::RobotDescription::from_urdf_file(&urdf, &Default::default()).unwrap();
     let robot = Arc::new(RobotModel::builder(Arc::new(description)).build().unwrap());
     let mut scene = Scene::new();
-    scene.add_obstacle(Obstacle::new("crate", Shape::cuboid([0.2, 0.3, 0.25]), pose([0.45, 0.1, 0.35], [0.2, 0.1, 0.5]))).unwrap();
-    scene.add_obstacle(Obstacle::new("pipe", Shape::cylinder(0.06, 0.5), pose([-0.2, -0.4, 0.5], [1.2, 0.0, 0.3]))).unwrap();
+    scene
+        .add_obstacle(Obstacle::new("crate", Shape::cuboid([0.2, 0.3, 0.25]), pose([0.45, 0.1, 0.35], [0.2, 0.1, 0.5])))
+        .unwrap();
+    scene
+        .add_obstacle(Obstacle::new("pipe", Shape::cylinder(0.06, 0.5), pose([-0.2, -0.4, 0.5], [1.2, 0.0, 0.3])))
+        .unwrap();
     scene.add_obstacle(Obstacle::new("ball", Shape::sphere(0.1), pose([0.0, 0.45, 0.7], [0.0; 3]))).unwrap();
     let model = CollisionModel::builder(robot.clone()).scene(&scene).build().unwrap();
     let configs = random_configurations(&robot, 1000, 5);
@@ -148,12 +171,22 @@ fn gjk_epa_pairs_match_coal() {
             if err > 1e-6 && r < 0.0 && d.signed.distance > r {
                 // EPA may stop at a non-minimal face: then the shallower
                 // answer wins if its translation really separates the shapes.
-                assert!(separates(&model, &ws, d), "config {c} pair {:?}: tandem {} coal {r}", model.pair_names(d.pair), d.signed.distance);
+                assert!(
+                    separates(&model, &ws, d),
+                    "config {c} pair {:?}: tandem {} coal {r}",
+                    model.pair_names(d.pair),
+                    d.signed.distance
+                );
                 coal_deeper += 1;
                 continue;
             }
             worst = worst.max(err);
-            assert!(err < 1e-6, "config {c} pair {:?}: tandem {} coal {r}", model.pair_names(d.pair), d.signed.distance);
+            assert!(
+                err < 1e-6,
+                "config {c} pair {:?}: tandem {} coal {r}",
+                model.pair_names(d.pair),
+                d.signed.distance
+            );
         }
     }
     println!(

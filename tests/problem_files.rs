@@ -130,13 +130,20 @@ fn grasp_goal_target_pose_exists() {
 fn grasp_goal_allows_contact_between_the_object_and_the_hand_only() {
     let problem = Problem::builtin("panda_grasp_box").unwrap();
     let model = problem.collision_model().unwrap();
-    let checked_with_box: Vec<&str> =
-        model.body_pairs().filter(|(_, b)| *b == "box").map(|(a, _)| a).collect::<Vec<_>>();
-    for hand in ["panda_hand", "panda_hand_tcp"] {
-        assert!(!checked_with_box.contains(&hand), "{hand} is still checked against the box: {checked_with_box:?}");
-    }
-    for arm in ["panda_link3", "panda_link5"] {
-        assert!(checked_with_box.contains(&arm), "{arm} is not checked against the box: {checked_with_box:?}");
+    let checked_with_box: Vec<&str> = model.body_pairs().filter(|(_, b)| *b == "box").map(|(a, _)| a).collect();
+    // The links on the gripper frame's rigid body (link7, link8, the hand and
+    // the held fingers) may touch the box; the rest of the arm may not.
+    let arm: Vec<String> = (0..7).map(|i| format!("panda_link{i}")).collect();
+    assert_eq!(checked_with_box, arm);
+    // With a joint goal instead, the whole arm is checked against the box.
+    let grasp_text = BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == "panda_grasp_box").unwrap().1;
+    let joint_text = grasp_text
+        .replace("grasp = \"box\"\ngrasp_frame = \"center\"", "q = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]");
+    assert_ne!(joint_text, grasp_text);
+    let base = Problem::from_str_with(&joint_text, "joint_goal", None).unwrap();
+    let model = base.collision_model().unwrap();
+    for link in ["panda_link7", "panda_hand", "panda_leftfinger", "panda_rightfinger"] {
+        assert!(model.body_pairs().any(|(a, b)| b == "box" && a == link), "{link} is not checked against the box");
     }
     // A joint goal allows nothing extra.
     let reach = Problem::builtin("panda_reach_obstacle").unwrap();
@@ -218,12 +225,14 @@ quaternion = [0.0, 0.0, 0.7071067811865476, 0.7071067811865476]
     // relative to the file, not to the process.
     let problem = Problem::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(problem.robot_spec.urdf, dir.path().join("robot/arm.urdf"));
-    let extent = |name: &str| {
-        let Shape::Convex(hull) = &problem.scene.obstacle(name).unwrap().shape else { panic!("not a hull") };
-        format!("{hull:?}")
-    };
-    assert!(!extent("obj_mesh").is_empty());
-    assert!(!extent("stl_mesh").is_empty());
+    // The hull of the tetrahedron, scaled per axis: its farthest vertex is
+    // (0, 0, 0.3) for the OBJ, (1, 0, 0) etc. for the unscaled STL.
+    for (name, radius) in [("obj_mesh", 0.3), ("stl_mesh", 1.0)] {
+        let shape = &problem.scene.obstacle(name).unwrap().shape;
+        let Shape::Convex(hull) = shape else { panic!("{name} is not a hull: {shape:?}") };
+        assert_eq!(hull.vertex_count(), 4, "{name}");
+        assert!((shape.bounding_radius() - radius).abs() < 1e-12, "{name}: {}", shape.bounding_radius());
+    }
     let rotated = problem.scene.obstacle("stl_mesh").unwrap().pose.rotation;
     assert!((rotated * nalgebra::Vector3::x() - nalgebra::Vector3::y()).norm() < 1e-12);
 }
@@ -250,6 +259,33 @@ fn rpy_is_fixed_axis_roll_pitch_yaw_like_urdf() {
     let b = problem.scene.obstacle("b").unwrap().pose;
     assert_eq!(b.rotation, nalgebra::Rotation3::identity());
     assert_eq!(b.translation.vector.as_slice(), &[1.0, -1.0, 1.0]);
+}
+
+/// The ```toml blocks of problems/README.md.
+fn readme_examples() -> Vec<String> {
+    let readme = std::fs::read_to_string(repo().join("problems/README.md")).unwrap();
+    readme.split("```toml\n").skip(1).map(|b| b.split("```").next().unwrap().to_string()).collect()
+}
+
+#[test]
+fn readme_examples_load() {
+    let examples = readme_examples();
+    assert_eq!(examples.len(), 2, "a problem and a family example");
+    let problem = Problem::from_str_with(&examples[0], "README problem", Some(&repo().join("problems")))
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(problem.scene.objects().len(), 1);
+    assert_eq!(problem.scene.obstacles().len(), 2);
+    let model = problem.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    assert!(model.collision_free(&mut ws, &problem.start).unwrap());
+    // The family example, with its base made absolute.
+    let dir = TempDir::new().unwrap();
+    let base = shipped("panda_grasp_box.toml");
+    let text = examples[1].replace("\"panda_grasp_box.toml\"", &format!("\"{}\"", base.display()));
+    std::fs::write(dir.path().join("family.toml"), text).unwrap();
+    let family = ProblemFamily::from_file(dir.path().join("family.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let sample = family.sample(0, 0).unwrap();
+    assert_eq!(sample.problem.name, "grasp_anywhere#0");
 }
 
 // ---------------------------------------------------------------------------
@@ -467,14 +503,16 @@ fn toml_syntax_error() {
 
 #[test]
 fn unknown_key_at_top_level() {
-    let text = problem(&[ROBOT, "colour = \"red\"\n", START, JOINT_GOAL]);
-    // `colour` after [robot] belongs to the robot table; put it first instead.
-    let text = text.replacen("name = \"bad\"\n", "name = \"bad\"\ncolour = \"red\"\n", 1).replacen(
-        "gripper = \"panda_hand_tcp\"\n\ncolour = \"red\"\n",
-        "gripper = \"panda_hand_tcp\"\n",
-        1,
-    );
+    let text =
+        problem(&[ROBOT, START, JOINT_GOAL]).replacen("name = \"bad\"\n", "name = \"bad\"\ncolour = \"red\"\n", 1);
     expect_problem_error(&text, "colour", "colour", "unknown field `colour`");
+}
+
+#[test]
+fn unknown_key_in_a_grasp() {
+    let text =
+        problem(&[ROBOT, START, JOINT_GOAL, BOX]).replace("rpy = [3.141592653589793", "rpyy = [3.141592653589793");
+    expect_problem_error(&text, "rpyy", "scene.objects[0].grasps[0].rpyy", "unknown field `rpyy`");
 }
 
 #[test]
@@ -521,9 +559,10 @@ fn negative_radius() {
 
 #[test]
 fn zero_box_size() {
-    let wall = "[[scene.obstacles]]\nname = \"wall\"\nshape = \"box\"\nsize = [\n    0.3,\n    0.0,\n    0.5,\n]\n";
+    let wall =
+        "[[scene.obstacles]]\nname = \"wall\"\nshape = \"box\"\nsize = [\n    0.3,\n    0.0, # zero\n    0.5,\n]\n";
     let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
-    expect_problem_error(&text, "0.0,", "scene.obstacles[0].size[1]", "must be positive, got 0");
+    expect_problem_error(&text, "# zero", "scene.obstacles[0].size[1]", "must be positive, got 0");
 }
 
 #[test]
@@ -537,7 +576,8 @@ fn box_size_with_two_values() {
 fn missing_shape_dimension() {
     let wall = "[[scene.obstacles]]\nname = \"ball\"\nshape = \"sphere\"\nposition = [0.5, 0.0, 0.5]\n";
     let text = problem(&[ROBOT, START, JOINT_GOAL, wall]);
-    expect_problem_error(&text, "name = \"ball\"", "scene.obstacles[0].radius", "a sphere needs `radius`");
+    // A missing key is reported at the header of its table.
+    expect_problem_error(&text, "[[scene.obstacles]]", "scene.obstacles[0].radius", "a sphere needs `radius`");
 }
 
 #[test]
@@ -562,9 +602,9 @@ fn negative_padding() {
 
 #[test]
 fn start_outside_a_joint_limit() {
-    let start = "[start]\nq = [\n    0.0,\n    -0.785,\n    0.0,\n    0.5,\n    0.0,\n    1.571,\n    0.785,\n]\n";
+    let start = "[start]\nq = [\n    0.0,\n    -0.785,\n    0.0,\n    0.25,\n    0.0,\n    1.571,\n    0.785,\n]\n";
     let text = problem(&[ROBOT, start, JOINT_GOAL]);
-    expect_problem_error(&text, "0.5,", "start.q[3]", "panda_joint4 = 0.5 is outside its limits [-3.0718, -0.0698]");
+    expect_problem_error(&text, "0.25,", "start.q[3]", "panda_joint4 = 0.25 is outside its limits [-3.0718, -0.0698]");
 }
 
 #[test]
@@ -591,6 +631,41 @@ fn horizon_of_one() {
 fn zero_planner_step() {
     let text = problem(&[ROBOT, START, JOINT_GOAL, "[planner]\nseed = 3\nstep = 0.0\n"]);
     expect_problem_error(&text, "step", "planner.step", "must be positive, got 0");
+}
+
+#[test]
+fn more_out_of_range_values() {
+    let pose_goal =
+        "[goal]\nframe = \"panda_hand_tcp\"\nposition = [0.5, 0.0, 0.4]\naxis = \"z\"\ndirection = [0.0, 0.0, -1.0]\n";
+    let table = "[scene.table]\ntop = [0.3, 0.0, 0.0]\nsize = [1.4, 1.6]\n";
+    let settings = "[planner]\nmax_iterations = 10\n\n[optimizer]\norder = 2\nmax_iterations = 20\n";
+    let objective = "[[optimizer.objectives]]\nfeature = \"scalar_product\"\nframes = [\"panda_hand_tcp\", \"world\"]\naxes = [\"z\", \"z\"]\nscale = 1.0\norder = 0\nmargin = 0.0\ntarget = [-1.0]\n";
+    let good = problem(&[ROBOT, START, pose_goal, table, settings, objective]);
+    let dir = TempDir::new().unwrap();
+    std::fs::write(dir.path().join("good.toml"), &good).unwrap();
+    Problem::from_file(dir.path().join("good.toml")).unwrap_or_else(|e| panic!("{e}"));
+    let cases = [
+        ("frame = \"panda_hand_tcp\"", "frame = \"hand\"", "goal.frame", "unknown frame 'hand'"),
+        ("axis = \"z\"", "axis = \"w\"", "goal.axis", "must be x, y or z"),
+        ("direction = [0.0, 0.0, -1.0]", "direction = [0.0, 0.0, 0.0]", "goal.direction", "non-zero finite vector"),
+        ("direction = [0.0, 0.0, -1.0]", "# no direction", "goal", "`axis` and `direction` go together"),
+        ("size = [1.4, 1.6]", "size = [0.0, 1.6]", "scene.table.size[0]", "must be positive, got 0"),
+        ("max_iterations = 10", "max_iterations = 0", "planner.max_iterations", "must be at least 1"),
+        ("order = 2", "order = 3", "optimizer.order", "must be 1 or 2, got 3"),
+        ("max_iterations = 20", "max_iterations = 0", "optimizer.max_iterations", "must be at least 1"),
+        ("axes = [\"z\", \"z\"]", "axes = [\"z\"]", "optimizer.objectives[0].axes", "scalar_product needs two axes"),
+        ("axes = [\"z\", \"z\"]", "axes = [\"z\", \"q\"]", "optimizer.objectives[0].axes[1]", "must be x, y or z"),
+        ("scale = 1.0", "scale = 0.0", "optimizer.objectives[0].scale", "must be positive, got 0"),
+        ("order = 0", "order = 3", "optimizer.objectives[0].order", "must be 0, 1 or 2, got 3"),
+        ("margin = 0.0", "margin = -0.1", "optimizer.objectives[0].margin", "must be zero or positive, got -0.1"),
+        ("target = [-1.0]", "target = [nan]", "optimizer.objectives[0].target[0]", "must be finite, got NaN"),
+    ];
+    for (from, to, key, message) in cases {
+        assert_eq!(good.matches(from).count(), 1, "{from}");
+        let text = good.replace(from, to);
+        let marker = if key == "goal" { "[goal]" } else { to.lines().next().unwrap() };
+        expect_problem_error(&text, marker, key, message);
+    }
 }
 
 #[test]
@@ -664,6 +739,12 @@ fn missing_grasp_frame() {
 }
 
 #[test]
+fn grasp_goal_without_a_gripper() {
+    let text = problem(&[ROBOT, START, "[goal]\ngrasp = \"box\"\n", BOX]).replace("gripper = \"panda_hand_tcp\"\n", "");
+    expect_problem_error(&text, "grasp = \"box\"", "goal.grasp", "a grasp goal needs `robot.gripper`");
+}
+
+#[test]
 fn grasp_of_an_object_without_grasp_frames() {
     let ball = "[[scene.objects]]\nname = \"ball\"\nshape = \"sphere\"\nradius = 0.03\nposition = [0.5, 0.0, 0.03]\n";
     let text = problem(&[ROBOT, START, "[goal]\ngrasp = \"ball\"\n", ball]);
@@ -728,6 +809,35 @@ fn missing_mesh_file() {
 }
 
 #[test]
+fn unknown_chain_tip() {
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace("panda_hand_tcp\"]", "panda_hand_tcpp\"]");
+    expect_problem_error(&text, "chain", "robot.chain", "unknown frame 'panda_hand_tcpp' (did you mean panda_hand_tcp");
+}
+
+#[test]
+fn unknown_active_joint() {
+    let joints = "joints = [\"panda_joint1\", \"panda_joint2\", \"panda_joint3\", \"panda_joint4\", \"panda_joint5\", \"panda_joint6\", \"panda_joint77\"]";
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace("chain = [\"panda_link0\", \"panda_hand_tcp\"]", joints);
+    expect_problem_error(&text, "joints", "robot.joints", "unknown joint 'panda_joint77'");
+}
+
+#[test]
+fn bad_held_joints() {
+    let base = problem(&[ROBOT, START, JOINT_GOAL]);
+    let text = base.replace("panda_finger_joint1 = 0.04", "panda_finger_joint3 = 0.04");
+    expect_problem_error(&text, "hold", "robot.hold.panda_finger_joint3", "unknown joint 'panda_finger_joint3'");
+    let text = base.replace("panda_finger_joint1 = 0.04", "panda_finger_joint1 = 0.5");
+    expect_problem_error(
+        &text,
+        "hold",
+        "robot.hold.panda_finger_joint1",
+        "held value 0.5 for joint 'panda_finger_joint1' is outside its limits [0, 0.04]",
+    );
+    let text = base.replace("{ panda_finger_joint1 = 0.04 }", "{ panda_finger_joint1 = 0.04, panda_joint1 = 0.5 }");
+    expect_problem_error(&text, "hold", "robot.hold.panda_joint1", "joint 'panda_joint1' cannot be active");
+}
+
+#[test]
 fn group_without_srdf() {
     let text = problem(&[ROBOT, START, JOINT_GOAL])
         .replace("chain = [\"panda_link0\", \"panda_hand_tcp\"]", "group = \"panda_arm\"");
@@ -777,14 +887,22 @@ fn pose_goal_without_position() {
 }
 
 #[test]
-fn missing_goal() {
+fn missing_required_keys() {
+    // A missing key is reported at the table it is missing from.
+    let text = problem(&[ROBOT, START, JOINT_GOAL]).replace("urdf = ", "# urdf = ");
+    expect_problem_error(&text, "[robot]", "robot", "missing field `urdf`");
+    let o = "[[scene.obstacles]]\nname = \"a\"\nradius = 0.1\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
+    expect_problem_error(&text, "[[scene.obstacles]]", "scene.obstacles[0]", "missing field `shape`");
+    let text = problem(&[ROBOT, START, JOINT_GOAL, BOX]).replace("{ name = \"top\", ", "{ ");
+    expect_problem_error(&text, "position = [0.0, 0.0, 0.06]", "scene.objects[0].grasps[0]", "missing field `name`");
+    // A missing top-level table has no line.
     let text = problem(&[ROBOT, START]);
     let dir = TempDir::new().unwrap();
     let path = dir.path().join("bad.toml");
     std::fs::write(&path, &text).unwrap();
     let e = Problem::from_file(&path).unwrap_err().to_string();
-    assert!(e.starts_with(&format!("{}:", path.display())), "{e}");
-    assert!(e.contains("missing field `goal`"), "{e}");
+    assert_eq!(e, format!("{}: missing field `goal`", path.display()));
 }
 
 // Family errors.
@@ -858,7 +976,12 @@ fn family_obstacle_ranges() {
     let text = family_text(&OBSTACLES.replace("[0.04, 0.1]", "[0.1, 0.04]"));
     expect_family_error(&text, "size", "obstacles.size", "0 < low ≤ high, got [0.1, 0.04]");
     let text = family_text(&OBSTACLES.replace("[0.75, 0.6, 0.8]", "[0.75, 0.6, 0.2]"));
-    expect_family_error(&text, "region_max", "obstacles.region_max[2]", "≥ region_min");
+    expect_family_error(
+        &text,
+        "region_max",
+        "obstacles.region_max[2]",
+        "must be finite and ≥ region_min[2], got 0.2 < 0.25",
+    );
     let text = family_text(&OBSTACLES.replace("\"sphere\"", "\"mesh\""));
     expect_family_error(&text, "shapes", "obstacles.shapes[1]", "unknown shape 'mesh'");
     let text = family_text(&format!("{OBSTACLES}clearance = -0.01\n"));

@@ -10,6 +10,7 @@
 //! # let _ = cli;
 //! ```
 
+mod check;
 mod demo;
 mod inspect;
 mod kinematics;
@@ -21,7 +22,8 @@ use std::path::PathBuf;
 /// tandem — motion for human-robot shared control.
 ///
 /// Loads robots from URDF and computes exact kinematics (cross-checked
-/// against Pinocchio to 1e-9). Every command prints human-readable text by
+/// against Pinocchio to 1e-9), LQR tracking policies, and collision checks
+/// of problem files (signed distances cross-checked against coal). Every command prints human-readable text by
 /// default and one JSON object with --json where offered. Errors go to
 /// stderr with the file, element, line and value at fault, and exit code 1.
 #[derive(Debug, Parser)]
@@ -78,6 +80,19 @@ pub enum Command {
     ///
     /// Example: tandem policy --time-varying --plot policy.svg
     Policy(policy::PolicyArgs),
+    /// Validate a problem file and check a configuration for collisions.
+    ///
+    /// Loads the problem (robot, SRDF, scene, start, goal, settings; any
+    /// error names the file, key and line), builds its collision model and
+    /// reports, for the start configuration or --q, whether it is
+    /// collision-free, the minimum signed distance and the closest pair of
+    /// bodies, and every colliding pair.
+    ///
+    /// Examples:
+    ///   tandem check problems/panda_grasp_box.toml
+    ///   tandem check builtin:panda_reach_obstacle --q 0,0,0,-1.5,0,1.5,0 --json
+    #[command(verbatim_doc_comment)]
+    Check(check::CheckArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -90,6 +105,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Inspect(args) => inspect::run(&args),
         Command::Fk(args) => kinematics::run(&args),
         Command::Policy(args) => policy::run(&args),
+        Command::Check(args) => check::run(&args),
     }
 }
 

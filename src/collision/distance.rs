@@ -295,7 +295,9 @@ fn surface(shape: &Shape, pose: &IsometryMatrix3<f64>, p: &Point3<f64>) -> Optio
             c + (p - c).try_normalize(0.0).unwrap_or_else(Vector3::z) * *radius
         }
         Shape::Box { half_extents } => in_shape_frame(pose, p, |l| point_box(l, half_extents)).point,
-        Shape::Cylinder { radius, half_length } => in_shape_frame(pose, p, |l| point_cylinder(l, *radius, *half_length)).point,
+        Shape::Cylinder { radius, half_length } => {
+            in_shape_frame(pose, p, |l| point_cylinder(l, *radius, *half_length)).point
+        }
         Shape::Convex(_) => return None,
     })
 }

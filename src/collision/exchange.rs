@@ -64,8 +64,12 @@ fn shape_json(name: &str, shape: &Shape, pose: &nalgebra::IsometryMatrix3<f64>) 
     let extra = match shape {
         Shape::Box { half_extents } => json!({"shape": "box", "half_extents": half_extents.as_slice()}),
         Shape::Sphere { radius } => json!({"shape": "sphere", "radius": radius}),
-        Shape::Cylinder { radius, half_length } => json!({"shape": "cylinder", "radius": radius, "length": 2.0 * half_length}),
-        Shape::Capsule { radius, half_length } => json!({"shape": "capsule", "radius": radius, "length": 2.0 * half_length}),
+        Shape::Cylinder { radius, half_length } => {
+            json!({"shape": "cylinder", "radius": radius, "length": 2.0 * half_length})
+        }
+        Shape::Capsule { radius, half_length } => {
+            json!({"shape": "capsule", "radius": radius, "length": 2.0 * half_length})
+        }
         Shape::Convex(_) => return None,
     };
     v.as_object_mut()?.extend(extra.as_object()?.clone());

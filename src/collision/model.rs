@@ -193,7 +193,8 @@ struct Compiler<'a> {
 impl Compiler<'_> {
     fn robot_links(&mut self, geometry: &RobotDescription, padding: f64) -> Result<(), CollisionError> {
         let own = self.robot.description();
-        if let Some(stray) = geometry.links().iter().find(|l| own.link(&l.name).is_none()) {
+        // A geometry link the robot lacks would silently lose its shapes: refuse it.
+        if let Some(stray) = geometry.links().iter().find(|l| !l.collisions.is_empty() && own.link(&l.name).is_none()) {
             return Err(CollisionError::UnknownName {
                 name: stray.name.clone(),
                 suggestions: crate::robot::suggest_names(&stray.name, own.links().iter().map(|l| l.name.as_str())),

@@ -57,6 +57,13 @@ fn aabb_distance_squared(p: &Point3<f64>, (lo, hi): &(Point3<f64>, Point3<f64>))
     d.norm_squared()
 }
 
+/// Whether a bounding-volume lower bound rules a pair out of "closer than
+/// `limit`". Overlapping volumes (bound ≤ 0) say nothing about how deep
+/// the shapes inside penetrate, so they never prune.
+fn prunes(bound: f64, limit: f64) -> bool {
+    bound > 0.0 && bound >= limit
+}
+
 impl CollisionModel {
     /// Places every moving object at `q`.
     fn place(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
@@ -147,12 +154,12 @@ impl CollisionModel {
         self.place(ws, q)?;
         ws.distances.clear();
         for gp in &self.group_pairs {
-            if self.group_bound(ws, gp.a, gp.b) >= cutoff {
+            if prunes(self.group_bound(ws, gp.a, gp.b), cutoff) {
                 continue;
             }
             for pair in gp.pairs.clone() {
                 let [i, j] = self.pairs[pair].map(|k| k as usize);
-                if self.object_bound(ws, i, j) >= cutoff {
+                if prunes(self.object_bound(ws, i, j), cutoff) {
                     continue;
                 }
                 let d = self.pair_distance(ws, pair);
@@ -162,6 +169,20 @@ impl CollisionModel {
             }
         }
         Ok(&ws.distances)
+    }
+
+    /// Signed distance of one pair at `q` (see [`pair_count`](Self::pair_count)).
+    ///
+    /// # Errors
+    /// A `q` of the wrong length or with non-finite values.
+    pub fn pair_distance_at(
+        &self,
+        ws: &mut CollisionWorkspace,
+        q: &[f64],
+        pair: usize,
+    ) -> Result<PairDistance, RobotError> {
+        self.place(ws, q)?;
+        Ok(self.pair_distance(ws, pair))
     }
 
     /// The closest pair at `q` (the deepest when penetrating); `None` when
@@ -174,12 +195,12 @@ impl CollisionModel {
         let mut best: Option<PairDistance> = None;
         let bound = |best: &Option<PairDistance>| best.map_or(f64::INFINITY, |b| b.signed.distance);
         for gp in &self.group_pairs {
-            if self.group_bound(ws, gp.a, gp.b) >= bound(&best) {
+            if prunes(self.group_bound(ws, gp.a, gp.b), bound(&best)) {
                 continue;
             }
             for pair in gp.pairs.clone() {
                 let [i, j] = self.pairs[pair].map(|k| k as usize);
-                if self.object_bound(ws, i, j) >= bound(&best) {
+                if prunes(self.object_bound(ws, i, j), bound(&best)) {
                     continue;
                 }
                 let d = self.pair_distance(ws, pair);

@@ -316,7 +316,10 @@ impl RawObstacleDistribution {
     fn build(self, src: &Source) -> Result<ObstacleDistribution, ProblemError> {
         let p = KeyPath::root().key("obstacles");
         if self.count[0] > self.count[1] || self.count[1] > 1000 {
-            return Err(src.error(&p.key("count"), "must be [min, max] with min ≤ max ≤ 1000"));
+            let [lo, hi] = self.count;
+            return Err(
+                src.error(&p.key("count"), format!("must be [min, max] with min ≤ max ≤ 1000, got [{lo}, {hi}]"))
+            );
         }
         if self.shapes.is_empty() {
             return Err(src.error(&p.key("shapes"), "needs at least one shape"));
@@ -333,10 +336,11 @@ impl RawObstacleDistribution {
         }
         let (min, max) = (Vector3::from(self.region_min), Vector3::from(self.region_max));
         if let Some(i) = (0..3).find(|&i| !(min[i].is_finite() && max[i].is_finite() && min[i] <= max[i])) {
-            return Err(src.error(&p.key("region_max").index(i), "region_max must be finite and ≥ region_min"));
+            let msg = format!("must be finite and ≥ region_min[{i}], got {} < {}", max[i], min[i]);
+            return Err(src.error(&p.key("region_max").index(i), msg));
         }
         if !(self.clearance.is_finite() && self.clearance >= 0.0) {
-            return Err(src.error(&p.key("clearance"), "must be zero or positive"));
+            return Err(src.error(&p.key("clearance"), format!("must be zero or positive, got {}", self.clearance)));
         }
         Ok(ObstacleDistribution {
             count: self.count,

@@ -196,7 +196,10 @@ impl Source<'_> {
 
     /// A TOML syntax or serde error, with the key found from its span.
     pub(crate) fn toml_error(&self, e: &toml::de::Error) -> ProblemError {
-        let span = e.span();
+        // A missing top-level key comes with an empty span at 0: no line or
+        // key of the file is to blame (it is not the first key's fault).
+        let top_level = e.message().starts_with("missing field");
+        let span = e.span().filter(|s| !(top_level && s.is_empty() && s.start == 0));
         let key = span.as_ref().and_then(|s| path_at(self.text, s.start)).map(|p| p.to_string());
         ProblemError::Invalid {
             file: self.origin.to_string(),

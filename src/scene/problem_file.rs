@@ -303,6 +303,10 @@ impl RawProblem {
         let start_path = root.key("start").key("q");
         check_configuration(&check, &robot, &start_path, &self.start.q)?;
         let goal = self.goal.build(&check, &root.key("goal"), &robot, &scene)?;
+        if matches!(goal, Goal::Grasp { .. }) && robot_spec.gripper.is_none() {
+            let msg = "a grasp goal needs `robot.gripper`, the frame that grasps";
+            return Err(src.error(&root.key("goal").key("grasp"), msg));
+        }
         let planner = self.planner.build(&check, &root.key("planner"))?;
         let optimizer = self.optimizer.build(&check, &root.key("optimizer"), &robot, &scene)?;
         Ok(Problem {
@@ -383,12 +387,23 @@ impl RawRobot {
                 return Err(src.error(&path.key(last), msg));
             }
         };
-        let mut builder = RobotModel::builder(desc.clone()).selection(selection.clone());
+        let plain = RobotModel::builder(desc.clone()).selection(selection.clone());
+        let mut builder = plain.clone();
         for (joint, value) in &self.hold {
             builder = builder.hold(joint.clone(), *value);
         }
-        let key = if self.hold.is_empty() { "urdf" } else { "hold" };
-        let robot = Arc::new(builder.build().map_err(|e| src.error(&path.key(key), e.to_string()))?);
+        let robot = Arc::new(builder.build().map_err(|e| {
+            // Blame the joint selection when it fails on its own, else the
+            // first held joint that fails.
+            let at = if plain.clone().build().is_err() {
+                let given = [("joints", self.joints.is_some()), ("chain", self.chain.is_some())];
+                path.key(given.iter().find(|(_, present)| *present).map_or("urdf", |(k, _)| k))
+            } else {
+                let bad = self.hold.iter().find(|(j, v)| plain.clone().hold((*j).clone(), **v).build().is_err());
+                bad.map_or(path.key("hold"), |(j, _)| path.key("hold").key(j))
+            };
+            src.error(&at, e.to_string())
+        })?);
         if let Some(g) = &self.gripper {
             robot.frame_id(g).map_err(|e| src.error(&path.key("gripper"), e.to_string()))?;
         }
