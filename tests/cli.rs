@@ -141,3 +141,48 @@ fn policy_rolls_out_to_the_goal_and_plots() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--slice"), "{}", stderr(&o));
 }
+
+#[test]
+fn check_json_reports_the_documented_fields() {
+    let o = tandem(&["check", "problems/panda_grasp_box.toml", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert_eq!(text.trim().lines().count(), 1, "exactly one line: {text}");
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["valid"], true);
+    assert_eq!(v["collision_free"], true);
+    assert!(v["min_distance"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["closest_pair"].as_array().unwrap().len(), 2);
+    // A configuration through the wall of panda_reach_obstacle.
+    let o = tandem(&["check", "builtin:panda_reach_obstacle", "--q", "0.1,0.5,0,-1.2,0,0.3,0", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["collision_free"], false);
+    assert!(v["min_distance"].as_f64().unwrap() < -0.05);
+    assert_eq!(v["closest_pair"], serde_json::json!(["panda_hand", "wall"]));
+    assert!(v["colliding_pairs"].as_array().unwrap().iter().any(|p| p[1] == "wall"));
+}
+
+#[test]
+fn check_names_file_key_and_line_of_a_bad_problem() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    let text = std::fs::read_to_string(common::repo().join("problems/panda_reach.toml"))
+        .unwrap()
+        .replace("size = [1.4, 1.6]", "size = [1.4, -1.6]")
+        .replace("robots/panda/panda.urdf", common::repo().join("problems/robots/panda/panda.urdf").to_str().unwrap());
+    std::fs::write(&bad, &text).unwrap();
+    let line = text.lines().position(|l| l.contains("-1.6")).unwrap() + 1;
+    let o = tandem(&["check", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(err.contains(&format!("bad.toml:{line}: scene.table.size[1]")), "{err}");
+    let o = tandem(&["check", bad.to_str().unwrap(), "--json"]);
+    assert_eq!(o.status.code(), Some(1));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["valid"], false);
+    assert!(v["error"].as_str().unwrap().contains("scene.table.size[1]"));
+    let o = tandem(&["check", "problems/panda_reach.toml", "--q", "0,0,0"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("expected 7 joint values"), "{}", stderr(&o));
+}

@@ -54,6 +54,39 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "FK + tcp Jacobian: {per_call:.0} ns per call over {n} calls (checksum {checksum:.3}); see `cargo bench` for measured medians"
     );
+    collision_sweep(steps)?;
     println!("planning, optimization, tracking and arbitration join this command as they land.");
+    Ok(())
+}
+
+/// The embedded reach-and-grasp problem: clearance along the elbow sweep.
+fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
+    let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
+    let model = problem.collision_model()?;
+    let mut ws = crate::collision::CollisionWorkspace::new(&model);
+    println!(
+        "problem {}: {} ({} object pairs checked); leaning forward (panda_joint2), the closest scene object:",
+        problem.name,
+        problem.description,
+        model.pair_count()
+    );
+    for s in 0..steps {
+        // Leaning forward from the start: the gripper comes down to the table.
+        let mut q = problem.start.clone();
+        q[1] += 1.9 * s as f64 / (steps - 1) as f64;
+        let free = model.collision_free(&mut ws, &q)?;
+        // The scene's clearance, not the arm's own (self pairs are in the check above).
+        let is_scene = |pair: usize| problem.robot.description().link(model.pair_names(pair).1).is_none();
+        let closest = model
+            .distances(&mut ws, &q, f64::INFINITY)?
+            .iter()
+            .filter(|d| is_scene(d.pair))
+            .min_by(|x, y| x.signed.distance.total_cmp(&y.signed.distance));
+        if let Some(d) = closest {
+            let (a, b) = model.pair_names(d.pair);
+            let state = if free { "free     " } else { "COLLISION" };
+            println!("  q2 = {:>7.4} rad  {state}  {:>7.4} m between {a} and {b}", q[1], d.signed.distance);
+        }
+    }
     Ok(())
 }
