@@ -32,8 +32,13 @@ fn model() -> CollisionModel {
             _ => Shape::cylinder(s / 2.0, rng.random_range(0.1..0.3)),
         };
         let p = Vector3::new(rng.random_range(-0.6..0.8), rng.random_range(-0.7..0.7), rng.random_range(0.1..1.0));
-        let r = Rotation3::from_euler_angles(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-3.0..3.0));
-        let obstacle = Obstacle::new(format!("random_{k}"), shape, IsometryMatrix3::from_parts(Translation3::from(p), r));
+        let r = Rotation3::from_euler_angles(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-3.0..3.0),
+        );
+        let obstacle =
+            Obstacle::new(format!("random_{k}"), shape, IsometryMatrix3::from_parts(Translation3::from(p), r));
         problem.scene.add_obstacle(obstacle).expect("valid obstacle");
     }
     problem.collision_model().expect("collision model")
