@@ -12,7 +12,8 @@ use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder};
 
 /// How far apart two shapes are, with the points that realise it.
 ///
-/// `point_b − point_a = distance · normal`. When the shapes penetrate,
+/// `point_b − point_a = distance · normal` (exactly for closed-form pairs,
+/// to GJK/EPA's tolerance otherwise). When the shapes penetrate,
 /// `distance` is minus the penetration depth and the witness points are the
 /// deepest points of each shape inside the other.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -377,7 +378,8 @@ mod tests {
                     let exact = signed_distance(a, &pa, b, &pb);
                     let reference = general(a, &pa, b, &pb);
                     assert!(
-                        ((exact.point_b - exact.point_a) - exact.normal * exact.distance).norm() < 1e-12,
+                        // Exact for closed forms; EPA's witnesses hold it to its tolerance.
+                        ((exact.point_b - exact.point_a) - exact.normal * exact.distance).norm() < 1e-6,
                         "{i} {j} {k}: {exact:?}"
                     );
                     worst = worst.max((exact.distance - reference.distance).abs());

@@ -154,6 +154,6 @@ mod tests {
         // A missing key falls back to the nearest ancestor that exists.
         assert_eq!(line_of_path(DOC, &KeyPath::root().key("robot").key("srdf")), Some(2));
         let offset = DOC.find("[1, 2, 3]").unwrap() + 4;
-        assert_eq!(path_at(DOC, offset).unwrap().to_string(), "scene.obstacles[0].size");
+        assert_eq!(path_at(DOC, offset).unwrap().to_string(), "scene.obstacles[0].size[1]");
     }
 }
