@@ -91,6 +91,8 @@ pub enum Command {
     /// Examples:
     ///   tandem check problems/panda_grasp_box.toml
     ///   tandem check builtin:panda_reach_obstacle --q 0,0,0,-1.5,0,1.5,0 --json
+    ///   tandem check --urdf panda_spherized.urdf --srdf panda.srdf
+    ///     --scene scene0001.yaml --request request0001.yaml
     #[command(verbatim_doc_comment)]
     Check(check::CheckArgs),
 }

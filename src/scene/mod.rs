@@ -17,11 +17,13 @@
 //! ```
 
 mod family;
+mod moveit;
 mod problem;
 mod problem_file;
 mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
+pub use moveit::{MoveItRequest, read_moveit_request, read_moveit_scene};
 pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
     RobotSpec, TimeRange,
