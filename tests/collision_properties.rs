@@ -256,3 +256,40 @@ fn bad_inputs_are_typed_errors() {
     let err = CollisionModel::builder(Arc::new(RobotModel::panda())).scene(&s).build().unwrap_err();
     assert!(err.to_string().contains("nothing_here"));
 }
+
+#[test]
+fn certified_motions_keep_their_clearance_everywhere() {
+    let (robot, scene) = cluttered();
+    let model = CollisionModel::builder(robot.clone()).scene(&scene).build().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    let ready = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+    let configs: Vec<Vec<f64>> = random_configurations(&robot, 240, 37)
+        .into_iter()
+        .map(|q| q.iter().zip(ready).map(|(v, r)| r + 0.4 * (v - r)).collect())
+        .collect();
+    let clearance = 0.004;
+    let (mut certified, mut refused) = (0, 0);
+    for pair in configs.chunks(2) {
+        // Short motions, a third of the way to the other configuration.
+        let end: Vec<f64> = pair[0].iter().zip(&pair[1]).map(|(a, b)| a + (b - a) / 3.0).collect();
+        let pair = [pair[0].clone(), end];
+        let ok = model.motion_free_certified(&mut ws, &pair[0], &pair[1], clearance).unwrap();
+        // Dense sampling: 2000 configurations along the motion.
+        let mut lowest = f64::INFINITY;
+        for k in 0..=2000 {
+            let t = k as f64 / 2000.0;
+            let q: Vec<f64> = pair[0].iter().zip(&pair[1]).map(|(a, b)| a + (b - a) * t).collect();
+            lowest = lowest.min(model.min_distance(&mut ws, &q).unwrap().unwrap().signed.distance);
+        }
+        if ok {
+            assert!(lowest >= clearance / 2.0, "certified, yet a configuration is {lowest} m close");
+            certified += 1;
+        } else {
+            // Refusals are real near-contacts, not artefacts of a loose bound.
+            assert!(lowest < clearance, "refused a motion with {lowest} m of clearance");
+            refused += 1;
+        }
+    }
+    println!("{certified} motions certified, {refused} refused");
+    assert!(certified > 10 && refused > 10);
+}

@@ -14,6 +14,7 @@ mod check;
 mod demo;
 mod inspect;
 mod kinematics;
+mod plan;
 mod policy;
 
 use clap::{Parser, Subcommand};
@@ -95,6 +96,19 @@ pub enum Command {
     ///     --scene scene0001.yaml --request request0001.yaml
     #[command(verbatim_doc_comment)]
     Check(check::CheckArgs),
+    /// Plan a collision-free joint-space path with RRT-Connect, then
+    /// shortcut it.
+    ///
+    /// Pose and grasp goals are solved by inverse kinematics first (several
+    /// collision-free solutions form the goal set). Settings come from the
+    /// problem's [planner] table; the same seed gives the same path.
+    ///
+    /// Examples:
+    ///   tandem plan problems/panda_reach_obstacle.toml --seed 3 --svg path.svg
+    ///   tandem plan --urdf panda_spherized.urdf --srdf panda.srdf
+    ///     --scene scene0001.yaml --request request0001.yaml --json
+    #[command(verbatim_doc_comment)]
+    Plan(plan::PlanArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -108,6 +122,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Fk(args) => kinematics::run(&args),
         Command::Policy(args) => policy::run(&args),
         Command::Check(args) => check::run(&args),
+        Command::Plan(args) => plan::run(&args),
     }
 }
 

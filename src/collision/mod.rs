@@ -31,6 +31,7 @@
 mod distance;
 mod exchange;
 mod model;
+mod motion;
 mod query;
 mod shape;
 

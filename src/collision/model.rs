@@ -55,6 +55,9 @@ pub(crate) struct GroupPair {
     pub(crate) a: usize,
     pub(crate) b: usize,
     pub(crate) pairs: Range<usize>,
+    /// The bodies whose joints change the pair's relative pose (ancestors of
+    /// one group's body but not of the other's), in `CollisionModel::movers`.
+    pub(crate) movers: Range<usize>,
 }
 
 /// The robot and its scene as collision geometry, with the pairs to check.
@@ -69,6 +72,11 @@ pub struct CollisionModel {
     pub(crate) group_pairs: Vec<GroupPair>,
     /// Object index pairs, grouped by group pair.
     pub(crate) pairs: Vec<[u32; 2]>,
+    /// Bodies listed by [`GroupPair::movers`].
+    pub(crate) movers: Vec<u32>,
+    /// Per body: an upper bound (m) of the distance from its joint axis
+    /// origin to any point of a collision object it moves, for every q.
+    pub(crate) levers: Vec<f64>,
     padding: f64,
 }
 
@@ -152,8 +160,19 @@ impl CollisionModelBuilder {
                 _ => listed(self.scene.allowed_contacts()),
             }
         };
-        let (group_pairs, pairs) = pair_up(&groups, is_excluded);
-        Ok(CollisionModel { robot: self.robot, objects, groups, group_pairs, pairs, padding: self.padding })
+        let (mut group_pairs, pairs) = pair_up(&groups, is_excluded);
+        let levers = levers(&self.robot, &objects, &groups);
+        let movers = list_movers(&self.robot, &groups, &mut group_pairs);
+        Ok(CollisionModel {
+            robot: self.robot,
+            objects,
+            groups,
+            group_pairs,
+            pairs,
+            movers,
+            levers,
+            padding: self.padding,
+        })
     }
 }
 
@@ -179,7 +198,7 @@ fn pair_up(groups: &[Group], excluded: impl Fn(&Group, &Group) -> bool) -> (Vec<
                 pairs.push([i as u32, j as u32]);
             }
         }
-        group_pairs.push(GroupPair { a, b, pairs: start..pairs.len() });
+        group_pairs.push(GroupPair { a, b, pairs: start..pairs.len(), movers: 0..0 });
     }
     (group_pairs, pairs)
 }
@@ -272,6 +291,52 @@ impl Compiler<'_> {
         let objects = start..self.objects.len();
         self.groups.push(Group { name: name.to_string(), body, objects, center, radius, aabb });
     }
+}
+
+/// For each body, the largest distance from its joint origin to a point of
+/// an object it carries or moves through its descendants: the offsets of
+/// the bodies in between plus the object's centre offset and radius
+/// (triangle inequality, so valid for every configuration).
+fn levers(robot: &RobotModel, objects: &[CollisionObject], groups: &[Group]) -> Vec<f64> {
+    let mut levers = vec![0.0f64; robot.body_count()];
+    for o in objects {
+        let Some(mut body) = groups[o.group].body else { continue };
+        let mut reach = o.local.translation.vector.norm() + o.radius;
+        loop {
+            levers[body] = levers[body].max(reach);
+            if body == 0 {
+                break;
+            }
+            reach += robot.body_joint(body).3;
+            body = robot.parent_body(body);
+        }
+    }
+    levers
+}
+
+/// Bodies from `body` up to (not including) the root.
+fn ancestors(robot: &RobotModel, body: Option<usize>) -> Vec<u32> {
+    let mut out = Vec::new();
+    let mut b = body.unwrap_or(0);
+    while b != 0 {
+        out.push(b as u32);
+        b = robot.parent_body(b);
+    }
+    out
+}
+
+/// Fills each group pair's movers: the joints moving one side but not the
+/// other, the only ones that change the pair's distance.
+fn list_movers(robot: &RobotModel, groups: &[Group], group_pairs: &mut [GroupPair]) -> Vec<u32> {
+    let mut movers = Vec::new();
+    for gp in group_pairs {
+        let (a, b) = (ancestors(robot, groups[gp.a].body), ancestors(robot, groups[gp.b].body));
+        let start = movers.len();
+        movers.extend(a.iter().filter(|x| !b.contains(x)));
+        movers.extend(b.iter().filter(|x| !a.contains(x)));
+        gp.movers = start..movers.len();
+    }
+    movers
 }
 
 /// Tight world bounding box of a shape at `pose`.

@@ -12,13 +12,15 @@ use nalgebra::{IsometryMatrix3, Point3, Vector3};
 /// Per-thread mutable state of collision queries.
 #[derive(Debug, Clone)]
 pub struct CollisionWorkspace {
-    kinematics: KinematicsWorkspace,
+    pub(crate) kinematics: KinematicsWorkspace,
     /// World pose of every object (static ones set once).
-    poses: Vec<IsometryMatrix3<f64>>,
+    pub(crate) poses: Vec<IsometryMatrix3<f64>>,
     /// World bounding-ball centre of every group.
-    centers: Vec<Point3<f64>>,
+    pub(crate) centers: Vec<Point3<f64>>,
     distances: Vec<PairDistance>,
-    q: Vec<f64>,
+    pub(crate) q: Vec<f64>,
+    /// Per group pair: bound of relative motion over the current edge (m).
+    pub(crate) sweeps: Vec<f64>,
 }
 
 /// Signed distance of one object pair.
@@ -42,6 +44,7 @@ impl CollisionWorkspace {
             centers,
             distances: Vec::with_capacity(model.pairs.len()),
             q: vec![0.0; model.robot.nq()],
+            sweeps: vec![0.0; model.group_pairs.len()],
         }
     }
 
@@ -60,13 +63,13 @@ fn aabb_distance_squared(p: &Point3<f64>, (lo, hi): &(Point3<f64>, Point3<f64>))
 /// Whether a bounding-volume lower bound rules a pair out of "closer than
 /// `limit`". Overlapping volumes (bound ≤ 0) say nothing about how deep
 /// the shapes inside penetrate, so they never prune.
-fn prunes(bound: f64, limit: f64) -> bool {
+pub(crate) fn prunes(bound: f64, limit: f64) -> bool {
     bound > 0.0 && bound >= limit
 }
 
 impl CollisionModel {
     /// Places every moving object at `q`.
-    fn place(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
+    pub(crate) fn place(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
         self.robot.forward_kinematics(&mut ws.kinematics, q)?;
         for (g, group) in self.groups.iter().enumerate() {
             let Some(body) = group.body else { continue };
@@ -80,7 +83,7 @@ impl CollisionModel {
     }
 
     /// Lower bound of the distance between two groups' shapes (m).
-    fn group_bound(&self, ws: &CollisionWorkspace, a: usize, b: usize) -> f64 {
+    pub(crate) fn group_bound(&self, ws: &CollisionWorkspace, a: usize, b: usize) -> f64 {
         let (ga, gb): (&Group, &Group) = (&self.groups[a], &self.groups[b]);
         match &gb.aabb {
             Some(aabb) => aabb_distance_squared(&ws.centers[a], aabb).sqrt() - ga.radius,
@@ -89,7 +92,7 @@ impl CollisionModel {
     }
 
     /// Lower bound of the distance between two objects' shapes (m).
-    fn object_bound(&self, ws: &CollisionWorkspace, i: usize, j: usize) -> f64 {
+    pub(crate) fn object_bound(&self, ws: &CollisionWorkspace, i: usize, j: usize) -> f64 {
         let (oi, oj) = (&self.objects[i], &self.objects[j]);
         let ci = Point3::from(ws.poses[i].translation.vector);
         match &oj.aabb {
@@ -99,7 +102,7 @@ impl CollisionModel {
     }
 
     /// Exact signed distance of pair `pair` at the placed poses.
-    fn pair_distance(&self, ws: &CollisionWorkspace, pair: usize) -> PairDistance {
+    pub(crate) fn pair_distance(&self, ws: &CollisionWorkspace, pair: usize) -> PairDistance {
         let [i, j] = self.pairs[pair].map(|k| k as usize);
         let (oi, oj) = (&self.objects[i], &self.objects[j]);
         let mut d = signed_distance(&oi.shape, &ws.poses[i], &oj.shape, &ws.poses[j]);
@@ -251,56 +254,5 @@ impl CollisionModel {
             }
         }
         Ok(())
-    }
-
-    /// True when the straight joint-space motion from `q0` to `q1` is
-    /// collision-free at `resolution`: configurations are checked so that
-    /// no joint moves more than `resolution` (rad or m) between two checked
-    /// ones, both ends included, coarse to fine for an early exit.
-    ///
-    /// # Errors
-    /// Bad configurations; a non-positive or non-finite `resolution`
-    /// ([`RobotError::NonFinite`] names it as joint `resolution`).
-    pub fn motion_free(
-        &self,
-        ws: &mut CollisionWorkspace,
-        q0: &[f64],
-        q1: &[f64],
-        resolution: f64,
-    ) -> Result<bool, RobotError> {
-        self.robot.check_configuration(q0)?;
-        self.robot.check_configuration(q1)?;
-        if !(resolution.is_finite() && resolution > 0.0) {
-            return Err(RobotError::NonFinite { joint: "resolution".into(), index: 0, value: resolution });
-        }
-        let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
-        let steps = ((span / resolution).ceil() as usize).max(1);
-        let check = |ws: &mut CollisionWorkspace, k: usize| {
-            let t = k as f64 / steps as f64;
-            let mut q = std::mem::take(&mut ws.q);
-            for ((v, a), b) in q.iter_mut().zip(q0).zip(q1) {
-                *v = a + (b - a) * t;
-            }
-            let free = self.collision_free(ws, &q);
-            ws.q = q;
-            free
-        };
-        if !check(ws, steps)? || !check(ws, 0)? {
-            return Ok(false);
-        }
-        // Odd multiples of `half` at each level: every interior step once.
-        let mut stride = steps.next_power_of_two();
-        while stride > 1 {
-            let half = stride / 2;
-            let mut k = half;
-            while k < steps {
-                if !check(ws, k)? {
-                    return Ok(false);
-                }
-                k += stride;
-            }
-            stride = half;
-        }
-        Ok(true)
     }
 }

@@ -231,6 +231,20 @@ impl RobotModel {
         self.bodies[body].parent
     }
 
+    /// Number of bodies (the root included, as body 0).
+    pub(crate) fn body_count(&self) -> usize {
+        self.bodies.len()
+    }
+
+    /// How body `body` moves: the q column driving it, the multiplier of
+    /// its joint value, whether it slides, and the distance of its joint
+    /// origin from its parent's (m, independent of q).
+    pub(crate) fn body_joint(&self, body: usize) -> (usize, f64, bool, f64) {
+        let b = &self.bodies[body];
+        let offset = b.placement.after(&IsometryMatrix3::identity()).translation.vector.norm();
+        (b.column, b.multiplier, b.motion.is_prismatic(), offset)
+    }
+
     fn check_columns(&self, got: usize) -> Result<(), RobotError> {
         if got == self.nq() { Ok(()) } else { Err(RobotError::OutputShape { expected: self.nq(), got }) }
     }

@@ -53,8 +53,12 @@ pub struct PlannerSettings {
     pub seed: u64,
     /// Largest joint-space step of a tree extension (rad, Euclidean).
     pub step: f64,
-    /// Edge validation resolution: largest joint move between checks (rad).
+    /// Edge validation resolution: largest joint move between checks (rad),
+    /// used when `clearance` is 0.
     pub resolution: f64,
+    /// Certified edge validation (m): every configuration of an edge keeps
+    /// at least clearance / 2 from everything; 0 switches to `resolution`.
+    pub clearance: f64,
     /// Wall-clock budget (s).
     pub time_limit: f64,
     /// Iteration budget.
@@ -63,7 +67,14 @@ pub struct PlannerSettings {
 
 impl Default for PlannerSettings {
     fn default() -> Self {
-        PlannerSettings { seed: 0, step: 0.5, resolution: 0.02, time_limit: 1.0, max_iterations: 100_000 }
+        PlannerSettings {
+            seed: 0,
+            step: 0.5,
+            resolution: 0.005,
+            clearance: 0.001,
+            time_limit: 1.0,
+            max_iterations: 100_000,
+        }
     }
 }
 

@@ -136,6 +136,7 @@ struct RawPlanner {
     seed: Option<u64>,
     step: Option<f64>,
     resolution: Option<f64>,
+    clearance: Option<f64>,
     time_limit: Option<f64>,
     max_iterations: Option<usize>,
 }
@@ -580,6 +581,7 @@ impl RawPlanner {
             seed: self.seed.unwrap_or(d.seed),
             step: pos("step", self.step, d.step)?,
             resolution: pos("resolution", self.resolution, d.resolution)?,
+            clearance: check.non_negative(&path.key("clearance"), self.clearance.unwrap_or(d.clearance))?,
             time_limit: pos("time_limit", self.time_limit, d.time_limit)?,
             max_iterations,
         })

@@ -1,0 +1,134 @@
+//! `tandem plan`: RRT-Connect on a problem file or MoveIt inputs.
+
+use super::check::MoveItArgs;
+use crate::plan::{PlanReport, path_length, plan_problem};
+use crate::plot::SvgPlot;
+use crate::robot::KinematicsWorkspace;
+use crate::scene::Problem;
+use std::path::PathBuf;
+
+/// Arguments of `tandem plan`.
+#[derive(Debug, clap::Args)]
+pub struct PlanArgs {
+    /// Problem file (TOML) or `builtin:NAME`; omit it for MoveIt inputs
+    /// (--urdf, --srdf, --scene, --request).
+    #[arg(required_unless_present = "scene")]
+    pub problem: Option<PathBuf>,
+    #[command(flatten)]
+    pub moveit: MoveItArgs,
+    /// Seed of the planner (default: the problem's planner.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Print exactly one JSON object: {"status", "time_ms", "iterations",
+    /// "waypoints" [[q], ...] (after shortcutting), "path_length" (rad,
+    /// joint space), "simplify_ms", "nodes", "raw_waypoints", "certified"
+    /// (every edge passed the certified clearance check), "attempts"}.
+    #[arg(long)]
+    pub json: bool,
+    /// Write an SVG of the gripper (or last link) path seen from above and
+    /// from the side.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+}
+
+fn load(args: &PlanArgs) -> Result<Problem, Box<dyn std::error::Error>> {
+    if let Some(problem) = args.moveit.load() {
+        return Ok(problem?);
+    }
+    let path = args.problem.as_deref().ok_or("give a problem file, or --urdf --srdf --scene --request")?;
+    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
+        Some(name) => Ok(Problem::builtin(name)?),
+        None => Ok(Problem::from_file(path)?),
+    }
+}
+
+pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let problem = load(args)?;
+    let report = plan_problem(&problem, args.seed)?;
+    if let Some(file) = &args.svg {
+        std::fs::write(file, path_svg(&problem, &report)?)
+            .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+    }
+    let r = &report.result;
+    let ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    if args.json {
+        let out = serde_json::json!({
+            "status": r.status.name(),
+            "time_ms": ms(report.planning_time),
+            "iterations": r.iterations,
+            "waypoints": report.path,
+            "path_length": path_length(&report.path),
+            "simplify_ms": ms(report.simplify_time),
+            "nodes": r.nodes,
+            "raw_waypoints": r.path.len(),
+            "certified": report.certified,
+            "attempts": report.attempts,
+        });
+        println!("{out}");
+    } else {
+        println!("problem {} ({}): {}", problem.name, problem.origin, r.status.name());
+        if r.status == crate::plan::PlanStatus::Solved {
+            let clearance = problem.planner.clearance;
+            match report.certified {
+                true => println!("every edge certified to keep {:.1} mm of clearance", clearance * 500.0),
+                false => println!("edges checked every {} rad, not certified", problem.planner.resolution),
+            }
+        }
+        println!(
+            "planning {:.2} ms ({} iterations, {} nodes, {} goal configurations), shortcutting {:.2} ms",
+            ms(report.planning_time),
+            r.iterations,
+            r.nodes,
+            report.goals.len(),
+            ms(report.simplify_time)
+        );
+        if !report.path.is_empty() {
+            println!(
+                "path: {} waypoints, {:.3} rad (raw: {} waypoints, {:.3} rad)",
+                report.path.len(),
+                path_length(&report.path),
+                r.path.len(),
+                path_length(&r.path)
+            );
+            for q in &report.path {
+                let v: Vec<String> = q.iter().map(|x| format!("{x:.4}")).collect();
+                println!("  [{}]", v.join(", "));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Top (x, y) and side (x, z) views of the end-effector path, densely
+/// interpolated between waypoints.
+fn path_svg(problem: &Problem, report: &PlanReport) -> Result<String, Box<dyn std::error::Error>> {
+    let robot = &problem.robot;
+    let frame = match &problem.robot_spec.gripper {
+        Some(g) => robot.frame_id(g)?,
+        None => robot.link_frame(robot.description().links().len() - 1),
+    };
+    let mut ws = KinematicsWorkspace::new(robot);
+    let mut points = Vec::new();
+    let dense = crate::plan::resample(&report.path, 200);
+    for q in &dense {
+        robot.forward_kinematics(&mut ws, q)?;
+        points.push(robot.frame_pose(&ws, frame).translation.vector);
+    }
+    let mut plot = SvgPlot::new(&format!("{}: {} path", problem.name, robot.frame_name(frame)), "x (m)", "y or z (m)");
+    let top: Vec<(f64, f64)> = points.iter().map(|p| (p.x, p.y)).collect();
+    let side: Vec<(f64, f64)> = points.iter().map(|p| (p.x, p.z)).collect();
+    plot.line(&top, "#1f77b4", 2.0, Some("top view (x, y)"));
+    plot.dashed_line(&side, "#d62728", 2.0, Some("side view (x, z)"));
+    for (view, color) in [(&top, "#1f77b4"), (&side, "#d62728")] {
+        if let (Some(a), Some(b)) = (view.first(), view.last()) {
+            plot.marker(*a, color, 5.0);
+            plot.marker(*b, "#2ca02c", 5.0);
+        }
+    }
+    for o in problem.scene.obstacles().iter().filter(|o| o.name != "table") {
+        let c = o.pose.translation.vector;
+        plot.marker((c.x, c.y), "#7f7f7f", 8.0);
+        plot.marker((c.x, c.z), "#7f7f7f", 8.0);
+    }
+    Ok(plot.render(720.0, 540.0))
+}

@@ -1,0 +1,164 @@
+//! Collision-free seeds for the optimizer: inverse kinematics for pose and
+//! grasp goals, RRT-Connect in the active joint space, shortcutting and
+//! resampling to the optimizer's horizon.
+//!
+//! ```
+//! use tandem::plan::plan_problem;
+//! use tandem::scene::Problem;
+//! let problem = Problem::builtin("panda_reach_obstacle").unwrap();
+//! let report = plan_problem(&problem, Some(1)).unwrap();
+//! assert_eq!(report.result.status, tandem::plan::PlanStatus::Solved);
+//! println!("{} waypoints, {:.2} rad", report.path.len(), tandem::plan::path_length(&report.path));
+//! ```
+
+mod ik;
+mod nearest;
+mod postprocess;
+mod rrt;
+
+pub use ik::{IkError, IkSettings, IkTarget, solve_ik};
+pub use postprocess::{path_length, resample, shortcut};
+pub use rrt::{EdgeCheck, PlanResult, PlanStatus, RrtSettings, rrt_connect};
+
+use crate::collision::{CollisionError, CollisionModel, CollisionWorkspace};
+use crate::robot::RobotError;
+use crate::scene::{Goal, Problem};
+use std::time::{Duration, Instant};
+use thiserror::Error;
+
+/// Errors planning a problem (a failed search is not an error: see [`PlanStatus`]).
+#[derive(Debug, Error)]
+pub enum PlanError {
+    #[error(transparent)]
+    Collision(#[from] CollisionError),
+    #[error("goal: {0}")]
+    Ik(#[from] IkError),
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    /// A grasp goal names no gripper frame.
+    #[error("the problem's goal needs robot.gripper")]
+    NoGripper,
+}
+
+/// A planned problem.
+#[derive(Debug, Clone)]
+pub struct PlanReport {
+    /// The raw RRT-Connect result.
+    pub result: PlanResult,
+    /// The goal configurations the planner aimed at.
+    pub goals: Vec<Vec<f64>>,
+    /// The shortcut path (empty unless solved).
+    pub path: Vec<Vec<f64>>,
+    /// Time of IK + planning, and of shortcutting (and certification).
+    pub planning_time: Duration,
+    pub simplify_time: Duration,
+    /// Whether every edge of `path` passed the certified check (see
+    /// [`CollisionModel::motion_free_certified`]) with the problem's
+    /// planner clearance; false also when the clearance is 0 (not asked).
+    pub certified: bool,
+    /// Planner runs (seeds) it took: a search whose path fails
+    /// certification is redone with the next seed, up to 4 times.
+    pub attempts: usize,
+}
+
+/// Number of IK solutions sought for pose and grasp goals.
+const GOAL_SOLUTIONS: usize = 4;
+
+/// Goal configurations of `problem`: its joint goal, or IK solutions for a
+/// pose or grasp goal (gripper frame onto the grasp frame).
+///
+/// # Errors
+/// IK failures, with the reason.
+pub fn goal_configurations(
+    problem: &Problem,
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    seed: u64,
+) -> Result<Vec<Vec<f64>>, PlanError> {
+    let robot = &problem.robot;
+    let target = match &problem.goal {
+        Goal::Joints(q) => return Ok(vec![q.clone()]),
+        Goal::Pose { frame, position, orientation, axis_alignment } => IkTarget {
+            frame: robot.frame_id(frame)?,
+            position: *position,
+            orientation: *orientation,
+            axis_alignment: *axis_alignment,
+        },
+        Goal::Grasp { .. } => {
+            let gripper = problem.robot_spec.gripper.as_deref().ok_or(PlanError::NoGripper)?;
+            let pose = problem.grasp_target().ok_or(PlanError::NoGripper)?;
+            IkTarget {
+                frame: robot.frame_id(gripper)?,
+                position: pose.translation.vector,
+                orientation: Some(pose.rotation),
+                axis_alignment: None,
+            }
+        }
+    };
+    let settings = IkSettings { seed, ..IkSettings::default() };
+    Ok(solve_ik(model, ws, &target, &problem.start, GOAL_SOLUTIONS, &settings)?)
+}
+
+/// Plans `problem` with its planner settings (seed overridden by `seed`),
+/// then shortcuts the path.
+///
+/// # Errors
+/// A collision model that cannot be built, unreachable goals.
+pub fn plan_problem(problem: &Problem, seed: Option<u64>) -> Result<PlanReport, PlanError> {
+    let began = Instant::now();
+    let model = problem.collision_model()?;
+    let mut ws = CollisionWorkspace::new(&model);
+    let clearance = problem.planner.clearance;
+    // The search runs on shapes padded by the clearance, so the discrete
+    // edge samples keep a margin that the certification below can rely on.
+    let mut padded = problem.clone();
+    padded.robot_spec.padding += clearance;
+    let search = padded.collision_model()?;
+    let mut search_ws = CollisionWorkspace::new(&search);
+    let mut settings = RrtSettings::from(&problem.planner);
+    let base_seed = seed.unwrap_or(settings.seed);
+    let goals = goal_configurations(problem, &model, &mut ws, base_seed)?;
+    let mut simplify_time = Duration::ZERO;
+    let mut attempt = 0;
+    loop {
+        // A search whose final path fails certification is redone with the next seed.
+        settings.seed = base_seed.wrapping_add(attempt as u64);
+        attempt += 1;
+        let result = rrt_connect(&search, &mut search_ws, &problem.start, &goals, &settings)?;
+        let planning_time = began.elapsed() - simplify_time;
+        if result.status != PlanStatus::Solved {
+            let path = Vec::new();
+            return Ok(PlanReport {
+                result,
+                goals,
+                path,
+                planning_time,
+                simplify_time,
+                certified: false,
+                attempts: attempt,
+            });
+        }
+        let t = Instant::now();
+        let path = shortcut(&search, &mut search_ws, &result.path, settings.edge, 100, settings.seed)?;
+        let certified = clearance > 0.0 && certify(&model, &mut ws, &path, clearance / 2.0)?;
+        simplify_time += t.elapsed();
+        if certified || clearance == 0.0 || attempt >= 4 {
+            return Ok(PlanReport { result, goals, path, planning_time, simplify_time, certified, attempts: attempt });
+        }
+    }
+}
+
+/// Whether every edge of `path` passes the certified motion check.
+fn certify(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    path: &[Vec<f64>],
+    clearance: f64,
+) -> Result<bool, RobotError> {
+    for w in path.windows(2) {
+        if !model.motion_free_certified(ws, &w[0], &w[1], clearance)? {
+            return Ok(false);
+        }
+    }
+    Ok(true)
+}

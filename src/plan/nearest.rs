@@ -1,0 +1,112 @@
+//! Nearest-neighbour search over a growing set of configurations: an
+//! incremental k-d tree (split axis cycling with depth). RRT inserts points
+//! in random order, which keeps such a tree balanced in expectation, so
+//! queries stay logarithmic-ish to 100k nodes without rebuilding.
+
+/// Points of dimension `dim`, stored flat, with a k-d tree over them.
+#[derive(Debug, Clone)]
+pub(crate) struct NearestNeighbors {
+    dim: usize,
+    points: Vec<f64>,
+    /// Children of each node (u32::MAX: none).
+    left: Vec<u32>,
+    right: Vec<u32>,
+    /// Explicit stack of the search, kept to avoid allocating per query.
+    stack: Vec<(u32, u32, f64)>,
+}
+
+const NONE: u32 = u32::MAX;
+
+impl NearestNeighbors {
+    pub(crate) fn new(dim: usize) -> Self {
+        NearestNeighbors { dim, points: Vec::new(), left: Vec::new(), right: Vec::new(), stack: Vec::new() }
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.left.len()
+    }
+
+    pub(crate) fn point(&self, i: usize) -> &[f64] {
+        &self.points[i * self.dim..(i + 1) * self.dim]
+    }
+
+    /// Adds `p`; returns its index.
+    pub(crate) fn insert(&mut self, p: &[f64]) -> usize {
+        let index = self.len() as u32;
+        self.points.extend_from_slice(p);
+        self.left.push(NONE);
+        self.right.push(NONE);
+        if index == 0 {
+            return 0;
+        }
+        let (mut node, mut depth) = (0u32, 0usize);
+        loop {
+            let axis = depth % self.dim;
+            let goes_left = p[axis] < self.points[node as usize * self.dim + axis];
+            let child = if goes_left { &mut self.left[node as usize] } else { &mut self.right[node as usize] };
+            if *child == NONE {
+                *child = index;
+                return index as usize;
+            }
+            node = *child;
+            depth += 1;
+        }
+    }
+
+    /// Index of the point nearest to `q` (Euclidean); `None` when empty.
+    pub(crate) fn nearest(&mut self, q: &[f64]) -> Option<usize> {
+        if self.len() == 0 {
+            return None;
+        }
+        let (mut best, mut best_d2) = (0usize, f64::INFINITY);
+        self.stack.clear();
+        // (node, depth, squared distance from q to the node's half-space).
+        self.stack.push((0, 0, 0.0));
+        while let Some((node, depth, bound)) = self.stack.pop() {
+            if bound >= best_d2 {
+                continue;
+            }
+            let n = node as usize;
+            let p = &self.points[n * self.dim..(n + 1) * self.dim];
+            let d2: f64 = p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
+            if d2 < best_d2 {
+                (best, best_d2) = (n, d2);
+            }
+            let axis = depth as usize % self.dim;
+            let diff = q[axis] - p[axis];
+            let (near, far) = if diff < 0.0 { (self.left[n], self.right[n]) } else { (self.right[n], self.left[n]) };
+            // Far side first on the stack, so the near side is searched first.
+            if far != NONE {
+                self.stack.push((far, depth + 1, bound.max(diff * diff)));
+            }
+            if near != NONE {
+                self.stack.push((near, depth + 1, bound));
+            }
+        }
+        Some(best)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    #[test]
+    fn matches_a_linear_scan() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let mut nn = NearestNeighbors::new(7);
+        let mut all: Vec<Vec<f64>> = Vec::new();
+        for _ in 0..3000 {
+            let p: Vec<f64> = (0..7).map(|_| rng.random_range(-3.0..3.0)).collect();
+            nn.insert(&p);
+            all.push(p);
+        }
+        for _ in 0..500 {
+            let q: Vec<f64> = (0..7).map(|_| rng.random_range(-3.5..3.5)).collect();
+            let d2 = |p: &Vec<f64>| p.iter().zip(&q).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            let scan = (0..all.len()).min_by(|&a, &b| d2(&all[a]).total_cmp(&d2(&all[b]))).unwrap();
+            assert_eq!(d2(&all[nn.nearest(&q).unwrap()]), d2(&all[scan]));
+        }
+    }
+}

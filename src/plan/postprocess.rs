@@ -1,0 +1,128 @@
+//! Path post-processing: shortcutting and resampling to a fixed number of
+//! waypoints (the optimizer's horizon).
+
+use super::EdgeCheck;
+use crate::collision::{CollisionModel, CollisionWorkspace};
+use crate::robot::RobotError;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
+}
+
+/// Joint-space length of a path (rad, sum of Euclidean segment lengths).
+pub fn path_length(path: &[Vec<f64>]) -> f64 {
+    path.windows(2).map(|w| distance(&w[0], &w[1])).sum()
+}
+
+/// Shortens a collision-free path: first greedily (from each waypoint, jump
+/// to the farthest one reachable in a straight line), then `attempts`
+/// random shortcuts between points on two random segments, each kept
+/// only if its straight motion passes `edge`. Seeded.
+///
+/// # Errors
+/// Configurations of the wrong length or non-finite values.
+pub fn shortcut(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    path: &[Vec<f64>],
+    edge: EdgeCheck,
+    attempts: usize,
+    seed: u64,
+) -> Result<Vec<Vec<f64>>, RobotError> {
+    let mut out = greedy(model, ws, path, edge)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    for _ in 0..attempts {
+        if out.len() < 3 {
+            break;
+        }
+        let i = rng.random_range(0..out.len() - 1);
+        let j = rng.random_range(0..out.len() - 1);
+        let (i, j) = (i.min(j), i.max(j));
+        if j <= i {
+            continue;
+        }
+        // Points inside segments i and j.
+        let (s, t) = (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
+        let a: Vec<f64> = lerp(&out[i], &out[i + 1], s);
+        let b: Vec<f64> = lerp(&out[j], &out[j + 1], t);
+        let old = distance(&a, &out[i + 1]) + path_length(&out[i + 1..=j]) + distance(&out[j], &b);
+        if distance(&a, &b) < old - 1e-9 && edge.is_free(model, ws, &a, &b)? {
+            let mut next = out[..=i].to_vec();
+            next.push(a);
+            next.push(b);
+            next.extend_from_slice(&out[j + 1..]);
+            next.dedup_by(|x, y| distance(x, y) < 1e-12);
+            out = next;
+        }
+    }
+    Ok(out)
+}
+
+fn greedy(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    path: &[Vec<f64>],
+    edge: EdgeCheck,
+) -> Result<Vec<Vec<f64>>, RobotError> {
+    let Some(first) = path.first() else { return Ok(Vec::new()) };
+    let mut out = vec![first.clone()];
+    let mut i = 0;
+    while i + 1 < path.len() {
+        let mut j = path.len() - 1;
+        while j > i + 1 && !edge.is_free(model, ws, &path[i], &path[j])? {
+            j -= 1;
+        }
+        out.push(path[j].clone());
+        i = j;
+    }
+    Ok(out)
+}
+
+fn lerp(a: &[f64], b: &[f64], t: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x + (y - x) * t).collect()
+}
+
+/// `count` (≥ 2) waypoints evenly spaced by joint-space arc length along
+/// `path`, first and last included. Every new point lies on a segment of
+/// the path, so a collision-free path stays collision-free.
+pub fn resample(path: &[Vec<f64>], count: usize) -> Vec<Vec<f64>> {
+    let count = count.max(2);
+    let Some(first) = path.first() else { return Vec::new() };
+    let total = path_length(path);
+    if path.len() == 1 || total == 0.0 {
+        return vec![first.clone(); count];
+    }
+    let mut out = Vec::with_capacity(count);
+    let (mut seg, mut walked) = (0usize, 0.0);
+    for k in 0..count {
+        let target = total * k as f64 / (count - 1) as f64;
+        while seg + 2 < path.len() && walked + distance(&path[seg], &path[seg + 1]) < target {
+            walked += distance(&path[seg], &path[seg + 1]);
+            seg += 1;
+        }
+        let len = distance(&path[seg], &path[seg + 1]);
+        let t = if len > 0.0 { ((target - walked) / len).clamp(0.0, 1.0) } else { 0.0 };
+        out.push(lerp(&path[seg], &path[seg + 1], t));
+    }
+    // The ends exactly, not up to rounding.
+    out[count - 1].clone_from(&path[path.len() - 1]);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resampling_keeps_ends_and_spacing() {
+        let path = vec![vec![0.0, 0.0], vec![1.0, 0.0], vec![1.0, 3.0]];
+        let r = resample(&path, 5);
+        assert_eq!(r.len(), 5);
+        assert_eq!(r[0], vec![0.0, 0.0]);
+        assert_eq!(r[4], vec![1.0, 3.0]);
+        assert!((r[1][0] - 1.0).abs() < 1e-12 && r[1][1].abs() < 1e-12);
+        assert!((path_length(&r) - 4.0).abs() < 1e-12);
+    }
+}

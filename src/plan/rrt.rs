@@ -1,0 +1,263 @@
+//! RRT-Connect (Kuffner & LaValle 2000) in the active joint space: two
+//! trees, one from the start and one from the goal set, grown towards
+//! uniform samples and towards each other until they meet.
+
+use super::nearest::NearestNeighbors;
+use crate::collision::{CollisionModel, CollisionWorkspace};
+use crate::robot::RobotError;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::{Duration, Instant};
+
+/// How a straight joint-space motion is validated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EdgeCheck {
+    /// Configurations at most this far apart in every joint (rad or m) are
+    /// checked; contacts thinner than that can slip between them.
+    Resolution(f64),
+    /// Every configuration of the motion keeps at least `clearance / 2`
+    /// (m) between all pairs, and none sampled is closer than `clearance`
+    /// ([`CollisionModel::motion_free_certified`]).
+    Certified { clearance: f64 },
+}
+
+impl EdgeCheck {
+    /// Whether the motion from `a` to `b` passes.
+    ///
+    /// # Errors
+    /// Bad configurations or settings.
+    pub fn is_free(
+        self,
+        model: &CollisionModel,
+        ws: &mut CollisionWorkspace,
+        a: &[f64],
+        b: &[f64],
+    ) -> Result<bool, RobotError> {
+        match self {
+            EdgeCheck::Resolution(r) => model.motion_free(ws, a, b, r),
+            EdgeCheck::Certified { clearance } => model.motion_free_certified(ws, a, b, clearance),
+        }
+    }
+}
+
+/// Settings of [`rrt_connect`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct RrtSettings {
+    /// Largest joint-space step of one extension (rad, Euclidean norm).
+    pub step: f64,
+    /// How edges are validated.
+    pub edge: EdgeCheck,
+    /// Wall-clock budget.
+    pub time_limit: Duration,
+    /// Budget of extension rounds.
+    pub max_iterations: usize,
+    /// Seed of the sampler: the same seed gives the same path.
+    pub seed: u64,
+}
+
+impl Default for RrtSettings {
+    fn default() -> Self {
+        RrtSettings {
+            step: 0.5,
+            edge: EdgeCheck::Resolution(0.005),
+            time_limit: Duration::from_secs(1),
+            max_iterations: 100_000,
+            seed: 0,
+        }
+    }
+}
+
+impl From<&crate::scene::PlannerSettings> for RrtSettings {
+    fn from(p: &crate::scene::PlannerSettings) -> Self {
+        RrtSettings {
+            step: p.step,
+            edge: EdgeCheck::Resolution(p.resolution),
+            time_limit: Duration::from_secs_f64(p.time_limit),
+            max_iterations: p.max_iterations,
+            seed: p.seed,
+        }
+    }
+}
+
+/// Why the planner stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PlanStatus {
+    /// The trees met: the path is collision-free at the resolution.
+    Solved,
+    /// The time budget ran out.
+    TimeLimit,
+    /// The iteration budget ran out.
+    IterationLimit,
+    /// The start configuration collides (or is outside the limits).
+    StartInvalid,
+    /// Every goal configuration collides (or is outside the limits), or none was given.
+    GoalInvalid,
+}
+
+impl PlanStatus {
+    /// Lower-case name, as in JSON output.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlanStatus::Solved => "solved",
+            PlanStatus::TimeLimit => "time_limit",
+            PlanStatus::IterationLimit => "iteration_limit",
+            PlanStatus::StartInvalid => "start_invalid",
+            PlanStatus::GoalInvalid => "goal_invalid",
+        }
+    }
+}
+
+/// What [`rrt_connect`] found.
+#[derive(Debug, Clone)]
+pub struct PlanResult {
+    pub status: PlanStatus,
+    /// Start to goal, each edge collision-free at the resolution; empty unless solved.
+    pub path: Vec<Vec<f64>>,
+    pub iterations: usize,
+    /// Nodes in both trees.
+    pub nodes: usize,
+    pub time: Duration,
+}
+
+/// One tree: configurations and parent links (roots are their own parent).
+struct Tree {
+    nn: NearestNeighbors,
+    parent: Vec<u32>,
+}
+
+impl Tree {
+    fn new(dim: usize) -> Tree {
+        Tree { nn: NearestNeighbors::new(dim), parent: Vec::new() }
+    }
+
+    fn add(&mut self, q: &[f64], parent: Option<usize>) -> usize {
+        let i = self.nn.insert(q);
+        self.parent.push(parent.unwrap_or(i) as u32);
+        i
+    }
+
+    /// Configurations from node `i` up to its root.
+    fn branch(&self, mut i: usize) -> Vec<Vec<f64>> {
+        let mut out = vec![self.nn.point(i).to_vec()];
+        while self.parent[i] as usize != i {
+            i = self.parent[i] as usize;
+            out.push(self.nn.point(i).to_vec());
+        }
+        out
+    }
+}
+
+enum Extension {
+    Reached(usize),
+    Advanced(usize),
+    Trapped,
+}
+
+struct Planner<'a> {
+    model: &'a CollisionModel,
+    ws: &'a mut CollisionWorkspace,
+    settings: &'a RrtSettings,
+    scratch: Vec<f64>,
+}
+
+impl Planner<'_> {
+    /// One step of `tree` from its node nearest to `target` towards it.
+    fn extend(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Extension, RobotError> {
+        let near = tree.nn.nearest(target).expect("trees are never empty");
+        let from = tree.nn.point(near);
+        let dist = from.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+        let reached = dist <= self.settings.step;
+        let t = if reached { 1.0 } else { self.settings.step / dist };
+        self.scratch.clear();
+        self.scratch.extend(from.iter().zip(target).map(|(a, b)| a + (b - a) * t));
+        if !self.settings.edge.is_free(self.model, self.ws, from, &self.scratch)? {
+            return Ok(Extension::Trapped);
+        }
+        let new = tree.add(&self.scratch, Some(near));
+        Ok(if reached { Extension::Reached(new) } else { Extension::Advanced(new) })
+    }
+
+    /// Extends `tree` towards `target` until it reaches it or is blocked.
+    fn connect(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Option<usize>, RobotError> {
+        loop {
+            match self.extend(tree, target)? {
+                Extension::Reached(i) => return Ok(Some(i)),
+                Extension::Advanced(_) => {}
+                Extension::Trapped => return Ok(None),
+            }
+        }
+    }
+}
+
+/// Plans a collision-free joint-space path from `start` to any of
+/// `goals`. Same seed, same inputs: same path.
+///
+/// # Errors
+/// Configurations of the wrong length or with non-finite values.
+pub fn rrt_connect(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    start: &[f64],
+    goals: &[Vec<f64>],
+    settings: &RrtSettings,
+) -> Result<PlanResult, RobotError> {
+    let began = Instant::now();
+    let robot = model.robot();
+    let done = |status, path, iterations, nodes| PlanResult { status, path, iterations, nodes, time: began.elapsed() };
+    if !robot.within_limits(start) || !model.collision_free(ws, start)? {
+        return Ok(done(PlanStatus::StartInvalid, Vec::new(), 0, 0));
+    }
+    let dim = robot.nq();
+    let (mut a, mut b) = (Tree::new(dim), Tree::new(dim));
+    a.add(start, None);
+    for g in goals {
+        if robot.within_limits(g) && model.collision_free(ws, g)? {
+            b.add(g, None);
+        }
+    }
+    if b.parent.is_empty() {
+        return Ok(done(PlanStatus::GoalInvalid, Vec::new(), 0, 1));
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+    let limits = robot.limits().to_vec();
+    let mut planner = Planner { model, ws, settings, scratch: Vec::with_capacity(dim) };
+    let mut sample = vec![0.0; dim];
+    // Tree `a` holds the start when `a_is_start`.
+    let mut a_is_start = true;
+    for iteration in 0..settings.max_iterations {
+        if iteration % 32 == 0 && began.elapsed() > settings.time_limit {
+            return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, a.parent.len() + b.parent.len()));
+        }
+        for (s, l) in sample.iter_mut().zip(&limits) {
+            *s = rng.random_range(l.lower..=l.upper);
+        }
+        let new = match planner.extend(&mut a, &sample)? {
+            Extension::Trapped => None,
+            Extension::Reached(i) | Extension::Advanced(i) => Some(i),
+        };
+        if let Some(i) = new {
+            let q_new = a.nn.point(i).to_vec();
+            if let Some(j) = planner.connect(&mut b, &q_new)? {
+                let (from_a, from_b) = (a.branch(i), b.branch(j));
+                let path = join(from_a, from_b, a_is_start);
+                let nodes = a.parent.len() + b.parent.len();
+                return Ok(done(PlanStatus::Solved, path, iteration + 1, nodes));
+            }
+        }
+        std::mem::swap(&mut a, &mut b);
+        a_is_start = !a_is_start;
+    }
+    Ok(done(PlanStatus::IterationLimit, Vec::new(), settings.max_iterations, a.parent.len() + b.parent.len()))
+}
+
+/// The start-to-goal path from two branches that end at the same
+/// configuration (each listed from the meeting node to its root).
+fn join(mut from_a: Vec<Vec<f64>>, mut from_b: Vec<Vec<f64>>, a_is_start: bool) -> Vec<Vec<f64>> {
+    if !a_is_start {
+        std::mem::swap(&mut from_a, &mut from_b);
+    }
+    // from_a: meeting → start; from_b: meeting → goal (both include the meeting point).
+    from_a.reverse();
+    from_a.extend(from_b.into_iter().skip(1));
+    from_a
+}
