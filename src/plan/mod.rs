@@ -99,53 +99,109 @@ pub fn goal_configurations(
     Ok(solve_ik(model, ws, &target, &problem.start, GOAL_SOLUTIONS, &settings)?)
 }
 
-/// Plans `problem` with its planner settings (seed overridden by `seed`),
-/// then shortcuts the path.
+/// A problem made ready to plan: its collision models (exact, and padded
+/// by the clearance for the search), workspaces and goal configurations.
+/// Build once, then [`run`](Self::run) with as many seeds as wanted.
+pub struct ProblemPlanner {
+    model: CollisionModel,
+    ws: CollisionWorkspace,
+    search: CollisionModel,
+    search_ws: CollisionWorkspace,
+    start: Vec<f64>,
+    goals: Vec<Vec<f64>>,
+    settings: RrtSettings,
+    clearance: f64,
+}
+
+impl ProblemPlanner {
+    /// Prepares `problem`; pose and grasp goals are solved by IK here,
+    /// seeded with `seed` (default: the problem's planner seed).
+    ///
+    /// # Errors
+    /// A collision model that cannot be built, unreachable goals.
+    pub fn new(problem: &Problem, seed: Option<u64>) -> Result<ProblemPlanner, PlanError> {
+        let model = problem.collision_model()?;
+        let mut ws = CollisionWorkspace::new(&model);
+        // The search runs on shapes padded by the clearance, so the discrete
+        // edge samples keep a margin that the certification can rely on.
+        let mut padded = problem.clone();
+        padded.robot_spec.padding += problem.planner.clearance;
+        let search = padded.collision_model()?;
+        let search_ws = CollisionWorkspace::new(&search);
+        let mut settings = RrtSettings::from(&problem.planner);
+        settings.seed = seed.unwrap_or(settings.seed);
+        let goals = goal_configurations(problem, &model, &mut ws, settings.seed)?;
+        let (start, clearance) = (problem.start.clone(), problem.planner.clearance);
+        Ok(ProblemPlanner { model, ws, search, search_ws, start, goals, settings, clearance })
+    }
+
+    /// The goal configurations the planner aims at.
+    pub fn goals(&self) -> &[Vec<f64>] {
+        &self.goals
+    }
+
+    /// Plans with `seed`, shortcuts, and certifies the path (clearance > 0);
+    /// a search whose path fails certification is redone with the next
+    /// seed, up to 4 runs. Times exclude the preparation in [`new`](Self::new).
+    ///
+    /// # Errors
+    /// Bad configurations (none for a validated problem).
+    pub fn run(&mut self, seed: u64) -> Result<PlanReport, PlanError> {
+        let began = Instant::now();
+        let mut simplify_time = Duration::ZERO;
+        let mut attempt = 0;
+        loop {
+            self.settings.seed = seed.wrapping_add(attempt as u64);
+            attempt += 1;
+            let result = rrt_connect(&self.search, &mut self.search_ws, &self.start, &self.goals, &self.settings)?;
+            let planning_time = began.elapsed() - simplify_time;
+            let goals = self.goals.clone();
+            if result.status != PlanStatus::Solved {
+                let path = Vec::new();
+                let certified = false;
+                return Ok(PlanReport {
+                    result,
+                    goals,
+                    path,
+                    planning_time,
+                    simplify_time,
+                    certified,
+                    attempts: attempt,
+                });
+            }
+            let t = Instant::now();
+            let (edge, s) = (self.settings.edge, self.settings.seed);
+            let path = shortcut(&self.search, &mut self.search_ws, &result.path, edge, 100, s)?;
+            let certified = self.clearance > 0.0 && certify(&self.model, &mut self.ws, &path, self.clearance / 2.0)?;
+            simplify_time += t.elapsed();
+            if certified || self.clearance == 0.0 || attempt >= 4 {
+                return Ok(PlanReport {
+                    result,
+                    goals,
+                    path,
+                    planning_time,
+                    simplify_time,
+                    certified,
+                    attempts: attempt,
+                });
+            }
+        }
+    }
+}
+
+/// Plans `problem` with its planner settings (seed overridden by `seed`):
+/// [`ProblemPlanner::new`] then [`ProblemPlanner::run`]; the reported
+/// planning time includes the preparation (IK, collision models).
 ///
 /// # Errors
 /// A collision model that cannot be built, unreachable goals.
 pub fn plan_problem(problem: &Problem, seed: Option<u64>) -> Result<PlanReport, PlanError> {
     let began = Instant::now();
-    let model = problem.collision_model()?;
-    let mut ws = CollisionWorkspace::new(&model);
-    let clearance = problem.planner.clearance;
-    // The search runs on shapes padded by the clearance, so the discrete
-    // edge samples keep a margin that the certification below can rely on.
-    let mut padded = problem.clone();
-    padded.robot_spec.padding += clearance;
-    let search = padded.collision_model()?;
-    let mut search_ws = CollisionWorkspace::new(&search);
-    let mut settings = RrtSettings::from(&problem.planner);
-    let base_seed = seed.unwrap_or(settings.seed);
-    let goals = goal_configurations(problem, &model, &mut ws, base_seed)?;
-    let mut simplify_time = Duration::ZERO;
-    let mut attempt = 0;
-    loop {
-        // A search whose final path fails certification is redone with the next seed.
-        settings.seed = base_seed.wrapping_add(attempt as u64);
-        attempt += 1;
-        let result = rrt_connect(&search, &mut search_ws, &problem.start, &goals, &settings)?;
-        let planning_time = began.elapsed() - simplify_time;
-        if result.status != PlanStatus::Solved {
-            let path = Vec::new();
-            return Ok(PlanReport {
-                result,
-                goals,
-                path,
-                planning_time,
-                simplify_time,
-                certified: false,
-                attempts: attempt,
-            });
-        }
-        let t = Instant::now();
-        let path = shortcut(&search, &mut search_ws, &result.path, settings.edge, 100, settings.seed)?;
-        let certified = clearance > 0.0 && certify(&model, &mut ws, &path, clearance / 2.0)?;
-        simplify_time += t.elapsed();
-        if certified || clearance == 0.0 || attempt >= 4 {
-            return Ok(PlanReport { result, goals, path, planning_time, simplify_time, certified, attempts: attempt });
-        }
-    }
+    let mut planner = ProblemPlanner::new(problem, seed)?;
+    let prepared = began.elapsed();
+    let mut report = planner.run(planner.settings.seed)?;
+    report.planning_time += prepared;
+    Ok(report)
 }
 
 /// Whether every edge of `path` passes the certified motion check.
