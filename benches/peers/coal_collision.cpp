@@ -56,6 +56,8 @@
 #include <string>
 #include <vector>
 
+#include "peer_util.hpp"
+
 namespace
 {
   using Clock = std::chrono::steady_clock;
@@ -66,34 +68,8 @@ namespace
     std::exit(2);
   }
 
-  // Like benchmark::DoNotOptimize + ClobberMemory.
-  template<typename T>
-  inline void escape(const T * p)
-  {
-    asm volatile("" : : "g"(p) : "memory");
-  }
-
-  std::string json_escape(const std::string & s)
-  {
-    std::string o;
-    for (char c : s)
-    {
-      if (c == '"' || c == '\\')
-      {
-        o += '\\';
-        o += c;
-      }
-      else if ((unsigned char)c < 0x20)
-      {
-        char buf[8];
-        std::snprintf(buf, sizeof buf, "\\u%04x", c);
-        o += buf;
-      }
-      else
-        o += c;
-    }
-    return o;
-  }
+  using peer::escape;
+  using peer::json_escape;
 
   // ---- scene file -----------------------------------------------------------------
 

@@ -89,6 +89,7 @@ pin_build() {
   local exe="$1" stamp="$2" src="$3"
   shift 3
   if [[ "${PIN_PEER_REBUILD:-0}" == 1 || ! -x "$exe" || "$src" -nt "$exe" || "$0" -nt "$exe" \
+        || "$(dirname "$src")/peer_util.hpp" -nt "$exe" \
         || "${BASH_SOURCE[0]}" -nt "$exe" || "$(cat "$stamp" 2>/dev/null || true)" != "$*" ]]; then
     note "compiling: $(printf '%q ' "$@")"
     "$@" >&2 || die "compilation failed"

@@ -43,6 +43,8 @@
 #include <string>
 #include <vector>
 
+#include "peer_util.hpp"
+
 #ifndef PIN_PEER_DEFAULT_URDF
 #define PIN_PEER_DEFAULT_URDF ""
 #endif
@@ -51,13 +53,8 @@ namespace
 {
   using Clock = std::chrono::steady_clock;
 
-  // Like benchmark::DoNotOptimize + ClobberMemory: the value "escapes" and all memory
-  // is considered read/written, so no store done by the measured call can be elided.
-  template<typename T>
-  inline void escape(const T * p)
-  {
-    asm volatile("" : : "g"(p) : "memory");
-  }
+  using peer::escape;
+  using peer::json_escape;
 
   struct Stats
   {
@@ -106,28 +103,6 @@ namespace
     const double median =
       (n % 2) ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
     return {median, sorted.front(), sorted.back()};
-  }
-
-  std::string json_escape(const std::string & s)
-  {
-    std::string o;
-    for (char c : s)
-    {
-      if (c == '"' || c == '\\')
-      {
-        o += '\\';
-        o += c;
-      }
-      else if ((unsigned char)c < 0x20)
-      {
-        char buf[8];
-        std::snprintf(buf, sizeof buf, "\\u%04x", c);
-        o += buf;
-      }
-      else
-        o += c;
-    }
-    return o;
   }
 
   [[noreturn]] void die(const std::string & msg)

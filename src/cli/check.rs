@@ -1,22 +1,16 @@
 //! `tandem check`: validate a problem file and check a configuration for
 //! collisions.
 
+use super::ProblemArgs;
 use super::kinematics::parse_values;
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::scene::{Goal, Problem};
-use std::path::PathBuf;
 
 /// Arguments of `tandem check`.
 #[derive(Debug, clap::Args)]
 pub struct CheckArgs {
-    /// Problem file (TOML, format in problems/README.md), or `builtin:NAME`
-    /// for a problem embedded in the binary (panda_reach,
-    /// panda_reach_obstacle, panda_grasp_box). Omit it to check MoveIt
-    /// inputs instead (--urdf, --srdf, --scene, --request).
-    #[arg(required_unless_present = "scene")]
-    pub problem: Option<PathBuf>,
     #[command(flatten)]
-    pub moveit: MoveItArgs,
+    pub input: ProblemArgs,
     /// Configuration to check, one value per active joint (rad or m),
     /// comma-separated. Default: the problem's start.
     #[arg(long, value_name = "V1,V2,...", allow_hyphen_values = true)]
@@ -30,34 +24,6 @@ pub struct CheckArgs {
     pub json: bool,
 }
 
-/// MoveIt inputs (the MotionBenchMaker format): robot URDF + SRDF, a
-/// planning scene YAML and a motion plan request YAML.
-#[derive(Debug, Clone, clap::Args)]
-pub struct MoveItArgs {
-    /// Robot URDF (with --srdf, --scene, --request).
-    #[arg(long, requires_all = ["srdf", "scene", "request"], conflicts_with = "problem")]
-    pub urdf: Option<PathBuf>,
-    /// Robot SRDF: planning groups and disabled collision pairs.
-    #[arg(long, requires = "urdf")]
-    pub srdf: Option<PathBuf>,
-    /// MoveIt planning scene YAML (collision objects: box, cylinder, sphere).
-    #[arg(long, requires = "urdf")]
-    pub scene: Option<PathBuf>,
-    /// MoveIt motion plan request YAML (group, start state, joint goal).
-    #[arg(long, requires = "urdf")]
-    pub request: Option<PathBuf>,
-}
-
-impl MoveItArgs {
-    /// The problem these inputs describe, when given.
-    pub fn load(&self) -> Option<Result<Problem, crate::scene::ProblemError>> {
-        match (&self.urdf, &self.srdf, &self.scene, &self.request) {
-            (Some(u), Some(s), Some(sc), Some(r)) => Some(Problem::from_moveit(u, s, sc, r)),
-            _ => None,
-        }
-    }
-}
-
 /// What a check found.
 struct Report {
     problem: Problem,
@@ -69,19 +35,8 @@ struct Report {
     goal_free: Option<bool>,
 }
 
-fn load(args: &CheckArgs) -> Result<Problem, Box<dyn std::error::Error>> {
-    if let Some(problem) = args.moveit.load() {
-        return Ok(problem?);
-    }
-    let path = args.problem.as_deref().ok_or("give a problem file, or --urdf --srdf --scene --request")?;
-    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
-        Some(name) => Ok(Problem::builtin(name)?),
-        None => Ok(Problem::from_file(path)?),
-    }
-}
-
 fn check(args: &CheckArgs) -> Result<Report, Box<dyn std::error::Error>> {
-    let problem = load(args)?;
+    let problem = args.input.load()?;
     let q = match &args.q {
         Some(text) => parse_values(text)?,
         None => problem.start.clone(),

@@ -16,6 +16,9 @@ mod inspect;
 mod kinematics;
 mod plan;
 mod policy;
+mod problem_args;
+
+pub use problem_args::{MoveItArgs, ProblemArgs};
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;

@@ -1,6 +1,6 @@
 //! `tandem plan`: RRT-Connect on a problem file or MoveIt inputs.
 
-use super::check::MoveItArgs;
+use super::ProblemArgs;
 use crate::plan::{PlanReport, path_length, plan_problem};
 use crate::plot::SvgPlot;
 use crate::robot::KinematicsWorkspace;
@@ -10,12 +10,8 @@ use std::path::PathBuf;
 /// Arguments of `tandem plan`.
 #[derive(Debug, clap::Args)]
 pub struct PlanArgs {
-    /// Problem file (TOML) or `builtin:NAME`; omit it for MoveIt inputs
-    /// (--urdf, --srdf, --scene, --request).
-    #[arg(required_unless_present = "scene")]
-    pub problem: Option<PathBuf>,
     #[command(flatten)]
-    pub moveit: MoveItArgs,
+    pub input: ProblemArgs,
     /// Seed of the planner (default: the problem's planner.seed).
     #[arg(long)]
     pub seed: Option<u64>,
@@ -31,19 +27,8 @@ pub struct PlanArgs {
     pub svg: Option<PathBuf>,
 }
 
-fn load(args: &PlanArgs) -> Result<Problem, Box<dyn std::error::Error>> {
-    if let Some(problem) = args.moveit.load() {
-        return Ok(problem?);
-    }
-    let path = args.problem.as_deref().ok_or("give a problem file, or --urdf --srdf --scene --request")?;
-    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
-        Some(name) => Ok(Problem::builtin(name)?),
-        None => Ok(Problem::from_file(path)?),
-    }
-}
-
 pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
-    let problem = load(args)?;
+    let problem = args.input.load()?;
     let report = plan_problem(&problem, args.seed)?;
     if let Some(file) = &args.svg {
         std::fs::write(file, path_svg(&problem, &report)?)

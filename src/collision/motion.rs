@@ -30,27 +30,39 @@ impl CollisionModel {
         q1: &[f64],
         clearance: f64,
     ) -> Result<bool, RobotError> {
-        self.robot.check_configuration(q0)?;
-        self.robot.check_configuration(q1)?;
-        if !(clearance.is_finite() && clearance > 0.0) {
-            return Err(RobotError::NonFinite { joint: "clearance".into(), index: 0, value: clearance });
-        }
+        self.check_motion(q0, q1, "clearance", clearance)?;
         self.sweep_bounds(ws, q0, q1);
         let mut t = 0.0f64;
         loop {
-            let mut q = std::mem::take(&mut ws.q);
-            for ((v, a), b) in q.iter_mut().zip(q0).zip(q1) {
-                *v = a + (b - a) * t;
-            }
-            let placed = self.place(ws, &q);
-            ws.q = q;
-            placed?;
+            self.place_along(ws, q0, q1, t)?;
             let Some(step) = self.safe_step(ws, clearance, t == 0.0) else { return Ok(false) };
             if t >= 1.0 {
                 return Ok(true);
             }
             t = (t + step).min(1.0);
         }
+    }
+
+    /// Validates both ends of a motion and its positive setting `name`.
+    fn check_motion(&self, q0: &[f64], q1: &[f64], name: &str, value: f64) -> Result<(), RobotError> {
+        self.robot.check_configuration(q0)?;
+        self.robot.check_configuration(q1)?;
+        if value.is_finite() && value > 0.0 {
+            Ok(())
+        } else {
+            Err(RobotError::NonFinite { joint: name.into(), index: 0, value })
+        }
+    }
+
+    /// Places every moving object at `q0 + t (q1 − q0)`, without allocating.
+    fn place_along(&self, ws: &mut CollisionWorkspace, q0: &[f64], q1: &[f64], t: f64) -> Result<(), RobotError> {
+        let mut q = std::mem::take(&mut ws.q);
+        for ((v, a), b) in q.iter_mut().zip(q0).zip(q1) {
+            *v = a + (b - a) * t;
+        }
+        let placed = self.place(ws, &q);
+        ws.q = q;
+        placed
     }
 
     /// Relative-motion bound of every group pair over the motion q0 → q1.
@@ -116,22 +128,12 @@ impl CollisionModel {
         q1: &[f64],
         resolution: f64,
     ) -> Result<bool, RobotError> {
-        self.robot.check_configuration(q0)?;
-        self.robot.check_configuration(q1)?;
-        if !(resolution.is_finite() && resolution > 0.0) {
-            return Err(RobotError::NonFinite { joint: "resolution".into(), index: 0, value: resolution });
-        }
+        self.check_motion(q0, q1, "resolution", resolution)?;
         let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
         let steps = ((span / resolution).ceil() as usize).max(1);
         let check = |ws: &mut CollisionWorkspace, k: usize| {
-            let t = k as f64 / steps as f64;
-            let mut q = std::mem::take(&mut ws.q);
-            for ((v, a), b) in q.iter_mut().zip(q0).zip(q1) {
-                *v = a + (b - a) * t;
-            }
-            let free = self.collision_free(ws, &q);
-            ws.q = q;
-            free
+            self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
+            Ok::<bool, RobotError>(self.placed_collision_free(ws))
         };
         if !check(ws, steps)? || !check(ws, 0)? {
             return Ok(false);

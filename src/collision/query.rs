@@ -123,7 +123,7 @@ impl CollisionModel {
         Ok(self.placed_collision_free(ws))
     }
 
-    fn placed_collision_free(&self, ws: &CollisionWorkspace) -> bool {
+    pub(crate) fn placed_collision_free(&self, ws: &CollisionWorkspace) -> bool {
         for gp in &self.group_pairs {
             if self.group_bound(ws, gp.a, gp.b) > 0.0 {
                 continue;

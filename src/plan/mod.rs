@@ -124,9 +124,7 @@ impl ProblemPlanner {
         let mut ws = CollisionWorkspace::new(&model);
         // The search runs on shapes padded by the clearance, so the discrete
         // edge samples keep a margin that the certification can rely on.
-        let mut padded = problem.clone();
-        padded.robot_spec.padding += problem.planner.clearance;
-        let search = padded.collision_model()?;
+        let search = problem.collision_model_padded(problem.planner.clearance)?;
         let search_ws = CollisionWorkspace::new(&search);
         let mut settings = RrtSettings::from(&problem.planner);
         settings.seed = seed.unwrap_or(settings.seed);
@@ -149,41 +147,24 @@ impl ProblemPlanner {
     pub fn run(&mut self, seed: u64) -> Result<PlanReport, PlanError> {
         let began = Instant::now();
         let mut simplify_time = Duration::ZERO;
-        let mut attempt = 0;
+        let mut attempts = 0;
         loop {
-            self.settings.seed = seed.wrapping_add(attempt as u64);
-            attempt += 1;
+            self.settings.seed = seed.wrapping_add(attempts as u64);
+            attempts += 1;
             let result = rrt_connect(&self.search, &mut self.search_ws, &self.start, &self.goals, &self.settings)?;
             let planning_time = began.elapsed() - simplify_time;
-            let goals = self.goals.clone();
-            if result.status != PlanStatus::Solved {
-                let path = Vec::new();
-                let certified = false;
-                return Ok(PlanReport {
-                    result,
-                    goals,
-                    path,
-                    planning_time,
-                    simplify_time,
-                    certified,
-                    attempts: attempt,
-                });
+            let (mut path, mut certified) = (Vec::new(), false);
+            if result.status == PlanStatus::Solved {
+                let t = Instant::now();
+                let (edge, s) = (self.settings.edge, self.settings.seed);
+                path = shortcut(&self.search, &mut self.search_ws, &result.path, edge, 100, s)?;
+                certified = self.clearance > 0.0 && certify(&self.model, &mut self.ws, &path, self.clearance / 2.0)?;
+                simplify_time += t.elapsed();
             }
-            let t = Instant::now();
-            let (edge, s) = (self.settings.edge, self.settings.seed);
-            let path = shortcut(&self.search, &mut self.search_ws, &result.path, edge, 100, s)?;
-            let certified = self.clearance > 0.0 && certify(&self.model, &mut self.ws, &path, self.clearance / 2.0)?;
-            simplify_time += t.elapsed();
-            if certified || self.clearance == 0.0 || attempt >= 4 {
-                return Ok(PlanReport {
-                    result,
-                    goals,
-                    path,
-                    planning_time,
-                    simplify_time,
-                    certified,
-                    attempts: attempt,
-                });
+            let done = result.status != PlanStatus::Solved || certified || self.clearance == 0.0 || attempts >= 4;
+            if done {
+                let goals = self.goals.clone();
+                return Ok(PlanReport { result, goals, path, planning_time, simplify_time, certified, attempts });
             }
         }
     }

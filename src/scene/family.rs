@@ -2,7 +2,7 @@
 //! configuration, object poses and extra obstacles, sampled reproducibly
 //! from (seed, id).
 
-use super::problem::{Problem, ProblemError, Source};
+use super::problem::{Problem, ProblemError, Source, SourceFile};
 use super::toml_source::KeyPath;
 use super::{Obstacle, Scene};
 use crate::collision::{CollisionModel, CollisionWorkspace, Shape, signed_distance};
@@ -123,12 +123,9 @@ impl ProblemFamily {
     /// [`ProblemError`] naming the file, key and line (of the family file, or
     /// of the base problem file for errors there).
     pub fn from_file(path: impl AsRef<Path>) -> Result<ProblemFamily, ProblemError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.into(), source })?;
-        let origin = path.display().to_string();
-        let base = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
-        let src = Source { origin: &origin, text: &text, base };
-        let raw: RawFamily = toml::from_str(&text).map_err(|e| src.toml_error(&e))?;
+        let file = SourceFile::read(path.as_ref())?;
+        let src = file.source();
+        let raw: RawFamily = toml::from_str(src.text).map_err(|e| src.toml_error(&e))?;
         let problem = Problem::from_file(src.resolve(&raw.base)).map_err(|e| match e {
             // Errors inside the base file name that file; a missing one is the family's.
             ProblemError::Io { path, source } => {

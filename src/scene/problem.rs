@@ -230,6 +230,25 @@ impl Source<'_> {
     }
 }
 
+/// A file read for parsing: its text, name and folder.
+pub(crate) struct SourceFile {
+    origin: String,
+    text: String,
+    base: PathBuf,
+}
+
+impl SourceFile {
+    pub(crate) fn read(path: &Path) -> Result<SourceFile, ProblemError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.into(), source })?;
+        let base = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        Ok(SourceFile { origin: path.display().to_string(), text, base: base.to_path_buf() })
+    }
+
+    pub(crate) fn source(&self) -> Source<'_> {
+        Source { origin: &self.origin, text: &self.text, base: Some(&self.base) }
+    }
+}
+
 impl Problem {
     /// Loads and validates a problem file; relative paths in it are
     /// resolved against its folder.
@@ -237,11 +256,7 @@ impl Problem {
     /// # Errors
     /// [`ProblemError`] naming the file, key and line.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Problem, ProblemError> {
-        let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.into(), source })?;
-        let origin = path.display().to_string();
-        let base = path.parent().map(|p| if p.as_os_str().is_empty() { Path::new(".") } else { p });
-        Problem::from_source(&Source { origin: &origin, text: &text, base })
+        Problem::from_source(&SourceFile::read(path.as_ref())?.source())
     }
 
     /// One of the shipped problems ([`BUILTIN_PROBLEMS`]), embedded in the
@@ -292,13 +307,23 @@ impl Problem {
     /// # Errors
     /// See [`CollisionModelBuilder::build`](crate::collision::CollisionModelBuilder::build).
     pub fn collision_model(&self) -> Result<CollisionModel, CollisionError> {
+        self.collision_model_padded(0.0)
+    }
+
+    /// [`collision_model`](Self::collision_model) with the robot shapes
+    /// padded by `extra` (m) on top of the problem's padding.
+    ///
+    /// # Errors
+    /// As [`collision_model`](Self::collision_model).
+    pub fn collision_model_padded(&self, extra: f64) -> Result<CollisionModel, CollisionError> {
         let mut scene = self.scene.clone();
         if let (Goal::Grasp { object, .. }, Some(gripper)) = (&self.goal, &self.robot_spec.gripper) {
             for link in self.links_moving_with(gripper)? {
                 scene.allow_contact(link, object.clone());
             }
         }
-        let mut builder = CollisionModel::builder(self.robot.clone()).scene(&scene).padding(self.robot_spec.padding);
+        let mut builder =
+            CollisionModel::builder(self.robot.clone()).scene(&scene).padding(self.robot_spec.padding + extra);
         if let Some(srdf) = &self.srdf {
             builder = builder.srdf(srdf);
         }
