@@ -1,12 +1,14 @@
 //! Numerical building blocks for tandem, free of any robotics.
 //!
 //! This crate takes residual functions, matrices and vectors; it never sees a
-//! robot, a frame or a joint. Today it holds finite-difference derivatives,
-//! used to check every analytic Jacobian in tandem, and the discrete-time
-//! Riccati solvers behind LQR tracking ([`riccati`]: the DARE by structure-
-//! preserving doubling, and the finite-horizon recursion); the Gauss-Newton /
-//! Levenberg-Marquardt, augmented-Lagrangian and QP/SOCP layers join it as the
-//! pipeline grows.
+//! robot, a frame or a joint. It holds finite-difference derivatives, used to
+//! check every analytic Jacobian in tandem; the discrete-time Riccati solvers
+//! behind LQR tracking ([`riccati`]: the DARE by structure-preserving
+//! doubling, and the finite-horizon recursion); and the constrained
+//! least-squares solver behind trajectory optimization ([`least_squares`]:
+//! augmented Lagrangian around Levenberg-Marquardt on the block-banded
+//! normal equations, factorised by [`banded`]). The QP/SOCP layer joins it as
+//! the pipeline grows.
 //!
 //! ```
 //! use tandem_solvers::finite_diff::central_jacobian;
@@ -22,5 +24,7 @@
 //! assert!((jac[2] - 1.0).abs() < 1e-8 && jac[3].abs() < 1e-8);
 //! ```
 
+pub mod banded;
 pub mod finite_diff;
+pub mod least_squares;
 pub mod riccati;

@@ -1,0 +1,275 @@
+//! Symmetric banded matrices and their in-place Cholesky factorisation.
+//!
+//! The normal equations `JᵀJ + λI` of a k-order trajectory problem couple
+//! only configurations at most k slices apart, so with `n` variables per
+//! slice every row of the matrix has nonzeros within `(k + 1)·n − 1`
+//! columns of the diagonal. A dedicated band factorisation costs
+//! `O(N·b²)` for `N` unknowns and half bandwidth `b` and allocates nothing;
+//! each row's band is contiguous, so the inner products vectorise.
+//!
+//! ```
+//! use tandem_solvers::banded::SymmetricBand;
+//! // The 1-D Laplacian plus identity: tridiagonal (half bandwidth 1).
+//! let n = 5;
+//! let mut a = SymmetricBand::zeros(n, 1);
+//! for i in 0..n {
+//!     a.add(i, i, 3.0);
+//!     if i > 0 {
+//!         a.add(i, i - 1, -1.0);
+//!     }
+//! }
+//! let mut x = vec![1.0; n];
+//! a.factorize().expect("positive definite");
+//! a.solve_in_place(&mut x);
+//! // Check A x = 1 on the middle row: -x1 + 3 x2 - x3 = 1.
+//! assert!((-x[1] + 3.0 * x[2] - x[3] - 1.0).abs() < 1e-12);
+//! ```
+
+use thiserror::Error;
+
+/// The matrix is not (numerically) positive definite.
+#[derive(Debug, Clone, Copy, PartialEq, Error)]
+#[error("matrix is not positive definite: pivot {pivot} is {value:e}")]
+pub struct NotPositiveDefinite {
+    /// Row whose pivot was not positive.
+    pub pivot: usize,
+    /// The pivot's value before the square root.
+    pub value: f64,
+}
+
+/// A symmetric `n × n` matrix with `A[i][j] = 0` for `|i − j| > b`, storing
+/// its lower band row by row. After [`factorize`](Self::factorize) the same
+/// storage holds the Cholesky factor `L` (`A = L Lᵀ`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SymmetricBand {
+    n: usize,
+    bandwidth: usize,
+    /// Row `i` holds columns `i − b ..= i` at `data[i(b+1) .. (i+1)(b+1)]`;
+    /// columns before 0 are zero padding.
+    data: Vec<f64>,
+}
+
+impl SymmetricBand {
+    /// The zero matrix of size `n` and half bandwidth `bandwidth`.
+    pub fn zeros(n: usize, bandwidth: usize) -> SymmetricBand {
+        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)] }
+    }
+
+    /// Number of rows (and columns).
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// Half bandwidth `b`: entries with `|i − j| > b` are zero.
+    pub fn bandwidth(&self) -> usize {
+        self.bandwidth
+    }
+
+    /// Sets every entry to zero, keeping the storage.
+    pub fn clear(&mut self) {
+        self.data.fill(0.0);
+    }
+
+    #[inline]
+    fn index(&self, i: usize, j: usize) -> usize {
+        debug_assert!(j <= i && i - j <= self.bandwidth && i < self.n);
+        i * (self.bandwidth + 1) + self.bandwidth + j - i
+    }
+
+    /// `A[i][j]` (zero outside the band).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let (i, j) = if j > i { (j, i) } else { (i, j) };
+        if i - j > self.bandwidth { 0.0 } else { self.data[self.index(i, j)] }
+    }
+
+    /// Adds `v` to `A[i][j]` (and so to `A[j][i]`).
+    ///
+    /// # Panics
+    /// If `(i, j)` is outside the matrix or the band.
+    pub fn add(&mut self, i: usize, j: usize, v: f64) {
+        let (i, j) = if j > i { (j, i) } else { (i, j) };
+        assert!(i < self.n && i - j <= self.bandwidth, "entry ({i}, {j}) outside the band");
+        let k = self.index(i, j);
+        self.data[k] += v;
+    }
+
+    /// Copies `other` (of the same size and band) into `self` without
+    /// allocating.
+    ///
+    /// # Panics
+    /// If the sizes or bands differ.
+    pub fn copy_from(&mut self, other: &SymmetricBand) {
+        assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
+        self.data.copy_from_slice(&other.data);
+    }
+
+    /// Adds `v` to every diagonal entry.
+    pub fn add_to_diagonal(&mut self, v: f64) {
+        let stride = self.bandwidth + 1;
+        for d in self.data.iter_mut().skip(self.bandwidth).step_by(stride) {
+            *d += v;
+        }
+    }
+
+    /// The largest diagonal entry (0 for an empty matrix).
+    pub fn max_diagonal(&self) -> f64 {
+        let stride = self.bandwidth + 1;
+        self.data.iter().skip(self.bandwidth).step_by(stride).fold(0.0, |m, &d| m.max(d))
+    }
+
+    /// Adds `w · v vᵀ` on the block starting at row and column `first`.
+    ///
+    /// # Panics
+    /// If the block leaves the matrix or `v` is wider than the band.
+    pub fn add_outer(&mut self, first: usize, v: &[f64], w: f64) {
+        assert!(v.len() <= self.bandwidth + 1, "row of width {} exceeds band {}", v.len(), self.bandwidth);
+        assert!(first + v.len() <= self.n, "block leaves the matrix");
+        for (a, &va) in v.iter().enumerate() {
+            let row = self.index(first + a, first);
+            let wa = w * va;
+            for (dst, &vb) in self.data[row..=row + a].iter_mut().zip(v) {
+                *dst += wa * vb;
+            }
+        }
+    }
+
+    /// `y = A x`.
+    ///
+    /// # Panics
+    /// If `x` or `y` do not have `n` entries.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        assert!(x.len() == self.n && y.len() == self.n);
+        y.fill(0.0);
+        for i in 0..self.n {
+            let j0 = i.saturating_sub(self.bandwidth);
+            let row = &self.data[self.index(i, j0)..=self.index(i, i)];
+            for (k, &a) in row.iter().enumerate() {
+                let j = j0 + k;
+                y[i] += a * x[j];
+                if j != i {
+                    y[j] += a * x[i];
+                }
+            }
+        }
+    }
+
+    /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`).
+    ///
+    /// # Errors
+    /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
+    /// storage then holds a partial factor.
+    pub fn factorize(&mut self) -> Result<(), NotPositiveDefinite> {
+        let b = self.bandwidth;
+        for i in 0..self.n {
+            let k0 = i.saturating_sub(b);
+            for j in k0..=i {
+                // L[i][j] = (A[i][j] − Σ_{k0 ≤ k < j} L[i][k] L[j][k]) / L[j][j]
+                let (ri, rj) = (self.index(i, k0), self.index(j, k0));
+                let len = j - k0;
+                let dot: f64 = self.data[ri..ri + len].iter().zip(&self.data[rj..rj + len]).map(|(x, y)| x * y).sum();
+                let s = self.data[ri + len] - dot;
+                if j < i {
+                    self.data[ri + len] = s / self.data[self.index(j, j)];
+                } else if s > 0.0 && s.is_finite() {
+                    self.data[ri + len] = s.sqrt();
+                } else {
+                    return Err(NotPositiveDefinite { pivot: i, value: s });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Solves `A x = rhs` in place, after [`factorize`](Self::factorize).
+    ///
+    /// # Panics
+    /// If `rhs` does not have `n` entries.
+    pub fn solve_in_place(&self, rhs: &mut [f64]) {
+        assert_eq!(rhs.len(), self.n);
+        let b = self.bandwidth;
+        // L y = rhs
+        for i in 0..self.n {
+            let k0 = i.saturating_sub(b);
+            let row = self.index(i, k0);
+            let dot: f64 = self.data[row..row + i - k0].iter().zip(&rhs[k0..i]).map(|(l, y)| l * y).sum();
+            rhs[i] = (rhs[i] - dot) / self.data[row + i - k0];
+        }
+        // Lᵀ x = y, row by row from the bottom: once x_i is known, remove
+        // its contribution from the rows above.
+        for i in (0..self.n).rev() {
+            let k0 = i.saturating_sub(b);
+            let row = self.index(i, k0);
+            rhs[i] /= self.data[row + i - k0];
+            let xi = rhs[i];
+            for (y, l) in rhs[k0..i].iter_mut().zip(&self.data[row..row + i - k0]) {
+                *y -= l * xi;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{DMatrix, DVector};
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    fn random_band(n: usize, b: usize, rng: &mut ChaCha8Rng) -> (SymmetricBand, DMatrix<f64>) {
+        let mut band = SymmetricBand::zeros(n, b);
+        // Sum of outer products of random rows (like JᵀJ), plus a ridge.
+        for _ in 0..3 * n {
+            let width = rng.random_range(1..=(b + 1).min(n));
+            let first = rng.random_range(0..=n - width);
+            let v: Vec<f64> = (0..width).map(|_| rng.random_range(-1.0..1.0)).collect();
+            band.add_outer(first, &v, rng.random_range(0.1..2.0));
+        }
+        band.add_to_diagonal(1e-3);
+        let dense = DMatrix::from_fn(n, n, |i, j| band.get(i, j));
+        (band, dense)
+    }
+
+    #[test]
+    fn solves_like_dense_cholesky() {
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for &(n, b) in &[(1, 0), (5, 0), (10, 1), (40, 6), (140, 20), (21, 25)] {
+            let (mut band, dense) = random_band(n, b, &mut rng);
+            let rhs = DVector::from_fn(n, |_, _| rng.random_range(-1.0..1.0));
+            let mut y = vec![0.0; n];
+            band.mul_vec(rhs.as_slice(), &mut y);
+            let dense_y = &dense * &rhs;
+            for i in 0..n {
+                assert!((y[i] - dense_y[i]).abs() < 1e-12, "mul_vec row {i}");
+            }
+            let expected = dense.clone().cholesky().expect("pd").solve(&rhs);
+            let mut x = rhs.as_slice().to_vec();
+            band.factorize().expect("pd");
+            band.solve_in_place(&mut x);
+            let scale = expected.amax().max(1.0);
+            for i in 0..n {
+                assert!((x[i] - expected[i]).abs() < 1e-9 * scale, "n={n} b={b} x[{i}]: {} vs {}", x[i], expected[i]);
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_indefinite_matrices() {
+        let mut a = SymmetricBand::zeros(3, 1);
+        a.add(0, 0, 1.0);
+        a.add(1, 0, 2.0);
+        a.add(1, 1, 1.0);
+        a.add(2, 2, 1.0);
+        let err = a.factorize().unwrap_err();
+        assert_eq!(err.pivot, 1);
+        assert!(err.value < 0.0);
+        let mut nan = SymmetricBand::zeros(2, 1);
+        nan.add(0, 0, f64::NAN);
+        assert_eq!(nan.factorize().unwrap_err().pivot, 0);
+    }
+
+    #[test]
+    #[should_panic(expected = "exceeds band")]
+    fn refuses_rows_wider_than_the_band() {
+        SymmetricBand::zeros(5, 1).add_outer(0, &[1.0, 1.0, 1.0], 1.0);
+    }
+}

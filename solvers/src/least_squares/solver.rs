@@ -1,0 +1,494 @@
+//! The augmented-Lagrangian / Levenberg-Marquardt solver.
+
+use super::{LeastSquaresProblem, Residuals, RowBlock};
+use crate::banded::SymmetricBand;
+use std::time::{Duration, Instant};
+use thiserror::Error;
+
+/// Settings of [`AugmentedLagrangian`], with documented defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverSettings {
+    /// Outer (multiplier update) iterations at most. Default 30.
+    pub max_outer_iterations: usize,
+    /// Accepted Gauss-Newton steps per outer iteration at most. Default 100.
+    pub max_inner_steps: usize,
+    /// Problem evaluations in all at most. Default 2000.
+    pub max_evaluations: usize,
+    /// The inner loop has converged when the next step is below this in
+    /// ∞-norm (variable units). Default 1e-6.
+    pub step_tolerance: f64,
+    /// ... or when it decreases (or is predicted to decrease) the augmented
+    /// Lagrangian by less than this fraction of `1 + Σ r²`. Default 1e-10.
+    pub cost_tolerance: f64,
+    /// Largest `|h|` of a converged solution. Default 1e-5.
+    pub equality_tolerance: f64,
+    /// Largest `g` of a converged solution. Default 1e-5.
+    pub inequality_tolerance: f64,
+    /// First penalty `μ`. Default 100.
+    pub initial_penalty: f64,
+    /// Factor on `μ` when the violation shrank less than 4×. Default 10.
+    pub penalty_increase: f64,
+    /// Largest `μ`; a problem still infeasible there is reported
+    /// [`Termination::Infeasible`]. Default 1e9.
+    pub max_penalty: f64,
+    /// First Levenberg-Marquardt damping, relative to the largest diagonal
+    /// entry of `JᵀJ`. Default 1e-6.
+    pub initial_damping: f64,
+    /// Largest step in ∞-norm (a trust bound; variable units). Default ∞.
+    pub max_step: f64,
+    /// Wall-clock budget. Default none.
+    pub time_limit: Option<Duration>,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            max_outer_iterations: 30,
+            max_inner_steps: 100,
+            max_evaluations: 2000,
+            step_tolerance: 1e-6,
+            cost_tolerance: 1e-10,
+            equality_tolerance: 1e-5,
+            inequality_tolerance: 1e-5,
+            initial_penalty: 100.0,
+            penalty_increase: 10.0,
+            max_penalty: 1e9,
+            initial_damping: 1e-6,
+            max_step: f64::INFINITY,
+            time_limit: None,
+        }
+    }
+}
+
+/// Why a solve stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Termination {
+    /// The inner loop converged and the constraints hold within tolerance.
+    Converged,
+    /// The constraints still do not hold at the largest penalty: the problem
+    /// is (locally) infeasible, e.g. an unreachable target.
+    Infeasible,
+    /// `max_outer_iterations` outer iterations were not enough.
+    IterationLimit,
+    /// `max_evaluations` evaluations were not enough.
+    EvaluationLimit,
+    /// The wall-clock budget ran out.
+    TimeLimit,
+}
+
+impl Termination {
+    /// Lower-case name for reports (`converged`, `infeasible`, …).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Termination::Converged => "converged",
+            Termination::Infeasible => "infeasible",
+            Termination::IterationLimit => "iteration_limit",
+            Termination::EvaluationLimit => "evaluation_limit",
+            Termination::TimeLimit => "time_limit",
+        }
+    }
+}
+
+/// What a solve did and where it ended.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolveReport {
+    pub termination: Termination,
+    /// Outer (multiplier update) iterations run.
+    pub outer_iterations: usize,
+    /// Accepted Gauss-Newton steps.
+    pub inner_steps: usize,
+    /// Problem evaluations, rejected trial points included.
+    pub evaluations: usize,
+    /// `Σ r²` of the cost rows at the solution.
+    pub cost: f64,
+    /// `max |h|` at the solution.
+    pub equality_violation: f64,
+    /// `max(0, max g)` at the solution.
+    pub inequality_violation: f64,
+    /// The final penalty `μ`.
+    pub penalty: f64,
+    pub time: Duration,
+}
+
+/// Why a solve could not run.
+#[derive(Debug, Error)]
+pub enum SolveError<E> {
+    /// The problem's evaluation failed.
+    #[error("evaluation failed: {0}")]
+    Evaluation(E),
+    /// Dimensions of the problem, solver or start disagree.
+    #[error("dimension mismatch: {what} is {got}, expected {expected}")]
+    Dimension { what: &'static str, expected: usize, got: usize },
+    /// A row touches variables outside the problem or wider than its band.
+    #[error("a row spans {width} variables ending at {end}; the problem has {dimension} with band {bandwidth}")]
+    RowOutsideBand { width: usize, end: usize, dimension: usize, bandwidth: usize },
+    /// The start point evaluates to NaN or infinity.
+    #[error("the problem is not finite at the start point")]
+    NotFiniteAtStart,
+}
+
+/// How an inner minimisation ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum InnerEnd {
+    Converged,
+    Budget(Termination),
+}
+
+/// Sorted (key, multiplier) pairs.
+#[derive(Debug, Clone, Default)]
+struct Multipliers {
+    pairs: Vec<(u64, f64)>,
+    next: Vec<(u64, f64)>,
+}
+
+impl Multipliers {
+    fn get(&self, key: u64) -> f64 {
+        self.pairs.binary_search_by_key(&key, |p| p.0).map_or(0.0, |i| self.pairs[i].1)
+    }
+
+    /// `λ ← update(λ, value)` for every row; rows whose new multiplier is
+    /// zero are dropped.
+    fn update(&mut self, rows: &RowBlock, update: impl Fn(f64, f64) -> f64) {
+        self.next.clear();
+        for r in 0..rows.len() {
+            let l = update(self.get(rows.key(r)), rows.value(r));
+            if l != 0.0 {
+                self.next.push((rows.key(r), l));
+            }
+        }
+        self.next.sort_unstable_by_key(|p| p.0);
+        std::mem::swap(&mut self.pairs, &mut self.next);
+    }
+}
+
+/// An augmented-Lagrangian solver for [`LeastSquaresProblem`]s of one size;
+/// it keeps every buffer, so repeated solves allocate nothing once the row
+/// counts have been seen.
+#[derive(Debug, Clone)]
+pub struct AugmentedLagrangian {
+    settings: SolverSettings,
+    dimension: usize,
+    current: Residuals,
+    trial: Residuals,
+    normal: SymmetricBand,
+    /// `JᵀJ` before damping and factorisation, reused after a rejected step.
+    undamped: SymmetricBand,
+    gradient: Vec<f64>,
+    step: Vec<f64>,
+    x_trial: Vec<f64>,
+    equality: Multipliers,
+    inequality: Multipliers,
+    penalty: f64,
+    damping: f64,
+    damping_growth: f64,
+    evaluations: usize,
+    inner_steps: usize,
+}
+
+/// Counters and limits shared by the loops of one solve.
+struct Budget {
+    start: Instant,
+    time_limit: Option<Duration>,
+    max_evaluations: usize,
+}
+
+impl AugmentedLagrangian {
+    /// A solver for problems with `dimension` variables and half bandwidth
+    /// `bandwidth`.
+    pub fn new(dimension: usize, bandwidth: usize, settings: SolverSettings) -> AugmentedLagrangian {
+        AugmentedLagrangian {
+            settings,
+            dimension,
+            current: Residuals::default(),
+            trial: Residuals::default(),
+            normal: SymmetricBand::zeros(dimension, bandwidth),
+            undamped: SymmetricBand::zeros(dimension, bandwidth),
+            gradient: vec![0.0; dimension],
+            step: vec![0.0; dimension],
+            x_trial: vec![0.0; dimension],
+            equality: Multipliers::default(),
+            inequality: Multipliers::default(),
+            penalty: 0.0,
+            damping: 0.0,
+            damping_growth: 2.0,
+            evaluations: 0,
+            inner_steps: 0,
+        }
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &SolverSettings {
+        &self.settings
+    }
+
+    /// Mutable settings (take effect at the next solve).
+    pub fn settings_mut(&mut self) -> &mut SolverSettings {
+        &mut self.settings
+    }
+
+    /// The rows at the solution of the last solve.
+    pub fn residuals(&self) -> &Residuals {
+        &self.current
+    }
+
+    /// Minimises from `x`, which holds the solution on return (also when
+    /// the report says it did not converge).
+    ///
+    /// # Errors
+    /// [`SolveError`] when the problem cannot be evaluated, its dimensions
+    /// disagree, or it is not finite at `x`.
+    pub fn solve<P: LeastSquaresProblem>(
+        &mut self,
+        problem: &mut P,
+        x: &mut [f64],
+    ) -> Result<SolveReport, SolveError<P::Error>> {
+        let budget = Budget {
+            start: Instant::now(),
+            time_limit: self.settings.time_limit,
+            max_evaluations: self.settings.max_evaluations,
+        };
+        self.check_dimensions(problem, x)?;
+        self.evaluations = 0;
+        self.inner_steps = 0;
+        self.equality.pairs.clear();
+        self.inequality.pairs.clear();
+        self.penalty = self.settings.initial_penalty;
+        self.damping = 0.0;
+        if !self.evaluate_into_current(problem, x)? {
+            return Err(SolveError::NotFiniteAtStart);
+        }
+        let mut previous_violation = f64::INFINITY;
+        let mut outer = 0;
+        let termination = loop {
+            outer += 1;
+            let inner = self.minimize(problem, x, &budget)?;
+            let (eq, ineq) = (self.current.equality_violation(), self.current.inequality_violation());
+            let feasible = eq <= self.settings.equality_tolerance && ineq <= self.settings.inequality_tolerance;
+            match inner {
+                InnerEnd::Budget(t) => break t,
+                InnerEnd::Converged if feasible => break Termination::Converged,
+                InnerEnd::Converged if self.penalty >= self.settings.max_penalty => break Termination::Infeasible,
+                InnerEnd::Converged if outer >= self.settings.max_outer_iterations => {
+                    break Termination::IterationLimit;
+                }
+                InnerEnd::Converged => {}
+            }
+            self.update_multipliers();
+            let violation = eq.max(ineq);
+            if violation > 0.25 * previous_violation {
+                self.penalty = (self.penalty * self.settings.penalty_increase).min(self.settings.max_penalty);
+            }
+            previous_violation = violation;
+        };
+        Ok(SolveReport {
+            termination,
+            outer_iterations: outer,
+            inner_steps: self.inner_steps,
+            evaluations: self.evaluations,
+            cost: self.current.cost_value(),
+            equality_violation: self.current.equality_violation(),
+            inequality_violation: self.current.inequality_violation(),
+            penalty: self.penalty,
+            time: budget.start.elapsed(),
+        })
+    }
+
+    fn check_dimensions<P: LeastSquaresProblem>(&self, problem: &P, x: &[f64]) -> Result<(), SolveError<P::Error>> {
+        let expected = self.dimension;
+        for (what, got) in [("the problem's dimension", problem.dimension()), ("x", x.len())] {
+            if got != expected {
+                return Err(SolveError::Dimension { what, expected, got });
+            }
+        }
+        if problem.bandwidth() > self.normal.bandwidth() {
+            let (expected, got) = (self.normal.bandwidth(), problem.bandwidth());
+            return Err(SolveError::Dimension { what: "the problem's bandwidth", expected, got });
+        }
+        Ok(())
+    }
+
+    /// Evaluates into `trial`; `Ok(false)` when it is not finite.
+    fn evaluate_trial<P: LeastSquaresProblem>(
+        &mut self,
+        problem: &mut P,
+        x: &[f64],
+    ) -> Result<bool, SolveError<P::Error>> {
+        self.evaluations += 1;
+        self.trial.clear();
+        problem.evaluate(x, &mut self.trial).map_err(SolveError::Evaluation)?;
+        let (dimension, bandwidth) = (self.dimension, self.normal.bandwidth());
+        for block in self.trial.blocks() {
+            let (width, end) = (block.max_width(), block.column_end());
+            if width > bandwidth + 1 || end > dimension {
+                return Err(SolveError::RowOutsideBand { width, end, dimension, bandwidth });
+            }
+        }
+        Ok(!self.trial.blocks().iter().any(|b| b.has_non_finite()))
+    }
+
+    fn evaluate_into_current<P: LeastSquaresProblem>(
+        &mut self,
+        problem: &mut P,
+        x: &[f64],
+    ) -> Result<bool, SolveError<P::Error>> {
+        let finite = self.evaluate_trial(problem, x)?;
+        std::mem::swap(&mut self.current, &mut self.trial);
+        Ok(finite)
+    }
+
+    /// Levenberg-Marquardt on the augmented Lagrangian at fixed multipliers
+    /// and penalty, from `x` (whose rows are in `current`).
+    fn minimize<P: LeastSquaresProblem>(
+        &mut self,
+        problem: &mut P,
+        x: &mut [f64],
+        budget: &Budget,
+    ) -> Result<InnerEnd, SolveError<P::Error>> {
+        let mut merit = self.merit(&self.current);
+        let mut accepted = 0;
+        let mut assembled = false;
+        // Damping carried over from the last inner loop would be tuned to a
+        // different penalty; start afresh.
+        self.damping = 0.0;
+        self.damping_growth = 2.0;
+        loop {
+            if self.evaluations >= budget.max_evaluations {
+                return Ok(InnerEnd::Budget(Termination::EvaluationLimit));
+            }
+            if budget.time_limit.is_some_and(|t| budget.start.elapsed() > t) {
+                return Ok(InnerEnd::Budget(Termination::TimeLimit));
+            }
+            if accepted >= self.settings.max_inner_steps {
+                return Ok(InnerEnd::Converged);
+            }
+            if !assembled {
+                self.assemble();
+                assembled = true;
+                if self.gradient.iter().all(|g| g.abs() <= 1e-14 * (1.0 + merit)) {
+                    return Ok(InnerEnd::Converged);
+                }
+            }
+            if self.damping == 0.0 {
+                self.damping = self.settings.initial_damping * self.undamped.max_diagonal().max(1.0);
+            }
+            let Some(predicted) = self.damped_step() else {
+                self.reject_step();
+                continue;
+            };
+            // Converged when the step is negligible, or would not decrease the
+            // merit noticeably (relative to the cost: the merit's multiplier
+            // terms carry a constant offset).
+            let decrease_scale = self.settings.cost_tolerance * (1.0 + self.current.cost_value());
+            if self.step_norm() <= self.settings.step_tolerance || predicted <= decrease_scale {
+                return Ok(InnerEnd::Converged);
+            }
+            for ((t, xi), s) in self.x_trial.iter_mut().zip(x.iter()).zip(&self.step) {
+                *t = xi + s;
+            }
+            let x_trial = std::mem::take(&mut self.x_trial);
+            let finite = self.evaluate_trial(problem, &x_trial);
+            self.x_trial = x_trial;
+            let trial_merit = if finite? { self.merit(&self.trial) } else { f64::INFINITY };
+            let actual = merit - trial_merit;
+            let rho = actual / predicted;
+            if rho > 1e-4 && actual > 0.0 {
+                x.copy_from_slice(&self.x_trial);
+                std::mem::swap(&mut self.current, &mut self.trial);
+                assembled = false;
+                self.inner_steps += 1;
+                accepted += 1;
+                self.damping *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                self.damping_growth = 2.0;
+                merit = trial_merit;
+                if actual <= self.settings.cost_tolerance * (1.0 + self.current.cost_value()) {
+                    return Ok(InnerEnd::Converged);
+                }
+            } else if self.reject_step() {
+                return Ok(InnerEnd::Converged);
+            }
+        }
+    }
+
+    /// Raises the damping after a rejected step; true when it has grown so
+    /// large that no step can decrease the merit any more.
+    fn reject_step(&mut self) -> bool {
+        self.damping *= self.damping_growth;
+        self.damping_growth *= 2.0;
+        self.damping > 1e20 * self.undamped.max_diagonal().max(1.0)
+    }
+
+    /// Solves `(JᵀJ + δI) s = −Jᵀφ` into `step` (bounded by `max_step`) and
+    /// returns the decrease the Gauss-Newton model predicts, or `None` when
+    /// the damped matrix cannot be factorised.
+    fn damped_step(&mut self) -> Option<f64> {
+        self.normal.copy_from(&self.undamped);
+        self.normal.add_to_diagonal(self.damping);
+        self.normal.factorize().ok()?;
+        for (s, g) in self.step.iter_mut().zip(&self.gradient) {
+            *s = -g;
+        }
+        self.normal.solve_in_place(&mut self.step);
+        // With (JᵀJ + δI)s = −g: the model change for the step σs is
+        // 2σ gᵀs + σ² sᵀJᵀJs, and sᵀJᵀJs = −gᵀs − δ‖s‖².
+        let gs: f64 = self.gradient.iter().zip(&self.step).map(|(g, s)| g * s).sum();
+        let ss: f64 = self.step.iter().map(|s| s * s).sum();
+        let largest = self.step_norm();
+        let sigma = if largest > self.settings.max_step { self.settings.max_step / largest } else { 1.0 };
+        if sigma < 1.0 {
+            self.step.iter_mut().for_each(|s| *s *= sigma);
+        }
+        let predicted = -(2.0 * sigma * gs + sigma * sigma * (-gs - self.damping * ss));
+        (predicted > 0.0 && predicted.is_finite()).then_some(predicted)
+    }
+
+    fn step_norm(&self) -> f64 {
+        self.step.iter().fold(0.0f64, |m, s| m.max(s.abs()))
+    }
+
+    /// Each row's weight² and its shifted value, as the augmented
+    /// Lagrangian sees it (weight 0: inactive).
+    fn rows<'a>(&'a self, res: &'a Residuals) -> impl Iterator<Item = (&'a RowBlock, usize, f64, f64)> + 'a {
+        let mu = self.penalty;
+        let cost = (0..res.cost.len()).map(move |r| (&res.cost, r, 1.0, res.cost.value(r)));
+        let eq = (0..res.equality.len()).map(move |r| {
+            let h = res.equality.value(r) + self.equality.get(res.equality.key(r)) / (2.0 * mu);
+            (&res.equality, r, mu, h)
+        });
+        let ineq = (0..res.inequality.len()).map(move |r| {
+            let g = res.inequality.value(r) + self.inequality.get(res.inequality.key(r)) / (2.0 * mu);
+            if g > 0.0 { (&res.inequality, r, mu, g) } else { (&res.inequality, r, 0.0, 0.0) }
+        });
+        cost.chain(eq).chain(ineq)
+    }
+
+    /// The augmented Lagrangian (up to a constant in the multipliers).
+    fn merit(&self, res: &Residuals) -> f64 {
+        self.rows(res).map(|(_, _, w, v)| w * v * v).sum()
+    }
+
+    /// `JᵀJ` (into `undamped`) and `Jᵀφ` of the current rows.
+    fn assemble(&mut self) {
+        let mut normal = std::mem::replace(&mut self.undamped, SymmetricBand::zeros(0, 0));
+        let mut gradient = std::mem::take(&mut self.gradient);
+        normal.clear();
+        gradient.fill(0.0);
+        for (block, r, w, v) in self.rows(&self.current) {
+            if w == 0.0 {
+                continue;
+            }
+            let (first, jac) = block.gradient(r);
+            normal.add_outer(first, jac, w);
+            for (g, j) in gradient[first..first + jac.len()].iter_mut().zip(jac) {
+                *g += w * v * j;
+            }
+        }
+        self.undamped = normal;
+        self.gradient = gradient;
+    }
+
+    fn update_multipliers(&mut self) {
+        let mu = self.penalty;
+        self.equality.update(&self.current.equality, |l, h| l + 2.0 * mu * h);
+        self.inequality.update(&self.current.inequality, |l, g| (l + 2.0 * mu * g).max(0.0));
+    }
+}
