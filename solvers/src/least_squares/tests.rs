@@ -98,8 +98,8 @@ impl LeastSquaresProblem for Chain {
             let r = x[i + 1] - 2.0 * x[i] + x[i - 1];
             out.cost.push(i as u64, r, i - 1, 3).copy_from_slice(&[1.0, -2.0, 1.0]);
         }
-        for i in 0..self.n {
-            out.cost.push(0, 0.1 * (x[i] - self.target[i]), i, 1)[0] = 0.1;
+        for (i, (xi, ci)) in x.iter().zip(&self.target).enumerate() {
+            out.cost.push(0, 0.1 * (xi - ci), i, 1)[0] = 0.1;
         }
         for (k, &(i, v)) in Chain::PINS.iter().enumerate() {
             out.equality.push(k as u64, x[i] - v, i, 1)[0] = 1.0;
