@@ -1,0 +1,63 @@
+//! KOMO-style trajectory optimization: a k-order sum-of-squares problem
+//! over configurations `q_1 … q_T` with equality and inequality
+//! constraints, solved by the augmented-Lagrangian / Levenberg-Marquardt
+//! solver of `tandem_solvers` on its block-banded normal equations.
+//!
+//! A problem is a list of [`Objective`]s — (feature, time span, kind,
+//! scale, target, order) — over features with analytic Jacobians: joint
+//! state, joint limits, frame position, position difference, scalar
+//! product of frame axes, orientation difference and pairwise collision
+//! distance. Order-1 and order-2 objectives difference a feature over
+//! consecutive slices (`τ = duration / T` apart); the `k` configurations
+//! before `q_1` are the start, at rest. Objectives come from problem files
+//! ([`TrajectoryProblem::from_problem`]) or are built in Rust.
+//!
+//! ```
+//! use tandem::komo::{solve_problem, SolveOptions};
+//! use tandem::scene::Problem;
+//! let problem = Problem::builtin("panda_reach").unwrap();
+//! let solution = solve_problem(&problem, &SolveOptions::default()).unwrap();
+//! assert!(solution.converged() && solution.validation.collision_free);
+//! println!("{} slices, cost {:.3}", solution.trajectory.len(), solution.report.cost);
+//! ```
+
+mod feature;
+mod objective;
+mod problem;
+mod solve;
+
+pub use feature::{Feature, FeatureScratch, FrameRef};
+pub use objective::{Objective, TimeSpan, default_objectives, objective_from_spec};
+pub use problem::{COLLISION_CUTOFF, TrajectoryProblem, TrajectoryWorkspace};
+pub use solve::{
+    Initialization, ProblemSolution, SolveOptions, TrajectoryOptimizer, TrajectoryResult, Validation, solve_problem,
+};
+
+use crate::collision::CollisionError;
+use crate::plan::PlanError;
+use crate::robot::RobotError;
+use thiserror::Error;
+
+/// Errors setting up or running an optimization (a solve that does not
+/// converge is not an error: see the report's termination).
+#[derive(Debug, Error)]
+pub enum KomoError {
+    /// An objective cannot be built or does not fit the problem.
+    #[error("objective {name}: {message}")]
+    Objective { name: String, message: String },
+    /// Horizon, order or duration out of range.
+    #[error("optimizer settings: {0}")]
+    Settings(String),
+    /// An initialisation of the wrong shape or with bad values.
+    #[error("initialisation: {0}")]
+    Initialization(String),
+    /// A grasp goal needs `robot.gripper`.
+    #[error("the problem's goal needs robot.gripper")]
+    NoGripper,
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    #[error(transparent)]
+    Collision(#[from] CollisionError),
+    #[error("planning the initial path: {0}")]
+    Plan(#[from] PlanError),
+}

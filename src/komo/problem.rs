@@ -1,0 +1,313 @@
+//! The trajectory problem (model) and its per-thread workspace: decision
+//! variables `q_1 … q_T` stacked into one vector, objectives evaluated
+//! slice by slice into banded rows for the solver.
+
+use super::KomoError;
+use super::feature::{Feature, FeatureScratch};
+use super::objective::Objective;
+use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
+use crate::robot::{KinematicsWorkspace, RobotError, RobotModel};
+use crate::scene::ObjectiveKind;
+use std::sync::Arc;
+use tandem_solvers::least_squares::{LeastSquaresProblem, Residuals, RowBlock};
+
+/// Collision pairs farther than `margin + COLLISION_CUTOFF` (m) get no row:
+/// their inequality is inactive unless a multiplier would reach across
+/// that gap, which the penalty keeps from happening in practice.
+pub const COLLISION_CUTOFF: f64 = 0.05;
+
+/// An immutable k-order trajectory problem: robot, collision model,
+/// objectives, horizon `T`, duration and start configuration. Slices
+/// `t ≤ 0` (the `k` prefix configurations) are the start, at rest.
+#[derive(Debug, Clone)]
+pub struct TrajectoryProblem {
+    pub(crate) robot: Arc<RobotModel>,
+    pub(crate) collision: Option<CollisionModel>,
+    pub(crate) objectives: Vec<Objective>,
+    /// Resolved slices `first ..= last` of each objective.
+    pub(crate) spans: Vec<(usize, usize)>,
+    pub(crate) horizon: usize,
+    pub(crate) order: usize,
+    pub(crate) duration: f64,
+    pub(crate) start: Vec<f64>,
+}
+
+impl TrajectoryProblem {
+    /// Validates and assembles a problem.
+    ///
+    /// # Errors
+    /// [`KomoError`] for a horizon below 2, order not 1 or 2, a
+    /// non-positive duration, a bad start, an invalid objective, or a
+    /// collision objective without a collision model.
+    pub fn new(
+        robot: Arc<RobotModel>,
+        collision: Option<CollisionModel>,
+        objectives: Vec<Objective>,
+        horizon: usize,
+        order: usize,
+        duration: f64,
+        start: Vec<f64>,
+    ) -> Result<TrajectoryProblem, KomoError> {
+        if horizon < 2 || !(1..=2).contains(&order) || !(duration.is_finite() && duration > 0.0) {
+            return Err(KomoError::Settings(format!(
+                "need horizon ≥ 2, order 1 or 2 and a positive duration; got T = {horizon}, k = {order}, {duration} s"
+            )));
+        }
+        robot.check_configuration(&start)?;
+        for objective in &objectives {
+            objective.validate(&robot, horizon, order)?;
+            if matches!(objective.feature, Feature::Collision { .. }) && collision.is_none() {
+                let name = objective.name.clone();
+                return Err(KomoError::Objective { name, message: "no collision model given".into() });
+            }
+        }
+        let spans = objectives.iter().map(|o| o.time.slices(horizon)).collect();
+        Ok(TrajectoryProblem { robot, collision, objectives, spans, horizon, order, duration, start })
+    }
+
+    /// Number of optimized configurations `T`.
+    pub fn horizon(&self) -> usize {
+        self.horizon
+    }
+
+    /// Seconds between slices, `τ = duration / T`.
+    pub fn time_step(&self) -> f64 {
+        self.duration / self.horizon as f64
+    }
+
+    /// Active joints per configuration.
+    pub fn nq(&self) -> usize {
+        self.robot.nq()
+    }
+
+    pub fn robot(&self) -> &Arc<RobotModel> {
+        &self.robot
+    }
+
+    pub fn collision_model(&self) -> Option<&CollisionModel> {
+        self.collision.as_ref()
+    }
+
+    pub fn objectives(&self) -> &[Objective] {
+        &self.objectives
+    }
+
+    pub fn start(&self) -> &[f64] {
+        &self.start
+    }
+
+    /// Half bandwidth of the normal equations: a row of order k couples
+    /// k + 1 consecutive slices.
+    pub fn bandwidth(&self) -> usize {
+        let k = self.objectives.iter().map(|o| o.order).max().unwrap_or(0);
+        (k + 1) * self.nq() - 1
+    }
+
+    /// Configuration of slice `t` (≤ 0: the start) within the stacked `x`.
+    fn slice<'x>(&'x self, x: &'x [f64], t: usize) -> &'x [f64] {
+        let n = self.nq();
+        if t == 0 { &self.start } else { &x[(t - 1) * n..t * n] }
+    }
+
+    /// Rows of every objective at `x` into `out`.
+    pub(crate) fn evaluate(
+        &self,
+        ws: &mut TrajectoryWorkspace,
+        x: &[f64],
+        out: &mut Residuals,
+    ) -> Result<(), RobotError> {
+        for t in 1..=self.horizon {
+            self.robot.forward_kinematics(&mut ws.kinematics[t], self.slice(x, t))?;
+        }
+        for (index, objective) in self.objectives.iter().enumerate() {
+            let block = match objective.kind {
+                ObjectiveKind::SumOfSquares => &mut out.cost,
+                ObjectiveKind::Equality => &mut out.equality,
+                ObjectiveKind::Inequality => &mut out.inequality,
+            };
+            match objective.feature {
+                Feature::Collision { margin } => self.collision_rows(ws, index, margin, x, block)?,
+                _ => self.feature_rows(ws, index, x, block)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// Rows of a fixed-size feature objective, differenced to its order.
+    fn feature_rows(
+        &self,
+        ws: &mut TrajectoryWorkspace,
+        index: usize,
+        x: &[f64],
+        block: &mut RowBlock,
+    ) -> Result<(), RobotError> {
+        let objective = &self.objectives[index];
+        let (first, last) = self.spans[index];
+        let (n, k, dim) = (self.nq(), objective.order, objective.feature.dim(&self.robot));
+        let buffer = &mut ws.features[index];
+        for s in first.saturating_sub(k)..=last {
+            let (value, jac) = (&mut buffer.values[s * dim..(s + 1) * dim], &mut buffer.jacobians[s * dim * n..]);
+            let q = if s == 0 { &self.start[..] } else { &x[(s - 1) * n..s * n] };
+            objective.feature.evaluate(
+                &self.robot,
+                &ws.kinematics[s],
+                q,
+                &mut ws.scratch,
+                value,
+                &mut jac[..dim * n],
+            )?;
+        }
+        let coefficients: &[f64] = [&[1.0][..], &[1.0, -1.0], &[1.0, -2.0, 1.0]][k];
+        let weight = objective.scale / self.time_step().powi(k as i32);
+        for t in first..=last {
+            let s0 = t.saturating_sub(k).max(1);
+            let width = (t - s0 + 1) * n;
+            for i in 0..dim {
+                let row = &mut ws.row[..width];
+                row.fill(0.0);
+                let mut value = 0.0;
+                for (j, c) in coefficients.iter().enumerate() {
+                    let s = t.saturating_sub(j);
+                    value += c * buffer.values[s * dim + i];
+                    if s >= 1 {
+                        let grad = &buffer.jacobians[(s * dim + i) * n..(s * dim + i + 1) * n];
+                        for (r, g) in row[(s - s0) * n..(s - s0 + 1) * n].iter_mut().zip(grad) {
+                            *r += weight * c * g;
+                        }
+                    }
+                }
+                let target = objective.target.get(i).copied().unwrap_or(0.0);
+                let key = row_key(index, t, i);
+                push_trimmed(
+                    block,
+                    key,
+                    objective.scale * (value / self.time_step().powi(k as i32) - target),
+                    (s0 - 1) * n,
+                    row,
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// One row `scale·(margin − d)` per collision pair closer than
+    /// `margin + COLLISION_CUTOFF`, at every slice of the objective; as a
+    /// cost, only the pairs closer than the margin count.
+    fn collision_rows(
+        &self,
+        ws: &mut TrajectoryWorkspace,
+        index: usize,
+        margin: f64,
+        x: &[f64],
+        block: &mut RowBlock,
+    ) -> Result<(), RobotError> {
+        let (Some(model), Some(cws)) = (&self.collision, &mut ws.collision) else { return Ok(()) };
+        let objective = &self.objectives[index];
+        let (first, last) = self.spans[index];
+        let n = self.nq();
+        let cost = objective.kind == ObjectiveKind::SumOfSquares;
+        for t in first..=last {
+            let q = self.slice(x, t);
+            ws.pairs.clear();
+            ws.pairs.extend_from_slice(model.distances(cws, q, margin + COLLISION_CUTOFF)?);
+            for pair in &ws.pairs {
+                let g = margin - pair.signed.distance;
+                if cost && g <= 0.0 {
+                    continue;
+                }
+                model.distance_gradient(cws, pair, &mut ws.gradient)?;
+                let row = &mut ws.row[..n];
+                for (r, d) in row.iter_mut().zip(&ws.gradient) {
+                    *r = -objective.scale * d;
+                }
+                push_trimmed(block, row_key(index, t, pair.pair), objective.scale * g, (t - 1) * n, row);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Key of component `i` of objective `index` at slice `t`: stable across
+/// evaluations, so multipliers follow their row.
+fn row_key(index: usize, t: usize, i: usize) -> u64 {
+    ((index as u64) << 48) | ((t as u64) << 32) | i as u64
+}
+
+/// Pushes a row whose gradient over `first ..` is `row`, without its
+/// leading and trailing zeros (fewer entries to assemble).
+fn push_trimmed(block: &mut RowBlock, key: u64, value: f64, first: usize, row: &[f64]) {
+    let lo = row.iter().position(|v| *v != 0.0).unwrap_or(0);
+    let hi = row.iter().rposition(|v| *v != 0.0).map_or(lo, |h| h + 1);
+    block.push(key, value, first + lo, hi - lo).copy_from_slice(&row[lo..hi]);
+}
+
+/// Values and Jacobians of one objective's feature at every slice.
+#[derive(Debug, Clone)]
+pub(crate) struct FeatureBuffer {
+    values: Vec<f64>,
+    jacobians: Vec<f64>,
+}
+
+/// Mutable per-thread state of evaluating a [`TrajectoryProblem`]: one
+/// kinematics workspace per slice, collision workspace, feature buffers.
+#[derive(Debug, Clone)]
+pub struct TrajectoryWorkspace {
+    kinematics: Vec<KinematicsWorkspace>,
+    collision: Option<CollisionWorkspace>,
+    pairs: Vec<PairDistance>,
+    gradient: Vec<f64>,
+    scratch: FeatureScratch,
+    features: Vec<FeatureBuffer>,
+    row: Vec<f64>,
+}
+
+impl TrajectoryWorkspace {
+    /// Allocates everything evaluating `problem` needs.
+    pub fn new(problem: &TrajectoryProblem) -> TrajectoryWorkspace {
+        let (robot, n, slices) = (&problem.robot, problem.nq(), problem.horizon + 1);
+        let mut kinematics = vec![KinematicsWorkspace::new(robot); slices];
+        // The prefix slices are the start; their kinematics never change.
+        let _ = robot.forward_kinematics(&mut kinematics[0], &problem.start);
+        let features = problem
+            .objectives
+            .iter()
+            .map(|o| {
+                let dim = o.feature.dim(robot);
+                FeatureBuffer { values: vec![0.0; slices * dim], jacobians: vec![0.0; slices * dim * n] }
+            })
+            .collect();
+        let collision = problem.collision.as_ref().map(CollisionWorkspace::new);
+        let pair_count = problem.collision.as_ref().map_or(0, |m| m.pair_count());
+        TrajectoryWorkspace {
+            kinematics,
+            collision,
+            pairs: Vec::with_capacity(pair_count),
+            gradient: vec![0.0; n],
+            scratch: FeatureScratch::new(robot),
+            features,
+            row: vec![0.0; (problem.order + 1) * n],
+        }
+    }
+}
+
+/// A problem and a workspace, as the solver sees them.
+pub(crate) struct Evaluator<'a> {
+    pub(crate) problem: &'a TrajectoryProblem,
+    pub(crate) workspace: &'a mut TrajectoryWorkspace,
+}
+
+impl LeastSquaresProblem for Evaluator<'_> {
+    type Error = RobotError;
+
+    fn dimension(&self) -> usize {
+        self.problem.horizon * self.problem.nq()
+    }
+
+    fn bandwidth(&self) -> usize {
+        self.problem.bandwidth()
+    }
+
+    fn evaluate(&mut self, x: &[f64], out: &mut Residuals) -> Result<(), RobotError> {
+        self.problem.evaluate(self.workspace, x, out)
+    }
+}
