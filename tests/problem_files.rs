@@ -639,7 +639,7 @@ fn more_out_of_range_values() {
         "[goal]\nframe = \"panda_hand_tcp\"\nposition = [0.5, 0.0, 0.4]\naxis = \"z\"\ndirection = [0.0, 0.0, -1.0]\n";
     let table = "[scene.table]\ntop = [0.3, 0.0, 0.0]\nsize = [1.4, 1.6]\n";
     let settings = "[planner]\nmax_iterations = 10\n\n[optimizer]\norder = 2\nmax_iterations = 20\n";
-    let objective = "[[optimizer.objectives]]\nfeature = \"scalar_product\"\nframes = [\"panda_hand_tcp\", \"world\"]\naxes = [\"z\", \"z\"]\nscale = 1.0\norder = 0\nmargin = 0.0\ntarget = [-1.0]\n";
+    let objective = "[[optimizer.objectives]]\nfeature = \"scalar_product\"\nframes = [\"panda_hand_tcp\", \"world\"]\naxes = [\"z\", \"z\"]\nscale = 1.0\norder = 0\nmargin = 0.0\ntarget = [0.0]\n";
     let good = problem(&[ROBOT, START, pose_goal, table, settings, objective]);
     let dir = TempDir::new().unwrap();
     std::fs::write(dir.path().join("good.toml"), &good).unwrap();
@@ -653,12 +653,25 @@ fn more_out_of_range_values() {
         ("max_iterations = 10", "max_iterations = 0", "planner.max_iterations", "must be at least 1"),
         ("order = 2", "order = 3", "optimizer.order", "must be 1 or 2, got 3"),
         ("max_iterations = 20", "max_iterations = 0", "optimizer.max_iterations", "must be at least 1"),
-        ("axes = [\"z\", \"z\"]", "axes = [\"z\"]", "optimizer.objectives[0].axes", "scalar_product needs two axes"),
+        (
+            "axes = [\"z\", \"z\"]",
+            "axes = [\"z\"]",
+            "optimizer.objectives[0].axes",
+            "scalar_product reads 2 axis name(s)",
+        ),
         ("axes = [\"z\", \"z\"]", "axes = [\"z\", \"q\"]", "optimizer.objectives[0].axes[1]", "must be x, y or z"),
         ("scale = 1.0", "scale = 0.0", "optimizer.objectives[0].scale", "must be positive, got 0"),
         ("order = 0", "order = 3", "optimizer.objectives[0].order", "must be 0, 1 or 2, got 3"),
         ("margin = 0.0", "margin = -0.1", "optimizer.objectives[0].margin", "must be zero or positive, got -0.1"),
-        ("target = [-1.0]", "target = [nan]", "optimizer.objectives[0].target[0]", "must be finite, got NaN"),
+        ("target = [0.0]", "target = [nan]", "optimizer.objectives[0].target[0]", "must be finite, got NaN"),
+        ("target = [0.0]", "target = [0.0, 1.0]", "optimizer.objectives[0].target", "has 1 value(s); the target has 2"),
+        ("target = [0.0]", "target = [-1.0]", "optimizer.objectives[0].target", "with feature \"vector\""),
+        (
+            "feature = \"scalar_product\"",
+            "feature = \"joint_limits\"",
+            "optimizer.objectives[0].frames",
+            "reads 0 frame(s)",
+        ),
     ];
     for (from, to, key, message) in cases {
         assert_eq!(good.matches(from).count(), 1, "{from}");
@@ -685,6 +698,29 @@ fn unknown_feature() {
         "optimizer.objectives[1].feature",
         "unknown feature 'speed' (expected one of ",
     );
+}
+
+#[test]
+fn targets_fit_their_feature() {
+    let cases = [
+        ("feature = \"joint_limits\"\nkind = \"ineq\"\ntarget = [0.0]\n", "feature joint_limits takes no target"),
+        ("feature = \"joint_state\"\ntarget = [0.0, 0.0]\n", "has 7 value(s); the target has 2"),
+        (
+            "feature = \"vector\"\nframes = [\"panda_hand_tcp\", \"world\"]\naxes = [\"z\"]\ntarget = [0.0, -1.0]\n",
+            "has 3 value(s)",
+        ),
+        (
+            "feature = \"vector\"\nframes = [\"panda_hand_tcp\", \"world\"]\naxes = [\"z\", \"x\"]\n",
+            "vector reads 1 axis name(s)",
+        ),
+    ];
+    for (objective, message) in cases {
+        let text = problem(&[ROBOT, START, JOINT_GOAL, &format!("[[optimizer.objectives]]\n{objective}")]);
+        let line = objective.lines().last().unwrap();
+        let key =
+            if line.starts_with("axes") { "optimizer.objectives[0].axes" } else { "optimizer.objectives[0].target" };
+        expect_problem_error(&text, line, key, message);
+    }
 }
 
 #[test]

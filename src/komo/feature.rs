@@ -29,6 +29,10 @@ pub enum Feature {
     /// `(R_a e_i) · (R_b e_j)`: the cosine between axis i of `a` and axis j
     /// of `b` (0 = x, 1 = y, 2 = z), dimension 1.
     ScalarProduct { a: FrameRef, axis_a: usize, b: FrameRef, axis_b: usize },
+    /// `R_bᵀ R_a e_i`: axis i of `a` in `b`'s coordinates, dimension 3. Its
+    /// target is a unit direction: unlike a scalar product of ±1, it has a
+    /// full-rank Jacobian at its target.
+    Vector { a: FrameRef, axis: usize, b: FrameRef },
     /// `log(R_bᵀ R_a)`: the rotation vector taking `b`'s orientation to
     /// `a`'s, in `b`'s axes (rad), dimension 3.
     OrientationDifference { a: FrameRef, b: FrameRef },
@@ -112,7 +116,10 @@ impl Feature {
         match self {
             Feature::JointState => robot.nq(),
             Feature::JointLimits { .. } => 2 * limited_joints(robot).count(),
-            Feature::Position { .. } | Feature::PositionDifference { .. } | Feature::OrientationDifference { .. } => 3,
+            Feature::Position { .. }
+            | Feature::PositionDifference { .. }
+            | Feature::Vector { .. }
+            | Feature::OrientationDifference { .. } => 3,
             Feature::ScalarProduct { .. } => 1,
             Feature::Collision { .. } => 0,
         }
@@ -177,6 +184,20 @@ impl Feature {
                 project(&scratch.jac_a, 3, &w, 1.0, jac);
                 project(&scratch.jac_b, 3, &w, -1.0, jac);
             }
+            Feature::Vector { a, axis, b } => {
+                let pa = frame_with_jacobian(robot, kin, a, &mut scratch.jac_a)?;
+                let pb = frame_with_jacobian(robot, kin, b, &mut scratch.jac_b)?;
+                let u = pa.rotation.matrix().column(*axis).into_owned();
+                let rbt = pb.rotation.matrix().transpose();
+                value.copy_from_slice((rbt * u).as_slice());
+                // d(R_bᵀu) = R_bᵀ((ω_a − ω_b) × u) = −R_bᵀ[u]× (ω_a − ω_b)
+                let m = -rbt * u.cross_matrix();
+                for (i, row) in jac.chunks_exact_mut(nq).enumerate() {
+                    let w = m.row(i).transpose();
+                    project(&scratch.jac_a, 3, &w, 1.0, row);
+                    project(&scratch.jac_b, 3, &w, -1.0, row);
+                }
+            }
             Feature::OrientationDifference { a, b } => {
                 let pa = frame_with_jacobian(robot, kin, a, &mut scratch.jac_a)?;
                 let pb = frame_with_jacobian(robot, kin, b, &mut scratch.jac_b)?;
@@ -226,6 +247,8 @@ mod tests {
             Feature::PositionDifference { a: tcp.clone(), b: link4.clone() },
             Feature::ScalarProduct { a: tcp.clone(), axis_a: 2, b: fixed.clone(), axis_b: 2 },
             Feature::ScalarProduct { a: tcp.clone(), axis_a: 1, b: link4.clone(), axis_b: 0 },
+            Feature::Vector { a: tcp.clone(), axis: 2, b: fixed.clone() },
+            Feature::Vector { a: tcp.clone(), axis: 0, b: link4.clone() },
             Feature::OrientationDifference { a: tcp.clone(), b: fixed },
             Feature::OrientationDifference { a: tcp, b: link4 },
         ]

@@ -5,7 +5,7 @@ use super::KomoError;
 use super::feature::{Feature, FrameRef};
 use crate::robot::RobotModel;
 use crate::scene::{Goal, ObjectiveKind, ObjectiveSpec, Problem, TimeRange};
-use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
+use nalgebra::{IsometryMatrix3, Translation3};
 
 /// When an objective applies.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -157,6 +157,7 @@ pub fn objective_from_spec(problem: &Problem, spec: &ObjectiveSpec) -> Result<Ob
         "scalar_product" => {
             Feature::ScalarProduct { a: frame(0)?, axis_a: spec.axes[0], b: frame(1)?, axis_b: spec.axes[1] }
         }
+        "vector" => Feature::Vector { a: frame(0)?, axis: spec.axes[0], b: frame(1)? },
         "orientation_difference" => Feature::OrientationDifference { a: frame(0)?, b: frame(1)? },
         "collision" => Feature::Collision { margin: spec.margin },
         other => return Err(fail(format!("unknown feature '{other}'"))),
@@ -186,13 +187,6 @@ pub fn objective_from_spec(problem: &Problem, spec: &ObjectiveSpec) -> Result<Ob
     })
 }
 
-/// A world-fixed frame whose z axis points along `direction`.
-fn frame_along(direction: &Vector3<f64>) -> FrameRef {
-    let rotation = Rotation3::rotation_between(&Vector3::z(), direction)
-        .unwrap_or_else(|| Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI));
-    FrameRef::Fixed(IsometryMatrix3::from_parts(Translation3::identity(), rotation))
-}
-
 /// The objectives of a problem that lists none: minimal acceleration,
 /// joint limits, collision avoidance with `margin` (m), and the goal at the
 /// end of the motion, reached at rest.
@@ -220,14 +214,16 @@ pub fn default_objectives(problem: &Problem, margin: f64) -> Result<Vec<Objectiv
             let at = Feature::Position { frame: tcp.clone() };
             objectives
                 .push(Objective::new("goal position", at, Equality).time(TimeSpan::END).target(position.as_slice()));
+            let world = FrameRef::Fixed(IsometryMatrix3::identity());
             if let Some(rotation) = orientation {
                 let b = FrameRef::Fixed(IsometryMatrix3::from_parts(Translation3::identity(), *rotation));
                 let f = Feature::OrientationDifference { a: tcp.clone(), b };
                 objectives.push(Objective::new("goal orientation", f, Equality).time(TimeSpan::END));
             }
             if let Some((axis, direction)) = axis_alignment {
-                let f = Feature::ScalarProduct { a: tcp, axis_a: *axis, b: frame_along(direction), axis_b: 2 };
-                objectives.push(Objective::new("goal axis", f, Equality).time(TimeSpan::END).target([1.0]));
+                let f = Feature::Vector { a: tcp, axis: *axis, b: world.clone() };
+                let unit = direction.normalize();
+                objectives.push(Objective::new("goal axis", f, Equality).time(TimeSpan::END).target(unit.as_slice()));
             }
         }
         Goal::Grasp { object, grasp } => {

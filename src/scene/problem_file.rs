@@ -588,16 +588,18 @@ impl RawPlanner {
     }
 }
 
-/// Features and the keys each one reads.
-const FEATURES: [(&str, usize, bool); 8] = [
-    ("joint_state", 0, false),
-    ("joint_limits", 0, false),
-    ("position", 1, false),
-    ("position_difference", 2, false),
-    ("scalar_product", 2, true),
-    ("orientation_difference", 2, false),
-    ("collision", 0, false),
-    ("control", 0, false),
+/// Features: name, frames read, axes read, and target length (`None`: no
+/// target; `Some(0)`: one per active joint).
+const FEATURES: [(&str, usize, usize, Option<usize>); 9] = [
+    ("joint_state", 0, 0, Some(0)),
+    ("joint_limits", 0, 0, None),
+    ("position", 1, 0, Some(3)),
+    ("position_difference", 2, 0, Some(3)),
+    ("scalar_product", 2, 2, Some(1)),
+    ("vector", 2, 1, Some(3)),
+    ("orientation_difference", 2, 0, Some(3)),
+    ("collision", 0, 0, None),
+    ("control", 0, 0, Some(0)),
 ];
 
 impl RawOptimizer {
@@ -646,9 +648,10 @@ impl RawObjective {
     ) -> Result<ObjectiveSpec, ProblemError> {
         let src = check.src;
         let names = FEATURES.map(|f| f.0).join(", ");
-        let &(_, frame_count, uses_axes) = FEATURES.iter().find(|f| f.0 == self.feature).ok_or_else(|| {
-            src.error(&path.key("feature"), format!("unknown feature '{}' (expected one of {names})", self.feature))
-        })?;
+        let &(_, frame_count, axis_count, target_len) =
+            FEATURES.iter().find(|f| f.0 == self.feature).ok_or_else(|| {
+                src.error(&path.key("feature"), format!("unknown feature '{}' (expected one of {names})", self.feature))
+            })?;
         if self.frames.len() != frame_count {
             let msg = format!("feature {} reads {frame_count} frame(s), got {}", self.feature, self.frames.len());
             return Err(src.error(&path.key("frames"), msg));
@@ -660,19 +663,24 @@ impl RawObjective {
                 return Err(src.error(&path.key("frames").index(k), msg));
             }
         }
-        let axes = if uses_axes {
-            if self.axes.len() != 2 {
-                return Err(src.error(&path.key("axes"), "scalar_product needs two axes, e.g. [\"z\", \"z\"]"));
+        let axes = match (axis_count, self.axes.len()) {
+            (0, 0) => Vec::new(),
+            (0, _) => {
+                return Err(src.error(&path.key("axes"), format!("does not apply to feature {}", self.feature)));
             }
-            let mut axes = Vec::new();
-            for (k, a) in self.axes.iter().enumerate() {
-                axes.push(axis_index(a).ok_or_else(|| src.error(&path.key("axes").index(k), "must be x, y or z"))?);
+            (wanted, got) if wanted != got => {
+                let example = if wanted == 2 { "[\"z\", \"z\"]" } else { "[\"z\"]" };
+                let msg = format!("{} reads {wanted} axis name(s), e.g. {example}; got {got}", self.feature);
+                return Err(src.error(&path.key("axes"), msg));
             }
-            axes
-        } else if !self.axes.is_empty() {
-            return Err(src.error(&path.key("axes"), format!("does not apply to feature {}", self.feature)));
-        } else {
-            Vec::new()
+            _ => {
+                let mut axes = Vec::new();
+                for (k, a) in self.axes.iter().enumerate() {
+                    let bad = || src.error(&path.key("axes").index(k), "must be x, y or z");
+                    axes.push(axis_index(a).ok_or_else(bad)?);
+                }
+                axes
+            }
         };
         let time = match self.time {
             None => TimeRange { start: 0.0, end: 1.0 },
@@ -699,6 +707,7 @@ impl RawObjective {
         }
         if let Some(t) = &self.target {
             check.finite(&path.key("target"), t)?;
+            self.check_target(src, &path.key("target"), t, target_len, robot.nq())?;
         }
         Ok(ObjectiveSpec {
             feature: self.feature,
@@ -711,6 +720,37 @@ impl RawObjective {
             order: self.order,
             margin: check.non_negative(&path.key("margin"), self.margin)?,
         })
+    }
+}
+
+impl RawObjective {
+    /// The target's length against the feature's dimension; a scalar
+    /// product driven to ±1 has a zero gradient there, so it is refused
+    /// in favour of `vector`.
+    fn check_target(
+        &self,
+        src: &Source,
+        path: &KeyPath,
+        target: &[f64],
+        len: Option<usize>,
+        nq: usize,
+    ) -> Result<(), ProblemError> {
+        let feature = &self.feature;
+        let Some(len) = len else {
+            return Err(src.error(path, format!("feature {feature} takes no target")));
+        };
+        let len = if len == 0 { nq } else { len };
+        let order = self.order;
+        if target.len() != len {
+            let msg = format!("feature {feature} (order {order}) has {len} value(s); the target has {}", target.len());
+            return Err(src.error(path, msg));
+        }
+        if feature == "scalar_product" && order == 0 && (target[0].abs() - 1.0).abs() < 1e-6 {
+            let msg = "a scalar product of ±1 has a zero gradient at its target, which stalls the optimizer: \
+                       align the axis with feature \"vector\" instead (e.g. target [0, 0, -1] in the second frame)";
+            return Err(src.error(path, msg));
+        }
+        Ok(())
     }
 }
 

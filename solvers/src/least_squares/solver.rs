@@ -24,7 +24,10 @@ pub struct SolverSettings {
     pub equality_tolerance: f64,
     /// Largest `g` of a converged solution. Default 1e-5.
     pub inequality_tolerance: f64,
-    /// First penalty `μ`. Default 100.
+    /// First penalty `μ`, relative to the ratio of the largest diagonal
+    /// entries of the cost's and the constraints' `JᵀJ` at the start (so
+    /// that constraints weigh about this much more than the cost whatever
+    /// their units). Default 10.
     pub initial_penalty: f64,
     /// Factor on `μ` when the violation shrank less than 4×. Default 10.
     pub penalty_increase: f64,
@@ -50,7 +53,7 @@ impl Default for SolverSettings {
             cost_tolerance: 1e-10,
             equality_tolerance: 1e-5,
             inequality_tolerance: 1e-5,
-            initial_penalty: 100.0,
+            initial_penalty: 10.0,
             penalty_increase: 10.0,
             max_penalty: 1e9,
             initial_damping: 1e-6,
@@ -127,6 +130,9 @@ pub enum SolveError<E> {
     NotFiniteAtStart,
 }
 
+/// Most re-solves of one step with newly activated inequality rows.
+const ACTIVATION_ROUNDS: usize = 8;
+
 /// How an inner minimisation ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum InnerEnd {
@@ -173,7 +179,13 @@ pub struct AugmentedLagrangian {
     normal: SymmetricBand,
     /// `JᵀJ` before damping and factorisation, reused after a rejected step.
     undamped: SymmetricBand,
+    /// `undamped` with the inequality rows of the step's active set.
+    augmented: SymmetricBand,
     gradient: Vec<f64>,
+    /// `gradient` plus the activated rows' terms.
+    rhs: Vec<f64>,
+    /// Which inequality rows the step's model holds active.
+    active: Vec<bool>,
     step: Vec<f64>,
     x_trial: Vec<f64>,
     equality: Multipliers,
@@ -203,6 +215,9 @@ impl AugmentedLagrangian {
             trial: Residuals::default(),
             normal: SymmetricBand::zeros(dimension, bandwidth),
             undamped: SymmetricBand::zeros(dimension, bandwidth),
+            augmented: SymmetricBand::zeros(dimension, bandwidth),
+            rhs: vec![0.0; dimension],
+            active: Vec::new(),
             gradient: vec![0.0; dimension],
             step: vec![0.0; dimension],
             x_trial: vec![0.0; dimension],
@@ -252,11 +267,11 @@ impl AugmentedLagrangian {
         self.inner_steps = 0;
         self.equality.pairs.clear();
         self.inequality.pairs.clear();
-        self.penalty = self.settings.initial_penalty;
         self.damping = 0.0;
         if !self.evaluate_into_current(problem, x)? {
             return Err(SolveError::NotFiniteAtStart);
         }
+        self.penalty = (self.settings.initial_penalty * self.curvature_ratio()).min(self.settings.max_penalty);
         let mut previous_violation = f64::INFINITY;
         let mut outer = 0;
         let termination = loop {
@@ -371,7 +386,7 @@ impl AugmentedLagrangian {
             if self.damping == 0.0 {
                 self.damping = self.settings.initial_damping * self.undamped.max_diagonal().max(1.0);
             }
-            let Some(predicted) = self.damped_step() else {
+            let Some(predicted) = self.damped_step(merit) else {
                 self.reject_step();
                 continue;
             };
@@ -379,7 +394,11 @@ impl AugmentedLagrangian {
             // merit noticeably (relative to the cost: the merit's multiplier
             // terms carry a constant offset).
             let decrease_scale = self.settings.cost_tolerance * (1.0 + self.current.cost_value());
-            if self.step_norm() <= self.settings.step_tolerance || predicted <= decrease_scale {
+            // While the constraints are violated by v, polishing steps much
+            // below v is wasted: the multipliers are about to change.
+            let violation = self.current.equality_violation().max(self.current.inequality_violation());
+            let step_scale = self.settings.step_tolerance.max(0.1 * violation);
+            if self.step_norm() <= step_scale || predicted <= decrease_scale {
                 return Ok(InnerEnd::Converged);
             }
             for ((t, xi), s) in self.x_trial.iter_mut().zip(x.iter()).zip(&self.step) {
@@ -417,53 +436,131 @@ impl AugmentedLagrangian {
         self.damping > 1e20 * self.undamped.max_diagonal().max(1.0)
     }
 
-    /// Solves `(JᵀJ + δI) s = −Jᵀφ` into `step` (bounded by `max_step`) and
+    /// Solves `(JᵀJ + δI) s = −Jᵀφ` into `step`, raising `δ` until the step
+    /// is within `max_step`, and
     /// returns the decrease the Gauss-Newton model predicts, or `None` when
     /// the damped matrix cannot be factorised.
-    fn damped_step(&mut self) -> Option<f64> {
-        self.normal.copy_from(&self.undamped);
-        self.normal.add_to_diagonal(self.damping);
-        self.normal.factorize().ok()?;
-        for (s, g) in self.step.iter_mut().zip(&self.gradient) {
-            *s = -g;
+    ///
+    /// The inequality rows' active set follows the step (see
+    /// [`update_active_set`](Self::update_active_set)) for up to
+    /// `ACTIVATION_ROUNDS` re-solves: otherwise a large penalty turns every
+    /// step that crosses a constraint into a rejection.
+    fn damped_step(&mut self, merit: f64) -> Option<f64> {
+        self.augmented.copy_from(&self.undamped);
+        self.rhs.copy_from_slice(&self.gradient);
+        let (mu, rows) = (self.penalty, &self.current.inequality);
+        self.active.clear();
+        self.active
+            .extend((0..rows.len()).map(|r| rows.value(r) + self.inequality.get(rows.key(r)) / (2.0 * mu) > 0.0));
+        let mut rounds = 0;
+        loop {
+            self.normal.copy_from(&self.augmented);
+            self.normal.add_to_diagonal(self.damping);
+            self.normal.factorize().ok()?;
+            for (s, g) in self.step.iter_mut().zip(&self.rhs) {
+                *s = -g;
+            }
+            self.normal.solve_in_place(&mut self.step);
+            // A step beyond the trust bound is shortened by damping, which
+            // bends it towards the gradient, not by scaling it.
+            if self.step_norm() > self.settings.max_step {
+                self.damping *= 4.0;
+                if self.damping > 1e20 * self.undamped.max_diagonal().max(1.0) {
+                    return None;
+                }
+                continue;
+            }
+            if rounds == ACTIVATION_ROUNDS || !self.update_active_set() {
+                break;
+            }
+            rounds += 1;
         }
-        self.normal.solve_in_place(&mut self.step);
-        // With (JᵀJ + δI)s = −g: the model change for the step σs is
-        // 2σ gᵀs + σ² sᵀJᵀJs, and sᵀJᵀJs = −gᵀs − δ‖s‖².
-        let gs: f64 = self.gradient.iter().zip(&self.step).map(|(g, s)| g * s).sum();
-        let ss: f64 = self.step.iter().map(|s| s * s).sum();
-        let largest = self.step_norm();
-        let sigma = if largest > self.settings.max_step { self.settings.max_step / largest } else { 1.0 };
-        if sigma < 1.0 {
-            self.step.iter_mut().for_each(|s| *s *= sigma);
-        }
-        let predicted = -(2.0 * sigma * gs + sigma * sigma * (-gs - self.damping * ss));
+        let predicted = merit - self.model_merit();
         (predicted > 0.0 && predicted.is_finite()).then_some(predicted)
+    }
+
+    /// Semi-smooth Newton on the hinges: makes the model's set of active
+    /// inequality rows those with `g + λ/2μ + J·step > 0`, adding and
+    /// removing rows; true when the set changed. At a fixed point the step
+    /// minimises the damped piecewise-quadratic model exactly.
+    fn update_active_set(&mut self) -> bool {
+        let (mu, rows) = (self.penalty, &self.current.inequality);
+        let mut changed = false;
+        for r in 0..rows.len() {
+            let v = rows.value(r) + self.inequality.get(rows.key(r)) / (2.0 * mu);
+            let (first, jac) = rows.gradient(r);
+            let moved: f64 = jac.iter().zip(&self.step[first..]).map(|(j, s)| j * s).sum();
+            let active = v + moved > 0.0;
+            if active != self.active[r] {
+                let sign = if active { mu } else { -mu };
+                self.augmented.add_outer(first, jac, sign);
+                for (g, j) in self.rhs[first..first + jac.len()].iter_mut().zip(jac) {
+                    *g += sign * v * j;
+                }
+                self.active[r] = active;
+                changed = true;
+            }
+        }
+        changed
+    }
+
+    /// The Gauss-Newton model of the merit after `step`: every row
+    /// linearised, inequalities through their hinge.
+    fn model_merit(&self) -> f64 {
+        self.rows(&self.current)
+            .map(|(block, r, w, v, hinge)| {
+                let (first, jac) = block.gradient(r);
+                let lin = v + jac.iter().zip(&self.step[first..]).map(|(j, s)| j * s).sum::<f64>();
+                let lin = if hinge { lin.max(0.0) } else { lin };
+                w * lin * lin
+            })
+            .sum()
+    }
+
+    /// `max diag(J_rᵀJ_r) / max diag(J_cᵀJ_c)` of the cost rows `r` and
+    /// constraint rows `c` at the current point (at least 1).
+    fn curvature_ratio(&mut self) -> f64 {
+        let mut largest = [0.0f64; 2];
+        for (k, blocks) in
+            [&[&self.current.cost][..], &[&self.current.equality, &self.current.inequality]].iter().enumerate()
+        {
+            self.gradient.fill(0.0);
+            for block in blocks.iter() {
+                for r in 0..block.len() {
+                    let (first, jac) = block.gradient(r);
+                    for (d, j) in self.gradient[first..first + jac.len()].iter_mut().zip(jac) {
+                        *d += j * j;
+                    }
+                }
+            }
+            largest[k] = self.gradient.iter().fold(0.0, |m, &d| m.max(d));
+        }
+        if largest[1] > 0.0 { (largest[0] / largest[1]).max(1.0) } else { 1.0 }
     }
 
     fn step_norm(&self) -> f64 {
         self.step.iter().fold(0.0f64, |m, s| m.max(s.abs()))
     }
 
-    /// Each row's weight² and its shifted value, as the augmented
-    /// Lagrangian sees it (weight 0: inactive).
-    fn rows<'a>(&'a self, res: &'a Residuals) -> impl Iterator<Item = (&'a RowBlock, usize, f64, f64)> + 'a {
+    /// Each row as the augmented Lagrangian sees it: block, index, weight²,
+    /// shifted value, and whether it enters through a hinge `max(0, ·)`.
+    fn rows<'a>(&'a self, res: &'a Residuals) -> impl Iterator<Item = (&'a RowBlock, usize, f64, f64, bool)> + 'a {
         let mu = self.penalty;
-        let cost = (0..res.cost.len()).map(move |r| (&res.cost, r, 1.0, res.cost.value(r)));
+        let cost = (0..res.cost.len()).map(move |r| (&res.cost, r, 1.0, res.cost.value(r), false));
         let eq = (0..res.equality.len()).map(move |r| {
             let h = res.equality.value(r) + self.equality.get(res.equality.key(r)) / (2.0 * mu);
-            (&res.equality, r, mu, h)
+            (&res.equality, r, mu, h, false)
         });
         let ineq = (0..res.inequality.len()).map(move |r| {
             let g = res.inequality.value(r) + self.inequality.get(res.inequality.key(r)) / (2.0 * mu);
-            if g > 0.0 { (&res.inequality, r, mu, g) } else { (&res.inequality, r, 0.0, 0.0) }
+            (&res.inequality, r, mu, g, true)
         });
         cost.chain(eq).chain(ineq)
     }
 
     /// The augmented Lagrangian (up to a constant in the multipliers).
     fn merit(&self, res: &Residuals) -> f64 {
-        self.rows(res).map(|(_, _, w, v)| w * v * v).sum()
+        self.rows(res).map(|(_, _, w, v, hinge)| if hinge && v <= 0.0 { 0.0 } else { w * v * v }).sum()
     }
 
     /// `JᵀJ` (into `undamped`) and `Jᵀφ` of the current rows.
@@ -472,8 +569,8 @@ impl AugmentedLagrangian {
         let mut gradient = std::mem::take(&mut self.gradient);
         normal.clear();
         gradient.fill(0.0);
-        for (block, r, w, v) in self.rows(&self.current) {
-            if w == 0.0 {
+        for (block, r, w, v, hinge) in self.rows(&self.current) {
+            if hinge && v <= 0.0 {
                 continue;
             }
             let (first, jac) = block.gradient(r);
