@@ -387,7 +387,9 @@ impl AugmentedLagrangian {
                 self.damping = self.settings.initial_damping * self.undamped.max_diagonal().max(1.0);
             }
             let Some(predicted) = self.damped_step(merit) else {
-                self.reject_step();
+                if self.reject_step() {
+                    return Ok(InnerEnd::Converged);
+                }
                 continue;
             };
             // Converged when the step is negligible, or would not decrease the
@@ -398,8 +400,15 @@ impl AugmentedLagrangian {
             // below v is wasted: the multipliers are about to change.
             let violation = self.current.equality_violation().max(self.current.inequality_violation());
             let step_scale = self.settings.step_tolerance.max(0.1 * violation);
-            if self.step_norm() <= step_scale || predicted <= decrease_scale {
+            if self.step_norm() <= step_scale || (0.0..=decrease_scale).contains(&predicted) {
                 return Ok(InnerEnd::Converged);
+            }
+            if predicted <= 0.0 {
+                // The model's active set did not settle: a shorter step.
+                if self.reject_step() {
+                    return Ok(InnerEnd::Converged);
+                }
+                continue;
             }
             for ((t, xi), s) in self.x_trial.iter_mut().zip(x.iter()).zip(&self.step) {
                 *t = xi + s;
@@ -476,7 +485,7 @@ impl AugmentedLagrangian {
             rounds += 1;
         }
         let predicted = merit - self.model_merit();
-        (predicted > 0.0 && predicted.is_finite()).then_some(predicted)
+        predicted.is_finite().then_some(predicted)
     }
 
     /// Semi-smooth Newton on the hinges: makes the model's set of active

@@ -174,8 +174,8 @@ fn contradictory_constraints_are_reported_infeasible() {
     let mut x = [0.0];
     let report = solver.solve(&mut Contradiction, &mut x).unwrap();
     assert_eq!(report.termination, Termination::Infeasible);
-    assert!((x[0] - 1.5).abs() < 1e-6, "the least-violating point: {x:?}");
-    assert!((report.equality_violation - 0.5).abs() < 1e-6);
+    assert!((x[0] - 1.5).abs() < 1e-5, "the least-violating point: {x:?}");
+    assert!((report.equality_violation - 0.5).abs() < 1e-5);
 }
 
 /// min Σ (x_i − 1)² s.t. x_i ≤ 0.5 for even i, where a constraint row is
