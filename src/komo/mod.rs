@@ -28,7 +28,7 @@ mod solve;
 
 pub use feature::{Feature, FeatureScratch, FrameRef};
 pub use objective::{Objective, TimeSpan, default_objectives, objective_from_spec};
-pub use problem::{COLLISION_CUTOFF, TrajectoryProblem, TrajectoryWorkspace};
+pub use problem::{COLLISION_CUTOFF, Measures, TrajectoryProblem, TrajectoryWorkspace};
 pub use solve::{
     Initialization, ProblemSolution, SolveOptions, TrajectoryOptimizer, TrajectoryResult, Validation, solve_problem,
 };

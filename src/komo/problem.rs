@@ -103,6 +103,30 @@ impl TrajectoryProblem {
         (k + 1) * self.nq() - 1
     }
 
+    /// Cost `Σ r²`, largest equality violation `max |h|` and largest
+    /// inequality violation `max(0, g)` of a trajectory `q_1 … q_T` (e.g.
+    /// one from another solver), as this problem defines them.
+    ///
+    /// # Errors
+    /// [`KomoError::Initialization`] for a trajectory of the wrong shape;
+    /// configurations the robot model rejects.
+    pub fn measure(&self, trajectory: &[Vec<f64>]) -> Result<Measures, KomoError> {
+        let n = self.nq();
+        if trajectory.len() != self.horizon || trajectory.iter().any(|q| q.len() != n) {
+            let message = format!("expected {} configurations of {n} joints", self.horizon);
+            return Err(KomoError::Initialization(message));
+        }
+        let x: Vec<f64> = trajectory.concat();
+        let mut ws = TrajectoryWorkspace::new(self);
+        let mut rows = Residuals::default();
+        self.evaluate(&mut ws, &x, &mut rows)?;
+        Ok(Measures {
+            cost: rows.cost_value(),
+            equality_violation: rows.equality_violation(),
+            inequality_violation: rows.inequality_violation(),
+        })
+    }
+
     /// Configuration of slice `t` (≤ 0: the start) within the stacked `x`.
     fn slice<'x>(&'x self, x: &'x [f64], t: usize) -> &'x [f64] {
         let n = self.nq();
@@ -225,6 +249,17 @@ impl TrajectoryProblem {
         }
         Ok(())
     }
+}
+
+/// A trajectory measured against a problem's objectives.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measures {
+    /// `Σ r²` over the sum-of-squares objectives.
+    pub cost: f64,
+    /// `max |h|` over the equality objectives.
+    pub equality_violation: f64,
+    /// `max(0, g)` over the inequality objectives.
+    pub inequality_violation: f64,
 }
 
 /// Key of component `i` of objective `index` at slice `t`: stable across
