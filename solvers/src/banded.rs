@@ -155,25 +155,45 @@ impl SymmetricBand {
 
     /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`).
     ///
+    /// Right-looking: once column `j` of `L` is known, it updates the
+    /// trailing rows with contiguous multiply-adds (which vectorise), not
+    /// short dot products.
+    ///
     /// # Errors
     /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
     /// storage then holds a partial factor.
     pub fn factorize(&mut self) -> Result<(), NotPositiveDefinite> {
-        let b = self.bandwidth;
-        for i in 0..self.n {
-            let k0 = i.saturating_sub(b);
-            for j in k0..=i {
-                // L[i][j] = (A[i][j] − Σ_{k0 ≤ k < j} L[i][k] L[j][k]) / L[j][j]
-                let (ri, rj) = (self.index(i, k0), self.index(j, k0));
-                let len = j - k0;
-                let dot: f64 = self.data[ri..ri + len].iter().zip(&self.data[rj..rj + len]).map(|(x, y)| x * y).sum();
-                let s = self.data[ri + len] - dot;
-                if j < i {
-                    self.data[ri + len] = s / self.data[self.index(j, j)];
-                } else if s > 0.0 && s.is_finite() {
-                    self.data[ri + len] = s.sqrt();
-                } else {
-                    return Err(NotPositiveDefinite { pivot: i, value: s });
+        let (n, b) = (self.n, self.bandwidth);
+        let stride = b + 1;
+        // Column j below the diagonal, gathered contiguously.
+        let mut column = [0.0f64; 64];
+        let mut heap = Vec::new();
+        let column: &mut [f64] = if b <= column.len() {
+            &mut column[..b]
+        } else {
+            heap.resize(b, 0.0);
+            &mut heap
+        };
+        for j in 0..n {
+            let jj = j * stride + b;
+            let pivot = self.data[jj];
+            if !(pivot > 0.0 && pivot.is_finite()) {
+                return Err(NotPositiveDefinite { pivot: j, value: pivot });
+            }
+            let l = pivot.sqrt();
+            self.data[jj] = l;
+            let end = (j + b).min(n - 1);
+            for (k, i) in (j + 1..=end).enumerate() {
+                let ij = i * stride + b + j - i;
+                self.data[ij] /= l;
+                column[k] = self.data[ij];
+            }
+            for (k, i) in (j + 1..=end).enumerate() {
+                // A[i][j+1 ..= i] −= L[i][j] · L[j+1 ..= i][j]
+                let lij = column[k];
+                let first = i * stride + b + (j + 1) - i;
+                for (a, c) in self.data[first..first + k + 1].iter_mut().zip(&column[..=k]) {
+                    *a -= lij * c;
                 }
             }
         }
@@ -191,7 +211,7 @@ impl SymmetricBand {
         for i in 0..self.n {
             let k0 = i.saturating_sub(b);
             let row = self.index(i, k0);
-            let dot: f64 = self.data[row..row + i - k0].iter().zip(&rhs[k0..i]).map(|(l, y)| l * y).sum();
+            let dot = dot(&self.data[row..row + i - k0], &rhs[k0..i]);
             rhs[i] = (rhs[i] - dot) / self.data[row + i - k0];
         }
         // Lᵀ x = y, row by row from the bottom: once x_i is known, remove
@@ -206,6 +226,21 @@ impl SymmetricBand {
             }
         }
     }
+}
+
+/// `a · b` with four independent accumulators, so the compiler can keep
+/// several multiply-adds in flight (a single running sum is a serial chain).
+#[inline]
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = a4.remainder().iter().zip(b4.remainder()).map(|(x, y)| x * y).sum();
+    let mut acc = [0.0; 4];
+    for (x, y) in a4.zip(b4) {
+        for k in 0..4 {
+            acc[k] += x[k] * y[k];
+        }
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
 }
 
 #[cfg(test)]
