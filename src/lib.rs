@@ -16,6 +16,7 @@
 pub mod cli;
 pub mod collision;
 pub mod control;
+pub mod data;
 pub mod komo;
 pub mod plan;
 pub mod plot;

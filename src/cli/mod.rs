@@ -17,6 +17,7 @@ mod kinematics;
 mod plan;
 mod policy;
 mod problem_args;
+mod solve;
 
 pub use problem_args::{MoveItArgs, ProblemArgs};
 
@@ -112,6 +113,23 @@ pub enum Command {
     ///     --scene scene0001.yaml --request request0001.yaml --json
     #[command(verbatim_doc_comment)]
     Plan(plan::PlanArgs),
+    /// Plan with RRT-Connect, then optimize a smooth, collision-free
+    /// trajectory (KOMO-style: k-order sum of squares with constraints).
+    ///
+    /// The objectives come from the problem's [[optimizer.objectives]]
+    /// (format: problems/README.md); without any (e.g. MoveIt inputs) the
+    /// optimizer minimises acceleration subject to joint limits, collision
+    /// avoidance and reaching the goal at rest. The result is validated by
+    /// checking the motion between slices at fine resolution. Exit status 0
+    /// also when it does not converge: read "status".
+    ///
+    /// Examples:
+    ///   tandem solve problems/panda_grasp_box.toml --out results/
+    ///   tandem solve builtin:panda_reach_obstacle -T 20 --json
+    ///   tandem solve --urdf panda_spherized.urdf --srdf panda.srdf
+    ///     --scene scene0001.yaml --request request0001.yaml --json
+    #[command(verbatim_doc_comment)]
+    Solve(solve::SolveArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -126,6 +144,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Policy(args) => policy::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Plan(args) => plan::run(&args),
+        Command::Solve(args) => solve::run(&args),
     }
 }
 

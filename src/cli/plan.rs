@@ -1,7 +1,7 @@
 //! `tandem plan`: RRT-Connect on a problem file or MoveIt inputs.
 
 use super::ProblemArgs;
-use crate::plan::{PlanReport, path_length, plan_problem};
+use crate::plan::{path_length, plan_problem};
 use crate::plot::SvgPlot;
 use crate::robot::KinematicsWorkspace;
 use crate::scene::Problem;
@@ -31,7 +31,8 @@ pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
     let report = plan_problem(&problem, args.seed)?;
     if let Some(file) = &args.svg {
-        std::fs::write(file, path_svg(&problem, &report)?)
+        let dense = crate::plan::resample(&report.path, 200);
+        std::fs::write(file, gripper_path_svg(&problem, &dense, "path")?)
             .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
     }
     let r = &report.result;
@@ -84,9 +85,13 @@ pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// Top (x, y) and side (x, z) views of the end-effector path, densely
-/// interpolated between waypoints.
-fn path_svg(problem: &Problem, report: &PlanReport) -> Result<String, Box<dyn std::error::Error>> {
+/// Top (x, y) and side (x, z) views of the end-effector path through
+/// `configurations` (dense enough to draw as a line).
+pub(super) fn gripper_path_svg(
+    problem: &Problem,
+    configurations: &[Vec<f64>],
+    what: &str,
+) -> Result<String, Box<dyn std::error::Error>> {
     let robot = &problem.robot;
     let frame = match &problem.robot_spec.gripper {
         Some(g) => robot.frame_id(g)?,
@@ -94,12 +99,12 @@ fn path_svg(problem: &Problem, report: &PlanReport) -> Result<String, Box<dyn st
     };
     let mut ws = KinematicsWorkspace::new(robot);
     let mut points = Vec::new();
-    let dense = crate::plan::resample(&report.path, 200);
-    for q in &dense {
+    for q in configurations {
         robot.forward_kinematics(&mut ws, q)?;
         points.push(robot.frame_pose(&ws, frame).translation.vector);
     }
-    let mut plot = SvgPlot::new(&format!("{}: {} path", problem.name, robot.frame_name(frame)), "x (m)", "y or z (m)");
+    let title = format!("{}: {} {what}", problem.name, robot.frame_name(frame));
+    let mut plot = SvgPlot::new(&title, "x (m)", "y or z (m)");
     let top: Vec<(f64, f64)> = points.iter().map(|p| (p.x, p.y)).collect();
     let side: Vec<(f64, f64)> = points.iter().map(|p| (p.x, p.z)).collect();
     plot.line(&top, "#1f77b4", 2.0, Some("top view (x, y)"));

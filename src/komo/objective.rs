@@ -109,10 +109,9 @@ impl Objective {
         if self.target.iter().any(|t| !t.is_finite()) {
             return fail("target is not finite".into());
         }
-        if let Feature::Collision { .. } = self.feature {
-            if self.order != 0 || self.kind == ObjectiveKind::Equality {
-                return fail("collision is an order-0 inequality or sum-of-squares objective".into());
-            }
+        let collision = matches!(self.feature, Feature::Collision { .. });
+        if collision && (self.order != 0 || self.kind == ObjectiveKind::Equality) {
+            return fail("collision is an order-0 inequality or sum-of-squares objective".into());
         }
         Ok(())
     }

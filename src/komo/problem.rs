@@ -30,6 +30,8 @@ pub struct TrajectoryProblem {
     pub(crate) order: usize,
     pub(crate) duration: f64,
     pub(crate) start: Vec<f64>,
+    /// Extra collision checks between consecutive slices.
+    pub(crate) collision_substeps: usize,
 }
 
 impl TrajectoryProblem {
@@ -62,7 +64,26 @@ impl TrajectoryProblem {
             }
         }
         let spans = objectives.iter().map(|o| o.time.slices(horizon)).collect();
-        Ok(TrajectoryProblem { robot, collision, objectives, spans, horizon, order, duration, start })
+        Ok(TrajectoryProblem {
+            robot,
+            collision,
+            objectives,
+            spans,
+            horizon,
+            order,
+            duration,
+            start,
+            collision_substeps: 0,
+        })
+    }
+
+    /// Also constrains collisions at `substeps` evenly spaced
+    /// configurations on the straight motion between consecutive slices
+    /// (default 0: at the slices only). Useful when slices are far apart
+    /// and the motion between them cuts a corner.
+    pub fn with_collision_substeps(mut self, substeps: usize) -> TrajectoryProblem {
+        self.collision_substeps = substeps;
+        self
     }
 
     /// Number of optimized configurations `T`.
@@ -125,6 +146,40 @@ impl TrajectoryProblem {
             equality_violation: rows.equality_violation(),
             inequality_violation: rows.inequality_violation(),
         })
+    }
+
+    /// The rows of every objective at the stacked trajectory `x` (`q_1 …
+    /// q_T`, nq values each) as the solver sees them — cost, equality and
+    /// inequality rows with their gradients over `x` — replacing the
+    /// contents of `out`. For checking Jacobians (e.g. against finite
+    /// differences of the whole problem) and for driving other solvers.
+    ///
+    /// # Errors
+    /// [`KomoError::Initialization`] for an `x` of the wrong length,
+    /// [`KomoError::Settings`] for a workspace whose shape does not fit
+    /// the problem (make it with [`TrajectoryWorkspace::new`] of this
+    /// problem), configurations the robot model rejects.
+    pub fn residuals(&self, ws: &mut TrajectoryWorkspace, x: &[f64], out: &mut Residuals) -> Result<(), KomoError> {
+        let n = self.nq();
+        if x.len() != self.horizon * n {
+            let message = format!("x has {} values, expected T·nq = {}", x.len(), self.horizon * n);
+            return Err(KomoError::Initialization(message));
+        }
+        let fits = ws.kinematics.len() == self.horizon + 1
+            && ws.features.len() == self.objectives.len()
+            && ws.gradient.len() == n
+            && ws.row.len() >= (self.order + 1) * n
+            && ws.collision.as_ref().map(|c| c.poses.len()) == self.collision.as_ref().map(|m| m.object_count())
+            && self.objectives.iter().zip(&ws.features).all(|(o, b)| {
+                let dim = o.feature.dim(&self.robot);
+                b.values.len() == (self.horizon + 1) * dim && b.jacobians.len() == (self.horizon + 1) * dim * n
+            });
+        if !fits {
+            return Err(KomoError::Settings("the workspace does not fit the problem".into()));
+        }
+        self.robot.forward_kinematics(&mut ws.kinematics[0], &self.start)?;
+        out.clear();
+        Ok(self.evaluate(ws, x, out)?)
     }
 
     /// Configuration of slice `t` (≤ 0: the start) within the stacked `x`.
@@ -215,8 +270,10 @@ impl TrajectoryProblem {
     }
 
     /// One row `scale·(margin − d)` per collision pair closer than
-    /// `margin + COLLISION_CUTOFF`, at every slice of the objective; as a
-    /// cost, only the pairs closer than the margin count.
+    /// `margin + COLLISION_CUTOFF`, at every slice of the objective and at
+    /// `collision_substeps` evenly spaced configurations on the straight
+    /// motion into it (those rows couple the two slices); as a cost, only
+    /// the pairs closer than the margin count.
     fn collision_rows(
         &self,
         ws: &mut TrajectoryWorkspace,
@@ -228,23 +285,38 @@ impl TrajectoryProblem {
         let (Some(model), Some(cws)) = (&self.collision, &mut ws.collision) else { return Ok(()) };
         let objective = &self.objectives[index];
         let (first, last) = self.spans[index];
-        let n = self.nq();
+        let (n, samples) = (self.nq(), self.collision_substeps + 1);
         let cost = objective.kind == ObjectiveKind::SumOfSquares;
         for t in first..=last {
-            let q = self.slice(x, t);
-            ws.pairs.clear();
-            ws.pairs.extend_from_slice(model.distances(cws, q, margin + COLLISION_CUTOFF)?);
-            for pair in &ws.pairs {
-                let g = margin - pair.signed.distance;
-                if cost && g <= 0.0 {
-                    continue;
+            for sample in 1..=samples {
+                // Fraction s of the way from slice t − 1 to slice t.
+                let s = sample as f64 / samples as f64;
+                let (before, at) = (self.slice(x, t - 1), self.slice(x, t));
+                for ((q, a), b) in ws.q.iter_mut().zip(before).zip(at) {
+                    *q = a + s * (b - a);
                 }
-                model.distance_gradient(cws, pair, &mut ws.gradient)?;
-                let row = &mut ws.row[..n];
-                for (r, d) in row.iter_mut().zip(&ws.gradient) {
-                    *r = -objective.scale * d;
+                ws.pairs.clear();
+                ws.pairs.extend_from_slice(model.distances(cws, &ws.q, margin + COLLISION_CUTOFF)?);
+                // Rows between slices also move slice t − 1 (unless it is the start).
+                let spans_two = sample < samples && t > 1;
+                let first_col = if spans_two { (t - 2) * n } else { (t - 1) * n };
+                for pair in &ws.pairs {
+                    let g = margin - pair.signed.distance;
+                    if cost && g <= 0.0 {
+                        continue;
+                    }
+                    model.distance_gradient(cws, pair, &mut ws.gradient)?;
+                    let row = &mut ws.row[..if spans_two { 2 * n } else { n }];
+                    let (head, tail) = row.split_at_mut(if spans_two { n } else { 0 });
+                    for (k, d) in ws.gradient.iter().enumerate() {
+                        tail[k] = -objective.scale * s * d;
+                        if spans_two {
+                            head[k] = -objective.scale * (1.0 - s) * d;
+                        }
+                    }
+                    let key = row_key(index, t * samples + sample - 1, pair.pair);
+                    push_trimmed(block, key, objective.scale * g, first_col, row);
                 }
-                push_trimmed(block, row_key(index, t, pair.pair), objective.scale * g, (t - 1) * n, row);
             }
         }
         Ok(())
@@ -291,6 +363,8 @@ pub struct TrajectoryWorkspace {
     collision: Option<CollisionWorkspace>,
     pairs: Vec<PairDistance>,
     gradient: Vec<f64>,
+    /// A configuration between slices.
+    q: Vec<f64>,
     scratch: FeatureScratch,
     features: Vec<FeatureBuffer>,
     row: Vec<f64>,
@@ -318,6 +392,7 @@ impl TrajectoryWorkspace {
             collision,
             pairs: Vec::with_capacity(pair_count),
             gradient: vec![0.0; n],
+            q: vec![0.0; n],
             scratch: FeatureScratch::new(robot),
             features,
             row: vec![0.0; (problem.order + 1) * n],

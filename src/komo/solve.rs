@@ -91,7 +91,7 @@ impl TrajectoryOptimizer {
             return bad(format!("x has {} values, expected T·nq = {}", x.len(), n * horizon));
         }
         let rows: Vec<Vec<f64>> = match init {
-            Initialization::Path(path) if path.is_empty() => return bad("the path is empty".into()),
+            Initialization::Path([]) => return bad("the path is empty".into()),
             Initialization::Path(path) => resample(path, horizon + 1).split_off(1),
             Initialization::Interpolate(goal) => (1..=horizon)
                 .map(|t| start.iter().zip(goal).map(|(a, b)| a + (b - a) * t as f64 / horizon as f64).collect())
@@ -240,7 +240,7 @@ pub struct ProblemSolution {
     pub time_step: f64,
     pub report: SolveReport,
     pub validation: Validation,
-    /// Preparation + planning + optimization, validation excluded.
+    /// Preparation, planning, optimization and validation.
     pub total_time: Duration,
 }
 
@@ -265,9 +265,23 @@ impl ProblemSolution {
     }
 }
 
+/// The report of a solve continued by another: counts and time add up,
+/// the rest is the last solve's.
+fn combine(first: &SolveReport, last: SolveReport) -> SolveReport {
+    SolveReport {
+        outer_iterations: first.outer_iterations + last.outer_iterations,
+        inner_steps: first.inner_steps + last.inner_steps,
+        evaluations: first.evaluations + last.evaluations,
+        time: first.time + last.time,
+        ..last
+    }
+}
+
 /// Plans `problem` with RRT-Connect, then optimizes from the shortcut path
 /// (from the straight line to the first goal configuration when planning
-/// fails), and validates the result.
+/// fails), and validates the result; a result that collides between slices
+/// is re-optimized with collision checks between slices (1, then 3 per
+/// interval).
 ///
 /// # Errors
 /// Objectives or goals the problem cannot resolve, unreachable IK goals.
@@ -288,15 +302,28 @@ pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<Proble
     let mut planner = ProblemPlanner::new(problem, options.seed)?;
     let plan = planner.run(options.seed.unwrap_or(problem.planner.seed))?;
     let settings = SolverSettings { max_evaluations: problem.optimizer.max_iterations, ..trajectory_solver_settings() };
-    let mut optimizer = TrajectoryOptimizer::new(problem_t, settings);
+    let mut optimizer = TrajectoryOptimizer::new(problem_t.clone(), settings.clone());
     let init = match (plan.path.is_empty(), plan.goals.first()) {
         (false, _) => Initialization::Path(&plan.path),
         (true, Some(goal)) => Initialization::Interpolate(goal),
         (true, None) => Initialization::Interpolate(&problem.start),
     };
-    let result = optimizer.solve(init)?;
+    let mut result = optimizer.solve(init)?;
+    let mut validation = optimizer.validate(&result.trajectory, options.validation_resolution)?;
+    // Slices far apart can be collision-free while the motion between them
+    // is not: re-solve from the result with collision rows between slices.
+    for substeps in [1, 3] {
+        if validation.collision_free {
+            break;
+        }
+        let refined_problem = problem_t.clone().with_collision_substeps(substeps);
+        let mut refined = TrajectoryOptimizer::new(refined_problem, settings.clone());
+        let next = refined.solve(Initialization::Warm(&result.trajectory))?;
+        result.report = combine(&result.report, next.report);
+        result.trajectory = next.trajectory;
+        validation = refined.validate(&result.trajectory, options.validation_resolution)?;
+    }
     let total_time = began.elapsed();
-    let validation = optimizer.validate(&result.trajectory, options.validation_resolution)?;
     Ok(ProblemSolution {
         joints: problem.robot.joint_names().to_vec(),
         time_step: optimizer.problem().time_step(),

@@ -1,0 +1,140 @@
+//! `tandem solve`: RRT-Connect, then trajectory optimization, on a problem
+//! file or MoveIt inputs.
+
+use super::ProblemArgs;
+use super::plan::gripper_path_svg;
+use crate::data::{TrajectoryTable, write_csv, write_parquet};
+use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
+use crate::plot::SvgPlot;
+use crate::scene::Problem;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `tandem solve`.
+#[derive(Debug, clap::Args)]
+pub struct SolveArgs {
+    #[command(flatten)]
+    pub input: ProblemArgs,
+    /// Seed of IK and RRT-Connect (default: the problem's planner.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Number of optimized configurations T (default: the problem's
+    /// optimizer.horizon).
+    #[arg(long, short = 'T')]
+    pub horizon: Option<usize>,
+    /// Write trajectory.csv, trajectory.parquet, joints.svg (joint values
+    /// over time) and path.svg (gripper path) into this folder.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Print exactly one JSON object: {"status", "time_ms" (planning +
+    /// optimization), "iterations" (Gauss-Newton steps), "cost",
+    /// "eq_violation", "ineq_violation", "min_distance" (m, over the
+    /// slices), "collision_free" (checked every 2 mrad between slices),
+    /// "T", "joints", "trajectory" [[q_1], …, [q_T]], and "plan_ms",
+    /// "optimize_ms", "outer_iterations", "evaluations", "within_limits",
+    /// "time_step"}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub(super) fn run(args: &SolveArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let problem = args.input.load()?;
+    let options = SolveOptions { seed: args.seed, horizon: args.horizon, ..SolveOptions::default() };
+    let solution = solve_problem(&problem, &options)?;
+    if let Some(dir) = &args.out {
+        write_outputs(&problem, &solution, dir)?;
+    }
+    if args.json {
+        println!("{}", solution_json(&solution));
+    } else {
+        print_summary(&problem, &solution, args.out.as_deref());
+    }
+    Ok(())
+}
+
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+fn solution_json(s: &ProblemSolution) -> serde_json::Value {
+    let r = &s.report;
+    let plan_ms = ms(s.plan.planning_time + s.plan.simplify_time);
+    serde_json::json!({
+        "status": s.status(),
+        "time_ms": ms(s.total_time),
+        "iterations": r.inner_steps,
+        "cost": r.cost,
+        "eq_violation": r.equality_violation,
+        "ineq_violation": r.inequality_violation,
+        "min_distance": s.validation.min_distance,
+        "collision_free": s.validation.collision_free,
+        "T": s.trajectory.len(),
+        "joints": s.joints,
+        "trajectory": s.trajectory,
+        "plan_ms": plan_ms,
+        "optimize_ms": ms(r.time),
+        "outer_iterations": r.outer_iterations,
+        "evaluations": r.evaluations,
+        "within_limits": s.validation.within_limits,
+        "time_step": s.time_step,
+    })
+}
+
+fn print_summary(problem: &Problem, s: &ProblemSolution, out: Option<&Path>) {
+    let r = &s.report;
+    println!("problem {} ({}): {}", problem.name, problem.origin, s.status());
+    println!(
+        "planning {:.2} ms ({}), optimization {:.2} ms: {} Gauss-Newton steps, {} evaluations, {} outer iterations",
+        ms(s.plan.planning_time + s.plan.simplify_time),
+        s.plan.result.status.name(),
+        ms(r.time),
+        r.inner_steps,
+        r.evaluations,
+        r.outer_iterations
+    );
+    println!(
+        "cost {:.4}, equality violation {:.1e}, inequality violation {:.1e}",
+        r.cost, r.equality_violation, r.inequality_violation
+    );
+    let v = &s.validation;
+    let clearance = v.min_distance.map_or("no collision model".into(), |d| format!("{:.1} mm", d * 1e3));
+    println!(
+        "{} slices every {:.3} s; collision-free between slices (every {} rad): {}; within limits: {}; clearance {clearance}",
+        s.trajectory.len(),
+        s.time_step,
+        v.resolution,
+        if v.collision_free { "yes" } else { "NO" },
+        if v.within_limits { "yes" } else { "NO" },
+    );
+    if let Some(dir) = out {
+        println!("wrote trajectory.csv, trajectory.parquet, joints.svg and path.svg to {}", dir.display());
+    }
+}
+
+fn write_outputs(problem: &Problem, s: &ProblemSolution, dir: &Path) -> Result<(), Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let table =
+        TrajectoryTable { joints: s.joints.clone(), time_step: s.time_step, configurations: s.trajectory.clone() };
+    write_csv(&table, &dir.join("trajectory.csv"))?;
+    write_parquet(&table, &dir.join("trajectory.parquet"))?;
+    let write = |name: &str, text: String| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    };
+    write("joints.svg", joints_svg(problem, s))?;
+    let mut with_start = vec![problem.start.clone()];
+    with_start.extend(s.trajectory.iter().cloned());
+    write("path.svg", gripper_path_svg(problem, &crate::plan::resample(&with_start, 200), "optimized path")?)?;
+    Ok(())
+}
+
+/// Every joint's value over time, the start at t = 0.
+fn joints_svg(problem: &Problem, s: &ProblemSolution) -> String {
+    const COLORS: [&str; 8] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
+    let mut plot = SvgPlot::new(&format!("{}: joint trajectories", problem.name), "time (s)", "joint value (rad)");
+    for (k, name) in s.joints.iter().enumerate() {
+        let mut points = vec![(0.0, problem.start[k])];
+        points.extend(s.trajectory.iter().enumerate().map(|(t, q)| ((t + 1) as f64 * s.time_step, q[k])));
+        plot.line(&points, COLORS[k % COLORS.len()], 1.5, Some(name));
+    }
+    plot.render(720.0, 480.0)
+}
