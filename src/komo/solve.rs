@@ -19,7 +19,8 @@ pub enum Initialization<'a> {
     Path(&'a [Vec<f64>]),
     /// The straight joint-space line from the start to this configuration.
     Interpolate(&'a [f64]),
-    /// `q_1 … q_T` of an earlier solution (a warm start).
+    /// `q_1 … q_T` of an earlier solution (a warm start; the optimizer also
+    /// keeps the multipliers of its own last solve).
     Warm(&'a [Vec<f64>]),
 }
 
@@ -116,7 +117,8 @@ impl TrajectoryOptimizer {
     /// A bad initialisation, or a configuration the robot model rejects.
     pub fn solve(&mut self, init: Initialization) -> Result<TrajectoryResult, KomoError> {
         let mut x = std::mem::take(&mut self.x);
-        let result = self.initialize(init, &mut x).and_then(|()| self.solve_in_place(&mut x));
+        let warm = matches!(init, Initialization::Warm(_));
+        let result = self.initialize(init, &mut x).and_then(|()| self.run(&mut x, warm));
         let trajectory = x.chunks(self.problem.nq()).map(<[f64]>::to_vec).collect();
         self.x = x;
         Ok(TrajectoryResult { trajectory, report: result? })
@@ -129,8 +131,17 @@ impl TrajectoryOptimizer {
     /// # Errors
     /// A configuration the robot model rejects (wrong size, not finite).
     pub fn solve_in_place(&mut self, x: &mut [f64]) -> Result<SolveReport, KomoError> {
+        self.run(x, false)
+    }
+
+    /// The solve; `warm` keeps the last solve's multipliers and penalty.
+    fn run(&mut self, x: &mut [f64], warm: bool) -> Result<SolveReport, KomoError> {
         let mut evaluator = Evaluator { problem: &self.problem, workspace: &mut self.workspace };
-        let report = self.solver.solve(&mut evaluator, x).map_err(|e| match e {
+        let solved = match warm {
+            true => self.solver.solve_warm(&mut evaluator, x),
+            false => self.solver.solve(&mut evaluator, x),
+        };
+        let report = solved.map_err(|e| match e {
             SolveError::Evaluation(e) => KomoError::Robot(e),
             other => KomoError::Initialization(other.to_string()),
         })?;

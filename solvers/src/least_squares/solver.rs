@@ -247,7 +247,8 @@ impl AugmentedLagrangian {
     }
 
     /// Minimises from `x`, which holds the solution on return (also when
-    /// the report says it did not converge).
+    /// the report says it did not converge). Multipliers and penalty start
+    /// afresh.
     ///
     /// # Errors
     /// [`SolveError`] when the problem cannot be evaluated, its dimensions
@@ -257,6 +258,30 @@ impl AugmentedLagrangian {
         problem: &mut P,
         x: &mut [f64],
     ) -> Result<SolveReport, SolveError<P::Error>> {
+        self.run(problem, x, false)
+    }
+
+    /// As [`solve`](Self::solve), but starting from the multipliers and
+    /// penalty the last solve ended with: from that solve's solution (or a
+    /// nearby problem's) it converges in a few steps. Without a previous
+    /// solve it is a plain solve.
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_warm<P: LeastSquaresProblem>(
+        &mut self,
+        problem: &mut P,
+        x: &mut [f64],
+    ) -> Result<SolveReport, SolveError<P::Error>> {
+        self.run(problem, x, self.penalty > 0.0)
+    }
+
+    fn run<P: LeastSquaresProblem>(
+        &mut self,
+        problem: &mut P,
+        x: &mut [f64],
+        warm: bool,
+    ) -> Result<SolveReport, SolveError<P::Error>> {
         let budget = Budget {
             start: Instant::now(),
             time_limit: self.settings.time_limit,
@@ -265,13 +290,17 @@ impl AugmentedLagrangian {
         self.check_dimensions(problem, x)?;
         self.evaluations = 0;
         self.inner_steps = 0;
-        self.equality.pairs.clear();
-        self.inequality.pairs.clear();
+        if !warm {
+            self.equality.pairs.clear();
+            self.inequality.pairs.clear();
+        }
         self.damping = 0.0;
         if !self.evaluate_into_current(problem, x)? {
             return Err(SolveError::NotFiniteAtStart);
         }
-        self.penalty = (self.settings.initial_penalty * self.curvature_ratio()).min(self.settings.max_penalty);
+        if !warm {
+            self.penalty = (self.settings.initial_penalty * self.curvature_ratio()).min(self.settings.max_penalty);
+        }
         let mut previous_violation = f64::INFINITY;
         let mut outer = 0;
         let termination = loop {

@@ -1,0 +1,253 @@
+//! The trajectory optimizer on the shipped problems and on problems built
+//! in Rust: converged, collision-free between slices at fine resolution,
+//! within limits, goals reached; deterministic; warm starts; clear reports
+//! for unreachable or contradictory problems; no allocation per solve.
+
+mod common;
+
+use common::alloc::{CountingAllocator, allocations};
+use nalgebra::Vector3;
+use std::sync::Arc;
+use tandem::komo::{
+    Feature, FrameRef, Initialization, KomoError, Objective, SolveOptions, TimeSpan, TrajectoryOptimizer,
+    TrajectoryProblem, solve_problem, trajectory_solver_settings,
+};
+use tandem::robot::{KinematicsWorkspace, RobotModel};
+use tandem::scene::{Goal, ObjectiveKind, Problem};
+use tandem_solvers::least_squares::Termination;
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+const SHIPPED: [&str; 3] = ["panda_reach", "panda_reach_obstacle", "panda_grasp_box"];
+
+/// World pose of the problem's gripper at `q`.
+fn gripper_pose(problem: &Problem, q: &[f64]) -> nalgebra::IsometryMatrix3<f64> {
+    let robot = &problem.robot;
+    let frame = robot.frame_id(problem.robot_spec.gripper.as_deref().unwrap()).unwrap();
+    let mut ws = KinematicsWorkspace::new(robot);
+    robot.forward_kinematics(&mut ws, q).unwrap();
+    robot.frame_pose(&ws, frame)
+}
+
+#[test]
+fn shipped_problems_converge_collision_free_at_both_horizons() {
+    for name in SHIPPED {
+        let problem = Problem::builtin(name).unwrap();
+        for horizon in [20, 50] {
+            for seed in 0..3 {
+                let options = SolveOptions { seed: Some(seed), horizon: Some(horizon), ..SolveOptions::default() };
+                let s = solve_problem(&problem, &options).unwrap();
+                let label = format!("{name} T={horizon} seed {seed}");
+                assert_eq!(s.status(), "converged", "{label}: {:?}", s.report);
+                assert_eq!(s.trajectory.len(), horizon);
+                assert!(s.report.equality_violation <= 1e-4 && s.report.inequality_violation <= 1e-4, "{label}");
+                // Independently of the optimizer: every slice within limits,
+                // and the motion start → q_1 → … → q_T free at 1 mrad.
+                let model = problem.collision_model().unwrap();
+                let mut ws = tandem::collision::CollisionWorkspace::new(&model);
+                let mut previous = &problem.start;
+                for q in &s.trajectory {
+                    assert!(problem.robot.within_limits(q), "{label}");
+                    assert!(model.motion_free(&mut ws, previous, q, 1e-3).unwrap(), "{label}: collides");
+                    previous = q;
+                }
+                let last = s.trajectory.last().unwrap();
+                let pose = gripper_pose(&problem, last);
+                match &problem.goal {
+                    Goal::Joints(goal) => {
+                        let err = last.iter().zip(goal).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                        assert!(err < 1e-4, "{label}: joint goal missed by {err}");
+                    }
+                    Goal::Pose { .. } => {
+                        let err = (pose.translation.vector - Vector3::new(0.5, 0.3, 0.3)).norm();
+                        assert!(err < 1e-4, "{label}: position missed by {err}");
+                        assert!(
+                            (pose.rotation * Vector3::z() + Vector3::z()).norm() < 1e-4,
+                            "{label}: not pointing down"
+                        );
+                    }
+                    Goal::Grasp { .. } => {
+                        let target = problem.grasp_target().unwrap();
+                        let err = (pose.translation.vector - target.translation.vector).norm();
+                        assert!(err < 1e-4, "{label}: grasp missed by {err} m");
+                        let down = pose.rotation * Vector3::z();
+                        assert!((down + Vector3::z()).norm() < 1e-4, "{label}: gripper not pointing down");
+                        // Fingers close across the box: gripper y along the box's y.
+                        let across = (pose.rotation * Vector3::y()).dot(&(target.rotation * Vector3::x()));
+                        assert!(across.abs() < 1e-4, "{label}: fingers not across the box ({across})");
+                    }
+                }
+                // At rest at the end.
+                let before = &s.trajectory[horizon - 2];
+                let speed = last.iter().zip(before).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / s.time_step;
+                assert!(speed < 1e-3, "{label}: final speed {speed} rad/s");
+            }
+        }
+    }
+}
+
+#[test]
+fn grasp_passes_the_approach_point_above_the_box() {
+    let problem = Problem::builtin("panda_grasp_box").unwrap();
+    let s = solve_problem(&problem, &SolveOptions::default()).unwrap();
+    assert!(s.converged());
+    // Slice round(0.7 T) holds the gripper at the approach frame, 15 cm above the centre.
+    let slice = (0.7 * s.trajectory.len() as f64).round() as usize;
+    let approach = problem.scene.grasp_pose("box", "approach").unwrap();
+    let pose = gripper_pose(&problem, &s.trajectory[slice - 1]);
+    assert!((pose.translation.vector - approach.translation.vector).norm() < 1e-4);
+}
+
+#[test]
+fn same_seed_same_trajectory() {
+    let problem = Problem::builtin("panda_reach_obstacle").unwrap();
+    let options = SolveOptions { seed: Some(4), ..SolveOptions::default() };
+    let a = solve_problem(&problem, &options).unwrap();
+    let b = solve_problem(&problem, &options).unwrap();
+    let bits = |t: &[Vec<f64>]| t.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.trajectory), bits(&b.trajectory));
+    assert_eq!(a.report.evaluations, b.report.evaluations);
+}
+
+#[test]
+fn warm_start_from_a_solution_converges_at_once() {
+    let problem = Problem::builtin("panda_grasp_box").unwrap();
+    let plan = tandem::plan::plan_problem(&problem, Some(0)).unwrap();
+    let mut optimizer =
+        TrajectoryOptimizer::new(TrajectoryProblem::from_problem(&problem).unwrap(), trajectory_solver_settings());
+    let cold = optimizer.solve(Initialization::Path(&plan.path)).unwrap();
+    assert_eq!(cold.report.termination, Termination::Converged);
+    // A warm start keeps the multipliers of the last solve.
+    let warm = optimizer.solve(Initialization::Warm(&cold.trajectory)).unwrap();
+    assert_eq!(warm.report.termination, Termination::Converged);
+    assert!(
+        warm.report.evaluations * 3 < cold.report.evaluations,
+        "{} vs {}",
+        warm.report.evaluations,
+        cold.report.evaluations
+    );
+    assert!((warm.report.cost - cold.report.cost).abs() < 1e-3 * cold.report.cost);
+}
+
+/// A reach built in Rust: minimal acceleration from the ready pose to a
+/// gripper position, with limits; no collision model.
+fn rust_reach(target: [f64; 3]) -> TrajectoryProblem {
+    let robot = Arc::new(RobotModel::panda());
+    let tcp = FrameRef::Robot(robot.frame_id("panda_hand_tcp").unwrap());
+    let objectives = vec![
+        Objective::control(2),
+        Objective::new("limits", Feature::JointLimits { margin: 0.0 }, ObjectiveKind::Inequality),
+        Objective::new("reach", Feature::Position { frame: tcp }, ObjectiveKind::Equality)
+            .time(TimeSpan::END)
+            .target(target),
+        Objective::new("rest", Feature::JointState, ObjectiveKind::Equality).time(TimeSpan::END).order(1),
+    ];
+    let start = vec![0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+    TrajectoryProblem::new(robot, None, objectives, 30, 2, 3.0, start).unwrap()
+}
+
+#[test]
+fn a_problem_built_in_rust_converges() {
+    let problem = rust_reach([0.4, -0.3, 0.5]);
+    let start = problem.start().to_vec();
+    let mut optimizer = TrajectoryOptimizer::new(problem, trajectory_solver_settings());
+    let result = optimizer.solve(Initialization::Interpolate(&start)).unwrap();
+    assert_eq!(result.report.termination, Termination::Converged, "{:?}", result.report);
+    let measured = optimizer.problem().measure(&result.trajectory).unwrap();
+    assert!(measured.equality_violation < 1e-4 && measured.inequality_violation == 0.0);
+    assert!((measured.cost - result.report.cost).abs() < 1e-9 * (1.0 + measured.cost));
+}
+
+#[test]
+fn an_unreachable_target_is_reported_infeasible() {
+    // 2 m away: the Panda reaches about 0.85 m.
+    let problem = rust_reach([2.0, 0.0, 0.5]);
+    let start = problem.start().to_vec();
+    let mut optimizer = TrajectoryOptimizer::new(problem, trajectory_solver_settings());
+    let result = optimizer.solve(Initialization::Interpolate(&start)).unwrap();
+    assert_eq!(result.report.termination, Termination::Infeasible, "{:?}", result.report);
+    assert!(result.report.equality_violation > 0.5, "{:?}", result.report);
+    assert!(result.trajectory.iter().all(|q| q.iter().all(|v| v.is_finite())));
+}
+
+#[test]
+fn contradictory_goals_end_with_a_report_not_a_hang() {
+    let problem = Problem::builtin("panda_reach_obstacle").unwrap();
+    let mut base = TrajectoryProblem::from_problem(&problem).unwrap().objectives().to_vec();
+    let Goal::Joints(goal) = &problem.goal else { unreachable!() };
+    let elsewhere: Vec<f64> = goal.iter().map(|g| g + 0.3).collect();
+    base.push(
+        Objective::new("other goal", Feature::JointState, ObjectiveKind::Equality)
+            .time(TimeSpan::END)
+            .target(elsewhere),
+    );
+    let model = problem.collision_model().unwrap();
+    let t =
+        TrajectoryProblem::new(problem.robot.clone(), Some(model), base, 20, 2, 4.0, problem.start.clone()).unwrap();
+    let mut optimizer = TrajectoryOptimizer::new(t, trajectory_solver_settings());
+    let result = optimizer.solve(Initialization::Interpolate(goal)).unwrap();
+    assert_ne!(result.report.termination, Termination::Converged);
+    assert!(result.report.equality_violation > 0.1, "{:?}", result.report);
+}
+
+#[test]
+fn bad_inputs_get_typed_errors() {
+    let problem = rust_reach([0.4, -0.3, 0.5]);
+    let mut optimizer = TrajectoryOptimizer::new(problem, trajectory_solver_settings());
+    let nan = vec![vec![f64::NAN; 7]; 30];
+    let err = optimizer.solve(Initialization::Warm(&nan)).unwrap_err();
+    assert!(matches!(err, KomoError::Initialization(_)), "{err}");
+    assert!(err.to_string().contains("configuration 1 has a non-finite value at joint 0"), "{err}");
+    let short = vec![vec![0.0; 7]; 3];
+    assert!(matches!(optimizer.solve(Initialization::Warm(&short)), Err(KomoError::Initialization(_))));
+    let err = optimizer.solve(Initialization::Path(&[])).unwrap_err();
+    assert!(err.to_string().contains("path is empty"));
+    // Objectives that do not fit the problem.
+    let robot = Arc::new(RobotModel::panda());
+    let start = robot.neutral_configuration();
+    let wrong = Objective::new("q", Feature::JointState, ObjectiveKind::Equality).target([1.0, 2.0]);
+    let err = TrajectoryProblem::new(robot.clone(), None, vec![wrong], 10, 2, 1.0, start.clone()).unwrap_err();
+    assert!(err.to_string().contains("target has 2 values, the feature has 7"), "{err}");
+    let jerk = Objective::control(2).order(3);
+    let err = TrajectoryProblem::new(robot.clone(), None, vec![jerk], 10, 2, 1.0, start.clone()).unwrap_err();
+    assert!(err.to_string().contains("order 3 exceeds"), "{err}");
+    let collide = Objective::new("c", Feature::Collision { margin: 0.0 }, ObjectiveKind::Inequality);
+    let err = TrajectoryProblem::new(robot.clone(), None, vec![collide], 10, 2, 1.0, start.clone()).unwrap_err();
+    assert!(err.to_string().contains("no collision model"), "{err}");
+    let err = TrajectoryProblem::new(robot, None, vec![], 1, 2, 1.0, start).unwrap_err();
+    assert!(err.to_string().contains("horizon ≥ 2"), "{err}");
+}
+
+#[test]
+fn a_repeated_solve_allocates_nothing() {
+    let problem = Problem::builtin("panda_grasp_box").unwrap();
+    let plan = tandem::plan::plan_problem(&problem, Some(0)).unwrap();
+    let t = TrajectoryProblem::from_problem(&problem).unwrap();
+    let mut optimizer = TrajectoryOptimizer::new(t, trajectory_solver_settings());
+    let mut x = vec![0.0; 50 * 7];
+    optimizer.initialize(Initialization::Path(&plan.path), &mut x).unwrap();
+    let first = x.clone();
+    optimizer.solve_in_place(&mut x).unwrap();
+    // The second solve sees the same row counts: every buffer exists.
+    x.copy_from_slice(&first);
+    let before = allocations();
+    let report = optimizer.solve_in_place(&mut x).unwrap();
+    let during = allocations() - before;
+    assert_eq!(report.termination, Termination::Converged);
+    assert_eq!(during, 0, "a solve of {} evaluations allocated {during} times", report.evaluations);
+}
+
+#[test]
+fn problems_without_objectives_get_the_defaults() {
+    // The obstacle problem's file without its [[optimizer.objectives]].
+    let text = tandem::scene::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == "panda_reach_obstacle").unwrap().1;
+    let cut = text.find("[[optimizer.objectives]]").unwrap();
+    let problem = Problem::from_str_with(&text[..cut], "<defaults>", None).unwrap();
+    assert!(problem.optimizer.objectives.is_empty());
+    let s = solve_problem(&problem, &SolveOptions::default()).unwrap();
+    assert_eq!(s.status(), "converged", "{:?}", s.report);
+    let Goal::Joints(goal) = &problem.goal else { unreachable!() };
+    let last = s.trajectory.last().unwrap();
+    assert!(last.iter().zip(goal).all(|(a, b)| (a - b).abs() < 1e-4));
+}
