@@ -186,3 +186,66 @@ fn check_names_file_key_and_line_of_a_bad_problem() {
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("expected 7 joint values"), "{}", stderr(&o));
 }
+
+#[test]
+fn solve_json_reports_the_documented_fields_and_writes_files() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = tandem(&["solve", "problems/panda_grasp_box.toml", "-T", "20", "--seed", "2", "--json", "--out", out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert_eq!(text.trim().lines().count(), 1, "exactly one line: {text}");
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    for key in [
+        "status",
+        "time_ms",
+        "iterations",
+        "cost",
+        "eq_violation",
+        "ineq_violation",
+        "min_distance",
+        "collision_free",
+        "T",
+        "joints",
+        "trajectory",
+    ] {
+        assert!(v.get(key).is_some(), "missing {key}: {text}");
+    }
+    assert_eq!(v["status"], "converged");
+    assert_eq!(v["T"], 20);
+    assert_eq!(v["collision_free"], true);
+    assert!(v["eq_violation"].as_f64().unwrap() <= 1e-4);
+    let trajectory = v["trajectory"].as_array().unwrap();
+    assert_eq!(trajectory.len(), 20);
+    assert!(trajectory.iter().all(|q| q.as_array().unwrap().len() == 7));
+    assert_eq!(v["joints"].as_array().unwrap().len(), 7);
+    let csv = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 21);
+    assert!(csv.starts_with("slice,time,panda_joint1,"));
+    for file in ["trajectory.parquet", "joints.svg", "path.svg"] {
+        let bytes = std::fs::read(dir.path().join(file)).unwrap();
+        assert!(bytes.len() > 500, "{file} is {} bytes", bytes.len());
+    }
+    let parquet = std::fs::read(dir.path().join("trajectory.parquet")).unwrap();
+    assert!(parquet.starts_with(b"PAR1") && parquet.ends_with(b"PAR1"));
+}
+
+#[test]
+fn solve_names_a_bad_problem_and_exits_non_zero() {
+    let o = tandem(&["solve", "problems/no_such_problem.toml", "--json"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no_such_problem.toml"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"));
+}
+
+#[test]
+fn demo_runs_the_reach_and_grasp_end_to_end() {
+    let dir = tempfile::TempDir::new().unwrap();
+    let out = dir.path().join("demo");
+    let o = tandem(&["demo", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("panda_grasp_box (<builtin:panda_grasp_box>): converged"), "{text}");
+    assert!(text.contains("collision-free between slices (every 0.002 rad): yes"), "{text}");
+    assert!(out.join("path.svg").exists() && out.join("trajectory.parquet").exists());
+}

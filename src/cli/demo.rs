@@ -10,6 +10,10 @@ pub struct DemoArgs {
     /// Number of configurations in the elbow sweep (at least 2).
     #[arg(long, default_value_t = 7)]
     pub steps: usize,
+    /// Folder for the optimized trajectory (CSV, Parquet) and its plots
+    /// (joints.svg, path.svg).
+    #[arg(long, value_name = "DIR", default_value = "tandem-demo")]
+    pub out: std::path::PathBuf,
 }
 
 /// The Panda's usual "ready" pose (rad).
@@ -17,29 +21,24 @@ pub const PANDA_READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 
 pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
     let panda = RobotModel::panda();
-    let tcp = panda.frame_id("panda_hand_tcp")?;
-    let mut ws = KinematicsWorkspace::new(&panda);
-    let mut jac = Matrix6xX::zeros(panda.nq());
     println!(
         "embedded Panda: {} active joints ({}), {} frames, gripper frame panda_hand_tcp",
         panda.nq(),
         panda.joint_names().join(", "),
         panda.frames().len()
     );
-    println!("elbow (panda_joint4) sweep from the ready pose: tcp position (m), manipulability sqrt(det(J Jᵀ)):");
-    let steps = args.steps.max(2);
-    let elbow = panda.limits()[3];
-    for s in 0..steps {
-        let mut q = PANDA_READY;
-        q[3] = elbow.lower + (elbow.upper - elbow.lower) * s as f64 / (steps - 1) as f64;
-        panda.forward_kinematics(&mut ws, &q)?;
-        let p = panda.frame_jacobian(&ws, tcp, ReferenceFrame::WorldAligned, &mut jac)?.translation.vector;
-        let manip = (&jac * jac.transpose()).determinant().max(0.0).sqrt();
-        println!(
-            "  q4 = {:>7.4} rad  tcp = [{:>7.4}, {:>7.4}, {:>7.4}]  manipulability = {manip:.5}",
-            q[3], p.x, p.y, p.z
-        );
-    }
+    kinematics_timing(&panda)?;
+    collision_sweep(args.steps.max(2))?;
+    reach_and_grasp(&args.out)?;
+    println!("tracking and arbitration join this command as they land.");
+    Ok(())
+}
+
+/// FK + gripper Jacobian per call, averaged (criterion benches give medians).
+fn kinematics_timing(panda: &RobotModel) -> Result<(), Box<dyn std::error::Error>> {
+    let tcp = panda.frame_id("panda_hand_tcp")?;
+    let mut ws = KinematicsWorkspace::new(panda);
+    let mut jac = Matrix6xX::zeros(panda.nq());
     let n = 200_000;
     let start = Instant::now();
     let mut checksum = 0.0;
@@ -51,11 +50,35 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
         checksum += jac[(2, 1)];
     }
     let per_call = start.elapsed().as_secs_f64() / f64::from(n) * 1e9;
+    println!("FK + gripper Jacobian: {per_call:.0} ns per call over {n} calls (checksum {checksum:.3})");
+    Ok(())
+}
+
+/// The seed's reach-and-grasp task end to end: RRT-Connect, trajectory
+/// optimization, checks of the result, files and plots.
+fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
+    let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
     println!(
-        "FK + tcp Jacobian: {per_call:.0} ns per call over {n} calls (checksum {checksum:.3}); see `cargo bench` for measured medians"
+        "\nreach and grasp ({}): plan with RRT-Connect, then optimize {} slices:",
+        problem.name, problem.optimizer.horizon
     );
-    collision_sweep(steps)?;
-    println!("planning, optimization, tracking and arbitration join this command as they land.");
+    let solution = crate::komo::solve_problem(&problem, &crate::komo::SolveOptions::default())?;
+    super::solve::print_summary(&problem, &solution, None);
+    if let (Some(last), Some(target)) = (solution.trajectory.last(), problem.grasp_target()) {
+        let robot = &problem.robot;
+        let mut ws = KinematicsWorkspace::new(robot);
+        robot.forward_kinematics(&mut ws, last)?;
+        let pose = robot.frame_pose(&ws, robot.frame_id("panda_hand_tcp")?);
+        let miss = (pose.translation.vector - target.translation.vector).norm();
+        let tilt = (pose.rotation * nalgebra::Vector3::z()).angle(&-nalgebra::Vector3::z());
+        println!(
+            "final gripper pose: {:.3} mm from the grasp point, {:.3} mrad from pointing down",
+            miss * 1e3,
+            tilt * 1e3
+        );
+    }
+    super::solve::write_outputs(&problem, &solution, out)?;
+    println!("wrote trajectory.csv, trajectory.parquet, joints.svg and path.svg to {}", out.display());
     Ok(())
 }
 

@@ -79,7 +79,7 @@ fn solution_json(s: &ProblemSolution) -> serde_json::Value {
     })
 }
 
-fn print_summary(problem: &Problem, s: &ProblemSolution, out: Option<&Path>) {
+pub(super) fn print_summary(problem: &Problem, s: &ProblemSolution, out: Option<&Path>) {
     let r = &s.report;
     println!("problem {} ({}): {}", problem.name, problem.origin, s.status());
     println!(
@@ -110,7 +110,11 @@ fn print_summary(problem: &Problem, s: &ProblemSolution, out: Option<&Path>) {
     }
 }
 
-fn write_outputs(problem: &Problem, s: &ProblemSolution, dir: &Path) -> Result<(), Box<dyn std::error::Error>> {
+pub(super) fn write_outputs(
+    problem: &Problem,
+    s: &ProblemSolution,
+    dir: &Path,
+) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let table =
         TrajectoryTable { joints: s.joints.clone(), time_step: s.time_step, configurations: s.trajectory.clone() };
