@@ -128,13 +128,14 @@ pub struct OptimizerSettings {
     pub duration: f64,
     /// Order k of the problem: configurations before q_1 fixed to the start.
     pub order: u8,
+    /// Evaluation budget of the optimizer (trial points, rejected ones included).
     pub max_iterations: usize,
     pub objectives: Vec<ObjectiveSpec>,
 }
 
 impl Default for OptimizerSettings {
     fn default() -> Self {
-        OptimizerSettings { horizon: 50, duration: 5.0, order: 2, max_iterations: 100, objectives: Vec::new() }
+        OptimizerSettings { horizon: 50, duration: 5.0, order: 2, max_iterations: 500, objectives: Vec::new() }
     }
 }
 

@@ -1,0 +1,64 @@
+//! Shared by the MotionBenchMaker benches: the problem set, unpacking, and
+//! the percentile table.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use tandem::scene::Problem;
+
+pub const FAMILIES: [&str; 7] =
+    ["bookshelf_small", "bookshelf_tall", "bookshelf_thin", "box", "cage", "table_pick", "table_under_pick"];
+
+/// The unpacked benchmark: the spherized Panda, its SRDF and the problems.
+pub struct Benchmark {
+    urdf: PathBuf,
+    srdf: PathBuf,
+    problems: PathBuf,
+}
+
+impl Benchmark {
+    /// Unpacks `../shared/benchmarks/mbm/panda_problems.tar.bz2` into a temporary folder.
+    pub fn unpack() -> Benchmark {
+        let mbm = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/benchmarks/mbm");
+        let dir = std::env::temp_dir().join("tandem_mbm");
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let tar = Command::new("tar").arg("xjf").arg(mbm.join("panda_problems.tar.bz2")).arg("-C").arg(&dir).status();
+        assert!(tar.expect("run tar").success(), "cannot unpack the problems");
+        Benchmark {
+            urdf: mbm.join("panda_spherized.urdf"),
+            srdf: mbm.join("panda.srdf"),
+            problems: dir.join("problems"),
+        }
+    }
+
+    /// Problem `k` (1-based) of `family`.
+    pub fn problem(&self, family: &str, k: usize) -> Problem {
+        let folder: &Path = &self.problems.join(format!("{family}_panda"));
+        let at = |f: &str| folder.join(format!("{f}{k:04}.yaml"));
+        Problem::from_moveit(&self.urdf, &self.srdf, &at("scene"), &at("request")).expect("valid problem")
+    }
+}
+
+/// Whether this run is the full benchmark (`cargo bench`) rather than the
+/// smoke run `cargo test --all-targets` makes of bench targets.
+pub fn full_run() -> bool {
+    std::env::args().any(|a| a == "--bench")
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+/// Prints a `| label | median | mean | p95 |` row (times in s, shown in ms)
+/// and returns it as JSON.
+pub fn row(label: &str, times: &mut [f64]) -> serde_json::Value {
+    if times.is_empty() {
+        println!("| {label} | – | – | – |");
+        return serde_json::Value::Null;
+    }
+    times.sort_by(f64::total_cmp);
+    let ms = |s: f64| s * 1e3;
+    let (median, mean, p95) =
+        (percentile(times, 0.5), times.iter().sum::<f64>() / times.len() as f64, percentile(times, 0.95));
+    println!("| {label} | {:.2} ms | {:.2} ms | {:.2} ms |", ms(median), ms(mean), ms(p95));
+    serde_json::json!({"median_ms": ms(median), "mean_ms": ms(mean), "p95_ms": ms(p95)})
+}
