@@ -291,7 +291,7 @@ fn combine(first: &SolveReport, last: SolveReport) -> SolveReport {
 /// Plans `problem` with RRT-Connect, then optimizes from the shortcut path
 /// (from the straight line to the first goal configuration when planning
 /// fails), and validates the result; a result that collides between slices
-/// is re-optimized with collision checks between slices (1, then 3 per
+/// is re-optimized with collision checks between slices (1, 3, then 7 per
 /// interval).
 ///
 /// # Errors
@@ -323,7 +323,7 @@ pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<Proble
     let mut validation = optimizer.validate(&result.trajectory, options.validation_resolution)?;
     // Slices far apart can be collision-free while the motion between them
     // is not: re-solve from the result with collision rows between slices.
-    for substeps in [1, 3] {
+    for substeps in [1, 3, 7] {
         if validation.collision_free {
             break;
         }
