@@ -34,11 +34,13 @@ mod model;
 mod motion;
 mod query;
 mod shape;
+mod spheres;
 
 pub use distance::{SignedDistance, closer_than, signed_distance};
 pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
 pub use query::{CollisionWorkspace, PairDistance};
 pub use shape::{ConvexHull, Shape};
+pub use spheres::LANES;
 
 use crate::robot::RobotError;
 use thiserror::Error;

@@ -3,6 +3,7 @@
 
 use super::CollisionError;
 use super::shape::Shape;
+use super::spheres::SphereModel;
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::Scene;
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
@@ -78,6 +79,8 @@ pub struct CollisionModel {
     /// origin to any point of a collision object it moves, for every q.
     pub(crate) levers: Vec<f64>,
     padding: f64,
+    /// The lane-parallel boolean checks, when the geometry allows them.
+    pub(crate) spheres: Option<SphereModel>,
 }
 
 /// Builds a [`CollisionModel`].
@@ -163,7 +166,7 @@ impl CollisionModelBuilder {
         let (mut group_pairs, pairs) = pair_up(&groups, is_excluded);
         let levers = levers(&self.robot, &objects, &groups);
         let movers = list_movers(&self.robot, &groups, &mut group_pairs);
-        Ok(CollisionModel {
+        let mut model = CollisionModel {
             robot: self.robot,
             objects,
             groups,
@@ -172,7 +175,10 @@ impl CollisionModelBuilder {
             movers,
             levers,
             padding: self.padding,
-        })
+            spheres: None,
+        };
+        model.set_fast_path(true);
+        Ok(model)
     }
 }
 
@@ -380,6 +386,23 @@ impl CollisionModel {
     /// Padding of robot shapes (m).
     pub fn padding(&self) -> f64 {
         self.padding
+    }
+
+    /// Whether boolean checks ([`collision_free`](Self::collision_free),
+    /// [`motion_free`](Self::motion_free)) run on the sphere fast path:
+    /// [`LANES`](super::LANES) configurations at a time, on flat sphere
+    /// data. It is compiled when every robot shape and attached object is
+    /// a sphere and no obstacle is a mesh hull, and gives the general
+    /// path's answers.
+    pub fn has_fast_path(&self) -> bool {
+        self.spheres.is_some()
+    }
+
+    /// Turns the sphere fast path on (when the geometry allows it; the
+    /// default) or off (every boolean check on the general path, e.g. to
+    /// cross-check the two). Workspaces made before keep working.
+    pub fn set_fast_path(&mut self, enabled: bool) {
+        self.spheres = if enabled { SphereModel::compile(self) } else { None };
     }
 
     /// Number of object pairs checked.

@@ -4,6 +4,7 @@
 
 use super::model::CollisionModel;
 use super::query::{CollisionWorkspace, prunes};
+use super::spheres::{LANES, SampleOrder, SphereModel, Verdict};
 use crate::robot::RobotError;
 
 impl CollisionModel {
@@ -131,26 +132,58 @@ impl CollisionModel {
         self.check_motion(q0, q1, "resolution", resolution)?;
         let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
         let steps = ((span / resolution).ceil() as usize).max(1);
-        let check = |ws: &mut CollisionWorkspace, k: usize| {
-            self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
-            Ok::<bool, RobotError>(self.placed_collision_free(ws))
-        };
-        if !check(ws, steps)? || !check(ws, 0)? {
-            return Ok(false);
-        }
-        // Odd multiples of `half` at each level: every interior step once.
-        let mut stride = steps.next_power_of_two();
-        while stride > 1 {
-            let half = stride / 2;
-            let mut k = half;
-            while k < steps {
-                if !check(ws, k)? {
-                    return Ok(false);
-                }
-                k += stride;
+        let mut order = SampleOrder::new(steps);
+        if let Some(fast) = &self.spheres {
+            if fast.always_collides() {
+                return Ok(false);
             }
-            stride = half;
+            return self.motion_free_fast(fast, ws, q0, q1, steps, &mut order);
+        }
+        for k in order {
+            self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
+            if !self.placed_collision_free(ws) {
+                return Ok(false);
+            }
         }
         Ok(true)
+    }
+
+    /// [`motion_free`](Self::motion_free) on the sphere fast path: the
+    /// samples in the same order, [`LANES`] at a time; samples the fast
+    /// path is unsure of go through the general check.
+    fn motion_free_fast(
+        &self,
+        fast: &SphereModel,
+        ws: &mut CollisionWorkspace,
+        q0: &[f64],
+        q1: &[f64],
+        steps: usize,
+        order: &mut SampleOrder,
+    ) -> Result<bool, RobotError> {
+        loop {
+            let mut ks = [0; LANES];
+            let mut n = 0;
+            for k in order.by_ref().take(LANES) {
+                ks[n] = k;
+                n += 1;
+            }
+            if n == 0 {
+                return Ok(true);
+            }
+            // Unused lanes repeat the last sample.
+            let last = ks[n - 1];
+            ks[n..].fill(last);
+            let verdict = match ws.spheres.as_mut() {
+                Some(scratch) => fast.check_samples(scratch, q0, q1, &ks, steps),
+                None => Verdict::Free { unsure: [true; LANES] },
+            };
+            let Verdict::Free { unsure } = verdict else { return Ok(false) };
+            for (&k, _) in ks[..n].iter().zip(unsure).filter(|(_, u)| *u) {
+                self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
+                if !self.placed_collision_free(ws) {
+                    return Ok(false);
+                }
+            }
+        }
     }
 }

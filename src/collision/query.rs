@@ -6,6 +6,7 @@
 
 use super::distance::{SignedDistance, closer_than, signed_distance};
 use super::model::{CollisionModel, Group};
+use super::spheres::{SphereWorkspace, Verdict};
 use crate::robot::{KinematicsWorkspace, RobotError};
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
 
@@ -21,6 +22,8 @@ pub struct CollisionWorkspace {
     pub(crate) q: Vec<f64>,
     /// Per group pair: bound of relative motion over the current edge (m).
     pub(crate) sweeps: Vec<f64>,
+    /// Scratch of the sphere fast path, when the model has one.
+    pub(crate) spheres: Option<SphereWorkspace>,
 }
 
 /// Signed distance of one object pair.
@@ -45,10 +48,13 @@ impl CollisionWorkspace {
             distances: Vec::with_capacity(model.pairs.len()),
             q: vec![0.0; model.robot.nq()],
             sweeps: vec![0.0; model.group_pairs.len()],
+            spheres: model.spheres.as_ref().map(|s| SphereWorkspace::new(s, model.robot.nq())),
         }
     }
 
-    /// The kinematics state of the last query (frame poses at that `q`).
+    /// The kinematics state of the last query that placed the shapes (frame
+    /// poses at its `q`): every query but the boolean checks on the sphere
+    /// fast path, which keep their own state.
     pub fn kinematics(&self) -> &KinematicsWorkspace {
         &self.kinematics
     }
@@ -119,6 +125,17 @@ impl CollisionModel {
     /// # Errors
     /// A `q` of the wrong length or with non-finite values.
     pub fn collision_free(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<bool, RobotError> {
+        if let (Some(fast), Some(scratch)) = (&self.spheres, ws.spheres.as_mut()) {
+            self.robot.check_configuration(q)?;
+            if fast.always_collides() {
+                return Ok(false);
+            }
+            match fast.check_one(scratch, q) {
+                Verdict::Collides => return Ok(false),
+                Verdict::Free { unsure } if !unsure[0] => return Ok(true),
+                Verdict::Free { .. } => {}
+            }
+        }
         self.place(ws, q)?;
         Ok(self.placed_collision_free(ws))
     }
@@ -216,7 +233,8 @@ impl CollisionModel {
     }
 
     /// World pose of object `object` (see [`object_count`](Self::object_count))
-    /// as placed by the last query with `ws`.
+    /// as placed by the last query with `ws` that placed the shapes (see
+    /// [`CollisionWorkspace::kinematics`]).
     pub fn object_world_pose<'w>(&self, ws: &'w CollisionWorkspace, object: usize) -> &'w IsometryMatrix3<f64> {
         &ws.poses[object]
     }

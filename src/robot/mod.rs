@@ -32,6 +32,7 @@ pub use error::{RobotError, SourceLocation};
 pub(crate) use error::{did_you_mean, suggest as suggest_names};
 pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;
+pub(crate) use model::Motion;
 pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
 pub use srdf::{DisabledPair, Group, GroupState, Srdf};
 pub use urdf::MeshSearchPath;

@@ -1,0 +1,308 @@
+//! Arithmetic on [`LANES`] configurations side by side: every value is a
+//! [`Lane`] array, one entry per configuration, and every loop runs over
+//! the lanes so the compiler turns it into vector instructions (SSE2
+//! always; AVX2 or AVX-512 in the builds `check.rs` dispatches to). All
+//! functions are `#[inline(always)]` so they take the vector width of
+//! their caller.
+// Lane loops index several arrays by the lane on purpose: that is the
+// shape the vectoriser recognises.
+#![allow(clippy::needless_range_loop)]
+
+/// Configurations the sphere fast path checks together.
+pub const LANES: usize = 8;
+
+/// One value per configuration.
+pub(crate) type Lane = [f64; LANES];
+
+/// A rigid transform per lane: rotation `r` column-major (`r[3 * col + row]`)
+/// and translation `t`, mapping body coordinates to world coordinates (m).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct LanePose {
+    pub(crate) r: [Lane; 9],
+    pub(crate) t: [Lane; 3],
+}
+
+impl LanePose {
+    pub(crate) const IDENTITY: LanePose = LanePose {
+        r: [
+            [1.0; LANES],
+            [0.0; LANES],
+            [0.0; LANES],
+            [0.0; LANES],
+            [1.0; LANES],
+            [0.0; LANES],
+            [0.0; LANES],
+            [0.0; LANES],
+            [1.0; LANES],
+        ],
+        t: [[0.0; LANES]; 3],
+    };
+
+    /// `self ∘ (rotation, translation)` for a constant transform
+    /// (rotation column-major); zero entries of `rotation` cost nothing.
+    #[inline(always)]
+    pub(crate) fn then_constant(&self, rotation: &[f64; 9], translation: &[f64; 3]) -> LanePose {
+        let mut out = LanePose { r: [[0.0; LANES]; 9], t: self.t };
+        for k in 0..3 {
+            for j in 0..3 {
+                // Column j gains column k of self times B(k, j).
+                let b = rotation[3 * j + k];
+                if b != 0.0 {
+                    for i in 0..3 {
+                        for l in 0..LANES {
+                            out.r[3 * j + i][l] += self.r[3 * k + i][l] * b;
+                        }
+                    }
+                }
+            }
+            let v = translation[k];
+            if v != 0.0 {
+                for i in 0..3 {
+                    for l in 0..LANES {
+                        out.t[i][l] += self.r[3 * k + i][l] * v;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// World position of a point given in body coordinates (m).
+    #[inline(always)]
+    pub(crate) fn point(&self, p: &[f64; 3]) -> [Lane; 3] {
+        let mut out = self.t;
+        for (i, o) in out.iter_mut().enumerate() {
+            for l in 0..LANES {
+                o[l] += self.r[i][l] * p[0] + self.r[3 + i][l] * p[1] + self.r[6 + i][l] * p[2];
+            }
+        }
+        out
+    }
+
+    /// Rotates columns `a` and `b` by the per-lane angle with sine `s` and
+    /// cosine `c`: the rotation about the third axis (x: 1, 2; y: 2, 0; z: 0, 1).
+    #[inline(always)]
+    pub(crate) fn rotate_columns(&mut self, a: usize, b: usize, s: &Lane, c: &Lane) {
+        for i in 0..3 {
+            for l in 0..LANES {
+                let (ca, cb) = (self.r[3 * a + i][l], self.r[3 * b + i][l]);
+                self.r[3 * a + i][l] = ca * c[l] + cb * s[l];
+                self.r[3 * b + i][l] = cb * c[l] - ca * s[l];
+            }
+        }
+    }
+
+    /// Right-multiplies by a per-lane rotation about the unit `axis`
+    /// (body coordinates) by the angle with sine `s` and cosine `c`.
+    #[inline(always)]
+    pub(crate) fn rotate_about(&mut self, axis: &[f64; 3], s: &Lane, c: &Lane) {
+        let [x, y, z] = *axis;
+        let old = self.r;
+        for l in 0..LANES {
+            let (s, c) = (s[l], c[l]);
+            let v = 1.0 - c;
+            // Rodrigues, column-major.
+            let m = [
+                c + x * x * v,
+                y * x * v + z * s,
+                z * x * v - y * s,
+                x * y * v - z * s,
+                c + y * y * v,
+                z * y * v + x * s,
+                x * z * v + y * s,
+                y * z * v - x * s,
+                c + z * z * v,
+            ];
+            for j in 0..3 {
+                for i in 0..3 {
+                    self.r[3 * j + i][l] =
+                        old[i][l] * m[3 * j] + old[3 + i][l] * m[3 * j + 1] + old[6 + i][l] * m[3 * j + 2];
+                }
+            }
+        }
+    }
+
+    /// Translates along the body-frame `axis` by the per-lane `value` (m).
+    #[inline(always)]
+    pub(crate) fn slide(&mut self, axis: &[f64; 3], value: &Lane) {
+        for i in 0..3 {
+            for l in 0..LANES {
+                let d = self.r[i][l] * axis[0] + self.r[3 + i][l] * axis[1] + self.r[6 + i][l] * axis[2];
+                self.t[i][l] += d * value[l];
+            }
+        }
+    }
+}
+
+/// Beyond this |angle| (rad) the polynomial's argument reduction is not
+/// trusted and the lanes go through the standard library.
+const REDUCTION_LIMIT: f64 = 1.0e5;
+
+/// Sine and cosine of every lane, within a few units in the last place of
+/// the standard library's: argument reduction by π/2 in three parts
+/// (fdlibm's constants) and fdlibm's kernel polynomials on [−π/4, π/4].
+#[inline(always)]
+pub(crate) fn sin_cos(x: &Lane) -> (Lane, Lane) {
+    // 1.5 · 2^52: adding it rounds to an integer kept in the low mantissa bits.
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    // fdlibm's constants, by their bits: π/2 in three 33-bit parts and
+    // the kernel polynomials of sin and cos.
+    const PIO2_1: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
+    const PIO2_2: f64 = f64::from_bits(0x3DD0_B461_1A60_0000);
+    const PIO2_3: f64 = f64::from_bits(0x3BA3_198A_2E00_0000);
+    const S: [f64; 6] = [
+        f64::from_bits(0xBFC5_5555_5555_5549),
+        f64::from_bits(0x3F81_1111_1110_F8A6),
+        f64::from_bits(0xBF2A_01A0_19C1_61D5),
+        f64::from_bits(0x3EC7_1DE3_57B1_FE7D),
+        f64::from_bits(0xBE5A_E5E6_8A2B_9CEB),
+        f64::from_bits(0x3DE5_D93A_5ACF_D57C),
+    ];
+    const C: [f64; 6] = [
+        f64::from_bits(0x3FA5_5555_5555_554C),
+        f64::from_bits(0xBF56_C16C_16C1_5177),
+        f64::from_bits(0x3EFA_01A0_19CB_1590),
+        f64::from_bits(0xBE92_7E4F_809C_52AD),
+        f64::from_bits(0x3E21_EE9E_BDB4_B1C4),
+        f64::from_bits(0xBDA8_FAE9_BE88_38D4),
+    ];
+    let (mut sin, mut cos) = ([0.0; LANES], [0.0; LANES]);
+    for l in 0..LANES {
+        let shifted = x[l] * std::f64::consts::FRAC_2_PI + SHIFT;
+        let n = shifted - SHIFT;
+        let quadrant = shifted.to_bits() & 3;
+        let r = ((x[l] - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
+        let z = r * r;
+        let ps = S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5]))));
+        let pc = C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5]))));
+        let s = r + r * z * ps;
+        let c = (1.0 - 0.5 * z) + z * z * pc;
+        let (s, c) = if quadrant & 1 == 0 { (s, c) } else { (c, -s) };
+        sin[l] = if quadrant & 2 == 0 { s } else { -s };
+        cos[l] = if quadrant & 2 == 0 { c } else { -c };
+    }
+    if x.iter().any(|v| v.abs() > REDUCTION_LIMIT) {
+        for l in 0..LANES {
+            if x[l].abs() > REDUCTION_LIMIT {
+                (sin[l], cos[l]) = x[l].sin_cos();
+            }
+        }
+    }
+    (sin, cos)
+}
+
+/// Squared distance from each lane's point `p` to the box `[lo, hi]` (m²).
+#[inline(always)]
+pub(crate) fn box_distance_squared(p: &[Lane; 3], lo: &[f64; 3], hi: &[f64; 3]) -> Lane {
+    let mut d2 = [0.0; LANES];
+    for i in 0..3 {
+        for l in 0..LANES {
+            let e = (lo[i] - p[i][l]).max(p[i][l] - hi[i]).max(0.0);
+            d2[l] += e * e;
+        }
+    }
+    d2
+}
+
+/// Euclidean distance from each lane's point to a fixed point (m).
+#[inline(always)]
+pub(crate) fn point_distance(p: &[Lane; 3], c: &[f64; 3]) -> Lane {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let (x, y, z) = (p[0][l] - c[0], p[1][l] - c[1], p[2][l] - c[2]);
+        out[l] = (x * x + y * y + z * z).sqrt();
+    }
+    out
+}
+
+/// Distance between two lanes of points (m).
+#[inline(always)]
+pub(crate) fn lane_distance(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let (x, y, z) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
+        out[l] = (x * x + y * y + z * z).sqrt();
+    }
+    out
+}
+
+/// Distance from each lane's point to the segment from `a` to `a + ab`,
+/// with `len2 = |ab|²` (m).
+#[inline(always)]
+pub(crate) fn segment_distance(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> Lane {
+    let mut out = [0.0; LANES];
+    let inv = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
+    for l in 0..LANES {
+        let (x, y, z) = (p[0][l] - a[0], p[1][l] - a[1], p[2][l] - a[2]);
+        let t = ((x * ab[0] + y * ab[1] + z * ab[2]) * inv).clamp(0.0, 1.0);
+        let (x, y, z) = (x - ab[0] * t, y - ab[1] * t, z - ab[2] * t);
+        out[l] = (x * x + y * y + z * z).sqrt();
+    }
+    out
+}
+
+/// Each lane's point in the frame of a fixed pose (rotation column-major),
+/// i.e. `Rᵀ (p − t)`.
+#[inline(always)]
+pub(crate) fn to_local(p: &[Lane; 3], rotation: &[f64; 9], translation: &[f64; 3]) -> [Lane; 3] {
+    let mut out = [[0.0; LANES]; 3];
+    for l in 0..LANES {
+        let (x, y, z) = (p[0][l] - translation[0], p[1][l] - translation[1], p[2][l] - translation[2]);
+        for (i, o) in out.iter_mut().enumerate() {
+            o[l] = rotation[3 * i] * x + rotation[3 * i + 1] * y + rotation[3 * i + 2] * z;
+        }
+    }
+    out
+}
+
+/// Signed distance from each lane's point (box frame) to the surface of a
+/// box of half extents `h`: positive outside, minus the depth inside (m).
+#[inline(always)]
+pub(crate) fn box_signed_distance(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let e = [p[0][l].abs() - h[0], p[1][l].abs() - h[1], p[2][l].abs() - h[2]];
+        let inside = e[0].max(e[1]).max(e[2]);
+        let (x, y, z) = (e[0].max(0.0), e[1].max(0.0), e[2].max(0.0));
+        let outside = (x * x + y * y + z * z).sqrt();
+        out[l] = if inside > 0.0 { outside } else { inside };
+    }
+    out
+}
+
+/// Signed distance from each lane's point (cylinder frame) to the surface
+/// of a cylinder along z of `radius` and `half_length` (m).
+#[inline(always)]
+pub(crate) fn cylinder_signed_distance(p: &[Lane; 3], radius: f64, half_length: f64) -> Lane {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let rho = (p[0][l] * p[0][l] + p[1][l] * p[1][l]).sqrt();
+        let (dr, dz) = (rho - radius, p[2][l].abs() - half_length);
+        let rim = (dr * dr + dz * dz).sqrt();
+        out[l] = if dr > 0.0 && dz > 0.0 { rim } else { dr.max(dz) };
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sin_cos_matches_the_standard_library() {
+        let mut worst = 0.0f64;
+        for k in -20000..20000 {
+            let base = k as f64 * 7.3e-4;
+            let x: Lane = std::array::from_fn(|l| base * (1.0 + l as f64) + [0.0, 1e-300, -0.0, 1e5][l % 4]);
+            let (s, c) = sin_cos(&x);
+            for l in 0..LANES {
+                let (es, ec) = x[l].sin_cos();
+                worst = worst.max((s[l] - es).abs()).max((c[l] - ec).abs());
+            }
+        }
+        assert!(worst < 4.0 * f64::EPSILON, "{worst:e}");
+        let (s, c) = sin_cos(&[1e6, -3e7, 1e300, 0.5, 1.0, 2.0, 3.0, 4.0]);
+        assert_eq!((s[0], c[1]), (1e6f64.sin(), (-3e7f64).cos()));
+        assert!(s[2].is_finite() && c[2].is_finite());
+    }
+}

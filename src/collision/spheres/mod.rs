@@ -1,0 +1,250 @@
+//! The sphere fast path of boolean collision checks.
+//!
+//! When every moving collision object (robot links, attached objects) is a
+//! sphere and every static one a sphere, capsule, box or cylinder — the
+//! spherized robots of motion planning benchmarks — a [`CollisionModel`]
+//! also compiles a [`SphereModel`]: flat arrays of sphere centres per body,
+//! static shapes with their world boxes, and per body group the list of
+//! static shapes and groups it is checked against (the model's pairs,
+//! exactly). Checks then run [`LANES`](lanes::LANES) configurations side by
+//! side: forward kinematics specialised to the bodies' joints, group
+//! bounding spheres against world boxes, then sphere against shape in
+//! closed form.
+//!
+//! The answers are the exact model's. Each lane's margin (distance minus
+//! threshold, m) is computed to within rounding (≈1e-15 m); a pair is
+//! called free or colliding only when its margin clears ±[`TOLERANCE`],
+//! a million times that, and a configuration with any pair inside the band
+//! is handed to the exact model's own check.
+
+mod check;
+mod lanes;
+
+pub(crate) use check::{SampleOrder, SphereWorkspace, Verdict};
+pub use lanes::LANES;
+
+use super::distance::closer_than;
+use super::model::{CollisionModel, CollisionObject, Group};
+use super::shape::Shape;
+use crate::robot::{Motion, RobotModel};
+use nalgebra::IsometryMatrix3;
+use std::ops::Range;
+
+/// Width (m) of the band around each pair's threshold inside which the
+/// fast path defers to the exact model.
+pub(crate) const TOLERANCE: f64 = 1e-9;
+
+/// One moving body of the kinematic chain, as constants.
+#[derive(Debug, Clone)]
+struct LaneBody {
+    parent: usize,
+    /// Joint frame in the parent body frame at zero joint value (column-major).
+    rotation: [f64; 9],
+    translation: [f64; 3],
+    motion: Motion,
+    column: usize,
+    multiplier: f64,
+    offset: f64,
+}
+
+/// The spheres of one moving group (a link or an attached object).
+#[derive(Debug, Clone)]
+struct SphereGroup {
+    body: usize,
+    /// Into [`SphereModel::spheres`].
+    spheres: Range<usize>,
+    /// Bounding ball in the body frame; the radius includes the padding (m).
+    center: [f64; 3],
+    radius: f64,
+    /// Into [`SphereModel::env`]: the static shapes checked against this group.
+    env: Range<usize>,
+}
+
+/// A sphere on a body: centre in the body frame and the distance its
+/// centre must keep from other shapes, radius plus padding (m).
+#[derive(Debug, Clone, Copy)]
+struct BodySphere {
+    center: [f64; 3],
+    reach: f64,
+}
+
+/// A static shape in world coordinates (m), with its world bounding box.
+#[derive(Debug, Clone)]
+struct StaticShape {
+    kind: StaticKind,
+    lo: [f64; 3],
+    hi: [f64; 3],
+}
+
+#[derive(Debug, Clone)]
+enum StaticKind {
+    Sphere {
+        center: [f64; 3],
+        radius: f64,
+    },
+    /// Segment from `a` to `a + ab`, `len2 = |ab|²`, swept by `radius`.
+    Capsule {
+        a: [f64; 3],
+        ab: [f64; 3],
+        len2: f64,
+        radius: f64,
+    },
+    /// Pose rotation column-major.
+    Box {
+        rotation: [f64; 9],
+        translation: [f64; 3],
+        half: [f64; 3],
+    },
+    Cylinder {
+        rotation: [f64; 9],
+        translation: [f64; 3],
+        radius: f64,
+        half_length: f64,
+    },
+}
+
+/// Which vector instructions the checks are compiled for, detected once.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Isa {
+    Baseline,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Isa {
+    fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                return Isa::Avx512;
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Baseline
+    }
+}
+
+/// The spheres of a [`CollisionModel`] as flat arrays for lane-parallel
+/// boolean checks; see the [module documentation](self).
+#[derive(Debug, Clone)]
+pub(crate) struct SphereModel {
+    bodies: Vec<LaneBody>,
+    spheres: Vec<BodySphere>,
+    groups: Vec<SphereGroup>,
+    statics: Vec<StaticShape>,
+    env: Vec<u32>,
+    /// Pairs of moving groups (indices into `groups`).
+    self_pairs: Vec<[u32; 2]>,
+    /// Some pair that no joint moves collides: every configuration collides.
+    fixed_collision: bool,
+    isa: Isa,
+}
+
+fn column_major(pose: &IsometryMatrix3<f64>) -> [f64; 9] {
+    let m = pose.rotation.matrix();
+    std::array::from_fn(|k| m[(k % 3, k / 3)])
+}
+
+fn vector(v: &nalgebra::Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+impl StaticShape {
+    fn new(o: &CollisionObject) -> Option<StaticShape> {
+        let (rotation, translation) = (column_major(&o.local), vector(&o.local.translation.vector));
+        let kind = match o.shape {
+            Shape::Sphere { radius } => StaticKind::Sphere { center: translation, radius },
+            Shape::Capsule { radius, half_length } => {
+                let axis = o.local.rotation.matrix().column(2) * half_length;
+                let a = o.local.translation.vector - axis;
+                StaticKind::Capsule {
+                    a: vector(&a),
+                    ab: vector(&(axis * 2.0)),
+                    len2: (axis * 2.0).norm_squared(),
+                    radius,
+                }
+            }
+            Shape::Box { half_extents } => StaticKind::Box { rotation, translation, half: vector(&half_extents) },
+            Shape::Cylinder { radius, half_length } => {
+                StaticKind::Cylinder { rotation, translation, radius, half_length }
+            }
+            Shape::Convex(_) => return None,
+        };
+        let (lo, hi) = o.aabb?;
+        Some(StaticShape { kind, lo: vector(&lo.coords), hi: vector(&hi.coords) })
+    }
+}
+
+impl SphereModel {
+    /// The fast path of `model`, or `None` when some moving object is not a
+    /// sphere or some static object checked against one is a convex hull.
+    pub(crate) fn compile(model: &CollisionModel) -> Option<SphereModel> {
+        let robot: &RobotModel = &model.robot;
+        let bodies = robot
+            .bodies
+            .iter()
+            .map(|b| {
+                let placement = b.placement.after(&IsometryMatrix3::identity());
+                LaneBody {
+                    parent: b.parent,
+                    rotation: column_major(&placement),
+                    translation: vector(&placement.translation.vector),
+                    motion: b.motion,
+                    column: b.column,
+                    multiplier: b.multiplier,
+                    offset: b.offset,
+                }
+            })
+            .collect();
+        // Moving groups, in model order; `index[g]` is the fast-path index of model group g.
+        let mut index = vec![u32::MAX; model.groups.len()];
+        let (mut groups, mut spheres) = (Vec::new(), Vec::new());
+        for (g, group) in model.groups.iter().enumerate() {
+            let Some(body) = group.body else { continue };
+            let start = spheres.len();
+            for o in &model.objects[group.objects.clone()] {
+                let Shape::Sphere { radius } = o.shape else { return None };
+                spheres.push(BodySphere { center: vector(&o.local.translation.vector), reach: radius + o.padding });
+            }
+            index[g] = groups.len() as u32;
+            let (center, radius) = (vector(&group.center.coords), group.radius);
+            groups.push(SphereGroup { body, spheres: start..spheres.len(), center, radius, env: 0..0 });
+        }
+        let (mut statics, mut static_index) = (Vec::new(), vec![u32::MAX; model.objects.len()]);
+        let mut env_lists = vec![Vec::new(); groups.len()];
+        let (mut self_pairs, mut fixed_collision) = (Vec::new(), false);
+        for gp in &model.group_pairs {
+            let (a, b): (&Group, &Group) = (&model.groups[gp.a], &model.groups[gp.b]);
+            if b.body.is_some() {
+                self_pairs.push([index[gp.a], index[gp.b]]);
+                continue;
+            }
+            if a.body == Some(0) {
+                // Neither side moves: the answer is the same for every q.
+                fixed_collision |= gp.pairs.clone().any(|p| {
+                    let [i, j] = model.pairs[p].map(|k| &model.objects[k as usize]);
+                    closer_than(&i.shape, &i.local, &j.shape, &j.local, i.padding + j.padding)
+                });
+                continue;
+            }
+            for j in b.objects.clone() {
+                if static_index[j] == u32::MAX {
+                    static_index[j] = statics.len() as u32;
+                    statics.push(StaticShape::new(&model.objects[j])?);
+                }
+                env_lists[index[gp.a] as usize].push(static_index[j]);
+            }
+        }
+        let mut env = Vec::new();
+        for (group, list) in groups.iter_mut().zip(env_lists) {
+            let start = env.len();
+            env.extend(list);
+            group.env = start..env.len();
+        }
+        Some(SphereModel { bodies, spheres, groups, statics, env, self_pairs, fixed_collision, isa: Isa::detect() })
+    }
+}

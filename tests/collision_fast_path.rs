@@ -1,0 +1,175 @@
+//! The sphere fast path of boolean checks gives the general path's answers:
+//! configuration checks and motion checks on thousands of random and
+//! near-contact configurations, in a cluttered scene with every obstacle
+//! shape, with padding and an attached sphere, and in MotionBenchMaker
+//! scenes with the spherized Panda.
+
+mod common;
+
+use common::{random_configurations, repo};
+use nalgebra::IsometryMatrix3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::Path;
+use std::process::Command;
+use std::sync::Arc;
+use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::robot::RobotModel;
+use tandem::scene::{Goal, Obstacle, Problem, Scene, SceneObject};
+
+/// Both paths of `model` on the same queries; returns (free, colliding) counts.
+struct Pair {
+    fast: CollisionModel,
+    general: CollisionModel,
+    fast_ws: CollisionWorkspace,
+    general_ws: CollisionWorkspace,
+}
+
+impl Pair {
+    fn new(model: CollisionModel) -> Pair {
+        assert!(model.has_fast_path(), "the fast path should apply");
+        let mut general = model.clone();
+        general.set_fast_path(false);
+        assert!(!general.has_fast_path());
+        let (fast_ws, general_ws) = (CollisionWorkspace::new(&model), CollisionWorkspace::new(&general));
+        Pair { fast: model, general, fast_ws, general_ws }
+    }
+
+    fn config(&mut self, q: &[f64]) -> bool {
+        let fast = self.fast.collision_free(&mut self.fast_ws, q).unwrap();
+        let general = self.general.collision_free(&mut self.general_ws, q).unwrap();
+        assert_eq!(fast, general, "collision_free differs at {q:?}");
+        fast
+    }
+
+    fn motion(&mut self, q0: &[f64], q1: &[f64], resolution: f64) -> bool {
+        let fast = self.fast.motion_free(&mut self.fast_ws, q0, q1, resolution).unwrap();
+        let general = self.general.motion_free(&mut self.general_ws, q0, q1, resolution).unwrap();
+        assert_eq!(fast, general, "motion_free differs on {q0:?} -> {q1:?}");
+        fast
+    }
+
+    /// Random configurations, configurations around `centre` (where free
+    /// and colliding ones mix), and motions between them.
+    fn compare(&mut self, robot: &RobotModel, centre: &[f64], count: usize, seed: u64) -> (usize, usize) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let random = random_configurations(robot, count, seed);
+        let mut near = Vec::new();
+        for q in &random {
+            let s = rng.random_range(0.05..0.6);
+            near.push(q.iter().zip(centre).map(|(v, c)| c + s * (v - c)).collect::<Vec<f64>>());
+        }
+        let (mut free, mut colliding) = (0, 0);
+        for q in random.iter().chain(&near) {
+            if self.config(q) { free += 1 } else { colliding += 1 }
+        }
+        for w in near.chunks(2).take(count / 4) {
+            self.motion(&w[0], &w[1], 0.02);
+        }
+        (free, colliding)
+    }
+}
+
+fn cluttered() -> (Arc<RobotModel>, Scene) {
+    let robot = Arc::new(RobotModel::panda());
+    let mut scene = Scene::new();
+    scene.add_obstacle(Obstacle::table("table", [0.3, 0.0, 0.0], [1.4, 1.6], 0.04)).unwrap();
+    let pose = |p: [f64; 3], rpy: [f64; 3]| {
+        IsometryMatrix3::from_parts(p.into(), nalgebra::Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]))
+    };
+    for o in [
+        Obstacle::new("crate", Shape::cuboid([0.2, 0.3, 0.3]), pose([0.5, -0.3, 0.3], [0.2, 0.0, 0.5])),
+        Obstacle::new("ball", Shape::sphere(0.1), pose([0.4, 0.35, 0.5], [0.0; 3])),
+        Obstacle::new("post", Shape::cylinder(0.05, 0.8), pose([-0.3, 0.3, 0.4], [0.5, 0.2, 0.0])),
+        Obstacle::new("bar", Shape::capsule(0.04, 0.6), pose([0.2, 0.0, 0.9], [1.2, 0.3, -0.4])),
+    ] {
+        scene.add_obstacle(o).unwrap();
+    }
+    scene.allow_contact("panda_link0", "table");
+    (robot, scene)
+}
+
+const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+
+#[test]
+fn fast_path_matches_the_general_path_in_a_cluttered_scene() {
+    let (robot, mut scene) = cluttered();
+    for padding in [0.0, 0.001, 0.003] {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(padding).build().unwrap();
+        let (free, colliding) = Pair::new(model).compare(&robot, &READY, 2000, 7);
+        println!("padding {padding}: {free} free, {colliding} colliding");
+        assert!(free > 500 && colliding > 500);
+    }
+    // A ball held in the hand is one more moving sphere.
+    scene
+        .add_object(SceneObject::new("orange", Shape::sphere(0.04), IsometryMatrix3::translation(0.5, 0.1, 0.04)))
+        .unwrap();
+    scene.attach("orange", "panda_hand_tcp", IsometryMatrix3::translation(0.0, 0.0, 0.05)).unwrap();
+    let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(0.001).build().unwrap();
+    let (free, colliding) = Pair::new(model).compare(&robot, &READY, 1000, 8);
+    assert!(free > 200 && colliding > 200);
+    // A held box is not a sphere: no fast path, the general one answers.
+    scene
+        .add_object(SceneObject::new("brick", Shape::cuboid([0.05; 3]), IsometryMatrix3::translation(0.5, 0.3, 0.03)))
+        .unwrap();
+    scene.attach("brick", "panda_link7", IsometryMatrix3::identity()).unwrap();
+    assert!(!CollisionModel::builder(robot).scene(&scene).build().unwrap().has_fast_path());
+}
+
+#[test]
+fn fast_path_matches_at_contact() {
+    // Configurations bisected onto the boundary between free and colliding:
+    // the pairs there sit within nanometres of their thresholds.
+    let (robot, scene) = cluttered();
+    let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(0.001).build().unwrap();
+    let mut pair = Pair::new(model);
+    let configs = random_configurations(&robot, 600, 5);
+    let mut boundary = 0;
+    for q in &configs {
+        let (mut free, mut hit) = (READY.to_vec(), q.clone());
+        if !pair.config(&free) || pair.config(&hit) {
+            continue;
+        }
+        for _ in 0..60 {
+            let mid: Vec<f64> = free.iter().zip(&hit).map(|(a, b)| 0.5 * (a + b)).collect();
+            if pair.config(&mid) { free = mid } else { hit = mid }
+        }
+        boundary += 1;
+    }
+    assert!(boundary > 100, "{boundary}");
+}
+
+fn unpack(dir: &Path) -> std::path::PathBuf {
+    let mbm = repo().join("../shared/benchmarks/mbm");
+    let status =
+        Command::new("tar").arg("xjf").arg(mbm.join("panda_problems.tar.bz2")).arg("-C").arg(dir).status().unwrap();
+    assert!(status.success());
+    dir.join("problems")
+}
+
+#[test]
+fn fast_path_matches_on_motionbenchmaker_scenes() {
+    let mbm = repo().join("../shared/benchmarks/mbm");
+    let dir = tempfile::tempdir().unwrap();
+    let problems = unpack(dir.path());
+    let (urdf, srdf) = (mbm.join("panda_spherized.urdf"), mbm.join("panda.srdf"));
+    let (mut free, mut colliding) = (0, 0);
+    for family in
+        ["bookshelf_small", "bookshelf_tall", "bookshelf_thin", "box", "cage", "table_pick", "table_under_pick"]
+    {
+        for k in [1, 37, 74] {
+            let at = |f: &str| problems.join(format!("{family}_panda/{f}{k:04}.yaml"));
+            let problem = Problem::from_moveit(&urdf, &srdf, &at("scene"), &at("request")).unwrap();
+            let Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
+            for padding in [0.0, problem.planner.clearance] {
+                let mut pair = Pair::new(problem.collision_model_padded(padding).unwrap());
+                let (f, c) = pair.compare(&problem.robot, goal, 300, k);
+                pair.motion(&problem.start, goal, 0.005);
+                free += f;
+                colliding += c;
+            }
+        }
+    }
+    println!("{free} free, {colliding} colliding");
+    assert!(free > 2000 && colliding > 2000);
+}
