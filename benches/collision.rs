@@ -1,7 +1,9 @@
 //! Collision queries of the Panda (61 spheres) in `panda_grasp_box.toml`
 //! (table and box) plus 10 seeded random obstacles (boxes, spheres,
 //! cylinders), cycling through 1000 seeded random configurations:
-//! `collision_free` (boolean, early exit), `distance_all_pairs` (every
+//! `collision_free` (boolean, early exit; on the sphere fast path and on
+//! the general path), `motion_free` (0.3 rad motions checked every 0.005
+//! rad, both paths), `distance_all_pairs` (every
 //! pair's signed distance with witness points), `min_distance` (closest
 //! pair, branch and bound). The same geometry, pairs and configurations are
 //! written to target/peers/collision_scene.json for coal
@@ -72,6 +74,35 @@ fn collision(c: &mut Criterion) {
             black_box(model.collision_free(&mut ws, black_box(&configs[i])).expect("valid q"))
         })
     });
+    let mut general = model.clone();
+    general.set_fast_path(false);
+    let mut general_ws = CollisionWorkspace::new(&general);
+    group.bench_function("collision_free_general", |b| {
+        b.iter(|| {
+            i = (i + 1) % configs.len();
+            black_box(general.collision_free(&mut general_ws, black_box(&configs[i])).expect("valid q"))
+        })
+    });
+    // Motions of 0.3 rad (Euclidean) from each configuration towards the next.
+    let ends: Vec<Vec<f64>> = (0..configs.len())
+        .map(|k| {
+            let (a, b) = (&configs[k], &configs[(k + 1) % configs.len()]);
+            let d = a.iter().zip(b).map(|(x, y)| (y - x) * (y - x)).sum::<f64>().sqrt();
+            a.iter().zip(b).map(|(x, y)| x + (y - x) * 0.3 / d).collect()
+        })
+        .collect();
+    let free = (0..configs.len())
+        .filter(|&k| model.motion_free(&mut ws, &configs[k], &ends[k], 0.005).expect("valid"))
+        .count();
+    eprintln!("{free} of {} motions free", configs.len());
+    for (name, m, w) in [("motion_free", &model, &mut ws), ("motion_free_general", &general, &mut general_ws)] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                i = (i + 1) % configs.len();
+                black_box(m.motion_free(w, black_box(&configs[i]), &ends[i], 0.005).expect("valid q"))
+            })
+        });
+    }
     group.bench_function("distance_all_pairs", |b| {
         b.iter(|| {
             i = (i + 1) % configs.len();

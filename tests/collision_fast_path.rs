@@ -173,3 +173,36 @@ fn fast_path_matches_on_motionbenchmaker_scenes() {
     println!("{free} free, {colliding} colliding");
     assert!(free > 2000 && colliding > 2000);
 }
+
+#[test]
+fn certified_motions_on_the_fast_path_keep_half_the_clearance() {
+    let (robot, scene) = cluttered();
+    let model = CollisionModel::builder(robot.clone()).scene(&scene).build().unwrap();
+    let Pair { fast, general, mut fast_ws, mut general_ws } = Pair::new(model);
+    let clearance = 0.002;
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let (mut certified, mut agree, mut total) = (0, 0, 0);
+    for q in random_configurations(&robot, 400, 13) {
+        // Short and long motions around the ready pose, free ones and blocked ones.
+        let s = rng.random_range(0.05..0.5);
+        let q0: Vec<f64> = q.iter().zip(READY).map(|(v, r)| r + s * (v - r)).collect();
+        let q1: Vec<f64> = q0.iter().map(|v| v + rng.random_range(-0.4..0.4)).collect();
+        let ok = fast.motion_free_certified(&mut fast_ws, &q0, &q1, clearance).unwrap();
+        let reference = general.motion_free_certified(&mut general_ws, &q0, &q1, clearance).unwrap();
+        total += 1;
+        agree += usize::from(ok == reference);
+        if !ok {
+            continue;
+        }
+        certified += 1;
+        for k in 0..=300 {
+            let t = k as f64 / 300.0;
+            let q: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * t).collect();
+            let d = general.min_distance(&mut general_ws, &q).unwrap().unwrap().signed.distance;
+            assert!(d >= clearance / 2.0, "certified motion {q0:?} -> {q1:?} comes {d} m close at t = {t}");
+        }
+    }
+    println!("{certified} of {total} motions certified; the general path agrees on {agree}");
+    assert!(certified > 50 && certified < total - 50);
+    assert!(agree * 100 >= total * 95);
+}

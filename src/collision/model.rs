@@ -300,24 +300,32 @@ impl Compiler<'_> {
 }
 
 /// For each body, the largest distance from its joint origin to a point of
-/// an object it carries or moves through its descendants: the offsets of
-/// the bodies in between plus the object's centre offset and radius
-/// (triangle inequality, so valid for every configuration).
+/// an object it carries or moves through its descendants (see [`lever_chain`]).
 fn levers(robot: &RobotModel, objects: &[CollisionObject], groups: &[Group]) -> Vec<f64> {
     let mut levers = vec![0.0f64; robot.body_count()];
     for o in objects {
-        let Some(mut body) = groups[o.group].body else { continue };
-        let mut reach = o.local.translation.vector.norm() + o.radius;
-        loop {
-            levers[body] = levers[body].max(reach);
-            if body == 0 {
-                break;
-            }
-            reach += robot.body_joint(body).3;
-            body = robot.parent_body(body);
+        let Some(body) = groups[o.group].body else { continue };
+        for (b, lever) in lever_chain(robot, body, o.local.translation.vector.norm() + o.radius) {
+            levers[b] = levers[b].max(lever);
         }
     }
     levers
+}
+
+/// For a point `reach` (m) from the origin of body `body`, each body from
+/// `body` up to (not including) the root with an upper bound of the
+/// distance from its joint origin to the point: the offsets of the bodies
+/// in between plus `reach` (triangle inequality, so valid for every q).
+pub(crate) fn lever_chain(robot: &RobotModel, body: usize, reach: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
+    let mut at = (body, reach);
+    std::iter::from_fn(move || {
+        let (b, lever) = at;
+        if b == 0 {
+            return None;
+        }
+        at = (robot.parent_body(b), lever + robot.body_joint(b).3);
+        Some((b, lever))
+    })
 }
 
 /// Bodies from `body` up to (not including) the root.

@@ -13,6 +13,11 @@ impl CollisionModel {
     /// — keeps every checked pair at least `clearance / 2` apart (m); false
     /// as soon as a configuration reached is closer than `clearance`.
     ///
+    /// On the sphere fast path, by bounded motion instead (same guarantee,
+    /// per-sphere bounds): the motion is split into intervals until, at
+    /// each interval's midpoint, every pair is `clearance / 2` plus its
+    /// sweep bound over the half-width apart.
+    ///
     /// Conservative advancement, pair by pair: only the joints that move one
     /// body of a pair but not the other change its distance, and over the
     /// whole motion no point of the pair moves relative to the other by more
@@ -32,6 +37,15 @@ impl CollisionModel {
         clearance: f64,
     ) -> Result<bool, RobotError> {
         self.check_motion(q0, q1, "clearance", clearance)?;
+        if let (Some(fast), Some(scratch)) = (&self.spheres, ws.spheres.as_mut()) {
+            if fast.always_collides() {
+                return Ok(false);
+            }
+            // None: undecided, or sliding joints; the general path decides.
+            if let Some(answer) = fast.certify(scratch, q0, q1, clearance / 2.0, clearance) {
+                return Ok(answer);
+            }
+        }
         self.sweep_bounds(ws, q0, q1);
         let mut t = 0.0f64;
         loop {
@@ -175,9 +189,9 @@ impl CollisionModel {
             ks[n..].fill(last);
             let verdict = match ws.spheres.as_mut() {
                 Some(scratch) => fast.check_samples(scratch, q0, q1, &ks, steps),
-                None => Verdict::Free { unsure: [true; LANES] },
+                None => Verdict::Free { unsure: [true; LANES], split: [false; LANES] },
             };
-            let Verdict::Free { unsure } = verdict else { return Ok(false) };
+            let Verdict::Free { unsure, .. } = verdict else { return Ok(false) };
             for (&k, _) in ks[..n].iter().zip(unsure).filter(|(_, u)| *u) {
                 self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
                 if !self.placed_collision_free(ws) {

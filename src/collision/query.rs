@@ -132,7 +132,7 @@ impl CollisionModel {
             }
             match fast.check_one(scratch, q) {
                 Verdict::Collides => return Ok(false),
-                Verdict::Free { unsure } if !unsure[0] => return Ok(true),
+                Verdict::Free { unsure, .. } if !unsure[0] => return Ok(true),
                 Verdict::Free { .. } => {}
             }
         }

@@ -204,39 +204,39 @@ pub(crate) fn box_distance_squared(p: &[Lane; 3], lo: &[f64; 3], hi: &[f64; 3]) 
     d2
 }
 
-/// Euclidean distance from each lane's point to a fixed point (m).
+/// Squared distance from each lane's point to a fixed point (m²).
 #[inline(always)]
-pub(crate) fn point_distance(p: &[Lane; 3], c: &[f64; 3]) -> Lane {
+pub(crate) fn point_distance_squared(p: &[Lane; 3], c: &[f64; 3]) -> Lane {
     let mut out = [0.0; LANES];
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - c[0], p[1][l] - c[1], p[2][l] - c[2]);
-        out[l] = (x * x + y * y + z * z).sqrt();
+        out[l] = x * x + y * y + z * z;
     }
     out
 }
 
-/// Distance between two lanes of points (m).
+/// Squared distance between two lanes of points (m²).
 #[inline(always)]
-pub(crate) fn lane_distance(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
+pub(crate) fn lane_distance_squared(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
     let mut out = [0.0; LANES];
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
-        out[l] = (x * x + y * y + z * z).sqrt();
+        out[l] = x * x + y * y + z * z;
     }
     out
 }
 
-/// Distance from each lane's point to the segment from `a` to `a + ab`,
-/// with `len2 = |ab|²` (m).
+/// Squared distance from each lane's point to the segment from `a` to
+/// `a + ab`, with `len2 = |ab|²` (m²).
 #[inline(always)]
-pub(crate) fn segment_distance(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> Lane {
+pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> Lane {
     let mut out = [0.0; LANES];
     let inv = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - a[0], p[1][l] - a[1], p[2][l] - a[2]);
         let t = ((x * ab[0] + y * ab[1] + z * ab[2]) * inv).clamp(0.0, 1.0);
         let (x, y, z) = (x - ab[0] * t, y - ab[1] * t, z - ab[2] * t);
-        out[l] = (x * x + y * y + z * z).sqrt();
+        out[l] = x * x + y * y + z * z;
     }
     out
 }
@@ -255,31 +255,36 @@ pub(crate) fn to_local(p: &[Lane; 3], rotation: &[f64; 9], translation: &[f64; 3
     out
 }
 
-/// Signed distance from each lane's point (box frame) to the surface of a
-/// box of half extents `h`: positive outside, minus the depth inside (m).
+/// Squared distance from each lane's point (box frame) to a box of half
+/// extents `h` (m²), or −1 for points inside it.
 #[inline(always)]
-pub(crate) fn box_signed_distance(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
+pub(crate) fn box_distance_squared_local(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
     let mut out = [0.0; LANES];
     for l in 0..LANES {
         let e = [p[0][l].abs() - h[0], p[1][l].abs() - h[1], p[2][l].abs() - h[2]];
         let inside = e[0].max(e[1]).max(e[2]);
         let (x, y, z) = (e[0].max(0.0), e[1].max(0.0), e[2].max(0.0));
-        let outside = (x * x + y * y + z * z).sqrt();
-        out[l] = if inside > 0.0 { outside } else { inside };
+        out[l] = if inside > 0.0 { x * x + y * y + z * z } else { -1.0 };
     }
     out
 }
 
-/// Signed distance from each lane's point (cylinder frame) to the surface
-/// of a cylinder along z of `radius` and `half_length` (m).
+/// Squared distance from each lane's point (cylinder frame) to a cylinder
+/// along z of `radius` and `half_length` (m²), or −1 for points inside it.
 #[inline(always)]
-pub(crate) fn cylinder_signed_distance(p: &[Lane; 3], radius: f64, half_length: f64) -> Lane {
+pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length: f64) -> Lane {
     let mut out = [0.0; LANES];
     for l in 0..LANES {
         let rho = (p[0][l] * p[0][l] + p[1][l] * p[1][l]).sqrt();
         let (dr, dz) = (rho - radius, p[2][l].abs() - half_length);
-        let rim = (dr * dr + dz * dz).sqrt();
-        out[l] = if dr > 0.0 && dz > 0.0 { rim } else { dr.max(dz) };
+        let side = dr.max(dz);
+        out[l] = if dr > 0.0 && dz > 0.0 {
+            dr * dr + dz * dz
+        } else if side > 0.0 {
+            side * side
+        } else {
+            -1.0
+        };
     }
     out
 }

@@ -19,12 +19,14 @@
 
 mod check;
 mod lanes;
+mod motion;
 
-pub(crate) use check::{SampleOrder, SphereWorkspace, Verdict};
+pub(crate) use check::{SphereWorkspace, Verdict};
 pub use lanes::LANES;
+pub(crate) use motion::SampleOrder;
 
 use super::distance::closer_than;
-use super::model::{CollisionModel, CollisionObject, Group};
+use super::model::{CollisionModel, CollisionObject, Group, lever_chain};
 use super::shape::Shape;
 use crate::robot::{Motion, RobotModel};
 use nalgebra::IsometryMatrix3;
@@ -62,10 +64,22 @@ struct SphereGroup {
 
 /// A sphere on a body: centre in the body frame and the distance its
 /// centre must keep from other shapes, radius plus padding (m).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct BodySphere {
     center: [f64; 3],
     reach: f64,
+    /// Into [`SphereModel::sweep_terms`]: the joints moving the sphere,
+    /// root first.
+    terms: Range<usize>,
+}
+
+/// One joint's share of how fast a sphere centre can move: at most
+/// `coefficient · |q̇[column]|` (m/s per rad/s: the lever times the mimic
+/// multiplier).
+#[derive(Debug, Clone, Copy)]
+struct SweepTerm {
+    column: usize,
+    coefficient: f64,
 }
 
 /// A static shape in world coordinates (m), with its world bounding box.
@@ -137,8 +151,15 @@ pub(crate) struct SphereModel {
     groups: Vec<SphereGroup>,
     statics: Vec<StaticShape>,
     env: Vec<u32>,
+    sweep_terms: Vec<SweepTerm>,
     /// Pairs of moving groups (indices into `groups`).
     self_pairs: Vec<[u32; 2]>,
+    /// Per self pair: the joints moving both sides (the first ones of each
+    /// side's terms), which leave their distance unchanged.
+    common_depth: Vec<usize>,
+    /// Sweep bounds hold: no joint slides (a prismatic joint would stretch
+    /// the levers of the bodies after it).
+    certifiable: bool,
     /// Some pair that no joint moves collides: every configuration collides.
     fixed_collision: bool,
     isa: Isa,
@@ -202,13 +223,25 @@ impl SphereModel {
             .collect();
         // Moving groups, in model order; `index[g]` is the fast-path index of model group g.
         let mut index = vec![u32::MAX; model.groups.len()];
-        let (mut groups, mut spheres) = (Vec::new(), Vec::new());
+        let (mut groups, mut spheres, mut sweep_terms) = (Vec::new(), Vec::new(), Vec::new());
         for (g, group) in model.groups.iter().enumerate() {
             let Some(body) = group.body else { continue };
             let start = spheres.len();
             for o in &model.objects[group.objects.clone()] {
                 let Shape::Sphere { radius } = o.shape else { return None };
-                spheres.push(BodySphere { center: vector(&o.local.translation.vector), reach: radius + o.padding });
+                // The checks compare squared distances to (reach ± tolerance)².
+                if radius + o.padding <= TOLERANCE {
+                    return None;
+                }
+                let first = sweep_terms.len();
+                for (b, lever) in lever_chain(robot, body, o.local.translation.vector.norm()) {
+                    let (column, multiplier, ..) = robot.body_joint(b);
+                    sweep_terms.push(SweepTerm { column, coefficient: lever * multiplier.abs() });
+                }
+                sweep_terms[first..].reverse();
+                let (center, reach, terms) =
+                    (vector(&o.local.translation.vector), radius + o.padding, first..sweep_terms.len());
+                spheres.push(BodySphere { center, reach, terms });
             }
             index[g] = groups.len() as u32;
             let (center, radius) = (vector(&group.center.coords), group.radius);
@@ -216,11 +249,17 @@ impl SphereModel {
         }
         let (mut statics, mut static_index) = (Vec::new(), vec![u32::MAX; model.objects.len()]);
         let mut env_lists = vec![Vec::new(); groups.len()];
-        let (mut self_pairs, mut fixed_collision) = (Vec::new(), false);
+        let (mut self_pairs, mut common_depth, mut fixed_collision) = (Vec::new(), Vec::new(), false);
         for gp in &model.group_pairs {
             let (a, b): (&Group, &Group) = (&model.groups[gp.a], &model.groups[gp.b]);
-            if b.body.is_some() {
+            if let (Some(body_a), Some(body_b)) = (a.body, b.body) {
                 self_pairs.push([index[gp.a], index[gp.b]]);
+                let chain = |body| {
+                    let mut c: Vec<usize> = lever_chain(robot, body, 0.0).map(|(b, _)| b).collect();
+                    c.reverse();
+                    c
+                };
+                common_depth.push(chain(body_a).iter().zip(chain(body_b)).take_while(|(x, y)| **x == *y).count());
                 continue;
             }
             if a.body == Some(0) {
@@ -245,6 +284,19 @@ impl SphereModel {
             env.extend(list);
             group.env = start..env.len();
         }
-        Some(SphereModel { bodies, spheres, groups, statics, env, self_pairs, fixed_collision, isa: Isa::detect() })
+        let certifiable = robot.bodies.iter().all(|b| !b.motion.is_prismatic());
+        Some(SphereModel {
+            bodies,
+            spheres,
+            groups,
+            statics,
+            env,
+            sweep_terms,
+            self_pairs,
+            common_depth,
+            certifiable,
+            fixed_collision,
+            isa: Isa::detect(),
+        })
     }
 }
