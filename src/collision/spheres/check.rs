@@ -4,10 +4,12 @@
 //! its padded radii apart; certification checks (see `motion.rs`) ask
 //! whether it keeps a clearance over a stretch of motion around each
 //! configuration. Allocation-free once the workspace exists.
+// Lane loops index several arrays by the lane on purpose (see `lanes.rs`).
+#![allow(clippy::needless_range_loop)]
 
 use super::lanes::{
-    LANES, Lane, LanePose, box_distance_squared, box_distance_squared_local, cylinder_distance_squared,
-    lane_distance_squared, point_distance_squared, segment_distance_squared, sin_cos, to_local,
+    LANES, Lane, LanePose, box_distance_squared_local, cylinder_distance_squared, lane_distance_squared, max, min,
+    point_distance_squared, segment_distance_squared, sin_cos, to_local,
 };
 use super::{Isa, SphereModel, StaticKind, StaticShape, TOLERANCE};
 use crate::robot::Motion;
@@ -23,15 +25,19 @@ pub(crate) struct SphereWorkspace {
     centers: Vec<[Lane; 3]>,
     /// Per group: world centre of its bounding ball.
     group_centers: Vec<[Lane; 3]>,
-    placed: Vec<bool>,
-    /// Spheres of two groups near each other (capacity: the largest group).
-    near_a: Vec<u32>,
-    near_b: Vec<u32>,
+    /// Per cluster: world centre of its ball, valid when its group's flag
+    /// in `clusters_placed` is set; the sphere centres are valid when its
+    /// flag in `spheres_placed` is.
+    cluster_centers: Vec<[Lane; 3]>,
+    clusters_placed: Vec<bool>,
+    spheres_placed: Vec<bool>,
     /// Certification of the current motion: per sphere, the prefix sums
     /// of its sweep terms (m per unit of motion), a leading 0 first, at
-    /// `terms.start + sphere`; per group, its spheres' largest sweep.
+    /// its `prefix` slot; per group and per cluster, its spheres' largest
+    /// sweep.
     pub(super) prefix: Vec<f64>,
     pub(super) group_sweep: Vec<f64>,
+    pub(super) cluster_sweep: Vec<f64>,
     pub(super) margins: Margins,
     /// Intervals of the motion still to certify.
     pub(crate) intervals: std::collections::VecDeque<(f64, f64)>,
@@ -49,17 +55,17 @@ pub(super) struct Margins {
 
 impl SphereWorkspace {
     pub(crate) fn new(model: &SphereModel, nq: usize) -> SphereWorkspace {
-        let largest = model.groups.iter().map(|g| g.spheres.len()).max().unwrap_or(0);
         SphereWorkspace {
             q: vec![[0.0; LANES]; nq],
             poses: vec![LanePose::IDENTITY; model.bodies.len()],
             centers: vec![[[0.0; LANES]; 3]; model.spheres.len()],
             group_centers: vec![[[0.0; LANES]; 3]; model.groups.len()],
-            placed: vec![false; model.groups.len()],
-            near_a: Vec::with_capacity(largest),
-            near_b: Vec::with_capacity(largest),
+            cluster_centers: vec![[[0.0; LANES]; 3]; model.clusters.len()],
+            clusters_placed: vec![false; model.groups.len()],
+            spheres_placed: vec![false; model.clusters.len()],
             prefix: vec![0.0; model.sweep_terms.len() + model.spheres.len()],
             group_sweep: vec![0.0; model.groups.len()],
+            cluster_sweep: vec![0.0; model.clusters.len()],
             margins: Margins { half: 0.0, full: 0.0, width: [0.0; LANES] },
             intervals: std::collections::VecDeque::with_capacity(256),
         }
@@ -79,13 +85,14 @@ pub(crate) enum Verdict {
     Free { unsure: [bool; LANES], split: [bool; LANES] },
 }
 
-/// True when every lane's squared distance `d2` exceeds its `limit²` by
-/// the tolerance: the limits (m) are certainly cleared.
+/// True when every lane's squared distance `d2` exceeds its `pass`
+/// ((limit + tolerance)², see [`SphereModel::pass_limit`]): the limits are
+/// certainly cleared.
 #[inline(always)]
-fn all_beyond(d2: &Lane, limit: &Lane) -> bool {
+fn all_beyond(d2: &Lane, pass: &Lane) -> bool {
     let mut all = true;
     for l in 0..LANES {
-        all &= d2[l] > (limit[l] + TOLERANCE) * (limit[l] + TOLERANCE);
+        all &= d2[l] > pass[l];
     }
     all
 }
@@ -97,9 +104,9 @@ struct Flags {
 }
 
 /// Folds one pair into the flags, given each lane's squared distance `d2`
-/// (m², negative inside) and the distance it must clear to pass (`pass`)
-/// and below which it fails (`fail`, more than the tolerance): true when
-/// a lane certainly fails.
+/// (m², negative inside), what it must clear to pass (`pass`, as for
+/// [`all_beyond`]) and the distance below which it fails (`fail`, m, more
+/// than the tolerance): true when a lane certainly fails.
 #[inline(always)]
 fn fails(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> bool {
     if all_beyond(d2, pass) {
@@ -113,7 +120,7 @@ fn fails(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> bool {
         }
         // NaN lands here too: the exact model decides.
         flags.unsure[l] |= d <= band || d.is_nan();
-        flags.split[l] |= d <= (pass[l] + TOLERANCE) * (pass[l] + TOLERANCE);
+        flags.split[l] |= d <= pass[l];
     }
     false
 }
@@ -186,23 +193,27 @@ impl SphereModel {
         self.check_lanes::<CERTIFY>(ws)
     }
 
-    /// Per lane, the distance (m) a pair must clear to pass: `reach` for a
-    /// plain check; for certification also the margins, with `sweep` the
-    /// pair's approach speed bound (m per unit of motion).
+    /// Per lane, `(limit + tolerance)²` for the distance `limit` (m) a pair
+    /// must clear to pass: `reach` for a plain check; for certification
+    /// also the margins, with `sweep` the pair's approach speed bound (m per
+    /// unit of motion).
     #[inline(always)]
     fn pass_limit<const CERTIFY: bool>(ws: &SphereWorkspace, reach: f64, sweep: f64) -> Lane {
         if !CERTIFY {
-            return [reach; LANES];
+            return [(reach + TOLERANCE) * (reach + TOLERANCE); LANES];
         }
         let m = &ws.margins;
-        std::array::from_fn(|l| (reach + m.half + m.width[l] * sweep).max(reach + m.full))
+        std::array::from_fn(|l| {
+            let limit = max(reach + m.half + m.width[l] * sweep, reach + m.full) + TOLERANCE;
+            limit * limit
+        })
     }
 
     /// Sweep bound of sphere `s` (m per unit of motion) leaving out the
     /// first `depth` joints that move it (certification only).
     #[inline(always)]
-    fn sweep(&self, ws: &SphereWorkspace, s: usize, depth: usize) -> f64 {
-        let at = self.spheres[s].terms.start + s;
+    pub(super) fn sweep(&self, ws: &SphereWorkspace, s: usize, depth: usize) -> f64 {
+        let at = self.spheres[s].prefix;
         ws.prefix[at + self.spheres[s].terms.len()] - ws.prefix[at + depth]
     }
 
@@ -211,67 +222,131 @@ impl SphereModel {
         self.forward_kinematics(ws);
         for (g, group) in self.groups.iter().enumerate() {
             ws.group_centers[g] = ws.poses[group.body].point(&group.center);
-            ws.placed[g] = false;
+            ws.clusters_placed[g] = false;
         }
-        let full = if CERTIFY { ws.margins.full } else { 0.0 };
+        ws.spheres_placed.fill(false);
         let mut flags = Flags { unsure: [false; LANES], split: [false; LANES] };
-        for (g, group) in self.groups.iter().enumerate() {
-            let group_limit = Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g]);
-            for &o in &self.env[group.env.clone()] {
-                let shape = &self.statics[o as usize];
-                if all_beyond(&box_distance_squared(&ws.group_centers[g], &shape.lo, &shape.hi), &group_limit) {
-                    continue;
-                }
-                self.place(ws, g);
-                for s in group.spheres.clone() {
-                    let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
-                    let reach = self.spheres[s].reach + radius;
-                    let sweep = if CERTIFY { self.sweep(ws, s, 0) } else { 0.0 };
-                    if fails(&d2, &Self::pass_limit::<CERTIFY>(ws, reach, sweep), reach + full, &mut flags) {
-                        return Verdict::Collides;
-                    }
-                }
+        for g in 0..self.groups.len() {
+            if self.check_environment::<CERTIFY>(ws, g, &mut flags) {
+                return Verdict::Collides;
             }
         }
-        for (p, &[a, b]) in self.self_pairs.iter().enumerate() {
-            let (a, b) = (a as usize, b as usize);
-            let (ga, gb) = (&self.groups[a], &self.groups[b]);
-            let depth = self.common_depth[p];
-            let largest = |g: &super::SphereGroup| {
-                if CERTIFY { g.spheres.clone().map(|s| self.sweep(ws, s, depth)).fold(0.0, f64::max) } else { 0.0 }
-            };
-            let (sweep_a, sweep_b) = (largest(ga), largest(gb));
-            let limit = Self::pass_limit::<CERTIFY>(ws, ga.radius + gb.radius, sweep_a + sweep_b);
-            if all_beyond(&lane_distance_squared(&ws.group_centers[a], &ws.group_centers[b]), &limit) {
-                continue;
-            }
-            self.place(ws, a);
-            self.place(ws, b);
-            // Only spheres that reach into the other group's ball take part.
-            let (mut near_a, mut near_b) = (std::mem::take(&mut ws.near_a), std::mem::take(&mut ws.near_b));
-            self.spheres_near::<CERTIFY>(ws, (a, b), depth, sweep_b, &mut near_a);
-            if !near_a.is_empty() {
-                self.spheres_near::<CERTIFY>(ws, (b, a), depth, sweep_a, &mut near_b);
-            }
-            let mut hit = false;
-            'pairs: for &i in &near_a {
-                for &j in &near_b {
-                    let (i, j) = (i as usize, j as usize);
-                    let d2 = lane_distance_squared(&ws.centers[i], &ws.centers[j]);
-                    let reach = self.spheres[i].reach + self.spheres[j].reach;
-                    let sweep = if CERTIFY { self.sweep(ws, i, depth) + self.sweep(ws, j, depth) } else { 0.0 };
-                    if fails(&d2, &Self::pass_limit::<CERTIFY>(ws, reach, sweep), reach + full, &mut flags) {
-                        hit = true;
-                        break 'pairs;
-                    }
-                }
-            }
-            (ws.near_a, ws.near_b) = (near_a, near_b);
-            if hit {
+        for p in 0..self.self_pairs.len() {
+            if self.check_self_pair::<CERTIFY>(ws, p, &mut flags) {
                 return Verdict::Collides;
             }
         }
         Verdict::Free { unsure: flags.unsure, split: flags.split }
+    }
+
+    /// Group `g` against the static shapes: true when a lane fails.
+    #[inline(always)]
+    fn check_environment<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace, g: usize, flags: &mut Flags) -> bool {
+        let group = &self.groups[g];
+        // The box around the group's balls in every lane, grown by the
+        // limit: shapes whose boxes it misses are cleared in every lane.
+        let reach =
+            Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g]).iter().fold(0.0, |a, &b| max(a, b)).sqrt();
+        let center = ws.group_centers[g];
+        let lo: [f64; 3] = std::array::from_fn(|i| center[i].iter().fold(f64::INFINITY, |a, &b| min(a, b)) - reach);
+        let hi: [f64; 3] = std::array::from_fn(|i| center[i].iter().fold(f64::NEG_INFINITY, |a, &b| max(a, b)) + reach);
+        for chunk in &self.env[group.env.clone()] {
+            // Per shape, the largest gap between the boxes along an axis.
+            let mut gap = [f64::NEG_INFINITY; LANES];
+            for i in 0..3 {
+                for k in 0..LANES {
+                    gap[k] = max(gap[k], max(lo[i] - chunk.hi[i][k], chunk.lo[i][k] - hi[i]));
+                }
+            }
+            for (&o, _) in chunk.shapes[..chunk.count].iter().zip(gap).filter(|(_, gap)| *gap <= 0.0) {
+                if self.check_shape::<CERTIFY>(ws, g, o as usize, flags) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Group `g` against static shape `o`: true when a lane fails.
+    #[inline(always)]
+    fn check_shape<const CERTIFY: bool>(
+        &self,
+        ws: &mut SphereWorkspace,
+        g: usize,
+        o: usize,
+        flags: &mut Flags,
+    ) -> bool {
+        let (group, shape, center) = (&self.groups[g], &self.statics[o], ws.group_centers[g]);
+        let full = if CERTIFY { ws.margins.full } else { 0.0 };
+        let (d2, radius) = shape.core_distance_squared(&center);
+        if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g])) {
+            return false;
+        }
+        self.place_clusters(ws, g);
+        for c in group.clusters.clone() {
+            let cluster = &self.clusters[c];
+            let (d2, radius) = shape.core_distance_squared(&ws.cluster_centers[c]);
+            if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, cluster.radius + radius, ws.cluster_sweep[c])) {
+                continue;
+            }
+            self.place_spheres(ws, c);
+            for s in cluster.spheres.clone() {
+                let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
+                let reach = self.spheres[s].reach + radius;
+                let sweep = if CERTIFY { self.sweep(ws, s, 0) } else { 0.0 };
+                if fails(&d2, &Self::pass_limit::<CERTIFY>(ws, reach, sweep), reach + full, flags) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+
+    /// Self pair `p`: true when a lane fails.
+    #[inline(always)]
+    fn check_self_pair<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace, p: usize, flags: &mut Flags) -> bool {
+        let [a, b] = self.self_pairs[p].map(|g| g as usize);
+        let (ga, gb) = (&self.groups[a], &self.groups[b]);
+        let full = if CERTIFY { ws.margins.full } else { 0.0 };
+        // Joints moving both sides leave the pair's distance unchanged.
+        let depth = self.common_depth[p];
+        let largest = |ws: &SphereWorkspace, spheres: std::ops::Range<usize>| {
+            if CERTIFY { spheres.map(|s| self.sweep(ws, s, depth)).fold(0.0, max) } else { 0.0 }
+        };
+        let (sweep_a, sweep_b) = (largest(ws, ga.spheres.clone()), largest(ws, gb.spheres.clone()));
+        let limit = Self::pass_limit::<CERTIFY>(ws, ga.radius + gb.radius, sweep_a + sweep_b);
+        if all_beyond(&lane_distance_squared(&ws.group_centers[a], &ws.group_centers[b]), &limit) {
+            return false;
+        }
+        self.place_clusters(ws, a);
+        self.place_clusters(ws, b);
+        for ca in ga.clusters.clone() {
+            let (ka, sweep_ka) = (&self.clusters[ca], largest(ws, self.clusters[ca].spheres.clone()));
+            let limit = Self::pass_limit::<CERTIFY>(ws, ka.radius + gb.radius, sweep_ka + sweep_b);
+            if all_beyond(&lane_distance_squared(&ws.cluster_centers[ca], &ws.group_centers[b]), &limit) {
+                continue;
+            }
+            for cb in gb.clusters.clone() {
+                let (kb, sweep_kb) = (&self.clusters[cb], largest(ws, self.clusters[cb].spheres.clone()));
+                let limit = Self::pass_limit::<CERTIFY>(ws, ka.radius + kb.radius, sweep_ka + sweep_kb);
+                if all_beyond(&lane_distance_squared(&ws.cluster_centers[ca], &ws.cluster_centers[cb]), &limit) {
+                    continue;
+                }
+                self.place_spheres(ws, ca);
+                self.place_spheres(ws, cb);
+                for i in ka.spheres.clone() {
+                    for j in kb.spheres.clone() {
+                        let d2 = lane_distance_squared(&ws.centers[i], &ws.centers[j]);
+                        let reach = self.spheres[i].reach + self.spheres[j].reach;
+                        let sweep = if CERTIFY { self.sweep(ws, i, depth) + self.sweep(ws, j, depth) } else { 0.0 };
+                        if fails(&d2, &Self::pass_limit::<CERTIFY>(ws, reach, sweep), reach + full, flags) {
+                            return true;
+                        }
+                    }
+                }
+            }
+        }
+        false
     }
 
     /// World poses of every body in every lane.
@@ -299,40 +374,31 @@ impl SphereModel {
         }
     }
 
-    /// The spheres of placed group `g` that may reach into group `other`'s
-    /// bounding ball in some lane, into `out` (cleared first); `depth` and
-    /// `other_sweep` as for the pair (certification).
+    /// World centres of group `g`'s clusters, once per batch.
     #[inline(always)]
-    fn spheres_near<const CERTIFY: bool>(
-        &self,
-        ws: &SphereWorkspace,
-        (g, other): (usize, usize),
-        depth: usize,
-        other_sweep: f64,
-        out: &mut Vec<u32>,
-    ) {
-        out.clear();
-        let (center, radius) = (&ws.group_centers[other], self.groups[other].radius);
-        for s in self.groups[g].spheres.clone() {
-            let sweep = if CERTIFY { self.sweep(ws, s, depth) + other_sweep } else { 0.0 };
-            let limit = Self::pass_limit::<CERTIFY>(ws, self.spheres[s].reach + radius, sweep);
-            if !all_beyond(&lane_distance_squared(&ws.centers[s], center), &limit) {
-                out.push(s as u32);
-            }
-        }
-    }
-
-    /// World centres of group `g`'s spheres, once per batch.
-    #[inline(always)]
-    fn place(&self, ws: &mut SphereWorkspace, g: usize) {
-        if ws.placed[g] {
+    fn place_clusters(&self, ws: &mut SphereWorkspace, g: usize) {
+        if ws.clusters_placed[g] {
             return;
         }
         let group = &self.groups[g];
         let pose = &ws.poses[group.body];
-        for s in group.spheres.clone() {
+        for c in group.clusters.clone() {
+            ws.cluster_centers[c] = pose.point(&self.clusters[c].center);
+        }
+        ws.clusters_placed[g] = true;
+    }
+
+    /// World centres of cluster `c`'s spheres, once per batch.
+    #[inline(always)]
+    fn place_spheres(&self, ws: &mut SphereWorkspace, c: usize) {
+        if ws.spheres_placed[c] {
+            return;
+        }
+        let cluster = &self.clusters[c];
+        let pose = &ws.poses[self.groups[self.cluster_group[c] as usize].body];
+        for s in cluster.spheres.clone() {
             ws.centers[s] = pose.point(&self.spheres[s].center);
         }
-        ws.placed[g] = true;
+        ws.spheres_placed[c] = true;
     }
 }

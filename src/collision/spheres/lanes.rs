@@ -191,17 +191,17 @@ pub(crate) fn sin_cos(x: &Lane) -> (Lane, Lane) {
     (sin, cos)
 }
 
-/// Squared distance from each lane's point `p` to the box `[lo, hi]` (m²).
+/// The larger of `a` and `b`: one instruction, unlike `f64::max`, whose
+/// NaN handling costs several (inputs here are finite).
 #[inline(always)]
-pub(crate) fn box_distance_squared(p: &[Lane; 3], lo: &[f64; 3], hi: &[f64; 3]) -> Lane {
-    let mut d2 = [0.0; LANES];
-    for i in 0..3 {
-        for l in 0..LANES {
-            let e = (lo[i] - p[i][l]).max(p[i][l] - hi[i]).max(0.0);
-            d2[l] += e * e;
-        }
-    }
-    d2
+pub(crate) fn max(a: f64, b: f64) -> f64 {
+    if a > b { a } else { b }
+}
+
+/// The smaller of `a` and `b` (see [`max`]).
+#[inline(always)]
+pub(crate) fn min(a: f64, b: f64) -> f64 {
+    if a < b { a } else { b }
 }
 
 /// Squared distance from each lane's point to a fixed point (m²).
@@ -234,7 +234,7 @@ pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3
     let inv = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - a[0], p[1][l] - a[1], p[2][l] - a[2]);
-        let t = ((x * ab[0] + y * ab[1] + z * ab[2]) * inv).clamp(0.0, 1.0);
+        let t = max(min((x * ab[0] + y * ab[1] + z * ab[2]) * inv, 1.0), 0.0);
         let (x, y, z) = (x - ab[0] * t, y - ab[1] * t, z - ab[2] * t);
         out[l] = x * x + y * y + z * z;
     }
@@ -262,8 +262,8 @@ pub(crate) fn box_distance_squared_local(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
     let mut out = [0.0; LANES];
     for l in 0..LANES {
         let e = [p[0][l].abs() - h[0], p[1][l].abs() - h[1], p[2][l].abs() - h[2]];
-        let inside = e[0].max(e[1]).max(e[2]);
-        let (x, y, z) = (e[0].max(0.0), e[1].max(0.0), e[2].max(0.0));
+        let inside = max(max(e[0], e[1]), e[2]);
+        let (x, y, z) = (max(e[0], 0.0), max(e[1], 0.0), max(e[2], 0.0));
         out[l] = if inside > 0.0 { x * x + y * y + z * z } else { -1.0 };
     }
     out
@@ -277,7 +277,7 @@ pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length:
     for l in 0..LANES {
         let rho = (p[0][l] * p[0][l] + p[1][l] * p[1][l]).sqrt();
         let (dr, dz) = (rho - radius, p[2][l].abs() - half_length);
-        let side = dr.max(dz);
+        let side = max(dr, dz);
         out[l] = if dr > 0.0 && dz > 0.0 {
             dr * dr + dz * dz
         } else if side > 0.0 {

@@ -55,11 +55,58 @@ struct SphereGroup {
     body: usize,
     /// Into [`SphereModel::spheres`].
     spheres: Range<usize>,
+    /// Into [`SphereModel::clusters`]: the group's spheres in small balls.
+    clusters: Range<usize>,
     /// Bounding ball in the body frame; the radius includes the padding (m).
     center: [f64; 3],
     radius: f64,
-    /// Into [`SphereModel::env`]: the static shapes checked against this group.
+    /// Into [`SphereModel::env`]: the static shapes checked against this
+    /// group, [`LANES`](lanes::LANES) at a time.
     env: Range<usize>,
+}
+
+/// A few neighbouring spheres of a group, and a ball around them in the
+/// body frame (the radius includes their reach, m).
+#[derive(Debug, Clone)]
+struct Cluster {
+    spheres: Range<usize>,
+    center: [f64; 3],
+    radius: f64,
+}
+
+/// Spheres per cluster, at most.
+const CLUSTER_SIZE: usize = 4;
+
+/// Splits `spheres` (reordered in place; the first is number `offset` of
+/// the model) into clusters of at most [`CLUSTER_SIZE`] by halving along
+/// the longest extent of their centres.
+fn cluster(spheres: &mut [BodySphere], offset: usize, out: &mut Vec<Cluster>) {
+    let extent = |axis: usize| {
+        let values = spheres.iter().map(|s| s.center[axis]);
+        values.clone().fold(f64::NEG_INFINITY, f64::max) - values.fold(f64::INFINITY, f64::min)
+    };
+    if spheres.len() > CLUSTER_SIZE {
+        let axis = (0..3).max_by(|&a, &b| extent(a).total_cmp(&extent(b))).unwrap_or(0);
+        spheres.sort_by(|a, b| a.center[axis].total_cmp(&b.center[axis]));
+        let half = spheres.len() / 2;
+        let (low, high) = spheres.split_at_mut(half);
+        cluster(low, offset, out);
+        cluster(high, offset + half, out);
+        return;
+    }
+    let (center, radius) = ball(spheres);
+    out.push(Cluster { spheres: offset..offset + spheres.len(), center, radius });
+}
+
+/// A ball around spheres (centre of their box; radius to the farthest
+/// surface, m).
+fn ball(spheres: &[BodySphere]) -> ([f64; 3], f64) {
+    let center: [f64; 3] = std::array::from_fn(|i| {
+        let values = spheres.iter().map(|s| s.center[i]);
+        0.5 * (values.clone().fold(f64::NEG_INFINITY, f64::max) + values.fold(f64::INFINITY, f64::min))
+    });
+    let distance = |p: &[f64; 3]| (0..3).map(|i| (p[i] - center[i]).powi(2)).sum::<f64>().sqrt();
+    (center, spheres.iter().map(|s| distance(&s.center) + s.reach).fold(0.0, f64::max))
 }
 
 /// A sphere on a body: centre in the body frame and the distance its
@@ -71,6 +118,9 @@ struct BodySphere {
     /// Into [`SphereModel::sweep_terms`]: the joints moving the sphere,
     /// root first.
     terms: Range<usize>,
+    /// Where the prefix sums of its terms start in the workspace (one
+    /// more slot than terms).
+    prefix: usize,
 }
 
 /// One joint's share of how fast a sphere centre can move: at most
@@ -117,6 +167,36 @@ enum StaticKind {
     },
 }
 
+/// Up to [`LANES`](lanes::LANES) static shapes a group is checked
+/// against, with their world boxes side by side (empty slots: inverted
+/// boxes, which nothing meets).
+#[derive(Debug, Clone)]
+struct EnvChunk {
+    lo: [lanes::Lane; 3],
+    hi: [lanes::Lane; 3],
+    shapes: [u32; lanes::LANES],
+    count: usize,
+}
+
+impl EnvChunk {
+    fn new(shapes: &[u32], statics: &[StaticShape]) -> EnvChunk {
+        let mut chunk = EnvChunk {
+            lo: [[f64::INFINITY; lanes::LANES]; 3],
+            hi: [[f64::NEG_INFINITY; lanes::LANES]; 3],
+            shapes: [0; lanes::LANES],
+            count: shapes.len(),
+        };
+        for (k, &o) in shapes.iter().enumerate() {
+            for i in 0..3 {
+                chunk.lo[i][k] = statics[o as usize].lo[i];
+                chunk.hi[i][k] = statics[o as usize].hi[i];
+            }
+            chunk.shapes[k] = o;
+        }
+        chunk
+    }
+}
+
 /// Which vector instructions the checks are compiled for, detected once.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Isa {
@@ -149,8 +229,11 @@ pub(crate) struct SphereModel {
     bodies: Vec<LaneBody>,
     spheres: Vec<BodySphere>,
     groups: Vec<SphereGroup>,
+    clusters: Vec<Cluster>,
+    /// The group of each cluster.
+    cluster_group: Vec<u32>,
     statics: Vec<StaticShape>,
-    env: Vec<u32>,
+    env: Vec<EnvChunk>,
     sweep_terms: Vec<SweepTerm>,
     /// Pairs of moving groups (indices into `groups`).
     self_pairs: Vec<[u32; 2]>,
@@ -224,6 +307,7 @@ impl SphereModel {
         // Moving groups, in model order; `index[g]` is the fast-path index of model group g.
         let mut index = vec![u32::MAX; model.groups.len()];
         let (mut groups, mut spheres, mut sweep_terms) = (Vec::new(), Vec::new(), Vec::new());
+        let mut clusters = Vec::new();
         for (g, group) in model.groups.iter().enumerate() {
             let Some(body) = group.body else { continue };
             let start = spheres.len();
@@ -241,11 +325,19 @@ impl SphereModel {
                 sweep_terms[first..].reverse();
                 let (center, reach, terms) =
                     (vector(&o.local.translation.vector), radius + o.padding, first..sweep_terms.len());
-                spheres.push(BodySphere { center, reach, terms });
+                spheres.push(BodySphere { center, reach, terms, prefix: 0 });
             }
             index[g] = groups.len() as u32;
-            let (center, radius) = (vector(&group.center.coords), group.radius);
-            groups.push(SphereGroup { body, spheres: start..spheres.len(), center, radius, env: 0..0 });
+            let first = clusters.len();
+            cluster(&mut spheres[start..], start, &mut clusters);
+            let (center, radius) = ball(&spheres[start..]);
+            let (spheres, clusters) = (start..spheres.len(), first..clusters.len());
+            groups.push(SphereGroup { body, spheres, clusters, center, radius, env: 0..0 });
+        }
+        let mut slot = 0;
+        for sphere in &mut spheres {
+            sphere.prefix = slot;
+            slot += sphere.terms.len() + 1;
         }
         let (mut statics, mut static_index) = (Vec::new(), vec![u32::MAX; model.objects.len()]);
         let mut env_lists = vec![Vec::new(); groups.len()];
@@ -281,14 +373,20 @@ impl SphereModel {
         let mut env = Vec::new();
         for (group, list) in groups.iter_mut().zip(env_lists) {
             let start = env.len();
-            env.extend(list);
+            env.extend(list.chunks(lanes::LANES).map(|c| EnvChunk::new(c, &statics)));
             group.env = start..env.len();
         }
         let certifiable = robot.bodies.iter().all(|b| !b.motion.is_prismatic());
+        let mut cluster_group = vec![0; clusters.len()];
+        for (g, group) in groups.iter().enumerate() {
+            cluster_group[group.clusters.clone()].fill(g as u32);
+        }
         Some(SphereModel {
             bodies,
             spheres,
             groups,
+            clusters,
+            cluster_group,
             statics,
             env,
             sweep_terms,
