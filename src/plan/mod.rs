@@ -17,7 +17,7 @@ mod postprocess;
 mod rrt;
 
 pub use ik::{IkError, IkSettings, IkTarget, solve_ik};
-pub use postprocess::{path_length, resample, shortcut};
+pub use postprocess::{MIN_GAIN, path_length, resample, shortcut};
 pub use rrt::{EdgeCheck, PlanResult, PlanStatus, RrtSettings, rrt_connect};
 
 use crate::collision::{CollisionError, CollisionModel, CollisionWorkspace};

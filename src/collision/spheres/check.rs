@@ -353,24 +353,19 @@ impl SphereModel {
     #[inline(always)]
     fn forward_kinematics(&self, ws: &mut SphereWorkspace) {
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
-            let mut pose = ws.poses[body.parent].then_constant(&body.rotation, &body.translation);
             let q = &ws.q[body.column];
             let value: Lane = std::array::from_fn(|l| body.multiplier * q[l] + body.offset);
+            // Bodies come after their parents.
+            let (done, rest) = ws.poses.split_at_mut(b);
+            let (parent, pose) = (&done[body.parent], &mut rest[0]);
+            let placement = (&body.rotation, &body.translation);
             match body.motion {
-                Motion::Prismatic(axis) => pose.slide(&[axis.x, axis.y, axis.z], &value),
+                Motion::Prismatic(axis) => pose.set_prismatic(parent, placement, &[axis.x, axis.y, axis.z], &value),
                 motion => {
-                    let (s, c) = sin_cos(&value);
-                    match motion {
-                        Motion::RevoluteX => pose.rotate_columns(1, 2, &s, &c),
-                        Motion::RevoluteY => pose.rotate_columns(2, 0, &s, &c),
-                        Motion::RevoluteZ => pose.rotate_columns(0, 1, &s, &c),
-                        Motion::Revolute(axis) | Motion::Prismatic(axis) => {
-                            pose.rotate_about(&[axis.x, axis.y, axis.z], &s, &c)
-                        }
-                    }
+                    let (axis, (s, c)) = (motion.axis(), sin_cos(&value));
+                    pose.set_revolute(parent, placement, &[axis.x, axis.y, axis.z], (&s, &c));
                 }
             }
-            ws.poses[b] = pose;
         }
     }
 

@@ -38,64 +38,78 @@ impl LanePose {
         t: [[0.0; LANES]; 3],
     };
 
-    /// `self ∘ (rotation, translation)` for a constant transform
-    /// (rotation column-major); zero entries of `rotation` cost nothing.
+    /// `parent ∘ (rotation, translation) ∘ joint`, written into `self`:
+    /// a constant transform (rotation column-major), then a rotation about
+    /// the body-frame `axis` by the per-lane angle with sine `s` and cosine
+    /// `c` (x, y and z axes cost less).
     #[inline(always)]
-    pub(crate) fn then_constant(&self, rotation: &[f64; 9], translation: &[f64; 3]) -> LanePose {
-        let mut out = LanePose { r: [[0.0; LANES]; 9], t: self.t };
-        for k in 0..3 {
-            for j in 0..3 {
-                // Column j gains column k of self times B(k, j).
-                let b = rotation[3 * j + k];
-                if b != 0.0 {
-                    for i in 0..3 {
-                        for l in 0..LANES {
-                            out.r[3 * j + i][l] += self.r[3 * k + i][l] * b;
-                        }
-                    }
-                }
-            }
-            let v = translation[k];
-            if v != 0.0 {
-                for i in 0..3 {
-                    for l in 0..LANES {
-                        out.t[i][l] += self.r[3 * k + i][l] * v;
-                    }
-                }
-            }
-        }
-        out
-    }
-
-    /// World position of a point given in body coordinates (m).
-    #[inline(always)]
-    pub(crate) fn point(&self, p: &[f64; 3]) -> [Lane; 3] {
-        let mut out = self.t;
-        for (i, o) in out.iter_mut().enumerate() {
-            for l in 0..LANES {
-                o[l] += self.r[i][l] * p[0] + self.r[3 + i][l] * p[1] + self.r[6 + i][l] * p[2];
-            }
-        }
-        out
-    }
-
-    /// Rotates columns `a` and `b` by the per-lane angle with sine `s` and
-    /// cosine `c`: the rotation about the third axis (x: 1, 2; y: 2, 0; z: 0, 1).
-    #[inline(always)]
-    pub(crate) fn rotate_columns(&mut self, a: usize, b: usize, s: &Lane, c: &Lane) {
+    pub(crate) fn set_revolute(
+        &mut self,
+        parent: &LanePose,
+        (rotation, translation): (&[f64; 9], &[f64; 3]),
+        axis: &[f64; 3],
+        (s, c): (&Lane, &Lane),
+    ) {
+        self.set_constant(parent, rotation, translation);
+        // Columns `a` and `b` turn into each other; the third stays.
+        let (a, b) = match *axis {
+            [1.0, 0.0, 0.0] => (1, 2),
+            [0.0, 1.0, 0.0] => (2, 0),
+            [0.0, 0.0, 1.0] => (0, 1),
+            _ => return self.rotate_about(axis, s, c),
+        };
         for i in 0..3 {
+            let (ca, cb) = (self.r[3 * a + i], self.r[3 * b + i]);
             for l in 0..LANES {
-                let (ca, cb) = (self.r[3 * a + i][l], self.r[3 * b + i][l]);
-                self.r[3 * a + i][l] = ca * c[l] + cb * s[l];
-                self.r[3 * b + i][l] = cb * c[l] - ca * s[l];
+                self.r[3 * a + i][l] = ca[l] * c[l] + cb[l] * s[l];
+                self.r[3 * b + i][l] = cb[l] * c[l] - ca[l] * s[l];
             }
         }
     }
 
-    /// Right-multiplies by a per-lane rotation about the unit `axis`
-    /// (body coordinates) by the angle with sine `s` and cosine `c`.
+    /// `parent ∘ (rotation, translation) ∘ slide`, written into `self`: a
+    /// constant transform, then a translation along the body-frame `axis`
+    /// by the per-lane `value` (m).
     #[inline(always)]
-    pub(crate) fn rotate_about(&mut self, axis: &[f64; 3], s: &Lane, c: &Lane) {
+    pub(crate) fn set_prismatic(
+        &mut self,
+        parent: &LanePose,
+        (rotation, translation): (&[f64; 9], &[f64; 3]),
+        axis: &[f64; 3],
+        value: &Lane,
+    ) {
+        self.set_constant(parent, rotation, translation);
+        for i in 0..3 {
+            let (r0, r1, r2) = (self.r[i], self.r[3 + i], self.r[6 + i]);
+            for l in 0..LANES {
+                self.t[i][l] += (r0[l] * axis[0] + r1[l] * axis[1] + r2[l] * axis[2]) * value[l];
+            }
+        }
+    }
+
+    /// `parent ∘ (rotation, translation)` for a constant transform
+    /// (rotation column-major), written into `self`.
+    #[inline(always)]
+    fn set_constant(&mut self, parent: &LanePose, rotation: &[f64; 9], translation: &[f64; 3]) {
+        for i in 0..3 {
+            let (p0, p1, p2) = (&parent.r[i], &parent.r[3 + i], &parent.r[6 + i]);
+            for j in 0..3 {
+                let (m0, m1, m2) = (rotation[3 * j], rotation[3 * j + 1], rotation[3 * j + 2]);
+                for l in 0..LANES {
+                    self.r[3 * j + i][l] = p0[l] * m0 + p1[l] * m1 + p2[l] * m2;
+                }
+            }
+            let (t0, t1, t2) = (translation[0], translation[1], translation[2]);
+            for l in 0..LANES {
+                self.t[i][l] = parent.t[i][l] + (p0[l] * t0 + p1[l] * t1 + p2[l] * t2);
+            }
+        }
+    }
+
+    /// Right-multiplies the rotation by a per-lane rotation about the unit
+    /// `axis` (body coordinates) by the angle with sine `s` and cosine `c`.
+    #[inline(always)]
+    fn rotate_about(&mut self, axis: &[f64; 3], s: &Lane, c: &Lane) {
         let [x, y, z] = *axis;
         let old = self.r;
         for l in 0..LANES {
@@ -122,15 +136,16 @@ impl LanePose {
         }
     }
 
-    /// Translates along the body-frame `axis` by the per-lane `value` (m).
+    /// World position of a point given in body coordinates (m).
     #[inline(always)]
-    pub(crate) fn slide(&mut self, axis: &[f64; 3], value: &Lane) {
-        for i in 0..3 {
+    pub(crate) fn point(&self, p: &[f64; 3]) -> [Lane; 3] {
+        let mut out = self.t;
+        for (i, o) in out.iter_mut().enumerate() {
             for l in 0..LANES {
-                let d = self.r[i][l] * axis[0] + self.r[3 + i][l] * axis[1] + self.r[6 + i][l] * axis[2];
-                self.t[i][l] += d * value[l];
+                o[l] += self.r[i][l] * p[0] + self.r[3 + i][l] * p[1] + self.r[6 + i][l] * p[2];
             }
         }
+        out
     }
 }
 
