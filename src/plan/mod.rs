@@ -53,13 +53,18 @@ pub struct PlanReport {
     pub planning_time: Duration,
     pub simplify_time: Duration,
     /// Whether every edge of `path` passed the certified check (see
-    /// [`CollisionModel::motion_free_certified`]) with the problem's
-    /// planner clearance; false also when the clearance is 0 (not asked).
+    /// [`CollisionModel::motion_free_certified`]; with the planner
+    /// clearance on the sphere fast path, half of it otherwise); false
+    /// also when the clearance is 0 (not asked).
     pub certified: bool,
-    /// Planner runs (seeds) it took: a search whose path fails
-    /// certification is redone with the next seed, up to 4 times.
+    /// Planner runs (seeds) it took: off the sphere fast path, a search
+    /// whose path fails certification is redone with the next seed, up to
+    /// 4 times.
     pub attempts: usize,
 }
+
+/// Random shortcut attempts after planning.
+const SHORTCUTS: usize = 100;
 
 /// Number of IK solutions sought for pose and grasp goals.
 const GOAL_SOLUTIONS: usize = 4;
@@ -138,13 +143,21 @@ impl ProblemPlanner {
         &self.goals
     }
 
-    /// Plans with `seed`, shortcuts, and certifies the path (clearance > 0);
-    /// a search whose path fails certification is redone with the next
-    /// seed, up to 4 runs. Times exclude the preparation in [`new`](Self::new).
+    /// Plans with `seed`, shortcuts, and certifies the path (clearance > 0).
+    /// On the sphere fast path every edge is certified as it is searched
+    /// and shortcut ([`EdgeCheck::Certified`] with the planner clearance:
+    /// every configuration keeps half of it). Otherwise edges are sampled
+    /// at the planner resolution on shapes padded by the clearance, the
+    /// final path is certified, and a search whose path fails is redone
+    /// with the next seed, up to 4 runs. Times exclude the preparation in
+    /// [`new`](Self::new).
     ///
     /// # Errors
     /// Bad configurations (none for a validated problem).
     pub fn run(&mut self, seed: u64) -> Result<PlanReport, PlanError> {
+        if self.clearance > 0.0 && self.model.has_fast_path() {
+            return self.run_certified(seed);
+        }
         let began = Instant::now();
         let mut simplify_time = Duration::ZERO;
         let mut attempts = 0;
@@ -157,7 +170,7 @@ impl ProblemPlanner {
             if result.status == PlanStatus::Solved {
                 let t = Instant::now();
                 let (edge, s) = (self.settings.edge, self.settings.seed);
-                path = shortcut(&self.search, &mut self.search_ws, &result.path, edge, 100, s)?;
+                path = shortcut(&self.search, &mut self.search_ws, &result.path, edge, SHORTCUTS, s)?;
                 certified = self.clearance > 0.0 && certify(&self.model, &mut self.ws, &path, self.clearance / 2.0)?;
                 simplify_time += t.elapsed();
             }
@@ -167,6 +180,21 @@ impl ProblemPlanner {
                 return Ok(PlanReport { result, goals, path, planning_time, simplify_time, certified, attempts });
             }
         }
+    }
+
+    /// [`run`](Self::run) with certified edges throughout.
+    fn run_certified(&mut self, seed: u64) -> Result<PlanReport, PlanError> {
+        let edge = EdgeCheck::Certified { clearance: self.clearance };
+        let settings = RrtSettings { edge, seed, ..self.settings.clone() };
+        let began = Instant::now();
+        let result = rrt_connect(&self.model, &mut self.ws, &self.start, &self.goals, &settings)?;
+        let planning_time = began.elapsed();
+        let solved = result.status == PlanStatus::Solved;
+        let path =
+            if solved { shortcut(&self.model, &mut self.ws, &result.path, edge, SHORTCUTS, seed)? } else { Vec::new() };
+        let simplify_time = began.elapsed() - planning_time;
+        let goals = self.goals.clone();
+        Ok(PlanReport { result, goals, path, planning_time, simplify_time, certified: solved, attempts: 1 })
     }
 }
 

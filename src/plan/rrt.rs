@@ -38,6 +38,19 @@ impl EdgeCheck {
             EdgeCheck::Certified { clearance } => model.motion_free_certified(ws, a, b, clearance),
         }
     }
+
+    /// Whether configuration `q` may start or end a motion that passes:
+    /// collision-free, and for certified motions at least the clearance
+    /// away from everything.
+    ///
+    /// # Errors
+    /// Bad configurations or settings.
+    pub fn is_valid(self, model: &CollisionModel, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<bool, RobotError> {
+        match self {
+            EdgeCheck::Resolution(_) => model.collision_free(ws, q),
+            EdgeCheck::Certified { .. } => self.is_free(model, ws, q, q),
+        }
+    }
 }
 
 /// Settings of [`rrt_connect`].
@@ -88,9 +101,10 @@ pub enum PlanStatus {
     TimeLimit,
     /// The iteration budget ran out.
     IterationLimit,
-    /// The start configuration collides (or is outside the limits).
+    /// The start configuration collides, is closer to something than a
+    /// certified edge check's clearance, or is outside the limits.
     StartInvalid,
-    /// Every goal configuration collides (or is outside the limits), or none was given.
+    /// So does every goal configuration, or none was given.
     GoalInvalid,
 }
 
@@ -204,14 +218,14 @@ pub fn rrt_connect(
     let began = Instant::now();
     let robot = model.robot();
     let done = |status, path, iterations, nodes| PlanResult { status, path, iterations, nodes, time: began.elapsed() };
-    if !robot.within_limits(start) || !model.collision_free(ws, start)? {
+    if !robot.within_limits(start) || !settings.edge.is_valid(model, ws, start)? {
         return Ok(done(PlanStatus::StartInvalid, Vec::new(), 0, 0));
     }
     let dim = robot.nq();
     let (mut a, mut b) = (Tree::new(dim), Tree::new(dim));
     a.add(start, None);
     for g in goals {
-        if robot.within_limits(g) && model.collision_free(ws, g)? {
+        if robot.within_limits(g) && settings.edge.is_valid(model, ws, g)? {
             b.add(g, None);
         }
     }

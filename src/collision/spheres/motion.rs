@@ -55,6 +55,9 @@ impl Iterator for SampleOrder {
     }
 }
 
+/// How far (m) spheres may move over the intervals a certification starts with.
+const FIRST_REACH: f64 = 0.2;
+
 impl SphereModel {
     /// Checks samples `ks` of the motion from `q0` to `q1` in `steps` steps
     /// (sample k at `t = k / steps`).
@@ -135,7 +138,18 @@ impl SphereModel {
         }
         ws.margins = Margins { half, full, width: [0.0; LANES] };
         ws.intervals.clear();
-        ws.intervals.push_back((0.0, 1.0));
+        // Wide intervals would only be split: start with ones over which
+        // no sphere moves more than about `FIRST_REACH`, a multiple of
+        // the lanes, each batch spread over the whole motion.
+        let fastest = ws.group_sweep.iter().fold(0.0, |a: f64, &b| a.max(b));
+        let per_lane = ((fastest / FIRST_REACH).ceil() as usize).div_ceil(LANES).clamp(1, 128);
+        let count = (per_lane * LANES) as f64;
+        for j in SampleOrder::new(per_lane).filter(|&j| j < per_lane) {
+            for i in 0..LANES {
+                let k = (i * per_lane + j) as f64;
+                ws.intervals.push_back((k / count, (k + 1.0) / count));
+            }
+        }
     }
 }
 
