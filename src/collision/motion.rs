@@ -4,7 +4,7 @@
 
 use super::model::CollisionModel;
 use super::query::{CollisionWorkspace, prunes};
-use super::spheres::{LANES, SampleOrder, SphereModel, Verdict};
+use super::spheres::{Certification, LANES, SampleOrder, SphereModel, Verdict};
 use crate::robot::RobotError;
 
 impl CollisionModel {
@@ -37,14 +37,11 @@ impl CollisionModel {
         clearance: f64,
     ) -> Result<bool, RobotError> {
         self.check_motion(q0, q1, "clearance", clearance)?;
-        if let (Some(fast), Some(scratch)) = (&self.spheres, ws.spheres.as_mut()) {
-            if fast.always_collides() {
-                return Ok(false);
-            }
-            // None: undecided, or sliding joints; the general path decides.
-            if let Some(answer) = fast.certify(scratch, q0, q1, clearance / 2.0, clearance) {
-                return Ok(answer);
-            }
+        match self.certify_fast(ws, (q0, q1), clearance) {
+            Some(Certification::Certified) => return Ok(true),
+            Some(Certification::Fails) => return Ok(false),
+            // Undecided, sliding joints or no fast path: the general path decides.
+            _ => {}
         }
         self.sweep_bounds(ws, q0, q1);
         let mut t = 0.0f64;
@@ -56,6 +53,21 @@ impl CollisionModel {
             }
             t = (t + step).min(1.0);
         }
+    }
+
+    /// Certification on the sphere fast path (validated inputs), if the
+    /// model has one; a fixed pair in collision fails everything.
+    fn certify_fast(
+        &self,
+        ws: &mut CollisionWorkspace,
+        motion: (&[f64], &[f64]),
+        clearance: f64,
+    ) -> Option<Certification> {
+        let (fast, scratch) = (self.spheres.as_ref()?, ws.spheres.as_mut()?);
+        if fast.always_collides() {
+            return Some(Certification::Fails);
+        }
+        Some(fast.certify(scratch, motion, (clearance / 2.0, clearance)))
     }
 
     /// Validates both ends of a motion and its positive setting `name`.

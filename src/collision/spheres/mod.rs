@@ -23,7 +23,7 @@ mod motion;
 
 pub(crate) use check::{SphereWorkspace, Verdict};
 pub use lanes::LANES;
-pub(crate) use motion::SampleOrder;
+pub(crate) use motion::{Certification, SampleOrder};
 
 use super::distance::closer_than;
 use super::model::{CollisionModel, CollisionObject, Group, lever_chain};

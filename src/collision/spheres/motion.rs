@@ -55,6 +55,18 @@ impl Iterator for SampleOrder {
     }
 }
 
+/// What [`SphereModel::certify`] found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Certification {
+    /// Every configuration keeps the `half` margin.
+    Certified,
+    /// A configuration on the motion is closer than `full`.
+    Fails,
+    /// A pair within the tolerance of `full`, or a robot with sliding
+    /// joints (whose sweep bounds do not hold): the exact model decides.
+    Undecided,
+}
+
 /// How far (m) spheres may move over the intervals a certification starts with.
 const FIRST_REACH: f64 = 0.2;
 
@@ -75,21 +87,15 @@ impl SphereModel {
     }
 
     /// Certifies the motion from `q0` to `q1` for margins `half` and `full`
-    /// (m; see the [module documentation](self)): `Some(true)` certified,
-    /// `Some(false)` a configuration on it is closer than `full`, `None`
-    /// undecided: a pair within the tolerance of `full`, or a robot with
-    /// sliding joints (whose sweep bounds do not hold); the exact model
-    /// decides.
+    /// (m; see the [module documentation](self)).
     pub(crate) fn certify(
         &self,
         ws: &mut SphereWorkspace,
-        q0: &[f64],
-        q1: &[f64],
-        half: f64,
-        full: f64,
-    ) -> Option<bool> {
+        (q0, q1): (&[f64], &[f64]),
+        (half, full): (f64, f64),
+    ) -> Certification {
         if !self.certifiable {
-            return None;
+            return Certification::Undecided;
         }
         self.start_certification(ws, q0, q1, half, full);
         while let Some(first) = ws.intervals.pop_front() {
@@ -104,19 +110,19 @@ impl SphereModel {
             let mid: Lane = std::array::from_fn(|l| 0.5 * (taken[l].0 + taken[l].1));
             ws.margins.width = std::array::from_fn(|l| (mid[l] - taken[l].0).max(taken[l].1 - mid[l]));
             self.set_along(ws, q0, q1, &mid);
-            let Verdict::Free { unsure, split } = self.check::<true>(ws) else { return Some(false) };
+            let Verdict::Free { unsure, split } = self.check::<true>(ws) else { return Certification::Fails };
             if unsure[..n].iter().any(|&u| u) {
-                return None;
+                return Certification::Undecided;
             }
             for ((lo, hi), m) in taken.into_iter().zip(mid).take(n).zip(split).filter(|(_, s)| *s).map(|(x, _)| x) {
                 // Bounded splitting: an interval this thin is for the exact model.
                 if hi - lo < 1e-12 {
-                    return None;
+                    return Certification::Undecided;
                 }
                 ws.intervals.extend([(lo, m), (m, hi)]);
             }
         }
-        Some(true)
+        Certification::Certified
     }
 
     /// Every sphere's sweep bound for the motion from `q0` to `q1`, the
