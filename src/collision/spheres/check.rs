@@ -20,7 +20,7 @@ pub(crate) struct SphereWorkspace {
     /// Per active joint: its value in each lane.
     q: Vec<Lane>,
     /// Per body: its world pose in each lane (the root stays the identity).
-    poses: Vec<LanePose>,
+    pub(super) poses: Vec<LanePose>,
     /// Per sphere: world centre, valid when its group is `placed`.
     centers: Vec<[Lane; 3]>,
     /// Per group: world centre of its bounding ball.
@@ -28,14 +28,18 @@ pub(crate) struct SphereWorkspace {
     /// Per cluster: world centre of its ball, valid when its group's flag
     /// in `clusters_placed` is set; the sphere centres are valid when its
     /// flag in `spheres_placed` is.
-    cluster_centers: Vec<[Lane; 3]>,
+    pub(super) cluster_centers: Vec<[Lane; 3]>,
     clusters_placed: Vec<bool>,
     spheres_placed: Vec<bool>,
-    /// Certification of the current motion: per sphere, the prefix sums
-    /// of its sweep terms (m per unit of motion), a leading 0 first, at
-    /// its `prefix` slot; per group and per cluster, its spheres' largest
-    /// sweep.
+    /// Certification of the current motion (see `sweep.rs`): per sweep
+    /// term, its joint's `|Δq| · multiplier`; per cluster, the prefix sums
+    /// of its loose sweep terms (m per unit of motion), a leading 0 first,
+    /// at its slot, and the same for its tight terms per lane (valid when
+    /// `tight_done`); per group and per cluster, the largest loose sweep.
+    pub(super) rates: Vec<f64>,
     pub(super) prefix: Vec<f64>,
+    pub(super) tight: Vec<Lane>,
+    pub(super) tight_done: Vec<bool>,
     pub(super) group_sweep: Vec<f64>,
     pub(super) cluster_sweep: Vec<f64>,
     pub(super) margins: Margins,
@@ -63,7 +67,10 @@ impl SphereWorkspace {
             cluster_centers: vec![[[0.0; LANES]; 3]; model.clusters.len()],
             clusters_placed: vec![false; model.groups.len()],
             spheres_placed: vec![false; model.clusters.len()],
-            prefix: vec![0.0; model.sweep_terms.len() + model.spheres.len()],
+            rates: vec![0.0; model.sweep_terms.len()],
+            prefix: vec![0.0; model.sweep_terms.len() + model.clusters.len()],
+            tight: vec![[0.0; LANES]; model.sweep_terms.len() + model.clusters.len()],
+            tight_done: vec![false; model.clusters.len()],
             group_sweep: vec![0.0; model.groups.len()],
             cluster_sweep: vec![0.0; model.clusters.len()],
             margins: Margins { half: 0.0, full: 0.0, width: [0.0; LANES] },
@@ -209,12 +216,17 @@ impl SphereModel {
         })
     }
 
-    /// Sweep bound of sphere `s` (m per unit of motion) leaving out the
-    /// first `depth` joints that move it (certification only).
+    /// [`pass_limit`](Self::pass_limit) with a sweep bound per lane.
     #[inline(always)]
-    pub(super) fn sweep(&self, ws: &SphereWorkspace, s: usize, depth: usize) -> f64 {
-        let at = self.spheres[s].prefix;
-        ws.prefix[at + self.spheres[s].terms.len()] - ws.prefix[at + depth]
+    fn pass_limit_lanes<const CERTIFY: bool>(ws: &SphereWorkspace, reach: f64, sweep: &Lane) -> Lane {
+        if !CERTIFY {
+            return [(reach + TOLERANCE) * (reach + TOLERANCE); LANES];
+        }
+        let m = &ws.margins;
+        std::array::from_fn(|l| {
+            let limit = max(reach + m.half + m.width[l] * sweep[l], reach + m.full) + TOLERANCE;
+            limit * limit
+        })
     }
 
     #[inline(always)]
@@ -225,6 +237,9 @@ impl SphereModel {
             ws.clusters_placed[g] = false;
         }
         ws.spheres_placed.fill(false);
+        if CERTIFY {
+            ws.tight_done.fill(false);
+        }
         let mut flags = Flags { unsure: [false; LANES], split: [false; LANES] };
         for g in 0..self.groups.len() {
             if self.check_environment::<CERTIFY>(ws, g, &mut flags) {
@@ -290,11 +305,11 @@ impl SphereModel {
                 continue;
             }
             self.place_spheres(ws, c);
+            let sweep = if CERTIFY { self.tight_sweep(ws, c, 0) } else { [0.0; LANES] };
             for s in cluster.spheres.clone() {
                 let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
                 let reach = self.spheres[s].reach + radius;
-                let sweep = if CERTIFY { self.sweep(ws, s, 0) } else { 0.0 };
-                if fails(&d2, &Self::pass_limit::<CERTIFY>(ws, reach, sweep), reach + full, flags) {
+                if fails(&d2, &Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep), reach + full, flags) {
                     return true;
                 }
             }
@@ -310,10 +325,10 @@ impl SphereModel {
         let full = if CERTIFY { ws.margins.full } else { 0.0 };
         // Joints moving both sides leave the pair's distance unchanged.
         let depth = self.common_depth[p];
-        let largest = |ws: &SphereWorkspace, spheres: std::ops::Range<usize>| {
-            if CERTIFY { spheres.map(|s| self.sweep(ws, s, depth)).fold(0.0, max) } else { 0.0 }
-        };
-        let (sweep_a, sweep_b) = (largest(ws, ga.spheres.clone()), largest(ws, gb.spheres.clone()));
+        let loose = |ws: &SphereWorkspace, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { 0.0 };
+        let largest =
+            |ws: &SphereWorkspace, g: &super::SphereGroup| g.clusters.clone().map(|c| loose(ws, c)).fold(0.0, max);
+        let (sweep_a, sweep_b) = (largest(ws, ga), largest(ws, gb));
         let limit = Self::pass_limit::<CERTIFY>(ws, ga.radius + gb.radius, sweep_a + sweep_b);
         if all_beyond(&lane_distance_squared(&ws.group_centers[a], &ws.group_centers[b]), &limit) {
             return false;
@@ -321,25 +336,30 @@ impl SphereModel {
         self.place_clusters(ws, a);
         self.place_clusters(ws, b);
         for ca in ga.clusters.clone() {
-            let (ka, sweep_ka) = (&self.clusters[ca], largest(ws, self.clusters[ca].spheres.clone()));
+            let (ka, sweep_ka) = (&self.clusters[ca], loose(ws, ca));
             let limit = Self::pass_limit::<CERTIFY>(ws, ka.radius + gb.radius, sweep_ka + sweep_b);
             if all_beyond(&lane_distance_squared(&ws.cluster_centers[ca], &ws.group_centers[b]), &limit) {
                 continue;
             }
             for cb in gb.clusters.clone() {
-                let (kb, sweep_kb) = (&self.clusters[cb], largest(ws, self.clusters[cb].spheres.clone()));
+                let (kb, sweep_kb) = (&self.clusters[cb], loose(ws, cb));
                 let limit = Self::pass_limit::<CERTIFY>(ws, ka.radius + kb.radius, sweep_ka + sweep_kb);
                 if all_beyond(&lane_distance_squared(&ws.cluster_centers[ca], &ws.cluster_centers[cb]), &limit) {
                     continue;
                 }
                 self.place_spheres(ws, ca);
                 self.place_spheres(ws, cb);
+                let sweep: Lane = if CERTIFY {
+                    let (a, b) = (self.tight_sweep(ws, ca, depth), self.tight_sweep(ws, cb, depth));
+                    std::array::from_fn(|l| a[l] + b[l])
+                } else {
+                    [0.0; LANES]
+                };
                 for i in ka.spheres.clone() {
                     for j in kb.spheres.clone() {
                         let d2 = lane_distance_squared(&ws.centers[i], &ws.centers[j]);
                         let reach = self.spheres[i].reach + self.spheres[j].reach;
-                        let sweep = if CERTIFY { self.sweep(ws, i, depth) + self.sweep(ws, j, depth) } else { 0.0 };
-                        if fails(&d2, &Self::pass_limit::<CERTIFY>(ws, reach, sweep), reach + full, flags) {
+                        if fails(&d2, &Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep), reach + full, flags) {
                             return true;
                         }
                     }

@@ -20,6 +20,7 @@
 mod check;
 mod lanes;
 mod motion;
+mod sweep;
 
 pub(crate) use check::{SphereWorkspace, Verdict};
 pub use lanes::LANES;
@@ -53,8 +54,6 @@ struct LaneBody {
 #[derive(Debug, Clone)]
 struct SphereGroup {
     body: usize,
-    /// Into [`SphereModel::spheres`].
-    spheres: Range<usize>,
     /// Into [`SphereModel::clusters`]: the group's spheres in small balls.
     clusters: Range<usize>,
     /// Bounding ball in the body frame; the radius includes the padding (m).
@@ -72,6 +71,12 @@ struct Cluster {
     spheres: Range<usize>,
     center: [f64; 3],
     radius: f64,
+    /// Into [`SphereModel::sweep_terms`]: the joints moving the cluster,
+    /// root first.
+    terms: Range<usize>,
+    /// Where its sweep prefix sums start in the workspace (one more slot
+    /// than terms).
+    slot: usize,
 }
 
 /// Spheres per cluster, at most.
@@ -95,7 +100,7 @@ fn cluster(spheres: &mut [BodySphere], offset: usize, out: &mut Vec<Cluster>) {
         return;
     }
     let (center, radius) = ball(spheres);
-    out.push(Cluster { spheres: offset..offset + spheres.len(), center, radius });
+    out.push(Cluster { spheres: offset..offset + spheres.len(), center, radius, terms: 0..0, slot: 0 });
 }
 
 /// A ball around spheres (centre of their box; radius to the farthest
@@ -115,21 +120,18 @@ fn ball(spheres: &[BodySphere]) -> ([f64; 3], f64) {
 struct BodySphere {
     center: [f64; 3],
     reach: f64,
-    /// Into [`SphereModel::sweep_terms`]: the joints moving the sphere,
-    /// root first.
-    terms: Range<usize>,
-    /// Where the prefix sums of its terms start in the workspace (one
-    /// more slot than terms).
-    prefix: usize,
 }
 
-/// One joint's share of how fast a sphere centre can move: at most
-/// `coefficient · |q̇[column]|` (m/s per rad/s: the lever times the mimic
-/// multiplier).
+/// One joint's share of how fast the sphere centres of a cluster can
+/// move: at most `multiplier · lever · |q̇[column]|`, the lever bounding
+/// the distance from the joint's origin (body `body`'s) to them for every
+/// q (m).
 #[derive(Debug, Clone, Copy)]
 struct SweepTerm {
+    body: usize,
     column: usize,
-    coefficient: f64,
+    multiplier: f64,
+    lever: f64,
 }
 
 /// A static shape in world coordinates (m), with its world bounding box.
@@ -317,27 +319,26 @@ impl SphereModel {
                 if radius + o.padding <= TOLERANCE {
                     return None;
                 }
-                let first = sweep_terms.len();
-                for (b, lever) in lever_chain(robot, body, o.local.translation.vector.norm()) {
-                    let (column, multiplier, ..) = robot.body_joint(b);
-                    sweep_terms.push(SweepTerm { column, coefficient: lever * multiplier.abs() });
-                }
-                sweep_terms[first..].reverse();
-                let (center, reach, terms) =
-                    (vector(&o.local.translation.vector), radius + o.padding, first..sweep_terms.len());
-                spheres.push(BodySphere { center, reach, terms, prefix: 0 });
+                spheres.push(BodySphere { center: vector(&o.local.translation.vector), reach: radius + o.padding });
             }
             index[g] = groups.len() as u32;
             let first = clusters.len();
             cluster(&mut spheres[start..], start, &mut clusters);
+            for (k, c) in clusters[first..].iter_mut().enumerate() {
+                let norm = |s: &BodySphere| s.center.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let farthest = spheres[c.spheres.clone()].iter().map(norm).fold(0.0, f64::max);
+                let at = sweep_terms.len();
+                for (body, lever) in lever_chain(robot, body, farthest) {
+                    let (column, multiplier, ..) = robot.body_joint(body);
+                    sweep_terms.push(SweepTerm { body, column, multiplier: multiplier.abs(), lever });
+                }
+                sweep_terms[at..].reverse();
+                c.terms = at..sweep_terms.len();
+                // Clusters' terms follow each other: one more slot per cluster.
+                c.slot = at + first + k;
+            }
             let (center, radius) = ball(&spheres[start..]);
-            let (spheres, clusters) = (start..spheres.len(), first..clusters.len());
-            groups.push(SphereGroup { body, spheres, clusters, center, radius, env: 0..0 });
-        }
-        let mut slot = 0;
-        for sphere in &mut spheres {
-            sphere.prefix = slot;
-            slot += sphere.terms.len() + 1;
+            groups.push(SphereGroup { body, clusters: first..clusters.len(), center, radius, env: 0..0 });
         }
         let (mut statics, mut static_index) = (Vec::new(), vec![u32::MAX; model.objects.len()]);
         let mut env_lists = vec![Vec::new(); groups.len()];

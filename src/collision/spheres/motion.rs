@@ -125,23 +125,10 @@ impl SphereModel {
         Certification::Certified
     }
 
-    /// Every sphere's sweep bound for the motion from `q0` to `q1`, the
-    /// margins (m), and the work queue holding the whole motion.
+    /// Sweep bounds for the motion from `q0` to `q1`, the margins (m), and
+    /// the work queue holding the whole motion.
     fn start_certification(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64], half: f64, full: f64) {
-        for sphere in &self.spheres {
-            let at = sphere.prefix;
-            ws.prefix[at] = 0.0;
-            for (k, term) in self.sweep_terms[sphere.terms.clone()].iter().enumerate() {
-                ws.prefix[at + k + 1] =
-                    ws.prefix[at + k] + (q1[term.column] - q0[term.column]).abs() * term.coefficient;
-            }
-        }
-        for (c, cluster) in self.clusters.iter().enumerate() {
-            ws.cluster_sweep[c] = cluster.spheres.clone().map(|s| self.sweep(ws, s, 0)).fold(0.0, f64::max);
-        }
-        for (g, group) in self.groups.iter().enumerate() {
-            ws.group_sweep[g] = group.spheres.clone().map(|s| self.sweep(ws, s, 0)).fold(0.0, f64::max);
-        }
+        self.start_sweeps(ws, q0, q1);
         ws.margins = Margins { half, full, width: [0.0; LANES] };
         ws.intervals.clear();
         // Wide intervals would only be split: start with ones over which

@@ -1,0 +1,80 @@
+//! Sweep bounds of certification (see `motion.rs`): how fast, in metres
+//! per unit of motion, the sphere centres of each cluster can move along
+//! the straight motion `q0 → q1`.
+//!
+//! A revolute joint `k` turning at `|Δq_k|` moves a point at most
+//! `|Δq_k| · r` where `r` is the point's distance from the joint's origin.
+//! The loose bound takes for `r` the lever (link offsets and the sphere's
+//! offset added up, valid for every q) and holds over the whole motion.
+//! The tight bound, per lane, measures `r` at the interval's midpoint and
+//! adds what the joints after `k` can change it by over the half-width
+//! `w`: `r(t) ≤ r(m) + w · Σ_{j>k} |Δq_j| · lever_j` (joint `k` turns the
+//! point about its own origin, and the joints before it move both
+//! together). Joints at the root side of a chain that two clusters share
+//! change neither's distance to the other: the sums leave the first
+//! `depth` of them out.
+// Lane loops index several arrays by the lane on purpose (see `lanes.rs`).
+#![allow(clippy::needless_range_loop)]
+
+use super::SphereModel;
+use super::check::SphereWorkspace;
+use super::lanes::{LANES, Lane, min};
+
+impl SphereModel {
+    /// Loose sweep bounds of every cluster (prefix sums over its joints,
+    /// root first) and their maxima per cluster and group, for the motion
+    /// from `q0` to `q1`.
+    pub(super) fn start_sweeps(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) {
+        for (term, rate) in self.sweep_terms.iter().zip(&mut ws.rates) {
+            *rate = (q1[term.column] - q0[term.column]).abs() * term.multiplier;
+        }
+        for (c, cluster) in self.clusters.iter().enumerate() {
+            ws.prefix[cluster.slot] = 0.0;
+            for (k, t) in cluster.terms.clone().enumerate() {
+                ws.prefix[cluster.slot + k + 1] = ws.prefix[cluster.slot + k] + ws.rates[t] * self.sweep_terms[t].lever;
+            }
+            ws.cluster_sweep[c] = self.loose_sweep(ws, c, 0);
+        }
+        for (g, group) in self.groups.iter().enumerate() {
+            ws.group_sweep[g] = group.clusters.clone().map(|c| ws.cluster_sweep[c]).fold(0.0, f64::max);
+        }
+    }
+
+    /// Loose sweep bound of cluster `c` without its first `depth` joints.
+    #[inline(always)]
+    pub(super) fn loose_sweep(&self, ws: &SphereWorkspace, c: usize, depth: usize) -> f64 {
+        let cluster = &self.clusters[c];
+        ws.prefix[cluster.slot + cluster.terms.len()] - ws.prefix[cluster.slot + depth.min(cluster.terms.len())]
+    }
+
+    /// Per lane, the smaller of the tight and loose sweep bounds of placed
+    /// cluster `c` without its first `depth` joints, over the lanes'
+    /// intervals (tight sums computed once per batch).
+    #[inline(always)]
+    pub(super) fn tight_sweep(&self, ws: &mut SphereWorkspace, c: usize, depth: usize) -> Lane {
+        let cluster = &self.clusters[c];
+        let (slot, n) = (cluster.slot, cluster.terms.len());
+        if !ws.tight_done[c] {
+            let (center, total) = (ws.cluster_centers[c], ws.prefix[slot + n]);
+            ws.tight[slot] = [0.0; LANES];
+            for (k, t) in cluster.terms.clone().enumerate() {
+                let (origin, rate) = (ws.poses[self.sweep_terms[t].body].t, ws.rates[t]);
+                // What the joints after this one can add to the distance.
+                let tail = total - ws.prefix[slot + k + 1];
+                let mut next = ws.tight[slot + k];
+                for l in 0..LANES {
+                    let (x, y, z) =
+                        (center[0][l] - origin[0][l], center[1][l] - origin[1][l], center[2][l] - origin[2][l]);
+                    let r = (x * x + y * y + z * z).sqrt() + cluster.radius + ws.margins.width[l] * tail;
+                    next[l] += rate * r;
+                }
+                ws.tight[slot + k + 1] = next;
+            }
+            ws.tight_done[c] = true;
+        }
+        let depth = depth.min(n);
+        let loose = self.loose_sweep(ws, c, depth);
+        let (all, skipped) = (&ws.tight[slot + n], &ws.tight[slot + depth]);
+        std::array::from_fn(|l| min(all[l] - skipped[l], loose))
+    }
+}
