@@ -304,8 +304,12 @@ impl SphereModel {
             if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, cluster.radius + radius, ws.cluster_sweep[c])) {
                 continue;
             }
-            self.place_spheres(ws, c);
             let sweep = if CERTIFY { self.tight_sweep(ws, c, 0) } else { [0.0; LANES] };
+            // The cluster again, with the tighter bound.
+            if CERTIFY && all_beyond(&d2, &Self::pass_limit_lanes::<CERTIFY>(ws, cluster.radius + radius, &sweep)) {
+                continue;
+            }
+            self.place_spheres(ws, c);
             for s in cluster.spheres.clone() {
                 let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
                 let reach = self.spheres[s].reach + radius;
