@@ -241,7 +241,8 @@ impl SphereModel {
             ws.tight_done.fill(false);
         }
         let mut flags = Flags { unsure: [false; LANES], split: [false; LANES] };
-        for g in 0..self.groups.len() {
+        // Distal links first: they are the likelier to hit something.
+        for g in (0..self.groups.len()).rev() {
             if self.check_environment::<CERTIFY>(ws, g, &mut flags) {
                 return Verdict::Collides;
             }
