@@ -31,8 +31,8 @@ pub(crate) struct SphereWorkspace {
     pub(super) cluster_centers: Vec<[Lane; 3]>,
     clusters_placed: Vec<bool>,
     spheres_placed: Vec<bool>,
-    /// Certification of the current motion (see `sweep.rs`): per sweep
-    /// term, its joint's `|Δq| · multiplier`; per cluster, the prefix sums
+    /// Certification of the current motion (see `sweep.rs`): per body,
+    /// its joint's `|Δq · multiplier|`; per cluster, the prefix sums
     /// of its loose sweep terms (m per unit of motion), a leading 0 first,
     /// at its slot, and the same for its tight terms per lane (valid when
     /// `tight_done`); per group and per cluster, the largest loose sweep.
@@ -67,7 +67,7 @@ impl SphereWorkspace {
             cluster_centers: vec![[[0.0; LANES]; 3]; model.clusters.len()],
             clusters_placed: vec![false; model.groups.len()],
             spheres_placed: vec![false; model.clusters.len()],
-            rates: vec![0.0; model.sweep_terms.len()],
+            rates: vec![0.0; model.bodies.len()],
             prefix: vec![0.0; model.sweep_terms.len() + model.clusters.len()],
             tight: vec![[0.0; LANES]; model.sweep_terms.len() + model.clusters.len()],
             tight_done: vec![false; model.clusters.len()],

@@ -123,14 +123,12 @@ struct BodySphere {
 }
 
 /// One joint's share of how fast the sphere centres of a cluster can
-/// move: at most `multiplier · lever · |q̇[column]|`, the lever bounding
-/// the distance from the joint's origin (body `body`'s) to them for every
+/// move: at most `lever` times the speed of the joint of body `body`, the
+/// lever bounding the distance from the joint's origin to them for every
 /// q (m).
 #[derive(Debug, Clone, Copy)]
 struct SweepTerm {
     body: usize,
-    column: usize,
-    multiplier: f64,
     lever: f64,
 }
 
@@ -328,10 +326,7 @@ impl SphereModel {
                 let norm = |s: &BodySphere| s.center.iter().map(|x| x * x).sum::<f64>().sqrt();
                 let farthest = spheres[c.spheres.clone()].iter().map(norm).fold(0.0, f64::max);
                 let at = sweep_terms.len();
-                for (body, lever) in lever_chain(robot, body, farthest) {
-                    let (column, multiplier, ..) = robot.body_joint(body);
-                    sweep_terms.push(SweepTerm { body, column, multiplier: multiplier.abs(), lever });
-                }
+                sweep_terms.extend(lever_chain(robot, body, farthest).map(|(body, lever)| SweepTerm { body, lever }));
                 sweep_terms[at..].reverse();
                 c.terms = at..sweep_terms.len();
                 // Clusters' terms follow each other: one more slot per cluster.

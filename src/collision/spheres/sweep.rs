@@ -25,13 +25,13 @@ impl SphereModel {
     /// root first) and their maxima per cluster and group, for the motion
     /// from `q0` to `q1`.
     pub(super) fn start_sweeps(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) {
-        for (term, rate) in self.sweep_terms.iter().zip(&mut ws.rates) {
-            *rate = (q1[term.column] - q0[term.column]).abs() * term.multiplier;
+        for (body, rate) in self.bodies.iter().zip(&mut ws.rates) {
+            *rate = (q1[body.column] - q0[body.column]).abs() * body.multiplier.abs();
         }
         for (c, cluster) in self.clusters.iter().enumerate() {
             ws.prefix[cluster.slot] = 0.0;
-            for (k, t) in cluster.terms.clone().enumerate() {
-                ws.prefix[cluster.slot + k + 1] = ws.prefix[cluster.slot + k] + ws.rates[t] * self.sweep_terms[t].lever;
+            for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
+                ws.prefix[cluster.slot + k + 1] = ws.prefix[cluster.slot + k] + ws.rates[term.body] * term.lever;
             }
             ws.cluster_sweep[c] = self.loose_sweep(ws, c, 0);
         }
@@ -57,8 +57,8 @@ impl SphereModel {
         if !ws.tight_done[c] {
             let (center, total) = (ws.cluster_centers[c], ws.prefix[slot + n]);
             ws.tight[slot] = [0.0; LANES];
-            for (k, t) in cluster.terms.clone().enumerate() {
-                let (origin, rate) = (ws.poses[self.sweep_terms[t].body].t, ws.rates[t]);
+            for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
+                let (origin, rate) = (ws.poses[term.body].t, ws.rates[term.body]);
                 // What the joints after this one can add to the distance.
                 let tail = total - ws.prefix[slot + k + 1];
                 let mut next = ws.tight[slot + k];
