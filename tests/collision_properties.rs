@@ -222,17 +222,23 @@ fn queries_allocate_nothing() {
     let mut ws = CollisionWorkspace::new(&model);
     let configs = random_configurations(&robot, 100, 29);
     let mut gradient = vec![0.0; 7];
-    // Warm up: the distance buffer grows to the pair count once.
-    model.distances(&mut ws, &configs[0], f64::INFINITY).unwrap();
-    let before = allocations();
     let mut sink = 0.0;
-    for (k, q) in configs.iter().enumerate() {
-        sink += f64::from(u8::from(model.collision_free(&mut ws, q).unwrap()));
-        let min = model.min_distance(&mut ws, q).unwrap().unwrap();
-        model.distance_gradient(&ws, &min, &mut gradient).unwrap();
-        sink += gradient[0] + model.distances(&mut ws, q, 0.1).unwrap().len() as f64;
-        sink += f64::from(u8::from(model.motion_free(&mut ws, q, &configs[(k + 1) % 100], 0.05).unwrap()));
-    }
+    let mut queries = |ws: &mut CollisionWorkspace| {
+        for (k, q) in configs.iter().enumerate() {
+            let next = &configs[(k + 1) % 100];
+            sink += f64::from(u8::from(model.collision_free(ws, q).unwrap()));
+            let min = model.min_distance(ws, q).unwrap().unwrap();
+            model.distance_gradient(ws, &min, &mut gradient).unwrap();
+            sink += gradient[0] + model.distances(ws, q, 0.1).unwrap().len() as f64;
+            sink += f64::from(u8::from(model.motion_free(ws, q, next, 0.05).unwrap()));
+            sink += f64::from(u8::from(model.motion_free_certified(ws, q, next, 0.002).unwrap()));
+        }
+    };
+    // Warm up: the distance buffer grows to the pair count, the certification
+    // queue to the longest it needs, once.
+    queries(&mut ws);
+    let before = allocations();
+    queries(&mut ws);
     assert_eq!(allocations() - before, 0, "collision queries allocated");
     assert!(sink.is_finite());
 }
