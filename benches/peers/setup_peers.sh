@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Creates the Python environment of the planning peers, benches/peers/.venv:
-# RAI (PyPI `robotic`, its RRT_PathFinder), OMPL (PyPI `ompl`, RRTConnect) and
-# Pinocchio + coal (PyPI `pin`, the OMPL peer's collision checker), pinned.
+# Creates the Python environment of the planning and trajectory-optimization
+# peers, benches/peers/.venv: RAI (PyPI `robotic`: its RRT_PathFinder and its
+# KOMO), OMPL (PyPI `ompl`, RRTConnect), Pinocchio + coal (PyPI `pin`, the OMPL
+# peer's collision checker) and casadi (with the IPOPT it ships), pinned.
 # Kept apart from python_ref/.venv, which CI installs for the cross-check tests.
 #
 #   benches/peers/setup_peers.sh
@@ -24,15 +25,16 @@ fi
 command -v "$python" >/dev/null || die "$python not found (set PYTHON=...)"
 [[ -x "$venv/bin/python" ]] || "$python" -m venv "$venv" || die "cannot create the venv $venv"
 "$venv/bin/python" -m pip install --quiet robotic==0.4.2 ompl==2.0.1 pin==4.1.0 numpy==2.4.6 \
+  casadi==3.8.2 \
   || die "pip install failed"
 # (in a scratch folder: importing robotic writes a log file z.log.global there)
 (cd "$(mktemp -d)" && "$venv/bin/python" - <<'PY') || die "the peers do not import (see above)"
-import robotic, ompl, pinocchio, coal, numpy
+import robotic, ompl, pinocchio, coal, numpy, casadi
 from ompl import base, geometric
 import os, sys
 from importlib.metadata import version
 sys.stderr.write(f"peers ready: robotic {version('robotic')} | ompl {version('ompl')} | "
-                 f"pin {version('pin')} | coal {version('coal')}\n")
+                 f"pin {version('pin')} | coal {version('coal')} | casadi {version('casadi')}\n")
 sys.stderr.flush()
 os._exit(0)  # skip the bindings' leak reports at shutdown
 PY
