@@ -134,6 +134,22 @@ impl Shape {
         }
     }
 
+    /// Edge lengths of the shape's bounding box in its own frame (m): the
+    /// box itself, `2r × 2r × 2r` for a sphere, `2r × 2r × length` for a
+    /// cylinder (length + 2r for a capsule); a convex hull reports the cube
+    /// around its bounding ball.
+    pub fn extents(&self) -> Vector3<f64> {
+        match self {
+            Shape::Sphere { radius } => Vector3::repeat(2.0 * radius),
+            Shape::Capsule { radius, half_length } => {
+                Vector3::new(2.0 * radius, 2.0 * radius, 2.0 * (radius + half_length))
+            }
+            Shape::Box { half_extents } => 2.0 * half_extents,
+            Shape::Cylinder { radius, half_length } => Vector3::new(2.0 * radius, 2.0 * radius, 2.0 * half_length),
+            Shape::Convex(hull) => Vector3::repeat(2.0 * hull.radius),
+        }
+    }
+
     /// Checks that every dimension is finite and positive.
     ///
     /// # Errors

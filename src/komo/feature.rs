@@ -2,8 +2,8 @@
 //! analytic Jacobian. Order-k objectives difference them over consecutive
 //! slices (see [`objective`](super::objective)).
 
-use crate::robot::{FrameId, KinematicsWorkspace, ReferenceFrame, RobotError, RobotModel};
-use nalgebra::{IsometryMatrix3, Matrix3, Matrix6xX, Rotation3, Vector3};
+use crate::robot::{FrameId, KinematicsWorkspace, ReferenceFrame, RobotError, RobotModel, rotation_log};
+use nalgebra::{IsometryMatrix3, Matrix3, Matrix6xX, Vector3};
 
 /// A frame a feature reads: a robot frame (moves with q), or a frame fixed
 /// in the world (the world itself, a scene object, an object's grasp frame).
@@ -78,21 +78,6 @@ fn project(jac: &Matrix6xX<f64>, first_row: usize, w: &Vector3<f64>, sign: f64, 
     for (k, o) in out.iter_mut().enumerate() {
         let col = jac.column(k);
         *o += sign * (w[0] * col[first_row] + w[1] * col[first_row + 1] + w[2] * col[first_row + 2]);
-    }
-}
-
-/// The rotation vector of `r`, accurate near the identity (where an
-/// `acos` of the trace loses half the digits) and near π.
-fn so3_log(r: &Rotation3<f64>) -> Vector3<f64> {
-    let m = r.matrix();
-    let v = 0.5 * Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]);
-    let (s, c) = (v.norm(), 0.5 * (m.trace() - 1.0));
-    if s < 1e-7 && c > 0.0 {
-        v * (1.0 + s * s / 6.0)
-    } else if c > -0.9 {
-        v * (s.atan2(c) / s)
-    } else {
-        r.scaled_axis()
     }
 }
 
@@ -201,7 +186,7 @@ impl Feature {
             Feature::OrientationDifference { a, b } => {
                 let pa = frame_with_jacobian(robot, kin, a, &mut scratch.jac_a)?;
                 let pb = frame_with_jacobian(robot, kin, b, &mut scratch.jac_b)?;
-                let phi = so3_log(&(pb.rotation.inverse() * pa.rotation));
+                let phi = rotation_log(&(pb.rotation.inverse() * pa.rotation));
                 value.copy_from_slice(phi.as_slice());
                 // d log(R_bᵀR_a) = J_l⁻¹(φ) R_bᵀ (ω_a − ω_b)
                 let m = so3_left_jacobian_inverse(&phi) * pb.rotation.matrix().transpose();
@@ -230,6 +215,7 @@ fn limited_joints(robot: &RobotModel) -> impl Iterator<Item = (usize, &crate::ro
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Rotation3;
     use tandem_solvers::finite_diff::central_jacobian;
 
     fn features(robot: &RobotModel) -> Vec<Feature> {
@@ -299,12 +285,12 @@ mod tests {
         // J_l⁻¹ against differences of log(exp(δ) R) near zero and near π.
         for phi in [Vector3::new(1e-6, -2e-6, 3e-7), Vector3::new(0.3, -1.1, 0.7), Vector3::new(0.0, 3.1, 0.0)] {
             let r = Rotation3::new(phi);
-            assert!((so3_log(&r) - phi).norm() < 1e-15 * phi.norm().max(1.0) * 10.0, "log of exp({phi:?})");
+            assert!((rotation_log(&r) - phi).norm() < 1e-15 * phi.norm().max(1.0) * 10.0, "log of exp({phi:?})");
             let inv = so3_left_jacobian_inverse(&phi);
             for i in 0..3 {
                 let h = 1e-7;
-                let plus = so3_log(&(Rotation3::new(Vector3::ith(i, h)) * r));
-                let minus = so3_log(&(Rotation3::new(Vector3::ith(i, -h)) * r));
+                let plus = rotation_log(&(Rotation3::new(Vector3::ith(i, h)) * r));
+                let minus = rotation_log(&(Rotation3::new(Vector3::ith(i, -h)) * r));
                 let fd = (plus - minus) / (2.0 * h);
                 let err = (fd - inv.column(i)).norm();
                 assert!(err < 1e-6, "phi {phi:?} col {i}: {fd:?} vs {}", inv.column(i));

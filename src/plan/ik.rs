@@ -78,7 +78,7 @@ fn error(
     let pose = robot.frame_jacobian(ws, t.frame, ReferenceFrame::WorldAligned, jac)?;
     let ep = t.position - pose.translation.vector;
     let er = match (&t.orientation, &t.axis_alignment) {
-        (Some(r), _) => Some((r * pose.rotation.inverse()).scaled_axis()),
+        (Some(r), _) => Some(crate::robot::rotation_log(&(r * pose.rotation.inverse()))),
         (None, Some((axis, dir))) => Some(pose.rotation.matrix().column(*axis).cross(dir)),
         (None, None) => None,
     };

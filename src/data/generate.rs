@@ -1,0 +1,344 @@
+//! `generate`: a family's samples 0 … N−1, in parallel, into part files.
+//!
+//! Ids are cut into chunks of `chunk_size`; chunk k becomes
+//! `part-{k:05}.parquet`. Chunks already on disk (complete by construction:
+//! they are renamed into place) are kept, the rest are generated, with
+//! rayon spreading both chunks and the ids inside them over the threads.
+//! `--shard i/M` takes chunks `⌊k·i/M⌋ … ⌊k·(i+1)/M⌋` of the k chunks, so
+//! shards run anywhere add up to the dataset of one run.
+
+use super::manifest::{DatasetParameters, Manifest};
+use super::progress::{Progress, ProgressRun};
+use super::sample::{SampleOutcome, SampleTiming, run_sample};
+use super::shard::{
+    PartMeta, PartSummary, read_part_summary, sha256_hex, temporary_path, write_atomically, write_part,
+};
+use super::trajectory::DataError;
+use crate::scene::{ProblemError, ProblemFamily};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::time::{Duration, Instant};
+use thiserror::Error;
+
+/// `i/M`: the i-th of M equal shares of the chunks (0 ≤ i < M).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ShardSpec {
+    pub index: u64,
+    pub count: u64,
+}
+
+impl FromStr for ShardSpec {
+    type Err = String;
+    fn from_str(s: &str) -> Result<ShardSpec, String> {
+        let bad = || format!("expected a shard as I/M with 0 ≤ I < M, e.g. 0/4; got {s:?}");
+        let (i, m) = s.split_once('/').ok_or_else(bad)?;
+        let (index, count) = (i.trim().parse().map_err(|_| bad())?, m.trim().parse().map_err(|_| bad())?);
+        if index < count { Ok(ShardSpec { index, count }) } else { Err(bad()) }
+    }
+}
+
+/// What to generate; everything except `threads`, `shard` and the output
+/// folder decides the dataset's bytes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GenerateSettings {
+    /// Samples 0 … count − 1.
+    pub count: u64,
+    /// Run seed.
+    pub seed: u64,
+    /// Horizon T (default: the family's base problem's).
+    pub horizon: Option<usize>,
+    /// Worker threads (default: all cores).
+    pub threads: Option<usize>,
+    pub shard: Option<ShardSpec>,
+    /// Ids per part file.
+    pub chunk_size: u64,
+    /// Joint step of the final collision check between slices (rad).
+    pub validation_resolution: f64,
+    /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
+    pub goal_tolerance: f64,
+    pub goal_angle_tolerance: f64,
+}
+
+impl Default for GenerateSettings {
+    fn default() -> Self {
+        GenerateSettings {
+            count: 1000,
+            seed: 0,
+            horizon: None,
+            threads: None,
+            shard: None,
+            chunk_size: 100,
+            validation_resolution: 0.002,
+            goal_tolerance: 1e-3,
+            goal_angle_tolerance: 1e-2,
+        }
+    }
+}
+
+/// Why a run stopped.
+#[derive(Debug, Error)]
+pub enum GenerateError {
+    #[error(transparent)]
+    Family(#[from] ProblemError),
+    #[error(transparent)]
+    Data(#[from] DataError),
+    #[error("generate settings: {0}")]
+    Settings(String),
+    /// The output folder holds a dataset made with other parameters.
+    #[error(
+        "{path} was generated with {key} = {existing}, this run asks {requested}: use another --out folder, or the same parameters to resume"
+    )]
+    Mismatch { path: PathBuf, key: String, existing: String, requested: String },
+    #[error("cannot read {path}: {message}")]
+    Read { path: PathBuf, message: String },
+    #[error("cannot start {0} worker threads: {1}")]
+    Threads(usize, String),
+}
+
+/// The outcome of a run.
+#[derive(Debug, Clone)]
+pub struct GenerateSummary {
+    pub manifest: Manifest,
+    pub manifest_path: PathBuf,
+    /// Part files written by this run, and found complete from earlier runs.
+    pub parts_written: usize,
+    pub parts_kept: usize,
+    /// Samples this run computed, and its wall-clock time.
+    pub samples_run: u64,
+    pub elapsed: Duration,
+    /// Per-sample times of this run (ms), sorted.
+    pub sample_ms: Vec<f64>,
+}
+
+impl GenerateSummary {
+    /// Samples per second of this run (accepted or not).
+    pub fn rate(&self) -> f64 {
+        self.samples_run as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+/// Generates (or completes) the dataset in `out`; see the module docs.
+///
+/// # Errors
+/// Bad settings, an unreadable family, a folder holding another dataset,
+/// or I/O errors; samples that fail are rejections, not errors.
+pub fn generate(
+    family_path: &Path,
+    out: &Path,
+    settings: &GenerateSettings,
+    progress: &Progress,
+) -> Result<GenerateSummary, GenerateError> {
+    validate(settings)?;
+    let began = Instant::now();
+    let family = ProblemFamily::from_file(family_path)?;
+    let parameters = parameters(family_path, &family, settings)?;
+    std::fs::create_dir_all(out.join("_timings")).map_err(|e| DataError::Io { path: out.into(), source: e })?;
+    check_parameters(out, &parameters)?;
+    let chunks = shard_chunks(settings);
+    let mut found = Vec::new();
+    let mut pending = Vec::new();
+    for &k in &chunks {
+        match existing_part(out, k, settings)? {
+            Some(summary) => found.push((k, summary)),
+            None => pending.push(k),
+        }
+    }
+    let joints = family.base.robot.joint_names().to_vec();
+    let ee_frame = family.base.robot_spec.gripper.clone().unwrap_or_default();
+    let samples_run: u64 = pending.iter().map(|&k| chunk_ids(k, settings)).map(|[a, b]| b - a).sum();
+    let run = progress.start(samples_run);
+    let context = RunContext { family: &family, settings, out, joints: &joints, ee_frame: &ee_frame, progress: &run };
+    let written = run_chunks(&context, &pending)?;
+    run.finish();
+    let parts_written = written.len();
+    let mut sample_ms: Vec<f64> = written.iter().flat_map(|(_, _, t)| t.iter().map(|t| t.total_ms)).collect();
+    sample_ms.sort_by(f64::total_cmp);
+    found.extend(written.into_iter().map(|(k, s, _)| (k, s)));
+    found.sort_by_key(|(k, _)| *k);
+    let parts: Vec<(String, PartSummary)> = found.into_iter().map(|(k, s)| (part_name(k), s)).collect();
+    let shard = settings.shard.map(|s| [s.index, s.count]);
+    let manifest = Manifest::new(parameters, shard, joints, ee_frame, &parts);
+    let manifest_path = out.join(match settings.shard {
+        Some(s) => format!("_manifest-shard-{}-of-{}.json", s.index, s.count),
+        None => "_manifest.json".into(),
+    });
+    write_atomically(&manifest_path, pretty(&manifest).as_bytes())?;
+    Ok(GenerateSummary {
+        manifest,
+        manifest_path,
+        parts_written,
+        parts_kept: parts.len() - parts_written,
+        samples_run,
+        elapsed: began.elapsed(),
+        sample_ms,
+    })
+}
+
+fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
+    let bad = |m: &str| Err(GenerateError::Settings(m.into()));
+    if s.count == 0 {
+        return bad("--count must be at least 1");
+    }
+    if s.chunk_size == 0 {
+        return bad("--chunk-size must be at least 1");
+    }
+    if s.horizon.is_some_and(|t| t < 2) {
+        return bad("the horizon T must be at least 2");
+    }
+    if s.threads == Some(0) {
+        return bad("--threads must be at least 1");
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !(positive(s.validation_resolution) && positive(s.goal_tolerance) && positive(s.goal_angle_tolerance)) {
+        return bad("the validation resolution and goal tolerances must be positive");
+    }
+    Ok(())
+}
+
+fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Result<DatasetParameters, GenerateError> {
+    let hash = |p: &Path| {
+        std::fs::read(p)
+            .map(|b| sha256_hex(&b))
+            .map_err(|e| GenerateError::Read { path: p.into(), message: e.to_string() })
+    };
+    Ok(DatasetParameters {
+        schema_version: super::schema::SCHEMA_VERSION,
+        tandem_version: env!("CARGO_PKG_VERSION").into(),
+        family: family.name.clone(),
+        family_sha256: hash(path)?,
+        base_problem_sha256: hash(Path::new(&family.base.origin))?,
+        seed: s.seed,
+        count: s.count,
+        horizon: s.horizon.unwrap_or(family.base.optimizer.horizon),
+        chunk_size: s.chunk_size,
+        validation_resolution: s.validation_resolution,
+        goal_tolerance: s.goal_tolerance,
+        goal_angle_tolerance: s.goal_angle_tolerance,
+    })
+}
+
+fn pretty(value: &impl serde::Serialize) -> String {
+    serde_json::to_string_pretty(value).unwrap_or_default() + "\n"
+}
+
+/// Writes `_dataset.json`, or checks that the one there matches.
+fn check_parameters(out: &Path, parameters: &DatasetParameters) -> Result<(), GenerateError> {
+    let path = out.join("_dataset.json");
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        write_atomically(&path, pretty(parameters).as_bytes())?;
+        return Ok(());
+    };
+    let read_error = |message: String| GenerateError::Read { path: path.clone(), message };
+    let existing: serde_json::Value = serde_json::from_str(&text).map_err(|e| read_error(e.to_string()))?;
+    let requested = serde_json::to_value(parameters).map_err(|e| read_error(e.to_string()))?;
+    let (Some(existing), Some(requested)) = (existing.as_object(), requested.as_object()) else {
+        return Err(read_error("not a JSON object".into()));
+    };
+    for (key, want) in requested {
+        let have = existing.get(key).cloned().unwrap_or(serde_json::Value::Null);
+        if &have != want {
+            let (existing, requested) = (have.to_string(), want.to_string());
+            return Err(GenerateError::Mismatch { path, key: key.clone(), existing, requested });
+        }
+    }
+    Ok(())
+}
+
+fn chunk_count(s: &GenerateSettings) -> u64 {
+    s.count.div_ceil(s.chunk_size)
+}
+
+/// The chunks of this run's shard.
+fn shard_chunks(s: &GenerateSettings) -> Vec<u64> {
+    let k = chunk_count(s);
+    let spec = s.shard.unwrap_or(ShardSpec { index: 0, count: 1 });
+    let at = |i: u64| (u128::from(k) * u128::from(i) / u128::from(spec.count)) as u64;
+    (at(spec.index)..at(spec.index + 1)).collect()
+}
+
+fn chunk_ids(k: u64, s: &GenerateSettings) -> [u64; 2] {
+    [k * s.chunk_size, ((k + 1) * s.chunk_size).min(s.count)]
+}
+
+fn part_name(k: u64) -> String {
+    format!("part-{k:05}.parquet")
+}
+
+/// A complete part file of chunk `k` from an earlier run, if any. Partial
+/// writes never carry the final name; anything unreadable there is moved
+/// aside (never deleted) and regenerated.
+fn existing_part(out: &Path, k: u64, s: &GenerateSettings) -> Result<Option<PartSummary>, GenerateError> {
+    let path = out.join(part_name(k));
+    let _ = std::fs::remove_file(temporary_path(&path));
+    if !path.exists() {
+        return Ok(None);
+    }
+    match read_part_summary(&path) {
+        Ok(summary) if summary.ids == chunk_ids(k, s) => Ok(Some(summary)),
+        outcome => {
+            let why = outcome.err().map_or_else(|| "another id range".to_string(), |e| e.to_string());
+            let aside = out.join(format!("_damaged-{}", part_name(k)));
+            eprintln!(
+                "warning: {} is not a part of this dataset ({why}); moved to {}",
+                path.display(),
+                aside.display()
+            );
+            std::fs::rename(&path, &aside).map_err(|e| DataError::Io { path: path.clone(), source: e })?;
+            Ok(None)
+        }
+    }
+}
+
+struct RunContext<'a> {
+    family: &'a ProblemFamily,
+    settings: &'a GenerateSettings,
+    out: &'a Path,
+    joints: &'a [String],
+    ee_frame: &'a str,
+    progress: &'a ProgressRun,
+}
+
+type ChunkResult = (u64, PartSummary, Vec<SampleTiming>);
+
+fn run_chunks(c: &RunContext<'_>, pending: &[u64]) -> Result<Vec<ChunkResult>, GenerateError> {
+    let threads = c.settings.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| GenerateError::Threads(threads, e.to_string()))?;
+    pool.install(|| pending.par_iter().map(|&k| run_chunk(c, k)).collect())
+}
+
+fn run_chunk(c: &RunContext<'_>, k: u64) -> Result<ChunkResult, GenerateError> {
+    let ids = chunk_ids(k, c.settings);
+    let results: Vec<(SampleOutcome, SampleTiming)> = (ids[0]..ids[1])
+        .into_par_iter()
+        .map(|id| {
+            let result = run_sample(c.family, c.settings, id);
+            c.progress.sample_done(matches!(result.0, SampleOutcome::Accepted(_)));
+            result
+        })
+        .collect();
+    let (outcomes, timings): (Vec<_>, Vec<_>) = results.into_iter().unzip();
+    let meta = PartMeta { joints: c.joints, ee_frame: c.ee_frame, horizon: resolved_horizon(c), ids };
+    let summary = write_part(&c.out.join(part_name(k)), &meta, &outcomes)?;
+    write_timings(c.out, k, &outcomes, &timings)?;
+    Ok((k, summary, timings))
+}
+
+fn resolved_horizon(c: &RunContext<'_>) -> usize {
+    c.settings.horizon.unwrap_or(c.family.base.optimizer.horizon)
+}
+
+fn write_timings(out: &Path, k: u64, outcomes: &[SampleOutcome], timings: &[SampleTiming]) -> Result<(), DataError> {
+    let mut csv = String::from("id,outcome,plan_ms,optimize_ms,total_ms\n");
+    for (o, t) in outcomes.iter().zip(timings) {
+        let outcome = match o {
+            SampleOutcome::Accepted(_) => "accepted",
+            SampleOutcome::Rejected(r) => &r.reason,
+        };
+        csv.push_str(&format!("{},{outcome},{:.3},{:.3},{:.3}\n", o.id(), t.plan_ms, t.optimize_ms, t.total_ms));
+    }
+    write_atomically(&out.join("_timings").join(format!("part-{k:05}.csv")), csv.as_bytes())
+}

@@ -1,0 +1,315 @@
+//! One dataset sample: family sample → IK → RRT-Connect → optimizer →
+//! validation, and the record (or the rejection) it yields.
+
+use super::GenerateSettings;
+use crate::collision::Shape;
+use crate::komo::{KomoError, ProblemSolution, SolveOptions, solve_problem};
+use crate::plan::{IkError, PlanError, path_length};
+use crate::robot::KinematicsWorkspace;
+use crate::scene::{Goal, Problem, ProblemFamily};
+use nalgebra::{IsometryMatrix3, UnitQuaternion, Vector3};
+use std::time::{Duration, Instant};
+
+/// A pose as `[x, y, z, qx, qy, qz, qw]`: position (m) and unit quaternion
+/// (scalar last, as ROS and scipy), in the world frame.
+pub type PoseArray = [f64; 7];
+
+/// A shape placed in the world, as stored in the dataset.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlacedShape {
+    pub name: String,
+    /// `box`, `sphere`, `cylinder`, `capsule` or `convex`.
+    pub shape: &'static str,
+    /// See [`Shape::extents`] (m).
+    pub size: [f64; 3],
+    pub pose: PoseArray,
+}
+
+/// How the solve of an accepted sample went.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordReport {
+    pub outer_iterations: u32,
+    pub inner_steps: u32,
+    pub evaluations: u32,
+    /// `Σ r²` of the cost rows.
+    pub cost: f64,
+    /// Largest equality violation.
+    pub eq_violation: f64,
+    /// Largest inequality violation (≥ 0).
+    pub ineq_violation: f64,
+    /// Smallest signed distance over the slices (m; +∞ without a collision model).
+    pub min_distance: f64,
+    /// RRT-Connect iterations of the initial path.
+    pub plan_iterations: u32,
+    /// Joint-space length of start → q_1 → … → q_T (rad).
+    pub path_length: f64,
+    /// How far q_T is from the goal; see [`GoalMiss`].
+    pub goal_miss: GoalMiss,
+}
+
+/// Distance of a final configuration from the goal. Pose and grasp goals:
+/// the gripper's position error (m) and the angle (rad) between its axis
+/// and the target axis (full orientation error when the goal fixes one).
+/// Joint goals: `distance` 0 and `angle` the largest joint difference
+/// (rad, or m for prismatic joints).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GoalMiss {
+    pub distance: f64,
+    pub angle: f64,
+}
+
+/// An accepted trajectory with its problem parameters; one dataset row.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrajectoryRecord {
+    /// Sample id within the run (0 … N−1).
+    pub id: u64,
+    /// Seed of the sample's random stream, from (run seed, id).
+    pub seed: u64,
+    /// Seconds between slices.
+    pub time_step: f64,
+    /// Start configuration q_0 (at rest).
+    pub start: Vec<f64>,
+    /// Target pose of the gripper frame, for pose and grasp goals.
+    pub goal_pose: Option<PoseArray>,
+    /// Target configuration, for joint goals.
+    pub goal_joints: Option<Vec<f64>>,
+    /// Scene objects (graspable) and obstacles, table included.
+    pub objects: Vec<PlacedShape>,
+    pub obstacles: Vec<PlacedShape>,
+    /// q_1 … q_T.
+    pub q: Vec<Vec<f64>>,
+    /// Backward differences (q_t − q_{t−1}) / Δt, q_0 = start.
+    pub qd: Vec<Vec<f64>>,
+    /// Gripper frame poses at slices 1 … T, when the problem names a gripper.
+    pub ee_pose: Option<Vec<PoseArray>>,
+    pub report: RecordReport,
+}
+
+/// A sample that produced no trajectory, and why.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Rejection {
+    pub id: u64,
+    /// Stable snake_case reason: `sample_failed`, `ik_unreachable`,
+    /// `ik_in_collision`, `plan_failed`, `in_collision`, `outside_limits`,
+    /// `goal_missed`, a solver termination (`infeasible`,
+    /// `iteration_limit`, …) or `error`.
+    pub reason: String,
+    /// A human-readable explanation.
+    pub detail: String,
+}
+
+/// Wall-clock times of one sample (the only machine-dependent output).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SampleTiming {
+    /// IK + RRT-Connect + shortcutting (ms).
+    pub plan_ms: f64,
+    /// Everything else: sampling, optimization, re-solves, validation (ms).
+    pub optimize_ms: f64,
+    pub total_ms: f64,
+}
+
+/// What one sample produced.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SampleOutcome {
+    Accepted(Box<TrajectoryRecord>),
+    Rejected(Rejection),
+}
+
+impl SampleOutcome {
+    pub fn id(&self) -> u64 {
+        match self {
+            SampleOutcome::Accepted(r) => r.id,
+            SampleOutcome::Rejected(r) => r.id,
+        }
+    }
+}
+
+/// Generates sample `id` of `family` for the run settings: the outcome
+/// depends on (settings.seed, id, horizon, tolerances) only. Time budgets
+/// of the planner are lifted (its iteration budget bounds the work) so that
+/// machine load cannot change the dataset.
+pub fn run_sample(family: &ProblemFamily, settings: &GenerateSettings, id: u64) -> (SampleOutcome, SampleTiming) {
+    let began = Instant::now();
+    let reject =
+        |reason: &str, detail: String| SampleOutcome::Rejected(Rejection { id, reason: reason.into(), detail });
+    let sample = match family.sample(settings.seed, id) {
+        Ok(s) => s,
+        Err(e) => return (reject("sample_failed", e.to_string()), timing(began, Duration::ZERO)),
+    };
+    let mut problem = sample.problem;
+    problem.planner.time_limit = UNLIMITED_SECONDS;
+    let options = SolveOptions {
+        seed: Some(sample.seed),
+        horizon: settings.horizon,
+        validation_resolution: settings.validation_resolution,
+    };
+    let solution = match solve_problem(&problem, &options) {
+        Ok(s) => s,
+        Err(e) => return (reject(error_reason(&e), e.to_string()), timing(began, Duration::ZERO)),
+    };
+    let plan_time = solution.plan.planning_time + solution.plan.simplify_time;
+    let outcome = match solution.status() {
+        "converged" => accept(&problem, sample.seed, id, &solution, settings),
+        status => Ok(reject(status, format!("the solve ended {status}: {}", describe(&solution)))),
+    };
+    let outcome = outcome.unwrap_or_else(|e| reject("error", e.to_string()));
+    (outcome, timing(began, plan_time))
+}
+
+/// Planner budget used in generation (s): effectively none.
+const UNLIMITED_SECONDS: f64 = 1e6;
+
+fn timing(began: Instant, plan: Duration) -> SampleTiming {
+    let total = began.elapsed();
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    SampleTiming { plan_ms: ms(plan), optimize_ms: ms(total.saturating_sub(plan)), total_ms: ms(total) }
+}
+
+fn error_reason(e: &KomoError) -> &'static str {
+    match e {
+        KomoError::Plan(PlanError::Ik(IkError::Unreachable { .. })) => "ik_unreachable",
+        KomoError::Plan(PlanError::Ik(IkError::InCollision { .. })) => "ik_in_collision",
+        _ => "error",
+    }
+}
+
+fn describe(s: &ProblemSolution) -> String {
+    format!(
+        "plan {}, eq {:.1e}, ineq {:.1e}, min distance {:.2e} m",
+        s.plan.result.status.name(),
+        s.report.equality_violation,
+        s.report.inequality_violation,
+        s.validation.min_distance.unwrap_or(f64::INFINITY)
+    )
+}
+
+fn accept(
+    problem: &Problem,
+    seed: u64,
+    id: u64,
+    s: &ProblemSolution,
+    settings: &GenerateSettings,
+) -> Result<SampleOutcome, crate::robot::RobotError> {
+    let last = s.trajectory.last().map(Vec::as_slice).unwrap_or(&problem.start);
+    let miss = goal_miss(problem, last)?;
+    if miss.distance > settings.goal_tolerance || miss.angle > settings.goal_angle_tolerance {
+        let detail = format!("q_T misses the goal by {:.2e} m, {:.2e} rad", miss.distance, miss.angle);
+        return Ok(SampleOutcome::Rejected(Rejection { id, reason: "goal_missed".into(), detail }));
+    }
+    let mut full = Vec::with_capacity(s.trajectory.len() + 1);
+    full.push(problem.start.clone());
+    full.extend(s.trajectory.iter().cloned());
+    let qd = full.windows(2).map(|w| w[1].iter().zip(&w[0]).map(|(b, a)| (b - a) / s.time_step).collect()).collect();
+    let report = RecordReport {
+        outer_iterations: saturate(s.report.outer_iterations),
+        inner_steps: saturate(s.report.inner_steps),
+        evaluations: saturate(s.report.evaluations),
+        cost: s.report.cost,
+        eq_violation: s.report.equality_violation,
+        ineq_violation: s.report.inequality_violation,
+        min_distance: s.validation.min_distance.unwrap_or(f64::INFINITY),
+        plan_iterations: saturate(s.plan.result.iterations),
+        path_length: path_length(&full),
+        goal_miss: miss,
+    };
+    Ok(SampleOutcome::Accepted(Box::new(TrajectoryRecord {
+        id,
+        seed,
+        time_step: s.time_step,
+        start: problem.start.clone(),
+        goal_pose: goal_pose(problem).map(|p| pose_array(&p)),
+        goal_joints: match &problem.goal {
+            Goal::Joints(q) => Some(q.clone()),
+            _ => None,
+        },
+        objects: problem.scene.objects().iter().map(|o| placed(&o.name, &o.shape, &o.pose)).collect(),
+        obstacles: problem.scene.obstacles().iter().map(|o| placed(&o.name, &o.shape, &o.pose)).collect(),
+        qd,
+        ee_pose: gripper_poses(problem, &s.trajectory)?,
+        q: s.trajectory.clone(),
+        report,
+    })))
+}
+
+fn saturate(n: usize) -> u32 {
+    u32::try_from(n).unwrap_or(u32::MAX)
+}
+
+fn placed(name: &str, shape: &Shape, pose: &IsometryMatrix3<f64>) -> PlacedShape {
+    let e = shape.extents();
+    PlacedShape { name: name.to_string(), shape: shape.kind_name(), size: [e.x, e.y, e.z], pose: pose_array(pose) }
+}
+
+/// `[x, y, z, qx, qy, qz, qw]` of a pose.
+pub fn pose_array(pose: &IsometryMatrix3<f64>) -> PoseArray {
+    let t = pose.translation.vector;
+    let q = UnitQuaternion::from_rotation_matrix(&pose.rotation);
+    [t.x, t.y, t.z, q.i, q.j, q.k, q.w]
+}
+
+/// The world pose the goal asks of the gripper (grasp) or of its frame (pose).
+fn goal_pose(problem: &Problem) -> Option<IsometryMatrix3<f64>> {
+    match &problem.goal {
+        Goal::Grasp { .. } => problem.grasp_target(),
+        Goal::Pose { position, orientation, .. } => Some(IsometryMatrix3::from_parts(
+            (*position).into(),
+            orientation.unwrap_or_else(nalgebra::Rotation3::identity),
+        )),
+        Goal::Joints(_) => None,
+    }
+}
+
+fn gripper_poses(problem: &Problem, q: &[Vec<f64>]) -> Result<Option<Vec<PoseArray>>, crate::robot::RobotError> {
+    let Some(gripper) = &problem.robot_spec.gripper else { return Ok(None) };
+    let robot = &problem.robot;
+    let frame = robot.frame_id(gripper)?;
+    let mut ws = KinematicsWorkspace::new(robot);
+    let mut poses = Vec::with_capacity(q.len());
+    for qt in q {
+        robot.forward_kinematics(&mut ws, qt)?;
+        poses.push(pose_array(&robot.frame_pose(&ws, frame)));
+    }
+    Ok(Some(poses))
+}
+
+/// How far configuration `q` is from the problem's goal; see [`GoalMiss`].
+///
+/// # Errors
+/// Unknown frames or a configuration of the wrong length.
+pub fn goal_miss(problem: &Problem, q: &[f64]) -> Result<GoalMiss, crate::robot::RobotError> {
+    let robot = &problem.robot;
+    let frame_pose = |name: &str| -> Result<IsometryMatrix3<f64>, crate::robot::RobotError> {
+        let mut ws = KinematicsWorkspace::new(robot);
+        robot.forward_kinematics(&mut ws, q)?;
+        Ok(robot.frame_pose(&ws, robot.frame_id(name)?))
+    };
+    let axis_angle = |pose: &IsometryMatrix3<f64>, axis: usize, direction: &Vector3<f64>| {
+        (pose.rotation * Vector3::ith(axis, 1.0)).angle(direction)
+    };
+    Ok(match &problem.goal {
+        Goal::Joints(goal) => {
+            let angle = goal.iter().zip(q).map(|(g, v)| (g - v).abs()).fold(0.0, f64::max);
+            GoalMiss { distance: 0.0, angle }
+        }
+        Goal::Pose { frame, position, orientation, axis_alignment } => {
+            let pose = frame_pose(frame)?;
+            let angle = match (orientation, axis_alignment) {
+                (Some(r), _) => crate::robot::rotation_log(&(pose.rotation.inverse() * r)).norm(),
+                (None, Some((axis, direction))) => axis_angle(&pose, *axis, direction),
+                (None, None) => 0.0,
+            };
+            GoalMiss { distance: (pose.translation.vector - position).norm(), angle }
+        }
+        Goal::Grasp { .. } => {
+            let (Some(gripper), Some(target)) = (&problem.robot_spec.gripper, problem.grasp_target()) else {
+                return Ok(GoalMiss { distance: f64::INFINITY, angle: f64::INFINITY });
+            };
+            let pose = frame_pose(gripper)?;
+            let approach = target.rotation * Vector3::z();
+            GoalMiss {
+                distance: (pose.translation.vector - target.translation.vector).norm(),
+                angle: axis_angle(&pose, 2, &approach),
+            }
+        }
+    })
+}

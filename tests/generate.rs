@@ -1,0 +1,140 @@
+//! `tandem generate`: determinism across thread counts and shardings, a
+//! real run killed with SIGKILL and resumed, refusal of mismatched
+//! parameters, and the dataset read back by pyarrow + Pinocchio
+//! (python_ref/check_dataset.py).
+
+mod common;
+
+use common::{repo, run_python};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+const COUNT: &str = "12";
+const CHUNK: &str = "3";
+const PARTS: usize = 4;
+
+fn family() -> String {
+    repo().join("problems/panda_grasp_family.toml").display().to_string()
+}
+
+fn generate_command(out: &Path, extra: &[&str]) -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_tandem"));
+    cmd.args(["generate", "--family", &family(), "--count", COUNT, "--chunk-size", CHUNK, "-T", "20", "--seed", "3"])
+        .arg("--out")
+        .arg(out)
+        .args(["--quiet"])
+        .args(extra);
+    cmd
+}
+
+fn generate(out: &Path, extra: &[&str]) -> Output {
+    let output = generate_command(out, extra).output().expect("run tandem generate");
+    assert!(output.status.success(), "tandem generate failed:\n{}", String::from_utf8_lossy(&output.stderr));
+    output
+}
+
+/// Every file of the dataset (timings excluded: they are wall-clock times).
+fn dataset_files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+        .collect()
+}
+
+fn part_files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    dataset_files(dir).into_iter().filter(|(name, _)| name.starts_with("part-")).collect()
+}
+
+fn manifest(dir: &Path, name: &str) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join(name)).unwrap()).unwrap()
+}
+
+#[test]
+fn dataset_is_identical_across_threads_shards_and_a_killed_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (one, two, sharded, killed) =
+        (tmp.path().join("one"), tmp.path().join("two"), tmp.path().join("sharded"), tmp.path().join("killed"));
+    generate(&one, &["--threads", "1"]);
+    let reference = dataset_files(&one);
+    assert_eq!(part_files(&one).len(), PARTS);
+    let m = manifest(&one, "_manifest.json");
+    assert_eq!(m["samples"], 12);
+    assert_eq!(m["accepted"].as_u64().unwrap() + m["rejected"].as_u64().unwrap(), 12);
+    assert!(m["accepted"].as_u64().unwrap() >= 11, "acceptance below 11/12: {m}");
+    assert_eq!(std::fs::read_dir(one.join("_timings")).unwrap().count(), PARTS);
+
+    // Two threads: the same bytes.
+    generate(&two, &["--threads", "2"]);
+    assert_eq!(dataset_files(&two), reference, "thread count changed the dataset");
+
+    // Two shards, then the unsharded command over their union: it only
+    // writes the manifest, which equals the one-run manifest.
+    generate(&sharded, &["--shard", "0/2"]);
+    generate(&sharded, &["--shard", "1/2"]);
+    assert_eq!(manifest(&sharded, "_manifest-shard-0-of-2.json")["ids"], serde_json::json!([0, 6]));
+    let union = generate(&sharded, &[]);
+    assert!(String::from_utf8_lossy(&union.stdout).contains("nothing to do"));
+    let mut files = dataset_files(&sharded);
+    files.retain(|name, _| !name.starts_with("_manifest-shard"));
+    assert_eq!(files, reference, "shards do not add up to one run");
+
+    // SIGKILL after the first part file lands, then the same command again.
+    let mut child = generate_command(&killed, &["--threads", "1"]).spawn().unwrap();
+    let began = Instant::now();
+    while !killed.join("part-00000.parquet").exists() {
+        assert!(began.elapsed() < Duration::from_secs(600), "no part file after 10 minutes");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL on Unix
+    child.wait().unwrap();
+    let survivors = part_files(&killed);
+    assert!(survivors.len() < PARTS, "the run ended before the kill; the test proves nothing");
+    for (name, bytes) in &survivors {
+        assert_eq!(Some(bytes), reference.get(name), "{name} differs after the kill");
+    }
+    assert!(!killed.join("_manifest.json").exists());
+    generate(&killed, &["--threads", "1"]);
+    assert_eq!(dataset_files(&killed), reference, "the resumed run differs from the uninterrupted one");
+
+    // pyarrow + Pinocchio read the dataset back and check it.
+    let urdf = repo().join("problems/robots/panda/panda.urdf");
+    let report = run_python("check_dataset.py", &[one.to_str().unwrap(), urdf.to_str().unwrap()], "");
+    let report: serde_json::Value = serde_json::from_str(&report).unwrap();
+    assert_eq!(report["rows"], m["accepted"]);
+    assert!(report["worst"]["ee_pose"].as_f64().unwrap() < 1e-9, "{report}");
+}
+
+#[test]
+fn resuming_with_other_parameters_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("d");
+    let mut first = Command::new(env!("CARGO_BIN_EXE_tandem"));
+    first.args(["generate", "--family", &family(), "--count", "1", "-T", "10", "--quiet", "--out"]).arg(&out);
+    assert!(first.output().unwrap().status.success());
+    let mut other = Command::new(env!("CARGO_BIN_EXE_tandem"));
+    other.args(["generate", "--family", &family(), "--count", "1", "-T", "10", "--seed", "9", "--out"]).arg(&out);
+    let output = other.output().unwrap();
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("seed = 0") && stderr.contains("asks 9"), "{stderr}");
+}
+
+#[test]
+fn bad_arguments_are_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        let output = Command::new(env!("CARGO_BIN_EXE_tandem")).arg("generate").args(args).output().unwrap();
+        assert_ne!(output.status.code(), Some(0));
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let out = tmp.path().join("x").display().to_string();
+    let fam = family();
+    assert!(run(&["--family", &fam, "--count", "0", "--out", &out]).contains("--count must be at least 1"));
+    assert!(run(&["--family", &fam, "--count", "5", "--out", &out, "--shard", "2/2"]).contains("0 ≤ I < M"));
+    assert!(run(&["--family", "missing.toml", "--count", "5", "--out", &out]).contains("missing.toml"));
+    assert!(run(&["--family", &fam, "--count", "5", "--out", &out, "--threads", "0"]).contains("--threads"));
+}
