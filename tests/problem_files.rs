@@ -1017,3 +1017,19 @@ fn family_obstacle_ranges() {
     let text = family_text(&format!("{OBSTACLES}clearance = -0.01\n"));
     expect_family_error(&text, "clearance", "obstacles.clearance", "must be zero or positive");
 }
+
+#[test]
+fn flipped_grasp_keeps_position_and_approach_axis() {
+    let mut problem = Problem::builtin("panda_grasp_box").unwrap();
+    let before = problem.scene.grasp_pose("box", "center").unwrap();
+    problem.scene.flip_grasp("box", "center").unwrap();
+    let after = problem.scene.grasp_pose("box", "center").unwrap();
+    assert!((after.translation.vector - before.translation.vector).norm() < 1e-15);
+    let axis = |p: &nalgebra::IsometryMatrix3<f64>, i: usize| p.rotation.matrix().column(i).into_owned();
+    assert!((axis(&after, 2) - axis(&before, 2)).norm() < 1e-15, "approach axis kept");
+    assert!((axis(&after, 0) + axis(&before, 0)).norm() < 1e-15, "x turned by π");
+    assert!((axis(&after, 1) + axis(&before, 1)).norm() < 1e-15, "y turned by π");
+    let err = problem.scene.flip_grasp("box", "centre").unwrap_err().to_string();
+    assert!(err.contains("grasp frame named 'centre'") && err.contains("center"), "{err}");
+    assert!(problem.scene.flip_grasp("crate", "center").is_err());
+}

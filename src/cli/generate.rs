@@ -35,6 +35,10 @@ pub struct GenerateArgs {
     /// Ids per part file (part of the dataset's identity).
     #[arg(long, default_value_t = 100, value_name = "IDS")]
     pub chunk_size: u64,
+    /// IK + planning + optimization attempts per sample (each with another
+    /// planner seed) before it counts as rejected.
+    #[arg(long, default_value_t = 3)]
+    pub attempts: u32,
     /// Print the manifest as one JSON object instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -51,6 +55,7 @@ pub(super) fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>>
         threads: args.threads,
         shard: args.shard,
         chunk_size: args.chunk_size,
+        attempts: args.attempts,
         ..GenerateSettings::default()
     };
     let progress = if args.quiet || args.json { Progress::quiet() } else { Progress::auto() };

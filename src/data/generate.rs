@@ -53,6 +53,9 @@ pub struct GenerateSettings {
     pub shard: Option<ShardSpec>,
     /// Ids per part file.
     pub chunk_size: u64,
+    /// IK + planning + optimization attempts per sample, each with another
+    /// planner seed, before it is rejected.
+    pub attempts: u32,
     /// Joint step of the final collision check between slices (rad).
     pub validation_resolution: f64,
     /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
@@ -69,6 +72,7 @@ impl Default for GenerateSettings {
             threads: None,
             shard: None,
             chunk_size: 100,
+            attempts: 3,
             validation_resolution: 0.002,
             goal_tolerance: 1e-3,
             goal_angle_tolerance: 1e-2,
@@ -186,6 +190,9 @@ fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
     if s.horizon.is_some_and(|t| t < 2) {
         return bad("the horizon T must be at least 2");
     }
+    if s.attempts == 0 {
+        return bad("--attempts must be at least 1");
+    }
     if s.threads == Some(0) {
         return bad("--threads must be at least 1");
     }
@@ -212,6 +219,7 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         count: s.count,
         horizon: s.horizon.unwrap_or(family.base.optimizer.horizon),
         chunk_size: s.chunk_size,
+        attempts: s.attempts,
         validation_resolution: s.validation_resolution,
         goal_tolerance: s.goal_tolerance,
         goal_angle_tolerance: s.goal_angle_tolerance,

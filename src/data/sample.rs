@@ -6,8 +6,9 @@ use crate::collision::Shape;
 use crate::komo::{KomoError, ProblemSolution, SolveOptions, solve_problem};
 use crate::plan::{IkError, PlanError, path_length};
 use crate::robot::KinematicsWorkspace;
-use crate::scene::{Goal, Problem, ProblemFamily};
+use crate::scene::{Goal, Problem, ProblemFamily, sample_seed};
 use nalgebra::{IsometryMatrix3, UnitQuaternion, Vector3};
+use std::borrow::Cow;
 use std::time::{Duration, Instant};
 
 /// A pose as `[x, y, z, qx, qy, qz, qw]`: position (m) and unit quaternion
@@ -41,6 +42,8 @@ pub struct RecordReport {
     pub min_distance: f64,
     /// RRT-Connect iterations of the initial path.
     pub plan_iterations: u32,
+    /// Attempts it took (1 = the first IK + planning + optimization).
+    pub attempts: u32,
     /// Joint-space length of start → q_1 → … → q_T (rad).
     pub path_length: f64,
     /// How far q_T is from the goal; see [`GoalMiss`].
@@ -124,8 +127,10 @@ impl SampleOutcome {
     }
 }
 
-/// Generates sample `id` of `family` for the run settings: the outcome
-/// depends on (settings.seed, id, horizon, tolerances) only. Time budgets
+/// Generates sample `id` of `family` for the run settings, trying up to
+/// `settings.attempts` times (odd attempts with the flipped grasp, each
+/// with another IK + planning seed): the outcome depends on
+/// (settings.seed, id, horizon, attempts, tolerances) only. Time budgets
 /// of the planner are lifted (its iteration budget bounds the work) so that
 /// machine load cannot change the dataset.
 pub fn run_sample(family: &ProblemFamily, settings: &GenerateSettings, id: u64) -> (SampleOutcome, SampleTiming) {
@@ -138,22 +143,66 @@ pub fn run_sample(family: &ProblemFamily, settings: &GenerateSettings, id: u64) 
     };
     let mut problem = sample.problem;
     problem.planner.time_limit = UNLIMITED_SECONDS;
+    let mut plan_time = Duration::ZERO;
+    let mut outcome = reject("error", "no attempt was made".into());
+    for attempt in 0..settings.attempts.max(1) {
+        let variant = grasp_variant(&problem, attempt);
+        let (next, planned) = attempt_sample(&variant, sample.seed, id, attempt, settings);
+        plan_time += planned;
+        outcome = next;
+        if matches!(outcome, SampleOutcome::Accepted(_)) {
+            break;
+        }
+    }
+    (outcome, timing(began, plan_time))
+}
+
+/// The problem of attempt `a`: odd attempts of a grasp turn the grasp frame
+/// by π about its approach axis ([`Scene::flip_grasp`](crate::scene::Scene::flip_grasp)),
+/// an equivalent grasp whose wrist motion can avoid what blocked the first.
+fn grasp_variant(problem: &Problem, attempt: u32) -> Cow<'_, Problem> {
+    match &problem.goal {
+        Goal::Grasp { object, grasp } if attempt % 2 == 1 => {
+            let mut flipped = problem.clone();
+            match flipped.scene.flip_grasp(object, grasp) {
+                Ok(()) => Cow::Owned(flipped),
+                Err(_) => Cow::Borrowed(problem),
+            }
+        }
+        _ => Cow::Borrowed(problem),
+    }
+}
+
+/// One IK + planning + optimization attempt: attempt `a` seeds IK and
+/// RRT-Connect with `sample_seed(seed, a)` (the sample's own seed for a = 0),
+/// so a retry explores another goal configuration and initial path.
+fn attempt_sample(
+    problem: &Problem,
+    seed: u64,
+    id: u64,
+    attempt: u32,
+    settings: &GenerateSettings,
+) -> (SampleOutcome, Duration) {
+    let reject = |reason: &str, detail: String| {
+        let detail = format!("attempt {}: {detail}", attempt + 1);
+        SampleOutcome::Rejected(Rejection { id, reason: reason.into(), detail })
+    };
+    let planner_seed = if attempt == 0 { seed } else { sample_seed(seed, u64::from(attempt)) };
     let options = SolveOptions {
-        seed: Some(sample.seed),
+        seed: Some(planner_seed),
         horizon: settings.horizon,
         validation_resolution: settings.validation_resolution,
     };
-    let solution = match solve_problem(&problem, &options) {
+    let solution = match solve_problem(problem, &options) {
         Ok(s) => s,
-        Err(e) => return (reject(error_reason(&e), e.to_string()), timing(began, Duration::ZERO)),
+        Err(e) => return (reject(error_reason(&e), e.to_string()), Duration::ZERO),
     };
     let plan_time = solution.plan.planning_time + solution.plan.simplify_time;
     let outcome = match solution.status() {
-        "converged" => accept(&problem, sample.seed, id, &solution, settings),
+        "converged" => accept(problem, seed, id, attempt, &solution, settings),
         status => Ok(reject(status, format!("the solve ended {status}: {}", describe(&solution)))),
     };
-    let outcome = outcome.unwrap_or_else(|e| reject("error", e.to_string()));
-    (outcome, timing(began, plan_time))
+    (outcome.unwrap_or_else(|e| reject("error", e.to_string())), plan_time)
 }
 
 /// Planner budget used in generation (s): effectively none.
@@ -187,6 +236,7 @@ fn accept(
     problem: &Problem,
     seed: u64,
     id: u64,
+    attempt: u32,
     s: &ProblemSolution,
     settings: &GenerateSettings,
 ) -> Result<SampleOutcome, crate::robot::RobotError> {
@@ -209,6 +259,7 @@ fn accept(
         ineq_violation: s.report.inequality_violation,
         min_distance: s.validation.min_distance.unwrap_or(f64::INFINITY),
         plan_iterations: saturate(s.plan.result.iterations),
+        attempts: attempt + 1,
         path_length: path_length(&full),
         goal_miss: miss,
     };

@@ -37,7 +37,8 @@
 //! | `q` | f64\[T\]\[n\] | q_1 … q_T (rad or m) |
 //! | `qd` | f64\[T\]\[n\] | (q_t − q_{t−1}) / time_step |
 //! | `ee_pose` | f64\[T\]\[7\] or null | gripper frame poses at slices 1 … T |
-//! | `outer_iterations`, `inner_steps`, `evaluations`, `plan_iterations` | u32 | solver and planner counts |
+//! | `outer_iterations`, `inner_steps`, `evaluations`, `plan_iterations` | u32 | solver and planner counts (of the accepted attempt) |
+//! | `attempts` | u32 | IK + planning + optimization attempts it took (retries use other planner seeds) |
 //! | `cost`, `eq_violation`, `ineq_violation` | f64 | optimizer report |
 //! | `min_distance` | f64 | smallest signed distance over the slices (m) |
 //! | `path_length` | f64 | joint-space length of q_0 … q_T (rad) |
@@ -183,6 +184,7 @@ fn report_columns(records: &[&TrajectoryRecord]) -> Vec<(&'static str, ArrayRef,
         ("inner_steps", u32_column(records, |r| r.report.inner_steps), false),
         ("evaluations", u32_column(records, |r| r.report.evaluations), false),
         ("plan_iterations", u32_column(records, |r| r.report.plan_iterations), false),
+        ("attempts", u32_column(records, |r| r.report.attempts), false),
         ("cost", f64_column(records, |r| r.report.cost), false),
         ("eq_violation", f64_column(records, |r| r.report.eq_violation), false),
         ("ineq_violation", f64_column(records, |r| r.report.ineq_violation), false),

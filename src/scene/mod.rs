@@ -31,7 +31,7 @@ pub use problem::{
 
 use crate::collision::{CollisionError, Shape};
 use crate::robot::suggest_names;
-use nalgebra::IsometryMatrix3;
+use nalgebra::{IsometryMatrix3, Rotation3, Vector3};
 use thiserror::Error;
 
 /// A fixed obstacle.
@@ -217,6 +217,40 @@ impl Scene {
             name: name.to_string(),
             suggestions,
         })
+    }
+
+    /// Moves a free object to world `pose` (its grasp frames move with it).
+    ///
+    /// # Errors
+    /// Unknown object, an attached object, a non-finite pose.
+    pub fn set_object_pose(&mut self, object: &str, pose: IsometryMatrix3<f64>) -> Result<(), SceneError> {
+        if !finite_pose(&pose) {
+            return Err(SceneError::NonFinitePose(object.to_string()));
+        }
+        let obj = self.object_mut(object)?;
+        if obj.attachment.is_some() {
+            return Err(SceneError::AttachmentState { name: object.to_string(), state: "attached" });
+        }
+        obj.pose = pose;
+        Ok(())
+    }
+
+    /// Turns grasp frame `grasp` of `object` by π about its own z (approach)
+    /// axis: the same grasp for a parallel-jaw gripper, with the fingers
+    /// swapped, reached with the wrist turned the other way.
+    ///
+    /// # Errors
+    /// Unknown object or grasp name.
+    pub fn flip_grasp(&mut self, object: &str, grasp: &str) -> Result<(), SceneError> {
+        let obj = self.object_mut(object)?;
+        let suggestions = suggest_names(grasp, obj.grasps.iter().map(|g| g.name.as_str()));
+        let g = obj.grasps.iter_mut().find(|g| g.name == grasp).ok_or_else(|| SceneError::Unknown {
+            kind: "grasp frame",
+            name: grasp.to_string(),
+            suggestions,
+        })?;
+        g.pose.rotation *= Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI);
+        Ok(())
     }
 
     /// World pose of grasp frame `grasp` of a free object.
