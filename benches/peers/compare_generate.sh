@@ -35,8 +35,10 @@
 # (tandem's includes its sampling and writing Parquet).
 # Timed: tandem — `tandem generate`'s own rate (samples / wall time of the
 # run, family loading included), median of its per-sample times
-# (_timings/*.csv); RAI — the sum of its per-sample times (scene, goal, RRT,
-# KOMO) plus the one-off robot build, median per-sample time.
+# (_timings/*.csv), and the process's CPU time; RAI — the sum of its
+# per-sample times (scene, goal, RRT, KOMO) plus the one-off robot build,
+# median per-sample time, and the same in process CPU time. samples/CPU-s
+# discounts the other load of a shared machine.
 #
 # Needs the peers' venv (benches/peers/setup_peers.sh). Writes
 # target/peers/generate/ (samples/, tandem_dataset/, *.json) and
@@ -88,8 +90,12 @@ echo "== exporting samples 0..$count of $family (seed $seed, T = $horizon)" >&2
 load_before="$(cut -d' ' -f1-3 /proc/loadavg 2>/dev/null || echo '?')"
 began=$SECONDS
 echo "== tandem generate: $count samples, 1 thread" >&2
-"$tandem" generate --family "$family" --count "$count" --seed "$seed" -T "$horizon" --threads 1 --quiet \
-  --out "$out/tandem_dataset" | tee "$out/tandem_summary.txt" >&2
+# bash's `time` adds the process's CPU time (user, system) to the summary.
+TIMEFORMAT='cpu: %U user %S system'
+{ time "$tandem" generate --family "$family" --count "$count" --seed "$seed" -T "$horizon" --threads 1 --quiet \
+  --out "$out/tandem_dataset" >"$out/tandem_summary.txt"; } 2>>"$out/tandem_summary.txt" \
+  || die "tandem generate failed: $(cat "$out/tandem_summary.txt")"
+cat "$out/tandem_summary.txt" >&2
 "$export_bin" "$family" --count "$count" --seed "$seed" -T "$horizon" --dataset "$out/tandem_dataset" \
   >"$out/tandem_measured.json"
 

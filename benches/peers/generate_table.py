@@ -66,6 +66,7 @@ def tandem_side(out):
     m = re.search(r"(\d+) samples in ([\d.]+) s, ([\d.]+) samples/s", text)
     if not m:
         raise SystemExit(f"no rate in {out}/tandem_summary.txt:\n{text}")
+    cpu = re.search(r"cpu: ([\d.]+) user ([\d.]+) system", text)
     rows = []
     for f in sorted(glob.glob(os.path.join(out, "tandem_dataset", "_timings", "*.csv"))):
         with open(f) as fh:
@@ -74,7 +75,9 @@ def tandem_side(out):
     side = {
         "name": "tandem generate",
         "samples": int(m.group(1)),
-        "seconds": float(m.group(2)),
+        # The printed rate comes from the exact elapsed time (the seconds are rounded).
+        "seconds": int(m.group(1)) / float(m.group(3)),
+        "cpu_seconds": float(cpu.group(1)) + float(cpu.group(2)) if cpu else None,
         "own_accepted": sum(1 for s in measured["samples"] if s.get("accepted")),
         "median_ms": median([float(r["total_ms"]) for r in rows]),
         "phases_ms": {"plan (RRT-Connect + shortcut)": median([float(r["plan_ms"]) for r in rows]),
@@ -97,6 +100,7 @@ def rai_side(path):
         "samples": len(samples),
         "seconds": (sum(totals) + d.get("setup_ms", 0.0)) / 1e3,
         "setup_ms": d.get("setup_ms"),
+        "cpu_seconds": (sum(s["cpu_ms"] for s in samples) + d.get("setup_cpu_ms", 0.0)) / 1e3,
         "own_accepted": sum(1 for s in samples if s["converged"]),
         "median_ms": median(totals),
         "median_cpu_ms": median([s["cpu_ms"] for s in samples]),
@@ -111,6 +115,7 @@ def rai_side(path):
 
 def rates(side):
     side["samples_per_s"] = side["samples"] / side["seconds"]
+    side["samples_per_cpu_s"] = side["samples"] / side["cpu_seconds"] if side["cpu_seconds"] else None
     side["accepted_per_s"] = {k: n / side["seconds"] for k, n in side["accepted"].items()}
     side["acceptance"] = {k: n / side["samples"] for k, n in side["accepted"].items()}
 
@@ -135,24 +140,26 @@ def main():
     print(f"\nBulk generation: {tandem['samples']} samples of the family, T = 50, single-threaded "
           f"(load average {load_before} before, {load_after} after)")
     head = (f"{'generator':<22} {'samples/s':>9} {'accepted/s':>11} {'acceptance':>11} {'acc/s @' + t2:>11} "
-            f"{'acc. @' + t2:>10} {'median ms':>10}")
+            f"{'acc. @' + t2:>10} {'median ms':>10} {'samples/CPU-s':>14}")
     print(head)
     print(f"{'':<22} {'':>9} {'(eq<=' + t1 + ')':>11} {'(eq<=' + t1 + ')':>11}")
     for s in [tandem] + peers:
         print(f"{s['name']:<22} {s['samples_per_s']:>9.2f} {s['accepted_per_s'][t1]:>11.2f} "
               f"{100 * s['acceptance'][t1]:>10.1f}% {s['accepted_per_s'][t2]:>11.2f} "
-              f"{100 * s['acceptance'][t2]:>9.1f}% {s['median_ms']:>10.1f}")
+              f"{100 * s['acceptance'][t2]:>9.1f}% {s['median_ms']:>10.1f} {s['samples_per_cpu_s'] or float('nan'):>14.2f}")
     print()
     for p in peers:
         p["ratios"] = {
             "samples_per_s": ratio(tandem["samples_per_s"], p["samples_per_s"]),
             "accepted_per_s": {k: ratio(tandem["accepted_per_s"][k], p["accepted_per_s"][k]) for k in (t1, t2)},
             "median_time": ratio(p["median_ms"], tandem["median_ms"]),
+            "samples_per_cpu_s": ratio(tandem["samples_per_cpu_s"], p["samples_per_cpu_s"]),
         }
         r = p["ratios"]
         print(f"tandem / {p['name']}: samples/s {fmt_ratio(r['samples_per_s'])}, accepted/s "
               f"{fmt_ratio(r['accepted_per_s'][t1])} (@{t1}), {fmt_ratio(r['accepted_per_s'][t2])} (@{t2}); "
-              f"median per-sample time RAI/tandem {fmt_ratio(r['median_time'])}")
+              f"median per-sample time RAI/tandem {fmt_ratio(r['median_time'])}; "
+              f"samples/CPU-s {fmt_ratio(r['samples_per_cpu_s'])}")
     print(f"\nnot accepted (@{t1} | @{t2}):")
     print(f"  tandem: generate accepted {tandem['own_accepted']}; {tandem['failures'][t1]} | {tandem['failures'][t2]}")
     for p in peers:

@@ -99,14 +99,15 @@ class Robots:
     milliseconds per sphere shape) and copied for every sample."""
 
     def __init__(self):
-        self.configs, self.ms = {}, 0.0
+        self.configs, self.ms, self.cpu_ms = {}, 0.0, 0.0
 
     def get(self, scene):
         key = robot_key(scene)
         if key not in self.configs:
-            began = time.perf_counter()
+            began, cpu_began = time.perf_counter(), time.process_time()
             self.configs[key] = rai_plan.build_robot(scene)
             self.ms += (time.perf_counter() - began) * 1e3
+            self.cpu_ms += (time.process_time() - cpu_began) * 1e3
         return self.configs[key]
 
 
@@ -274,7 +275,7 @@ def main():
     for p in problems:  # one-off: counted in the total time, not per sample
         robots.get(plan_scene(p))
         robots.get(rai_komo.robot_scene(p))
-    setup_ms = robots.ms
+    setup_ms, setup_cpu_ms = robots.ms, robots.cpu_ms
     pairs = rai_plan.build_config(plan_scene(problems[0]))[1]
     if not args.no_warmup:
         generate_one(problems[0], args.goals, robots, options)
@@ -287,6 +288,7 @@ def main():
         "horizon": problems[0]["horizon"],
         "count": len(samples),
         "setup_ms": setup_ms,
+        "setup_cpu_ms": setup_cpu_ms,
         "warmup": not args.no_warmup,
         "timed": "scene (two RAI configs) + goal (RAI IK, or none with --goals tandem) + RRT_PathFinder + KOMO "
                  "(build + NLP_Solver.solve, AugmentedLag, default options)",
