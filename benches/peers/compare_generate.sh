@@ -72,7 +72,8 @@ if (( table )); then
   exec python3 "$here/generate_table.py" "$out" "$load_before" "$load_after"
 fi
 [[ -x "$venv/bin/python" ]] || die "no peers venv at $venv: run benches/peers/setup_peers.sh first"
-"$venv/bin/python" -c 'import robotic' 2>/dev/null \
+# (from /tmp: importing robotic writes z.log.global into the working directory)
+(cd /tmp && "$venv/bin/python" -c 'import robotic') >/dev/null 2>&1 \
   || die "robotic (RAI) missing from $venv or not importable: run benches/peers/setup_peers.sh (needs liblapack3)"
 
 cd "$repo"

@@ -80,6 +80,8 @@ def tandem_side(out):
         "cpu_seconds": float(cpu.group(1)) + float(cpu.group(2)) if cpu else None,
         "own_accepted": sum(1 for s in measured["samples"] if s.get("accepted")),
         "median_ms": median([float(r["total_ms"]) for r in rows]),
+        "slowest": max(((float(r["total_ms"]), int(r["id"]), r["outcome"]) for r in rows), default=None),
+        "sum_ms": sum(float(r["total_ms"]) for r in rows),
         "phases_ms": {"plan (RRT-Connect + shortcut)": median([float(r["plan_ms"]) for r in rows]),
                       "rest (sampling, models, IK, optimize, validate)":
                           median([float(r["optimize_ms"]) for r in rows])},
@@ -103,6 +105,8 @@ def rai_side(path):
         "cpu_seconds": (sum(s["cpu_ms"] for s in samples) + d.get("setup_cpu_ms", 0.0)) / 1e3,
         "own_accepted": sum(1 for s in samples if s["converged"]),
         "median_ms": median(totals),
+        "slowest": max(((s["times_ms"]["total"], s["id"], s["status"]) for s in samples), default=None),
+        "sum_ms": sum(totals),
         "median_cpu_ms": median([s["cpu_ms"] for s in samples]),
         "phases_ms": {k: median([s["times_ms"].get(k, 0.0) for s in samples]) for k in ("scene", "goal", "rrt", "komo")},
         "rrt_solved": sum(1 for s in samples if s.get("rrt_solved")),
@@ -170,6 +174,10 @@ def main():
     for p in peers:
         print(f"  {p['name']}: {json.dumps({k: round(v, 1) for k, v in p['phases_ms'].items()})}"
               f"; one-off robot build {p['setup_ms']:.0f} ms")
+    print("slowest sample (share of the summed sample times):")
+    for side in [tandem] + peers:
+        ms, i, outcome = side["slowest"]
+        print(f"  {side['name']}: id {i}, {ms:.0f} ms ({outcome}), {100 * ms / side['sum_ms']:.0f} %")
     result = {"load_before": load_before, "load_after": load_after, "tolerances": [t1, t2],
               "tandem": tandem, "peers": peers}
     path = os.path.join(os.path.dirname(os.path.abspath(out)), "generate_peers.json")
