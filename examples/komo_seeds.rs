@@ -46,15 +46,16 @@
 //! cargo run --release --example komo_seeds -- problems/panda_grasp_box.toml --horizon 50 --measure rai.json
 //! ```
 
+#[path = "support/peer_problem.rs"]
+mod peer_problem;
+
 use clap::Parser;
 use serde_json::{Value, json};
 use std::path::PathBuf;
 use std::time::Instant;
-use tandem::komo::{
-    Feature, FrameRef, Initialization, Measures, TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings,
-};
+use tandem::komo::{Initialization, Measures, TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
 use tandem::plan::{PlanStatus, ProblemPlanner, resample};
-use tandem::scene::{ObjectiveKind, Problem};
+use tandem::scene::Problem;
 use tandem_solvers::least_squares::{SolveReport, SolverSettings, Termination};
 
 #[derive(Debug, Parser)]
@@ -298,7 +299,7 @@ fn optimize(
         all_solve.extend(solve_times);
     }
     if let Some(file) = &args.export {
-        let export = peer_problem(args, problem, optimizer, &inits)?;
+        let export = export_json(args, problem, optimizer, &inits)?;
         std::fs::write(file, serde_json::to_string(&export)?)
             .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
     }
@@ -320,71 +321,16 @@ fn optimize(
     }))
 }
 
-/// The problem as the peers see it (see the module documentation).
-fn peer_problem(
+/// The problem as the peers see it (see the module documentation): the
+/// shared keys of `support/peer_problem.rs` plus the initialisations with
+/// tandem's measures of them.
+fn export_json(
     args: &Args,
     problem: &Problem,
     optimizer: &TrajectoryOptimizer,
     inits: &[(u64, bool, Vec<Vec<f64>>)],
 ) -> Result<Value, Error> {
-    let tp = optimizer.problem();
-    let robot = tp.robot();
-    let model = tp.collision_model().ok_or("the problem has no collision model")?;
-    let urdf = problem.robot_spec.collision_urdf.as_ref().unwrap_or(&problem.robot_spec.urdf);
-    let urdf = std::fs::canonicalize(urdf).map_err(|e| format!("robot URDF {}: {e}", urdf.display()))?;
-    let exchange = model
-        .to_exchange_json(&urdf, &[], &[])
-        .ok_or("the collision model has shapes the exchange format cannot describe")?;
-    let specs = &problem.optimizer.objectives;
-    let mut objectives = Vec::new();
-    for (index, objective) in tp.objectives().iter().enumerate() {
-        let spec_frames = specs.get(index).map(|s| s.frames.as_slice()).unwrap_or(&[]);
-        let frame = |k: usize, f: &FrameRef| match f {
-            FrameRef::Robot(id) => json!({"robot": robot.frame_name(*id)}),
-            FrameRef::Fixed(pose) => {
-                let r = pose.rotation.matrix();
-                json!({
-                    "fixed": spec_frames.get(k).cloned().unwrap_or_else(|| format!("fixed{index}_{k}")),
-                    "translation": pose.translation.vector.as_slice(),
-                    "rotation": (0..3).map(|i| [r[(i, 0)], r[(i, 1)], r[(i, 2)]]).collect::<Vec<_>>(),
-                })
-            }
-        };
-        let (feature, frames, axes, margin) = match &objective.feature {
-            Feature::JointState => ("joint_state", vec![], vec![], None),
-            Feature::JointLimits { margin } => ("joint_limits", vec![], vec![], Some(*margin)),
-            Feature::Position { frame: f } => ("position", vec![frame(0, f)], vec![], None),
-            Feature::PositionDifference { a, b } => {
-                ("position_difference", vec![frame(0, a), frame(1, b)], vec![], None)
-            }
-            Feature::ScalarProduct { a, axis_a, b, axis_b } => {
-                ("scalar_product", vec![frame(0, a), frame(1, b)], vec![*axis_a, *axis_b], None)
-            }
-            Feature::Vector { a, axis, b } => ("vector", vec![frame(0, a), frame(1, b)], vec![*axis], None),
-            Feature::OrientationDifference { a, b } => {
-                ("orientation_difference", vec![frame(0, a), frame(1, b)], vec![], None)
-            }
-            Feature::Collision { margin } => ("collision", vec![], vec![], Some(*margin)),
-        };
-        let kind = match objective.kind {
-            ObjectiveKind::SumOfSquares => "sos",
-            ObjectiveKind::Equality => "eq",
-            ObjectiveKind::Inequality => "ineq",
-        };
-        let (first, last) = objective.time.slices(tp.horizon());
-        objectives.push(json!({
-            "name": objective.name,
-            "feature": feature,
-            "frames": frames,
-            "axes": axes,
-            "kind": kind,
-            "scale": objective.scale,
-            "target": objective.target,
-            "order": objective.order,
-            "slices": [first, last],
-            "margin": margin,
-        }));
-    }
+    let mut out = peer_problem::problem_json(problem, optimizer.problem())?;
     let mut init_values = Vec::new();
     for (index, (seed, planned, init)) in inits.iter().enumerate() {
         let v = Verdict::of(args, optimizer, init)?;
@@ -399,24 +345,10 @@ fn peer_problem(
             "collision_free": v.collision_free,
         }));
     }
-    let limits = robot.limits();
-    Ok(json!({
-        "problem": problem.name,
-        "origin": problem.origin,
-        "joints": robot.joint_names(),
-        "joint_limits": limits.iter().map(|l| [l.lower, l.upper]).collect::<Vec<_>>(),
-        "start": tp.start(),
-        "horizon": tp.horizon(),
-        "order": problem.optimizer.order,
-        "duration": problem.optimizer.duration,
-        "time_step": tp.time_step(),
-        "padding": model.padding(),
-        "objectives": objectives,
-        "inits": init_values,
-        "tolerance": args.tolerance,
-        "resolution": args.resolution,
-        "exchange": exchange,
-    }))
+    out.insert("inits".into(), json!(init_values));
+    out.insert("tolerance".into(), json!(args.tolerance));
+    out.insert("resolution".into(), json!(args.resolution));
+    Ok(Value::Object(out))
 }
 
 /// The measure mode: tandem's verdict on every trajectory of a peer's file.

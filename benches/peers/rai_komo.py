@@ -29,9 +29,10 @@ RAI's collision feature differs from tandem's: per slice ONE scalar, the sum
 over the shape pairs closer than the margin of (margin − d), where tandem has
 one inequality per pair. RAI's Python API fixes that margin at 0, so the
 margin is built into the geometry instead: every robot sphere is inflated by
-margin/2 and every obstacle box becomes an ssBox (the box swept by a ball of
-radius margin/2), which lowers every sphere–sphere and sphere–box distance by
-exactly the margin. Fixed frames (objects, grasp frames) are added as
+margin/2 and every obstacle is swept by a ball of radius margin/2 (a box
+becomes an ssBox, a cylinder an ssCylinder, a sphere's radius grows; see
+rai_plan.set_obstacle_shape), which lowers every sphere–sphere and
+sphere–obstacle distance by exactly the margin. Fixed frames (objects, grasp frames) are added as
 world-fixed marker frames at tandem's poses.
 
 The solver is RAI's own NLP_Solver with its augmented Lagrangian
@@ -57,22 +58,24 @@ from komo_common import AXES, collision_margin, emit, is_world, load_problem, re
 ry = None  # the robotic module, imported in main() (after the chdir)
 
 
-def build_config(problem):
+def robot_scene(problem):
+    """The scene rai_plan.build_robot / build_config read for the KOMO
+    configuration: the spheres grown by the padding plus half the margin."""
+    margin = collision_margin(problem) or 0.0
+    return {"exchange": problem["exchange"], "padding": problem.get("padding", 0.0) + margin / 2,
+            "problem": problem["problem"]}
+
+
+def build_config(problem, robot=None, report=True):
     """The robot and obstacles as a RAI configuration with the collision
     margin built into the shapes, plus marker frames for the fixed frames;
-    returns (C, pair report, marker names by tandem frame name)."""
+    returns (C, pair report, marker names by tandem frame name). `robot`: a
+    configuration from rai_plan.build_robot(robot_scene(problem)) to copy."""
     import rai_plan
 
     rai_plan.ry = ry
     margin = collision_margin(problem) or 0.0
-    scene = {"exchange": problem["exchange"], "padding": problem.get("padding", 0.0) + margin / 2,
-             "problem": problem["problem"]}
-    C, pairs = rai_plan.build_config(scene)
-    r = margin / 2
-    for o in problem["exchange"]["obstacles"]:
-        f = C.getFrame(o["name"])
-        size = [2 * h + 2 * r for h in o["half_extents"]]
-        f.setShape(ry.ST.ssBox, size + [r])
+    C, pairs = rai_plan.build_config(robot_scene(problem), robot, margin / 2, report)
     markers = {}
     for objective in problem["objectives"]:
         for frame in objective["frames"]:

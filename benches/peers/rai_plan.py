@@ -6,8 +6,9 @@ SCENE.json comes from `examples/plan_seeds.rs --scene`. The configuration
 is built here frame by frame from the problem's URDF (joint origins, hinge
 joints with their limits, held joints fixed at their values) with one sphere
 frame per URDF collision sphere, padded like tandem's search, and the
-obstacles as boxes. RAI decides which shape pairs it checks from the frame
-tree and the shapes' `contact` flags; they are set so that its pairs equal
+obstacles as RAI shapes (box, sphere, capsule, cylinder: set_obstacle_shape).
+RAI decides which shape pairs it checks from the frame tree and the shapes'
+`contact` flags; they are set so that its pairs equal
 tandem's (robot spheres: contact -1, no collision with the parent link;
 obstacles: children of the base, the table with contact -1, so it is not
 checked against the base link). Pairs RAI cannot express (the grasp
@@ -31,6 +32,7 @@ Prints one JSON object (keys of plan_seeds) on stdout.
 """
 
 import argparse
+import functools
 import math
 import os
 import re
@@ -45,12 +47,33 @@ from planning_common import (CaptureStdout, element_names, emit, load_scene, med
 ry = None  # the robotic module, imported in main() (after the chdir)
 
 
-def build_config(scene):
-    """The robot and obstacles as a RAI configuration; returns (C, joint
-    frame names in the scene's joint order, report of the pair mapping)."""
+def build_config(scene, robot=None, sweep=0.0, report=True):
+    """The robot and obstacles as a RAI configuration; returns (C, report of
+    the pair mapping, or None without `report`). `robot`: a configuration
+    from build_robot(scene) to copy instead of building the robot anew (RAI
+    takes milliseconds per sphere shape); `sweep`: grow the obstacles by it
+    (set_obstacle_shape)."""
+    if robot is None:
+        C = build_robot(scene)
+    else:
+        C = ry.Config()
+        C.addConfigurationCopy(robot)
+    left_out = add_obstacles(C, scene, sweep)
+    return C, pair_report(C, scene, left_out) if report else None
+
+
+@functools.lru_cache(maxsize=8)
+def _urdf(path):
+    return read_urdf(path)
+
+
+def build_robot(scene):
+    """The robot alone: its kinematic tree, held joints at their values, one
+    sphere frame per URDF collision sphere padded by the scene's padding,
+    and an empty rigid `obstacles` link under the base."""
     e = scene["exchange"]
     pad = scene["padding"]
-    base, joints, spheres = read_urdf(e["urdf"])
+    base, joints, spheres = _urdf(e["urdf"])
     active = {name: i for i, name in enumerate(e["joints"])}
     held = e.get("held", {})
     C = ry.Config()
@@ -89,10 +112,22 @@ def build_config(scene):
         xyz, radius = element
         f = C.addFrame(f"{r['link']}_{r['index']}", r["link"]).setRelativePosition(xyz)
         f.setShape(ry.ST.sphere, [radius + pad]).setContact(-1)
-    # Obstacles: one rigid link under the base. An obstacle tandem does not
-    # check against the base link gets contact -1 (RAI then skips the base);
-    # one tandem does not check against other robot elements (an allowed
-    # grasp contact) cannot be expressed and is left out (contact 0).
+    C.addFrame("obstacles", base).setJoint(ry.JT.rigid)
+    if list(C.getJointNames()) != joint_frames:
+        raise SystemExit(f"RAI joint order {C.getJointNames()} differs from {joint_frames}")
+    return C
+
+
+def add_obstacles(C, scene, sweep=0.0):
+    """The scene's obstacles as frames of the `obstacles` link; returns the
+    names of those left out of the collision checks.
+
+    An obstacle tandem does not check against the base link gets contact -1
+    (RAI then skips the base); one tandem does not check against other
+    robot elements (an allowed grasp contact) cannot be expressed and is
+    left out (contact 0)."""
+    e = scene["exchange"]
+    base = _urdf(e["urdf"])[0]
     names = element_names(scene)
     n_robot = len(e["robot_elements"])
     checked = {k: set() for k in range(n_robot, len(names))}
@@ -100,11 +135,8 @@ def build_config(scene):
         if b >= n_robot and a < n_robot:
             checked[b].add(a)
     base_elements = {k for k, r in enumerate(e["robot_elements"]) if r["link"] == base}
-    C.addFrame("obstacles", base).setJoint(ry.JT.rigid)
     left_out = []
     for k, o in enumerate(e["obstacles"], start=n_robot):
-        if o["shape"] != "box":
-            raise SystemExit(f"obstacle {o['name']}: only boxes are mapped, got {o['shape']}")
         missing = set(range(n_robot)) - checked[k]
         if not missing:
             contact = 1
@@ -114,10 +146,30 @@ def build_config(scene):
             contact = 0
             left_out.append(o["name"])
         f = C.addFrame(o["name"], "obstacles").setPosition(o["translation"]).setRotationMatrix(np.array(o["rotation"]))
-        f.setShape(ry.ST.box, [2 * h for h in o["half_extents"]]).setContact(contact)
-    if list(C.getJointNames()) != joint_frames:
-        raise SystemExit(f"RAI joint order {C.getJointNames()} differs from {joint_frames}")
-    return C, pair_report(C, scene, left_out)
+        set_obstacle_shape(f, o, sweep)
+        f.setContact(contact)
+    return left_out
+
+
+def set_obstacle_shape(frame, o, sweep=0.0):
+    """An exchange obstacle's shape on a RAI frame, grown by `sweep` (m):
+    the shape swept by a ball of that radius, so every distance to it drops
+    by exactly `sweep` (box: ssBox; sphere, capsule: radius + sweep;
+    cylinder: ssCylinder). RAI's cylinder and capsule run along z, as
+    tandem's; sizes [length, radius] (ss: total extents, then the sweep)."""
+    shape, r = o["shape"], sweep
+    if shape == "box":
+        size = [2 * h + 2 * r for h in o["half_extents"]]
+        frame.setShape(ry.ST.ssBox, size + [r]) if r else frame.setShape(ry.ST.box, size)
+    elif shape == "sphere":
+        frame.setShape(ry.ST.sphere, [o["radius"] + r])
+    elif shape == "capsule":
+        frame.setShape(ry.ST.capsule, [o["length"], o["radius"] + r])
+    elif shape == "cylinder":
+        size = [o["length"] + 2 * r, o["radius"] + r]
+        frame.setShape(ry.ST.ssCylinder, size + [r]) if r else frame.setShape(ry.ST.cylinder, size)
+    else:
+        raise SystemExit(f"obstacle {o['name']}: shape {shape} is not mapped to RAI")
 
 
 def pair_report(C, scene, left_out):

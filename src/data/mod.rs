@@ -29,6 +29,6 @@ mod trajectory;
 pub use generate::{GenerateError, GenerateSettings, GenerateSummary, ShardSpec, generate};
 pub use manifest::{DatasetParameters, Manifest, PartEntry};
 pub use progress::Progress;
-pub use sample::{Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, run_sample};
+pub use sample::{GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_sample};
 pub use shard::{PartSummary, read_part_summary, write_part};
 pub use trajectory::{DataError, TrajectoryTable, write_csv, write_parquet};
