@@ -39,6 +39,9 @@ pub struct GenerateArgs {
     /// planner seed) before it counts as rejected.
     #[arg(long, default_value_t = 3)]
     pub attempts: u32,
+    /// Evaluation budget of each optimizer solve of an attempt.
+    #[arg(long, default_value_t = 200, value_name = "N")]
+    pub max_evaluations: usize,
     /// Print the manifest as one JSON object instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -56,6 +59,7 @@ pub(super) fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>>
         shard: args.shard,
         chunk_size: args.chunk_size,
         attempts: args.attempts,
+        max_evaluations: args.max_evaluations,
         ..GenerateSettings::default()
     };
     let progress = if args.quiet || args.json { Progress::quiet() } else { Progress::auto() };

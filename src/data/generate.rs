@@ -56,6 +56,10 @@ pub struct GenerateSettings {
     /// IK + planning + optimization attempts per sample, each with another
     /// planner seed, before it is rejected.
     pub attempts: u32,
+    /// Evaluation budget of each optimizer solve (the base problem's
+    /// `optimizer.max_iterations` is replaced): a sample that needs more is
+    /// better retried with the flipped grasp than pushed on.
+    pub max_evaluations: usize,
     /// Joint step of the final collision check between slices (rad).
     pub validation_resolution: f64,
     /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
@@ -73,6 +77,7 @@ impl Default for GenerateSettings {
             shard: None,
             chunk_size: 100,
             attempts: 3,
+            max_evaluations: 200,
             validation_resolution: 0.002,
             goal_tolerance: 1e-3,
             goal_angle_tolerance: 1e-2,
@@ -190,8 +195,8 @@ fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
     if s.horizon.is_some_and(|t| t < 2) {
         return bad("the horizon T must be at least 2");
     }
-    if s.attempts == 0 {
-        return bad("--attempts must be at least 1");
+    if s.attempts == 0 || s.max_evaluations == 0 {
+        return bad("--attempts and --max-evaluations must be at least 1");
     }
     if s.threads == Some(0) {
         return bad("--threads must be at least 1");
@@ -220,6 +225,7 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         horizon: s.horizon.unwrap_or(family.base.optimizer.horizon),
         chunk_size: s.chunk_size,
         attempts: s.attempts,
+        max_evaluations: s.max_evaluations,
         validation_resolution: s.validation_resolution,
         goal_tolerance: s.goal_tolerance,
         goal_angle_tolerance: s.goal_angle_tolerance,

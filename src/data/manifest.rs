@@ -29,6 +29,8 @@ pub struct DatasetParameters {
     pub chunk_size: u64,
     /// IK + planning + optimization attempts per sample.
     pub attempts: u32,
+    /// Evaluation budget of each optimizer solve.
+    pub max_evaluations: usize,
     /// Joint step of the final collision check between slices (rad).
     pub validation_resolution: f64,
     /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.

@@ -143,6 +143,7 @@ pub fn run_sample(family: &ProblemFamily, settings: &GenerateSettings, id: u64) 
     };
     let mut problem = sample.problem;
     problem.planner.time_limit = UNLIMITED_SECONDS;
+    problem.optimizer.max_iterations = settings.max_evaluations;
     let mut plan_time = Duration::ZERO;
     let mut outcome = reject("error", "no attempt was made".into());
     for attempt in 0..settings.attempts.max(1) {
