@@ -49,6 +49,8 @@
 #[path = "support/peer_problem.rs"]
 mod peer_problem;
 
+#[path = "support/timing.rs"]
+mod timing;
 use clap::Parser;
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -57,6 +59,7 @@ use tandem::komo::{Initialization, Measures, TrajectoryOptimizer, TrajectoryProb
 use tandem::plan::{PlanStatus, ProblemPlanner, resample};
 use tandem::scene::Problem;
 use tandem_solvers::least_squares::{SolveReport, SolverSettings, Termination};
+use timing::{cpu_time_ms, median};
 
 #[derive(Debug, Parser)]
 #[command(about = "Optimize one problem from several initialisations, many times; print JSON")]
@@ -382,25 +385,4 @@ fn measure_file(args: &Args, optimizer: &TrajectoryOptimizer, file: &PathBuf) ->
     peer["tolerance"] = json!(args.tolerance);
     peer["resolution"] = json!(args.resolution);
     Ok(peer)
-}
-
-/// CPU time of this process (ms).
-fn cpu_time_ms() -> f64 {
-    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: `t` is a valid, writable timespec; the clock id is a constant
-    // every Linux and macOS libc provides.
-    let status = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) };
-    if status != 0 {
-        return f64::NAN;
-    }
-    t.tv_sec as f64 * 1e3 + t.tv_nsec as f64 * 1e-6
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }

@@ -20,6 +20,8 @@
 //! cargo run --release --example plan_seeds -- problems/panda_reach_obstacle.toml --seeds 50 --scene scene.json
 //! ```
 
+#[path = "support/timing.rs"]
+mod timing;
 use clap::Parser;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -29,6 +31,7 @@ use std::time::{Duration, Instant};
 use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::plan::{PlanStatus, ProblemPlanner};
 use tandem::scene::Problem;
+use timing::{cpu_time_ms, median};
 
 #[derive(Debug, Parser)]
 #[command(about = "Plan one problem for many seeds; print timing statistics as JSON")]
@@ -174,27 +177,6 @@ fn verdicts(model: &CollisionModel, configs: &[Vec<f64>]) -> Result<(Vec<bool>, 
         per_check.push(began.elapsed().as_secs_f64() * 1e9 / configs.len().max(1) as f64);
     }
     Ok((free, median(&mut per_check)))
-}
-
-/// CPU time of this process (ms).
-fn cpu_time_ms() -> f64 {
-    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: `t` is a valid, writable timespec; the clock id is a constant
-    // every Linux and macOS libc provides.
-    let status = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) };
-    if status != 0 {
-        return f64::NAN;
-    }
-    t.tv_sec as f64 * 1e3 + t.tv_nsec as f64 * 1e-6
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 /// Nearest-rank percentile (`p` in 0..=1).

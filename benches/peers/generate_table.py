@@ -20,15 +20,9 @@ import os
 import re
 import sys
 
+from planning_common import median
+
 TOLERANCES = (1e-4, 1e-3)
-
-
-def median(values):
-    v = sorted(values)
-    if not v:
-        return None
-    n = len(v)
-    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
 
 
 def accepted(s, converged, tol):
