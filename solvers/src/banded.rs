@@ -47,12 +47,15 @@ pub struct SymmetricBand {
     /// Row `i` holds columns `i − b ..= i` at `data[i(b+1) .. (i+1)(b+1)]`;
     /// columns before 0 are zero padding.
     data: Vec<f64>,
+    /// Per row, the first column of its envelope (set by `factorize`).
+    first: Vec<usize>,
 }
 
 impl SymmetricBand {
     /// The zero matrix of size `n` and half bandwidth `bandwidth`.
     pub fn zeros(n: usize, bandwidth: usize) -> SymmetricBand {
-        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)] }
+        let first = (0..n).map(|i| i.saturating_sub(bandwidth)).collect();
+        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)], first }
     }
 
     /// Number of rows (and columns).
@@ -101,6 +104,7 @@ impl SymmetricBand {
     pub fn copy_from(&mut self, other: &SymmetricBand) {
         assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
         self.data.copy_from_slice(&other.data);
+        self.first.copy_from_slice(&other.first);
     }
 
     /// Adds `v` to every diagonal entry.
@@ -155,9 +159,12 @@ impl SymmetricBand {
 
     /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`).
     ///
-    /// Right-looking: once column `j` of `L` is known, it updates the
-    /// trailing rows with contiguous multiply-adds (which vectorise), not
-    /// short dot products.
+    /// Row by row (left-looking): entry `L[i][j]` is one dot product of
+    /// two contiguous row segments. Only each row's *envelope* is worked
+    /// on — from its first nonzero column to the diagonal, which the factor
+    /// keeps (`L[i][j] = 0` wherever `A` has only zeros left of `(i, j)`) —
+    /// so rows that reach less far than the band (e.g. a trajectory's first
+    /// joints of a slice) cost less.
     ///
     /// # Errors
     /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
@@ -165,37 +172,29 @@ impl SymmetricBand {
     pub fn factorize(&mut self) -> Result<(), NotPositiveDefinite> {
         let (n, b) = (self.n, self.bandwidth);
         let stride = b + 1;
-        // Column j below the diagonal, gathered contiguously.
-        let mut column = [0.0f64; 64];
-        let mut heap = Vec::new();
-        let column: &mut [f64] = if b <= column.len() {
-            &mut column[..b]
-        } else {
-            heap.resize(b, 0.0);
-            &mut heap
-        };
-        for j in 0..n {
-            let jj = j * stride + b;
-            let pivot = self.data[jj];
+        for (i, first) in self.first.iter_mut().enumerate() {
+            // Padding columns before 0 are zero, so `lead ≥ b − i`.
+            let lead = self.data[i * stride..i * stride + b].iter().position(|v| *v != 0.0).unwrap_or(b);
+            *first = i + lead - b;
+        }
+        let first = &self.first;
+        for i in 0..n {
+            let (done, rest) = self.data.split_at_mut(i * stride);
+            let row = &mut rest[..stride];
+            // Column c of row r sits at offset c + b − r of its storage.
+            let fi = first[i];
+            for j in fi..i {
+                let rj = &done[j * stride..(j + 1) * stride];
+                let c0 = first[j].max(fi);
+                let s = dot(&row[c0 + b - i..j + b - i], &rj[c0 + b - j..b]);
+                row[j + b - i] = (row[j + b - i] - s) / rj[b];
+            }
+            let lower = &row[fi + b - i..b];
+            let pivot = row[b] - dot(lower, lower);
             if !(pivot > 0.0 && pivot.is_finite()) {
-                return Err(NotPositiveDefinite { pivot: j, value: pivot });
+                return Err(NotPositiveDefinite { pivot: i, value: pivot });
             }
-            let l = pivot.sqrt();
-            self.data[jj] = l;
-            let end = (j + b).min(n - 1);
-            for (k, i) in (j + 1..=end).enumerate() {
-                let ij = i * stride + b + j - i;
-                self.data[ij] /= l;
-                column[k] = self.data[ij];
-            }
-            for (k, i) in (j + 1..=end).enumerate() {
-                // A[i][j+1 ..= i] −= L[i][j] · L[j+1 ..= i][j]
-                let lij = column[k];
-                let first = i * stride + b + (j + 1) - i;
-                for (a, c) in self.data[first..first + k + 1].iter_mut().zip(&column[..=k]) {
-                    *a -= lij * c;
-                }
-            }
+            row[b] = pivot.sqrt();
         }
         Ok(())
     }
@@ -206,10 +205,9 @@ impl SymmetricBand {
     /// If `rhs` does not have `n` entries.
     pub fn solve_in_place(&self, rhs: &mut [f64]) {
         assert_eq!(rhs.len(), self.n);
-        let b = self.bandwidth;
         // L y = rhs
         for i in 0..self.n {
-            let k0 = i.saturating_sub(b);
+            let k0 = self.first[i];
             let row = self.index(i, k0);
             let dot = dot(&self.data[row..row + i - k0], &rhs[k0..i]);
             rhs[i] = (rhs[i] - dot) / self.data[row + i - k0];
@@ -217,7 +215,7 @@ impl SymmetricBand {
         // Lᵀ x = y, row by row from the bottom: once x_i is known, remove
         // its contribution from the rows above.
         for i in (0..self.n).rev() {
-            let k0 = i.saturating_sub(b);
+            let k0 = self.first[i];
             let row = self.index(i, k0);
             rhs[i] /= self.data[row + i - k0];
             let xi = rhs[i];
