@@ -34,8 +34,11 @@ pub struct SolverSettings {
     /// Largest `μ`; a problem still infeasible there is reported
     /// [`Termination::Infeasible`]. Default 1e9.
     pub max_penalty: f64,
-    /// First Levenberg-Marquardt damping, relative to the largest diagonal
-    /// entry of `JᵀJ`. Default 1e-6.
+    /// First Levenberg-Marquardt damping of each inner loop, relative to
+    /// the largest diagonal entry of the cost rows' `JᵀJ` (of all rows'
+    /// when there are no cost rows; the constraint rows' grow with the
+    /// penalty, the curvature the damping competes with does not).
+    /// Default 1e-6.
     pub initial_damping: f64,
     /// Largest step in ∞-norm (a trust bound; variable units). Default ∞.
     pub max_step: f64,
@@ -392,7 +395,8 @@ impl AugmentedLagrangian {
         let mut accepted = 0;
         let mut assembled = false;
         // Damping carried over from the last inner loop would be tuned to a
-        // different penalty; start afresh.
+        // different penalty; start afresh (relative to the cost's curvature,
+        // which the penalty does not scale).
         self.damping = 0.0;
         self.damping_growth = 2.0;
         loop {
@@ -413,7 +417,7 @@ impl AugmentedLagrangian {
                 }
             }
             if self.damping == 0.0 {
-                self.damping = self.settings.initial_damping * self.undamped.max_diagonal().max(1.0);
+                self.damping = self.initial_damping();
             }
             let Some(predicted) = self.damped_step(merit) else {
                 if self.reject_step() {
@@ -558,22 +562,18 @@ impl AugmentedLagrangian {
     /// `max diag(J_rᵀJ_r) / max diag(J_cᵀJ_c)` of the cost rows `r` and
     /// constraint rows `c` at the current point (at least 1).
     fn curvature_ratio(&mut self) -> f64 {
-        let mut largest = [0.0f64; 2];
-        for (k, blocks) in
-            [&[&self.current.cost][..], &[&self.current.equality, &self.current.inequality]].iter().enumerate()
-        {
-            self.gradient.fill(0.0);
-            for block in blocks.iter() {
-                for r in 0..block.len() {
-                    let (first, jac) = block.gradient(r);
-                    for (d, j) in self.gradient[first..first + jac.len()].iter_mut().zip(jac) {
-                        *d += j * j;
-                    }
-                }
-            }
-            largest[k] = self.gradient.iter().fold(0.0, |m, &d| m.max(d));
-        }
-        if largest[1] > 0.0 { (largest[0] / largest[1]).max(1.0) } else { 1.0 }
+        let cost = largest_diagonal(&[&self.current.cost], &mut self.gradient);
+        let constraints = largest_diagonal(&[&self.current.equality, &self.current.inequality], &mut self.gradient);
+        if constraints > 0.0 { (cost / constraints).max(1.0) } else { 1.0 }
+    }
+
+    /// The first damping of an inner loop: `initial_damping` times the
+    /// largest diagonal entry of the cost rows' `JᵀJ` (of every row's
+    /// without cost rows), at least `initial_damping`.
+    fn initial_damping(&mut self) -> f64 {
+        let cost = largest_diagonal(&[&self.current.cost], &mut self.step);
+        let scale = if cost > 0.0 { cost } else { self.undamped.max_diagonal() };
+        self.settings.initial_damping * scale.max(1.0)
     }
 
     fn step_norm(&self) -> f64 {
@@ -626,4 +626,19 @@ impl AugmentedLagrangian {
         self.equality.update(&self.current.equality, |l, h| l + 2.0 * mu * h);
         self.inequality.update(&self.current.inequality, |l, g| (l + 2.0 * mu * g).max(0.0));
     }
+}
+
+/// The largest diagonal entry of `Σ JᵀJ` over the rows of `blocks`;
+/// `scratch` (one entry per variable) is overwritten.
+fn largest_diagonal(blocks: &[&RowBlock], scratch: &mut [f64]) -> f64 {
+    scratch.fill(0.0);
+    for block in blocks {
+        for r in 0..block.len() {
+            let (first, jac) = block.gradient(r);
+            for (d, j) in scratch[first..first + jac.len()].iter_mut().zip(jac) {
+                *d += j * j;
+            }
+        }
+    }
+    scratch.iter().fold(0.0, |m, &d| m.max(d))
 }
