@@ -5,7 +5,9 @@
 //! slice every row of the matrix has nonzeros within `(k + 1)·n − 1`
 //! columns of the diagonal. A dedicated band factorisation costs
 //! `O(N·b²)` for `N` unknowns and half bandwidth `b` and allocates nothing;
-//! each row's band is contiguous, so the inner products vectorise.
+//! each row's band is contiguous, so the inner products vectorise — on
+//! AVX2 machines 4 lanes wide instead of SSE2's 2, with identical results
+//! (the same operations in the same order, no fused multiply-adds).
 //!
 //! ```
 //! use tandem_solvers::banded::SymmetricBand;
@@ -128,6 +130,22 @@ impl SymmetricBand {
     pub fn add_outer(&mut self, first: usize, v: &[f64], w: f64) {
         assert!(v.len() <= self.bandwidth + 1, "row of width {} exceeds band {}", v.len(), self.bandwidth);
         assert!(first + v.len() <= self.n, "block leaves the matrix");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { self.add_outer_avx2(first, v, w) };
+        }
+        self.add_outer_body(first, v, w);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_outer_avx2(&mut self, first: usize, v: &[f64], w: f64) {
+        self.add_outer_body(first, v, w);
+    }
+
+    #[inline(always)]
+    fn add_outer_body(&mut self, first: usize, v: &[f64], w: f64) {
         for (a, &va) in v.iter().enumerate() {
             let row = self.index(first + a, first);
             let wa = w * va;
@@ -170,6 +188,22 @@ impl SymmetricBand {
     /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
     /// storage then holds a partial factor.
     pub fn factorize(&mut self) -> Result<(), NotPositiveDefinite> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { self.factorize_avx2() };
+        }
+        self.factorize_body()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn factorize_avx2(&mut self) -> Result<(), NotPositiveDefinite> {
+        self.factorize_body()
+    }
+
+    #[inline(always)]
+    fn factorize_body(&mut self) -> Result<(), NotPositiveDefinite> {
         let (n, b) = (self.n, self.bandwidth);
         let stride = b + 1;
         for (i, first) in self.first.iter_mut().enumerate() {
