@@ -147,6 +147,11 @@ impl SymmetricBand {
     #[inline(always)]
     fn add_outer_body(&mut self, first: usize, v: &[f64], w: f64) {
         for (a, &va) in v.iter().enumerate() {
+            // Rows of k-order differences are mostly zeros (one entry per
+            // slice per joint): their rows of v vᵀ add nothing.
+            if va == 0.0 {
+                continue;
+            }
             let row = self.index(first + a, first);
             let wa = w * va;
             for (dst, &vb) in self.data[row..=row + a].iter_mut().zip(v) {
