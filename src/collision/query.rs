@@ -112,12 +112,18 @@ impl CollisionModel {
     /// objects wait for [`place_group`](Self::place_group).
     fn place_centers(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
         self.robot.forward_kinematics(&mut ws.kinematics, q)?;
+        self.place_centers_placed(ws);
+        Ok(())
+    }
+
+    /// [`place_centers`](Self::place_centers) at the body poses already in
+    /// `ws.kinematics`.
+    fn place_centers_placed(&self, ws: &mut CollisionWorkspace) {
         for (g, group) in self.groups.iter().enumerate() {
             let Some(body) = group.body else { continue };
             ws.centers[g] = self.robot.body_pose(&ws.kinematics, body) * group.center;
             ws.placed[g] = false;
         }
-        Ok(())
     }
 
     /// Places the objects of group `g`, unless they already are.
@@ -226,6 +232,26 @@ impl CollisionModel {
         cutoff: f64,
     ) -> Result<&'w [PairDistance], RobotError> {
         self.place_centers(ws, q)?;
+        Ok(self.placed_distances(ws, cutoff))
+    }
+
+    /// [`distances`](Self::distances) with the robot's bodies where
+    /// `kinematics` (a workspace of this model's robot after its forward
+    /// kinematics, e.g. one the caller needed anyway) has them; the
+    /// gradients of these distances then follow from `ws` as usual.
+    pub(crate) fn distances_at<'w>(
+        &self,
+        ws: &'w mut CollisionWorkspace,
+        kinematics: &KinematicsWorkspace,
+        cutoff: f64,
+    ) -> &'w [PairDistance] {
+        ws.kinematics.copy_body_poses_from(kinematics);
+        self.place_centers_placed(ws);
+        self.placed_distances(ws, cutoff)
+    }
+
+    /// The pairs closer than `cutoff` once the group centres are placed.
+    fn placed_distances<'w>(&self, ws: &'w mut CollisionWorkspace, cutoff: f64) -> &'w [PairDistance] {
         ws.distances.clear();
         for gp in &self.group_pairs {
             if prunes(self.group_bound(ws, gp.a, gp.b), cutoff) {
@@ -254,7 +280,7 @@ impl CollisionModel {
                 }
             }
         }
-        Ok(&ws.distances)
+        &ws.distances
     }
 
     /// Signed distance of one pair at `q` (see [`pair_count`](Self::pair_count)).
