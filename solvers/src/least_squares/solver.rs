@@ -365,7 +365,7 @@ impl AugmentedLagrangian {
         problem.evaluate(x, &mut self.trial).map_err(SolveError::Evaluation)?;
         let (dimension, bandwidth) = (self.dimension, self.normal.bandwidth());
         for block in self.trial.blocks() {
-            let (width, end) = (block.max_width(), block.column_end());
+            let (width, end) = block.extent();
             if width > bandwidth + 1 || end > dimension {
                 return Err(SolveError::RowOutsideBand { width, end, dimension, bandwidth });
             }
