@@ -109,10 +109,27 @@ impl SymmetricBand {
         self.first.copy_from_slice(&other.first);
     }
 
+    /// Copies rows `from ..` of `other` (of the same size and band) into
+    /// `self` without allocating; rows before `from` keep their values.
+    ///
+    /// # Panics
+    /// If the sizes or bands differ, or `from > n`.
+    pub fn copy_rows_from(&mut self, other: &SymmetricBand, from: usize) {
+        assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
+        let start = from * (self.bandwidth + 1);
+        self.data[start..].copy_from_slice(&other.data[start..]);
+        self.first[from..].copy_from_slice(&other.first[from..]);
+    }
+
     /// Adds `v` to every diagonal entry.
     pub fn add_to_diagonal(&mut self, v: f64) {
+        self.add_to_diagonal_from(v, 0);
+    }
+
+    /// Adds `v` to the diagonal entries of rows `from ..`.
+    pub fn add_to_diagonal_from(&mut self, v: f64, from: usize) {
         let stride = self.bandwidth + 1;
-        for d in self.data.iter_mut().skip(self.bandwidth).step_by(stride) {
+        for d in self.data.iter_mut().skip(from * stride + self.bandwidth).step_by(stride) {
             *d += v;
         }
     }
@@ -193,31 +210,44 @@ impl SymmetricBand {
     /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
     /// storage then holds a partial factor.
     pub fn factorize(&mut self) -> Result<(), NotPositiveDefinite> {
+        self.factorize_from(0)
+    }
+
+    /// [`factorize`](Self::factorize) of a matrix whose rows before `from`
+    /// already hold the factor of its leading `from × from` block — as
+    /// after a factorisation of a matrix that differs only in rows
+    /// `from ..` (e.g. rows `from ..` refreshed with
+    /// [`copy_rows_from`](Self::copy_rows_from)): those rows are kept, the
+    /// others factorised, with the same result as a full factorisation.
+    ///
+    /// # Errors
+    /// As [`factorize`](Self::factorize).
+    pub fn factorize_from(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { self.factorize_avx2() };
+            return unsafe { self.factorize_avx2(from) };
         }
-        self.factorize_body()
+        self.factorize_body(from)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn factorize_avx2(&mut self) -> Result<(), NotPositiveDefinite> {
-        self.factorize_body()
+    fn factorize_avx2(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
+        self.factorize_body(from)
     }
 
     #[inline(always)]
-    fn factorize_body(&mut self) -> Result<(), NotPositiveDefinite> {
+    fn factorize_body(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
         let (n, b) = (self.n, self.bandwidth);
         let stride = b + 1;
-        for (i, first) in self.first.iter_mut().enumerate() {
+        for (i, first) in self.first.iter_mut().enumerate().skip(from) {
             // Padding columns before 0 are zero, so `lead ≥ b − i`.
             let lead = self.data[i * stride..i * stride + b].iter().position(|v| *v != 0.0).unwrap_or(b);
             *first = i + lead - b;
         }
         let first = &self.first;
-        for i in 0..n {
+        for i in from..n {
             let (done, rest) = self.data.split_at_mut(i * stride);
             let row = &mut rest[..stride];
             // Column c of row r sits at offset c + b − r of its storage.
@@ -321,6 +351,22 @@ mod tests {
             for i in 0..n {
                 assert!((x[i] - expected[i]).abs() < 1e-9 * scale, "n={n} b={b} x[{i}]: {} vs {}", x[i], expected[i]);
             }
+        }
+    }
+
+    #[test]
+    fn refactorising_changed_rows_matches_a_full_factorisation() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for &(n, b, from) in &[(40, 6, 0), (40, 6, 17), (140, 20, 90), (30, 5, 29)] {
+            let (mut changed, _) = random_band(n, b, &mut rng);
+            let mut factor = changed.clone();
+            factor.factorize().expect("pd");
+            let v: Vec<f64> = (0..(b + 1).min(n - from)).map(|_| rng.random_range(-1.0..1.0)).collect();
+            changed.add_outer(from, &v, 0.7);
+            factor.copy_rows_from(&changed, from);
+            factor.factorize_from(from).expect("pd");
+            changed.factorize().expect("pd");
+            assert_eq!(factor, changed, "n={n} b={b} from={from}");
         }
     }
 

@@ -495,10 +495,13 @@ impl AugmentedLagrangian {
         self.active
             .extend((0..rows.len()).map(|r| rows.value(r) + self.inequality.get(rows.key(r)) / (2.0 * mu) > 0.0));
         let mut rounds = 0;
+        // Rows of the damped matrix before `from` are unchanged since the
+        // last factorisation, and so are those of its factor.
+        let mut from = 0;
         loop {
-            self.normal.copy_from(&self.augmented);
-            self.normal.add_to_diagonal(self.damping);
-            self.normal.factorize().ok()?;
+            self.normal.copy_rows_from(&self.augmented, from);
+            self.normal.add_to_diagonal_from(self.damping, from);
+            self.normal.factorize_from(from).ok()?;
             for (s, g) in self.step.iter_mut().zip(&self.rhs) {
                 *s = -g;
             }
@@ -510,10 +513,15 @@ impl AugmentedLagrangian {
                 if self.damping > 1e20 * self.undamped.max_diagonal().max(1.0) {
                     return None;
                 }
+                from = 0;
                 continue;
             }
-            if rounds == ACTIVATION_ROUNDS || !self.update_active_set() {
+            if rounds == ACTIVATION_ROUNDS {
                 break;
+            }
+            match self.update_active_set() {
+                Some(first) => from = first,
+                None => break,
             }
             rounds += 1;
         }
@@ -523,11 +531,12 @@ impl AugmentedLagrangian {
 
     /// Semi-smooth Newton on the hinges: makes the model's set of active
     /// inequality rows those with `g + λ/2μ + J·step > 0`, adding and
-    /// removing rows; true when the set changed. At a fixed point the step
-    /// minimises the damped piecewise-quadratic model exactly.
-    fn update_active_set(&mut self) -> bool {
+    /// removing rows; the first variable of the changed rows when the set
+    /// changed. At a fixed point the step minimises the damped
+    /// piecewise-quadratic model exactly.
+    fn update_active_set(&mut self) -> Option<usize> {
         let (mu, rows) = (self.penalty, &self.current.inequality);
-        let mut changed = false;
+        let mut changed: Option<usize> = None;
         for r in 0..rows.len() {
             let v = rows.value(r) + self.inequality.get(rows.key(r)) / (2.0 * mu);
             let (first, jac) = rows.gradient(r);
@@ -540,7 +549,7 @@ impl AugmentedLagrangian {
                     *g += sign * v * j;
                 }
                 self.active[r] = active;
-                changed = true;
+                changed = Some(changed.map_or(first, |c| c.min(first)));
             }
         }
         changed
