@@ -5,7 +5,9 @@
 //! slice every row of the matrix has nonzeros within `(k + 1)·n − 1`
 //! columns of the diagonal. A dedicated band factorisation costs
 //! `O(N·b²)` for `N` unknowns and half bandwidth `b` and allocates nothing;
-//! each row's band is contiguous, so the inner products vectorise.
+//! each row's band is contiguous, so the inner products vectorise — on
+//! AVX2 machines 4 lanes wide instead of SSE2's 2, with identical results
+//! (the same operations in the same order, no fused multiply-adds).
 //!
 //! ```
 //! use tandem_solvers::banded::SymmetricBand;
@@ -47,12 +49,15 @@ pub struct SymmetricBand {
     /// Row `i` holds columns `i − b ..= i` at `data[i(b+1) .. (i+1)(b+1)]`;
     /// columns before 0 are zero padding.
     data: Vec<f64>,
+    /// Per row, the first column of its envelope (set by `factorize`).
+    first: Vec<usize>,
 }
 
 impl SymmetricBand {
     /// The zero matrix of size `n` and half bandwidth `bandwidth`.
     pub fn zeros(n: usize, bandwidth: usize) -> SymmetricBand {
-        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)] }
+        let first = (0..n).map(|i| i.saturating_sub(bandwidth)).collect();
+        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)], first }
     }
 
     /// Number of rows (and columns).
@@ -101,12 +106,30 @@ impl SymmetricBand {
     pub fn copy_from(&mut self, other: &SymmetricBand) {
         assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
         self.data.copy_from_slice(&other.data);
+        self.first.copy_from_slice(&other.first);
+    }
+
+    /// Copies rows `from ..` of `other` (of the same size and band) into
+    /// `self` without allocating; rows before `from` keep their values.
+    ///
+    /// # Panics
+    /// If the sizes or bands differ, or `from > n`.
+    pub fn copy_rows_from(&mut self, other: &SymmetricBand, from: usize) {
+        assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
+        let start = from * (self.bandwidth + 1);
+        self.data[start..].copy_from_slice(&other.data[start..]);
+        self.first[from..].copy_from_slice(&other.first[from..]);
     }
 
     /// Adds `v` to every diagonal entry.
     pub fn add_to_diagonal(&mut self, v: f64) {
+        self.add_to_diagonal_from(v, 0);
+    }
+
+    /// Adds `v` to the diagonal entries of rows `from ..`.
+    pub fn add_to_diagonal_from(&mut self, v: f64, from: usize) {
         let stride = self.bandwidth + 1;
-        for d in self.data.iter_mut().skip(self.bandwidth).step_by(stride) {
+        for d in self.data.iter_mut().skip(from * stride + self.bandwidth).step_by(stride) {
             *d += v;
         }
     }
@@ -124,7 +147,28 @@ impl SymmetricBand {
     pub fn add_outer(&mut self, first: usize, v: &[f64], w: f64) {
         assert!(v.len() <= self.bandwidth + 1, "row of width {} exceeds band {}", v.len(), self.bandwidth);
         assert!(first + v.len() <= self.n, "block leaves the matrix");
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { self.add_outer_avx2(first, v, w) };
+        }
+        self.add_outer_body(first, v, w);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn add_outer_avx2(&mut self, first: usize, v: &[f64], w: f64) {
+        self.add_outer_body(first, v, w);
+    }
+
+    #[inline(always)]
+    fn add_outer_body(&mut self, first: usize, v: &[f64], w: f64) {
         for (a, &va) in v.iter().enumerate() {
+            // Rows of k-order differences are mostly zeros (one entry per
+            // slice per joint): their rows of v vᵀ add nothing.
+            if va == 0.0 {
+                continue;
+            }
             let row = self.index(first + a, first);
             let wa = w * va;
             for (dst, &vb) in self.data[row..=row + a].iter_mut().zip(v) {
@@ -155,47 +199,71 @@ impl SymmetricBand {
 
     /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`).
     ///
-    /// Right-looking: once column `j` of `L` is known, it updates the
-    /// trailing rows with contiguous multiply-adds (which vectorise), not
-    /// short dot products.
+    /// Row by row (left-looking): entry `L[i][j]` is one dot product of
+    /// two contiguous row segments. Only each row's *envelope* is worked
+    /// on — from its first nonzero column to the diagonal, which the factor
+    /// keeps (`L[i][j] = 0` wherever `A` has only zeros left of `(i, j)`) —
+    /// so rows that reach less far than the band (e.g. a trajectory's first
+    /// joints of a slice) cost less.
     ///
     /// # Errors
     /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
     /// storage then holds a partial factor.
     pub fn factorize(&mut self) -> Result<(), NotPositiveDefinite> {
+        self.factorize_from(0)
+    }
+
+    /// [`factorize`](Self::factorize) of a matrix whose rows before `from`
+    /// already hold the factor of its leading `from × from` block — as
+    /// after a factorisation of a matrix that differs only in rows
+    /// `from ..` (e.g. rows `from ..` refreshed with
+    /// [`copy_rows_from`](Self::copy_rows_from)): those rows are kept, the
+    /// others factorised, with the same result as a full factorisation.
+    ///
+    /// # Errors
+    /// As [`factorize`](Self::factorize).
+    pub fn factorize_from(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { self.factorize_avx2(from) };
+        }
+        self.factorize_body(from)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn factorize_avx2(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
+        self.factorize_body(from)
+    }
+
+    #[inline(always)]
+    fn factorize_body(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
         let (n, b) = (self.n, self.bandwidth);
         let stride = b + 1;
-        // Column j below the diagonal, gathered contiguously.
-        let mut column = [0.0f64; 64];
-        let mut heap = Vec::new();
-        let column: &mut [f64] = if b <= column.len() {
-            &mut column[..b]
-        } else {
-            heap.resize(b, 0.0);
-            &mut heap
-        };
-        for j in 0..n {
-            let jj = j * stride + b;
-            let pivot = self.data[jj];
+        for (i, first) in self.first.iter_mut().enumerate().skip(from) {
+            // Padding columns before 0 are zero, so `lead ≥ b − i`.
+            let lead = self.data[i * stride..i * stride + b].iter().position(|v| *v != 0.0).unwrap_or(b);
+            *first = i + lead - b;
+        }
+        let first = &self.first;
+        for i in from..n {
+            let (done, rest) = self.data.split_at_mut(i * stride);
+            let row = &mut rest[..stride];
+            // Column c of row r sits at offset c + b − r of its storage.
+            let fi = first[i];
+            for j in fi..i {
+                let rj = &done[j * stride..(j + 1) * stride];
+                let c0 = first[j].max(fi);
+                let s = dot(&row[c0 + b - i..j + b - i], &rj[c0 + b - j..b]);
+                row[j + b - i] = (row[j + b - i] - s) / rj[b];
+            }
+            let lower = &row[fi + b - i..b];
+            let pivot = row[b] - dot(lower, lower);
             if !(pivot > 0.0 && pivot.is_finite()) {
-                return Err(NotPositiveDefinite { pivot: j, value: pivot });
+                return Err(NotPositiveDefinite { pivot: i, value: pivot });
             }
-            let l = pivot.sqrt();
-            self.data[jj] = l;
-            let end = (j + b).min(n - 1);
-            for (k, i) in (j + 1..=end).enumerate() {
-                let ij = i * stride + b + j - i;
-                self.data[ij] /= l;
-                column[k] = self.data[ij];
-            }
-            for (k, i) in (j + 1..=end).enumerate() {
-                // A[i][j+1 ..= i] −= L[i][j] · L[j+1 ..= i][j]
-                let lij = column[k];
-                let first = i * stride + b + (j + 1) - i;
-                for (a, c) in self.data[first..first + k + 1].iter_mut().zip(&column[..=k]) {
-                    *a -= lij * c;
-                }
-            }
+            row[b] = pivot.sqrt();
         }
         Ok(())
     }
@@ -206,10 +274,9 @@ impl SymmetricBand {
     /// If `rhs` does not have `n` entries.
     pub fn solve_in_place(&self, rhs: &mut [f64]) {
         assert_eq!(rhs.len(), self.n);
-        let b = self.bandwidth;
         // L y = rhs
         for i in 0..self.n {
-            let k0 = i.saturating_sub(b);
+            let k0 = self.first[i];
             let row = self.index(i, k0);
             let dot = dot(&self.data[row..row + i - k0], &rhs[k0..i]);
             rhs[i] = (rhs[i] - dot) / self.data[row + i - k0];
@@ -217,7 +284,7 @@ impl SymmetricBand {
         // Lᵀ x = y, row by row from the bottom: once x_i is known, remove
         // its contribution from the rows above.
         for i in (0..self.n).rev() {
-            let k0 = i.saturating_sub(b);
+            let k0 = self.first[i];
             let row = self.index(i, k0);
             rhs[i] /= self.data[row + i - k0];
             let xi = rhs[i];
@@ -284,6 +351,22 @@ mod tests {
             for i in 0..n {
                 assert!((x[i] - expected[i]).abs() < 1e-9 * scale, "n={n} b={b} x[{i}]: {} vs {}", x[i], expected[i]);
             }
+        }
+    }
+
+    #[test]
+    fn refactorising_changed_rows_matches_a_full_factorisation() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for &(n, b, from) in &[(40, 6, 0), (40, 6, 17), (140, 20, 90), (30, 5, 29)] {
+            let (mut changed, _) = random_band(n, b, &mut rng);
+            let mut factor = changed.clone();
+            factor.factorize().expect("pd");
+            let v: Vec<f64> = (0..(b + 1).min(n - from)).map(|_| rng.random_range(-1.0..1.0)).collect();
+            changed.add_outer(from, &v, 0.7);
+            factor.copy_rows_from(&changed, from);
+            factor.factorize_from(from).expect("pd");
+            changed.factorize().expect("pd");
+            assert_eq!(factor, changed, "n={n} b={b} from={from}");
         }
     }
 

@@ -6,7 +6,7 @@ use super::shape::Shape;
 use super::spheres::SphereModel;
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::Scene;
-use nalgebra::{IsometryMatrix3, Point3, Vector3};
+use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -35,6 +35,8 @@ pub(crate) struct CollisionObject {
     pub(crate) source: ObjectSource,
     /// World bounding box of a static object.
     pub(crate) aabb: Option<(Point3<f64>, Point3<f64>)>,
+    /// `local` has the identity rotation (placing it is a translation).
+    pub(crate) unrotated: bool,
 }
 
 /// A rigid set of objects: a robot link, an attached object, an obstacle.
@@ -55,6 +57,8 @@ pub(crate) struct Group {
 pub(crate) struct GroupPair {
     pub(crate) a: usize,
     pub(crate) b: usize,
+    /// Every object of `a` against every object of `b`, `a`-major: pair
+    /// `pairs.start + k·|b| + l` is object `k` of `a` with object `l` of `b`.
     pub(crate) pairs: Range<usize>,
     /// The bodies whose joints change the pair's relative pose (ancestors of
     /// one group's body but not of the other's), in `CollisionModel::movers`.
@@ -275,7 +279,8 @@ impl Compiler<'_> {
         let aabb = is_static.then(|| world_aabb(&shape, &local));
         let radius = shape.bounding_radius() + padding;
         let group = self.groups.len();
-        self.objects.push(CollisionObject { group, shape, local, radius, padding, source, aabb });
+        let unrotated = local.rotation == Rotation3::identity();
+        self.objects.push(CollisionObject { group, shape, local, radius, padding, source, aabb, unrotated });
     }
 
     /// Closes a group over the objects pushed since `start` (none: no group).

@@ -8,7 +8,7 @@ use super::distance::{SignedDistance, closer_than, signed_distance};
 use super::model::{CollisionModel, Group};
 use super::spheres::{SphereWorkspace, Verdict};
 use crate::robot::{KinematicsWorkspace, RobotError};
-use nalgebra::{IsometryMatrix3, Point3, Vector3};
+use nalgebra::{IsometryMatrix3, Point3, Translation3, Vector3};
 
 /// Per-thread mutable state of collision queries.
 #[derive(Debug, Clone)]
@@ -24,6 +24,11 @@ pub struct CollisionWorkspace {
     pub(crate) sweeps: Vec<f64>,
     /// Scratch of the sphere fast path, when the model has one.
     pub(crate) spheres: Option<SphereWorkspace>,
+    /// Per group: whether `poses` holds its objects at the current
+    /// placement (static groups always do).
+    placed: Vec<bool>,
+    /// Per object: within reach of the other group of the pair at hand.
+    near: Vec<bool>,
 }
 
 /// Signed distance of one object pair.
@@ -49,6 +54,8 @@ impl CollisionWorkspace {
             q: vec![0.0; model.robot.nq()],
             sweeps: vec![0.0; model.group_pairs.len()],
             spheres: model.spheres.as_ref().map(|s| SphereWorkspace::new(s, model.robot.nq())),
+            placed: vec![true; model.groups.len()],
+            near: vec![false; model.objects.len()],
         }
     }
 
@@ -66,6 +73,24 @@ fn aabb_distance_squared(p: &Point3<f64>, (lo, hi): &(Point3<f64>, Point3<f64>))
     d.norm_squared()
 }
 
+/// Lower bound of the distance between two bounding volumes (m), each a
+/// ball (centre, radius) or, for static shapes, a world box: the box of
+/// `b` if it has one, else the box of `a`, else the two balls.
+fn volume_bound(
+    ca: Point3<f64>,
+    ra: f64,
+    box_a: Option<&(Point3<f64>, Point3<f64>)>,
+    cb: Point3<f64>,
+    rb: f64,
+    box_b: Option<&(Point3<f64>, Point3<f64>)>,
+) -> f64 {
+    match (box_a, box_b) {
+        (_, Some(aabb)) => aabb_distance_squared(&ca, aabb).sqrt() - ra,
+        (Some(aabb), None) => aabb_distance_squared(&cb, aabb).sqrt() - rb,
+        (None, None) => (cb - ca).norm() - ra - rb,
+    }
+}
+
 /// Whether a bounding-volume lower bound rules a pair out of "closer than
 /// `limit`". Overlapping volumes (bound ≤ 0) say nothing about how deep
 /// the shapes inside penetrate, so they never prune.
@@ -76,35 +101,68 @@ pub(crate) fn prunes(bound: f64, limit: f64) -> bool {
 impl CollisionModel {
     /// Places every moving object at `q`.
     pub(crate) fn place(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
-        self.robot.forward_kinematics(&mut ws.kinematics, q)?;
-        for (g, group) in self.groups.iter().enumerate() {
-            let Some(body) = group.body else { continue };
-            let pose = self.robot.body_pose(&ws.kinematics, body);
-            ws.centers[g] = pose * group.center;
-            for i in group.objects.clone() {
-                ws.poses[i] = pose * self.objects[i].local;
-            }
+        self.place_centers(ws, q)?;
+        for g in 0..self.groups.len() {
+            self.place_group(ws, g);
         }
         Ok(())
+    }
+
+    /// Places the bounding-ball centre of every moving group at `q`; their
+    /// objects wait for [`place_group`](Self::place_group).
+    fn place_centers(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<(), RobotError> {
+        self.robot.forward_kinematics(&mut ws.kinematics, q)?;
+        self.place_centers_placed(ws);
+        Ok(())
+    }
+
+    /// [`place_centers`](Self::place_centers) at the body poses already in
+    /// `ws.kinematics`.
+    fn place_centers_placed(&self, ws: &mut CollisionWorkspace) {
+        for (g, group) in self.groups.iter().enumerate() {
+            let Some(body) = group.body else { continue };
+            ws.centers[g] = self.robot.body_pose(&ws.kinematics, body) * group.center;
+            ws.placed[g] = false;
+        }
+    }
+
+    /// Places the objects of group `g`, unless they already are.
+    fn place_group(&self, ws: &mut CollisionWorkspace, g: usize) {
+        let group = &self.groups[g];
+        let Some(body) = group.body.filter(|_| !ws.placed[g]) else { return };
+        let pose = self.robot.body_pose(&ws.kinematics, body);
+        for i in group.objects.clone() {
+            let local = &self.objects[i].local;
+            ws.poses[i] = match self.objects[i].unrotated {
+                true => {
+                    let shift = pose.rotation * local.translation.vector;
+                    IsometryMatrix3::from_parts(Translation3::from(pose.translation.vector + shift), pose.rotation)
+                }
+                false => pose * local,
+            };
+        }
+        ws.placed[g] = true;
     }
 
     /// Lower bound of the distance between two groups' shapes (m).
     pub(crate) fn group_bound(&self, ws: &CollisionWorkspace, a: usize, b: usize) -> f64 {
         let (ga, gb): (&Group, &Group) = (&self.groups[a], &self.groups[b]);
-        match &gb.aabb {
-            Some(aabb) => aabb_distance_squared(&ws.centers[a], aabb).sqrt() - ga.radius,
-            None => (ws.centers[b] - ws.centers[a]).norm() - ga.radius - gb.radius,
-        }
+        volume_bound(ws.centers[a], ga.radius, None, ws.centers[b], gb.radius, gb.aabb.as_ref())
     }
 
     /// Lower bound of the distance between two objects' shapes (m).
     pub(crate) fn object_bound(&self, ws: &CollisionWorkspace, i: usize, j: usize) -> f64 {
         let (oi, oj) = (&self.objects[i], &self.objects[j]);
-        let ci = Point3::from(ws.poses[i].translation.vector);
-        match &oj.aabb {
-            Some(aabb) => aabb_distance_squared(&ci, aabb).sqrt() - oi.radius,
-            None => (ws.poses[j].translation.vector - ci.coords).norm() - oi.radius - oj.radius,
-        }
+        let (ci, cj) = (Point3::from(ws.poses[i].translation.vector), Point3::from(ws.poses[j].translation.vector));
+        volume_bound(ci, oi.radius, None, cj, oj.radius, oj.aabb.as_ref())
+    }
+
+    /// Lower bound of the distance between object `i`'s shape and group
+    /// `g`'s (m).
+    fn object_group_bound(&self, ws: &CollisionWorkspace, i: usize, g: usize) -> f64 {
+        let (o, group) = (&self.objects[i], &self.groups[g]);
+        let c = Point3::from(ws.poses[i].translation.vector);
+        volume_bound(c, o.radius, o.aabb.as_ref(), ws.centers[g], group.radius, group.aabb.as_ref())
     }
 
     /// Exact signed distance of pair `pair` at the placed poses.
@@ -161,7 +219,9 @@ impl CollisionModel {
 
     /// Signed distances at `q` of every pair closer than `cutoff` (m; pass
     /// `f64::INFINITY` for all pairs), in pair order. Pairs whose bounding
-    /// volumes are already `cutoff` apart are skipped without computing.
+    /// volumes are already `cutoff` apart are skipped without computing,
+    /// and groups whose bounding balls are that far from everything are not
+    /// even placed (see [`object_world_pose`](Self::object_world_pose)).
     ///
     /// # Errors
     /// A `q` of the wrong length or with non-finite values.
@@ -171,24 +231,56 @@ impl CollisionModel {
         q: &[f64],
         cutoff: f64,
     ) -> Result<&'w [PairDistance], RobotError> {
-        self.place(ws, q)?;
+        self.place_centers(ws, q)?;
+        Ok(self.placed_distances(ws, cutoff))
+    }
+
+    /// [`distances`](Self::distances) with the robot's bodies where
+    /// `kinematics` (a workspace of this model's robot after its forward
+    /// kinematics, e.g. one the caller needed anyway) has them; the
+    /// gradients of these distances then follow from `ws` as usual.
+    pub(crate) fn distances_at<'w>(
+        &self,
+        ws: &'w mut CollisionWorkspace,
+        kinematics: &KinematicsWorkspace,
+        cutoff: f64,
+    ) -> &'w [PairDistance] {
+        ws.kinematics.copy_body_poses_from(kinematics);
+        self.place_centers_placed(ws);
+        self.placed_distances(ws, cutoff)
+    }
+
+    /// The pairs closer than `cutoff` once the group centres are placed.
+    fn placed_distances<'w>(&self, ws: &'w mut CollisionWorkspace, cutoff: f64) -> &'w [PairDistance] {
         ws.distances.clear();
         for gp in &self.group_pairs {
             if prunes(self.group_bound(ws, gp.a, gp.b), cutoff) {
                 continue;
             }
-            for pair in gp.pairs.clone() {
-                let [i, j] = self.pairs[pair].map(|k| k as usize);
-                if prunes(self.object_bound(ws, i, j), cutoff) {
+            self.place_group(ws, gp.a);
+            self.place_group(ws, gp.b);
+            // Objects of either group out of reach of the other's volume
+            // take all their pairs with them.
+            let (objects_a, objects_b) = (self.groups[gp.a].objects.clone(), self.groups[gp.b].objects.clone());
+            for j in objects_b.clone() {
+                ws.near[j] = !prunes(self.object_group_bound(ws, j, gp.a), cutoff);
+            }
+            for (k, i) in objects_a.enumerate() {
+                if prunes(self.object_group_bound(ws, i, gp.b), cutoff) {
                     continue;
                 }
-                let d = self.pair_distance(ws, pair);
-                if d.signed.distance < cutoff {
-                    ws.distances.push(d);
+                for (l, j) in objects_b.clone().enumerate() {
+                    if !ws.near[j] || prunes(self.object_bound(ws, i, j), cutoff) {
+                        continue;
+                    }
+                    let d = self.pair_distance(ws, gp.pairs.start + k * objects_b.len() + l);
+                    if d.signed.distance < cutoff {
+                        ws.distances.push(d);
+                    }
                 }
             }
         }
-        Ok(&ws.distances)
+        &ws.distances
     }
 
     /// Signed distance of one pair at `q` (see [`pair_count`](Self::pair_count)).
@@ -234,7 +326,10 @@ impl CollisionModel {
 
     /// World pose of object `object` (see [`object_count`](Self::object_count))
     /// as placed by the last query with `ws` that placed the shapes (see
-    /// [`CollisionWorkspace::kinematics`]).
+    /// [`CollisionWorkspace::kinematics`]); after
+    /// [`distances`](Self::distances), only the objects of the pairs it
+    /// could not prune by their groups' bounds (those of every pair it
+    /// returned among them) are placed, the others keep older poses.
     pub fn object_world_pose<'w>(&self, ws: &'w CollisionWorkspace, object: usize) -> &'w IsometryMatrix3<f64> {
         &ws.poses[object]
     }

@@ -291,12 +291,19 @@ impl TrajectoryProblem {
             for sample in 1..=samples {
                 // Fraction s of the way from slice t − 1 to slice t.
                 let s = sample as f64 / samples as f64;
-                let (before, at) = (self.slice(x, t - 1), self.slice(x, t));
-                for ((q, a), b) in ws.q.iter_mut().zip(before).zip(at) {
-                    *q = a + s * (b - a);
-                }
+                let cutoff = margin + COLLISION_CUTOFF;
+                let pairs = if sample == samples && Arc::ptr_eq(&model.robot, &self.robot) {
+                    // At slice t itself, whose kinematics are known.
+                    model.distances_at(cws, &ws.kinematics[t], cutoff)
+                } else {
+                    let (before, at) = (self.slice(x, t - 1), self.slice(x, t));
+                    for ((q, a), b) in ws.q.iter_mut().zip(before).zip(at) {
+                        *q = a + s * (b - a);
+                    }
+                    model.distances(cws, &ws.q, cutoff)?
+                };
                 ws.pairs.clear();
-                ws.pairs.extend_from_slice(model.distances(cws, &ws.q, margin + COLLISION_CUTOFF)?);
+                ws.pairs.extend_from_slice(pairs);
                 // Rows between slices also move slice t − 1 (unless it is the start).
                 let spans_two = sample < samples && t > 1;
                 let first_col = if spans_two { (t - 2) * n } else { (t - 1) * n };

@@ -51,6 +51,15 @@ impl KinematicsWorkspace {
         }
     }
 
+    /// Takes the body poses of `other`, a workspace of the same model, as
+    /// if its forward kinematics had run here (frame placements excepted).
+    ///
+    /// # Panics
+    /// If `other` belongs to a model with another number of bodies.
+    pub(crate) fn copy_body_poses_from(&mut self, other: &KinematicsWorkspace) {
+        self.body_poses.copy_from_slice(&other.body_poses);
+    }
+
     /// World poses of all frames, in [`RobotModel::frames`] order, as of the
     /// last [`RobotModel::update_frame_placements`].
     pub fn frame_poses(&self) -> &[IsometryMatrix3<f64>] {

@@ -84,20 +84,36 @@ impl RowBlock {
         (self.first[r], &self.jac[self.offsets[r]..self.offsets[r + 1]])
     }
 
-    /// Largest window width of any row (0 when empty).
-    pub(crate) fn max_width(&self) -> usize {
-        self.offsets.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0)
-    }
-
-    /// Last variable touched plus one (0 when empty).
-    pub(crate) fn column_end(&self) -> usize {
-        (0..self.len()).map(|r| self.first[r] + self.offsets[r + 1] - self.offsets[r]).max().unwrap_or(0)
+    /// Largest window width of any row and last variable touched plus one
+    /// (0 and 0 when empty), in one pass.
+    pub(crate) fn extent(&self) -> (usize, usize) {
+        let (mut width, mut end) = (0, 0);
+        for (w, first) in self.offsets.windows(2).zip(&self.first) {
+            width = width.max(w[1] - w[0]);
+            end = end.max(first + w[1] - w[0]);
+        }
+        (width, end)
     }
 
     /// Whether any value or gradient entry is NaN or infinite.
     pub(crate) fn has_non_finite(&self) -> bool {
-        self.values.iter().chain(&self.jac).any(|v| !v.is_finite())
+        !(all_finite(&self.values) && all_finite(&self.jac))
     }
+}
+
+/// Whether every entry is finite, without a branch per entry: `v · 0` is
+/// NaN exactly for NaN and infinite `v`, and a NaN survives the sum.
+fn all_finite(values: &[f64]) -> bool {
+    let chunks = values.chunks_exact(4);
+    let mut acc = chunks.remainder().iter().fold(0.0, |a, v| a + v * 0.0);
+    let mut lanes = [0.0; 4];
+    for c in chunks {
+        for k in 0..4 {
+            lanes[k] += c[k] * 0.0;
+        }
+    }
+    acc += (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+    !acc.is_nan()
 }
 
 /// The rows of one evaluation: costs `r` (minimised as `Σ r²`), equality

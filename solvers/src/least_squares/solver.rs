@@ -5,6 +5,8 @@ use crate::banded::SymmetricBand;
 use std::time::{Duration, Instant};
 use thiserror::Error;
 
+mod step;
+
 /// Settings of [`AugmentedLagrangian`], with documented defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SolverSettings {
@@ -34,8 +36,11 @@ pub struct SolverSettings {
     /// Largest `μ`; a problem still infeasible there is reported
     /// [`Termination::Infeasible`]. Default 1e9.
     pub max_penalty: f64,
-    /// First Levenberg-Marquardt damping, relative to the largest diagonal
-    /// entry of `JᵀJ`. Default 1e-6.
+    /// First Levenberg-Marquardt damping of each inner loop, relative to
+    /// the largest diagonal entry of the cost rows' `JᵀJ` (of all rows'
+    /// when there are no cost rows; the constraint rows' grow with the
+    /// penalty, the curvature the damping competes with does not).
+    /// Default 1e-6.
     pub initial_damping: f64,
     /// Largest step in ∞-norm (a trust bound; variable units). Default ∞.
     pub max_step: f64,
@@ -362,7 +367,7 @@ impl AugmentedLagrangian {
         problem.evaluate(x, &mut self.trial).map_err(SolveError::Evaluation)?;
         let (dimension, bandwidth) = (self.dimension, self.normal.bandwidth());
         for block in self.trial.blocks() {
-            let (width, end) = (block.max_width(), block.column_end());
+            let (width, end) = block.extent();
             if width > bandwidth + 1 || end > dimension {
                 return Err(SolveError::RowOutsideBand { width, end, dimension, bandwidth });
             }
@@ -392,7 +397,8 @@ impl AugmentedLagrangian {
         let mut accepted = 0;
         let mut assembled = false;
         // Damping carried over from the last inner loop would be tuned to a
-        // different penalty; start afresh.
+        // different penalty; start afresh (relative to the cost's curvature,
+        // which the penalty does not scale).
         self.damping = 0.0;
         self.damping_growth = 2.0;
         loop {
@@ -413,7 +419,7 @@ impl AugmentedLagrangian {
                 }
             }
             if self.damping == 0.0 {
-                self.damping = self.settings.initial_damping * self.undamped.max_diagonal().max(1.0);
+                self.damping = self.initial_damping();
             }
             let Some(predicted) = self.damped_step(merit) else {
                 if self.reject_step() {
@@ -474,106 +480,21 @@ impl AugmentedLagrangian {
         self.damping > 1e20 * self.undamped.max_diagonal().max(1.0)
     }
 
-    /// Solves `(JᵀJ + δI) s = −Jᵀφ` into `step`, raising `δ` until the step
-    /// is within `max_step`, and
-    /// returns the decrease the Gauss-Newton model predicts, or `None` when
-    /// the damped matrix cannot be factorised.
-    ///
-    /// The inequality rows' active set follows the step (see
-    /// [`update_active_set`](Self::update_active_set)) for up to
-    /// `ACTIVATION_ROUNDS` re-solves: otherwise a large penalty turns every
-    /// step that crosses a constraint into a rejection.
-    fn damped_step(&mut self, merit: f64) -> Option<f64> {
-        self.augmented.copy_from(&self.undamped);
-        self.rhs.copy_from_slice(&self.gradient);
-        let (mu, rows) = (self.penalty, &self.current.inequality);
-        self.active.clear();
-        self.active
-            .extend((0..rows.len()).map(|r| rows.value(r) + self.inequality.get(rows.key(r)) / (2.0 * mu) > 0.0));
-        let mut rounds = 0;
-        loop {
-            self.normal.copy_from(&self.augmented);
-            self.normal.add_to_diagonal(self.damping);
-            self.normal.factorize().ok()?;
-            for (s, g) in self.step.iter_mut().zip(&self.rhs) {
-                *s = -g;
-            }
-            self.normal.solve_in_place(&mut self.step);
-            // A step beyond the trust bound is shortened by damping, which
-            // bends it towards the gradient, not by scaling it.
-            if self.step_norm() > self.settings.max_step {
-                self.damping *= 4.0;
-                if self.damping > 1e20 * self.undamped.max_diagonal().max(1.0) {
-                    return None;
-                }
-                continue;
-            }
-            if rounds == ACTIVATION_ROUNDS || !self.update_active_set() {
-                break;
-            }
-            rounds += 1;
-        }
-        let predicted = merit - self.model_merit();
-        predicted.is_finite().then_some(predicted)
-    }
-
-    /// Semi-smooth Newton on the hinges: makes the model's set of active
-    /// inequality rows those with `g + λ/2μ + J·step > 0`, adding and
-    /// removing rows; true when the set changed. At a fixed point the step
-    /// minimises the damped piecewise-quadratic model exactly.
-    fn update_active_set(&mut self) -> bool {
-        let (mu, rows) = (self.penalty, &self.current.inequality);
-        let mut changed = false;
-        for r in 0..rows.len() {
-            let v = rows.value(r) + self.inequality.get(rows.key(r)) / (2.0 * mu);
-            let (first, jac) = rows.gradient(r);
-            let moved: f64 = jac.iter().zip(&self.step[first..]).map(|(j, s)| j * s).sum();
-            let active = v + moved > 0.0;
-            if active != self.active[r] {
-                let sign = if active { mu } else { -mu };
-                self.augmented.add_outer(first, jac, sign);
-                for (g, j) in self.rhs[first..first + jac.len()].iter_mut().zip(jac) {
-                    *g += sign * v * j;
-                }
-                self.active[r] = active;
-                changed = true;
-            }
-        }
-        changed
-    }
-
-    /// The Gauss-Newton model of the merit after `step`: every row
-    /// linearised, inequalities through their hinge.
-    fn model_merit(&self) -> f64 {
-        self.rows(&self.current)
-            .map(|(block, r, w, v, hinge)| {
-                let (first, jac) = block.gradient(r);
-                let lin = v + jac.iter().zip(&self.step[first..]).map(|(j, s)| j * s).sum::<f64>();
-                let lin = if hinge { lin.max(0.0) } else { lin };
-                w * lin * lin
-            })
-            .sum()
-    }
-
     /// `max diag(J_rᵀJ_r) / max diag(J_cᵀJ_c)` of the cost rows `r` and
     /// constraint rows `c` at the current point (at least 1).
     fn curvature_ratio(&mut self) -> f64 {
-        let mut largest = [0.0f64; 2];
-        for (k, blocks) in
-            [&[&self.current.cost][..], &[&self.current.equality, &self.current.inequality]].iter().enumerate()
-        {
-            self.gradient.fill(0.0);
-            for block in blocks.iter() {
-                for r in 0..block.len() {
-                    let (first, jac) = block.gradient(r);
-                    for (d, j) in self.gradient[first..first + jac.len()].iter_mut().zip(jac) {
-                        *d += j * j;
-                    }
-                }
-            }
-            largest[k] = self.gradient.iter().fold(0.0, |m, &d| m.max(d));
-        }
-        if largest[1] > 0.0 { (largest[0] / largest[1]).max(1.0) } else { 1.0 }
+        let cost = largest_diagonal(&[&self.current.cost], &mut self.gradient);
+        let constraints = largest_diagonal(&[&self.current.equality, &self.current.inequality], &mut self.gradient);
+        if constraints > 0.0 { (cost / constraints).max(1.0) } else { 1.0 }
+    }
+
+    /// The first damping of an inner loop: `initial_damping` times the
+    /// largest diagonal entry of the cost rows' `JᵀJ` (of every row's
+    /// without cost rows), at least `initial_damping`.
+    fn initial_damping(&mut self) -> f64 {
+        let cost = largest_diagonal(&[&self.current.cost], &mut self.step);
+        let scale = if cost > 0.0 { cost } else { self.undamped.max_diagonal() };
+        self.settings.initial_damping * scale.max(1.0)
     }
 
     fn step_norm(&self) -> f64 {
@@ -626,4 +547,19 @@ impl AugmentedLagrangian {
         self.equality.update(&self.current.equality, |l, h| l + 2.0 * mu * h);
         self.inequality.update(&self.current.inequality, |l, g| (l + 2.0 * mu * g).max(0.0));
     }
+}
+
+/// The largest diagonal entry of `Σ JᵀJ` over the rows of `blocks`;
+/// `scratch` (one entry per variable) is overwritten.
+fn largest_diagonal(blocks: &[&RowBlock], scratch: &mut [f64]) -> f64 {
+    scratch.fill(0.0);
+    for block in blocks {
+        for r in 0..block.len() {
+            let (first, jac) = block.gradient(r);
+            for (d, j) in scratch[first..first + jac.len()].iter_mut().zip(jac) {
+                *d += j * j;
+            }
+        }
+    }
+    scratch.iter().fold(0.0, |m, &d| m.max(d))
 }

@@ -257,3 +257,24 @@ fn budgets_stop_the_solve() {
     let report = AugmentedLagrangian::new(2, 1, settings).solve(&mut Rosenbrock, &mut [-1.2, 1.0]).unwrap();
     assert_eq!(report.termination, Termination::TimeLimit);
 }
+
+#[test]
+fn non_finite_entries_are_found_anywhere() {
+    let mut block = RowBlock::default();
+    assert!(!block.has_non_finite());
+    for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+        for at in 0..10 {
+            block.clear();
+            block.push(0, -0.5, 0, 9).fill(1e300);
+            assert!(!block.has_non_finite());
+            block.clear();
+            let value = if at == 9 { bad } else { 0.0 };
+            let gradient = block.push(0, value, 0, 9);
+            gradient.fill(-3.0);
+            if at < 9 {
+                gradient[at] = bad;
+            }
+            assert!(block.has_non_finite(), "{bad} at {at}");
+        }
+    }
+}
