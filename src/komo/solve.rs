@@ -323,8 +323,9 @@ pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<Proble
     let mut validation = optimizer.validate(&result.trajectory, options.validation_resolution)?;
     // Slices far apart can be collision-free while the motion between them
     // is not: re-solve from the result with collision rows between slices.
+    // Only a converged result is worth refining; a failed solve is reported.
     for substeps in [1, 3, 7] {
-        if validation.collision_free {
+        if validation.collision_free || result.report.termination != Termination::Converged {
             break;
         }
         let refined_problem = problem_t.clone().with_collision_substeps(substeps);
