@@ -22,17 +22,7 @@ fn optimize(c: &mut Criterion) {
         let problem = Problem::builtin(name).expect("builtin problem");
         let plan = plan_problem(&problem, Some(0)).expect("plan");
         for horizon in [20, 50] {
-            let base = TrajectoryProblem::from_problem(&problem).expect("problem");
-            let t = TrajectoryProblem::new(
-                base.robot().clone(),
-                base.collision_model().cloned(),
-                base.objectives().to_vec(),
-                horizon,
-                2,
-                problem.optimizer.duration,
-                problem.start.clone(),
-            )
-            .expect("problem");
+            let t = TrajectoryProblem::from_problem(&problem).and_then(|p| p.with_horizon(horizon)).expect("problem");
             let mut optimizer = TrajectoryOptimizer::new(t, trajectory_solver_settings());
             group.bench_function(format!("{name}/T{horizon}"), |b| {
                 b.iter(|| {

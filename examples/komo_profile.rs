@@ -22,16 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reps: usize = args.get(3).map_or(Ok(1), |s| s.parse())?;
     let problem = Problem::builtin(name)?;
     let plan = plan_problem(&problem, Some(0))?;
-    let base = TrajectoryProblem::from_problem(&problem)?;
-    let problem_t = TrajectoryProblem::new(
-        base.robot().clone(),
-        base.collision_model().cloned(),
-        base.objectives().to_vec(),
-        horizon,
-        2,
-        problem.optimizer.duration,
-        problem.start.clone(),
-    )?;
+    let problem_t = TrajectoryProblem::from_problem(&problem)?.with_horizon(horizon)?;
     let mut optimizer = TrajectoryOptimizer::new(problem_t, trajectory_solver_settings());
     for _ in 0..reps {
         let result = optimizer.solve(Initialization::Path(&plan.path))?;

@@ -77,6 +77,25 @@ impl TrajectoryProblem {
         })
     }
 
+    /// The same problem over `horizon` slices (objective time spans are
+    /// fractions of the horizon, so they follow).
+    ///
+    /// # Errors
+    /// As [`TrajectoryProblem::new`], e.g. a horizon below 2.
+    pub fn with_horizon(self, horizon: usize) -> Result<TrajectoryProblem, KomoError> {
+        let substeps = self.collision_substeps;
+        let problem = TrajectoryProblem::new(
+            self.robot,
+            self.collision,
+            self.objectives,
+            horizon,
+            self.order,
+            self.duration,
+            self.start,
+        )?;
+        Ok(problem.with_collision_substeps(substeps))
+    }
+
     /// Also constrains collisions at `substeps` evenly spaced
     /// configurations on the straight motion between consecutive slices
     /// (default 0: at the slices only). Useful when slices are far apart

@@ -300,15 +300,7 @@ pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<Proble
     let began = Instant::now();
     let mut problem_t = TrajectoryProblem::from_problem(problem)?;
     if let Some(horizon) = options.horizon {
-        problem_t = TrajectoryProblem::new(
-            problem_t.robot.clone(),
-            problem_t.collision.clone(),
-            problem_t.objectives.clone(),
-            horizon,
-            problem_t.order,
-            problem_t.duration,
-            problem_t.start.clone(),
-        )?;
+        problem_t = problem_t.with_horizon(horizon)?;
     }
     let mut planner = ProblemPlanner::new(problem, options.seed)?;
     let plan = planner.run(options.seed.unwrap_or(problem.planner.seed))?;
