@@ -35,8 +35,9 @@ pub struct GenerateArgs {
     /// Ids per part file (part of the dataset's identity).
     #[arg(long, default_value_t = 100, value_name = "IDS")]
     pub chunk_size: u64,
-    /// IK + planning + optimization attempts per sample (each with another
-    /// planner seed) before it counts as rejected.
+    /// IK + planning + optimization attempts per sample before it counts
+    /// as rejected; each uses another planner seed, and the even-numbered
+    /// ones (2nd, 4th, …) the flipped grasp.
     #[arg(long, default_value_t = 3)]
     pub attempts: u32,
     /// Evaluation budget of each optimizer solve of an attempt.

@@ -136,11 +136,15 @@ pub enum Command {
     /// RRT-Connect → optimizer → validation (collision-free between slices
     /// at 2 mrad, within limits, q_T within 1 mm / 10 mrad of the goal) on
     /// every core, and write the accepted trajectories to Parquet part
-    /// files with a JSON manifest (schema: `tandem::data::schema`, or
-    /// problems/README.md). Rejected samples are counted by reason.
+    /// files with a JSON manifest (layout and columns: src/data/schema.rs;
+    /// read the folder with pyarrow.parquet.read_table(DIR)). Rejected
+    /// samples are counted by reason; a failed grasp is retried with the
+    /// grasp turned by π about its approach axis (the same grasp for a
+    /// parallel gripper).
     ///
-    /// The dataset depends on the family, --count, --seed, -T and
-    /// --chunk-size only: not on --threads or --shard. A killed run loses
+    /// The dataset depends on the family, --count, --seed, -T,
+    /// --chunk-size, --attempts and --max-evaluations only: not on
+    /// --threads or --shard, nor on machine load. A killed run loses
     /// nothing but its unfinished part files: re-run the same command to
     /// complete it. A bar (on a terminal) or a line every 10 s shows
     /// progress.
