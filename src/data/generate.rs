@@ -157,7 +157,9 @@ pub fn generate(
     let ee_frame = family.base.robot_spec.gripper.clone().unwrap_or_default();
     let samples_run: u64 = pending.iter().map(|&k| chunk_ids(k, settings)).map(|[a, b]| b - a).sum();
     let run = progress.start(samples_run);
-    let context = RunContext { family: &family, settings, out, joints: &joints, ee_frame: &ee_frame, progress: &run };
+    let horizon = parameters.horizon;
+    let context =
+        RunContext { family: &family, settings, out, joints: &joints, ee_frame: &ee_frame, horizon, progress: &run };
     let written = run_chunks(&context, &pending)?;
     run.finish();
     let parts_written = written.len();
@@ -310,6 +312,8 @@ struct RunContext<'a> {
     out: &'a Path,
     joints: &'a [String],
     ee_frame: &'a str,
+    /// T, as resolved in the run parameters.
+    horizon: usize,
     progress: &'a ProgressRun,
 }
 
@@ -335,14 +339,10 @@ fn run_chunk(c: &RunContext<'_>, k: u64) -> Result<ChunkResult, GenerateError> {
         })
         .collect();
     let (outcomes, timings): (Vec<_>, Vec<_>) = results.into_iter().unzip();
-    let meta = PartMeta { joints: c.joints, ee_frame: c.ee_frame, horizon: resolved_horizon(c), ids };
+    let meta = PartMeta { joints: c.joints, ee_frame: c.ee_frame, horizon: c.horizon, ids };
     let summary = write_part(&c.out.join(part_name(k)), &meta, &outcomes)?;
     write_timings(c.out, k, &outcomes, &timings)?;
     Ok((k, summary, timings))
-}
-
-fn resolved_horizon(c: &RunContext<'_>) -> usize {
-    c.settings.horizon.unwrap_or(c.family.base.optimizer.horizon)
 }
 
 fn write_timings(out: &Path, k: u64, outcomes: &[SampleOutcome], timings: &[SampleTiming]) -> Result<(), DataError> {

@@ -80,8 +80,10 @@ pub fn record_batch(records: &[&TrajectoryRecord], joints: usize, horizon: usize
         ("goal_pose", fixed(records.iter().map(|r| r.goal_pose.as_ref().map(|p| p.as_slice())), 7), true),
         ("goal_joints", fixed(records.iter().map(|r| r.goal_joints.as_deref()), n), true),
     ];
-    columns.extend(shape_columns(records, "object", |r| &r.objects));
-    columns.extend(shape_columns(records, "obstacle", |r| &r.obstacles));
+    let object_names = ["object_names", "object_shapes", "object_sizes", "object_poses"];
+    let obstacle_names = ["obstacle_names", "obstacle_shapes", "obstacle_sizes", "obstacle_poses"];
+    columns.extend(shape_columns(records, object_names, |r| &r.objects));
+    columns.extend(shape_columns(records, obstacle_names, |r| &r.obstacles));
     columns.push(("q", nested(records.iter().map(|r| Some(r.q.as_slice())), t, n), false));
     columns.push(("qd", nested(records.iter().map(|r| Some(r.qd.as_slice())), t, n), false));
     columns.push(("ee_pose", nested(records.iter().map(|r| r.ee_pose.as_deref()), t, 7), true));
@@ -134,10 +136,10 @@ fn nested<'a, R: AsRef<[f64]> + 'a>(rows: impl Iterator<Item = Option<&'a [R]>>,
     Arc::new(b.finish())
 }
 
-/// `<prefix>_names`, `_shapes`, `_sizes`, `_poses`.
+/// The names, shapes, sizes and poses columns of placed shapes, named `names`.
 fn shape_columns(
     records: &[&TrajectoryRecord],
-    prefix: &str,
+    names_of_columns: [&'static str; 4],
     get: impl Fn(&TrajectoryRecord) -> &[PlacedShape],
 ) -> Vec<(&'static str, ArrayRef, bool)> {
     let mut names = ListBuilder::new(StringBuilder::new());
@@ -158,23 +160,12 @@ fn shape_columns(
         sizes.append(true);
         poses.append(true);
     }
-    let name = |suffix: &str| -> &'static str {
-        match (prefix, suffix) {
-            ("object", "names") => "object_names",
-            ("object", "shapes") => "object_shapes",
-            ("object", "sizes") => "object_sizes",
-            ("object", _) => "object_poses",
-            (_, "names") => "obstacle_names",
-            (_, "shapes") => "obstacle_shapes",
-            (_, "sizes") => "obstacle_sizes",
-            _ => "obstacle_poses",
-        }
-    };
+    let [n, sh, si, po] = names_of_columns;
     vec![
-        (name("names"), Arc::new(names.finish()), false),
-        (name("shapes"), Arc::new(shapes.finish()), false),
-        (name("sizes"), Arc::new(sizes.finish()), false),
-        (name("poses"), Arc::new(poses.finish()), false),
+        (n, Arc::new(names.finish()) as ArrayRef, false),
+        (sh, Arc::new(shapes.finish()), false),
+        (si, Arc::new(sizes.finish()), false),
+        (po, Arc::new(poses.finish()), false),
     ]
 }
 
