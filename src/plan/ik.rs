@@ -4,7 +4,7 @@
 
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::robot::{FrameId, KinematicsWorkspace, ReferenceFrame, RobotError, RobotModel};
-use nalgebra::{DMatrix, DVector, Matrix6xX, Rotation3, Vector3};
+use nalgebra::{Matrix6, Matrix6xX, Rotation3, Vector3, Vector6};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
@@ -26,7 +26,8 @@ pub struct IkTarget {
 pub struct IkSettings {
     /// Attempts: the first from the given seed configuration, then random.
     pub restarts: usize,
-    /// Damped least-squares iterations per attempt.
+    /// Damped least-squares iterations per attempt, at most; an attempt
+    /// whose error shrinks by less than 10 % over 10 iterations is given up.
     pub iterations: usize,
     /// Position tolerance (m).
     pub position_tolerance: f64,
@@ -65,45 +66,68 @@ pub enum IkError {
     Robot(#[from] RobotError),
 }
 
-/// The 6-vector error (position; orientation) of the frame at `q` and the
-/// number of rows that matter (3 for position only).
+/// The frame's position error and orientation error (zero when the target
+/// sets no orientation) at `q`, and its world-aligned Jacobian into `jac`
+/// (orientation rows zeroed when they do not count).
 fn error(
     robot: &RobotModel,
     ws: &mut KinematicsWorkspace,
     jac: &mut Matrix6xX<f64>,
     t: &IkTarget,
     q: &[f64],
-) -> Result<(DVector<f64>, DMatrix<f64>), RobotError> {
+) -> Result<(Vector3<f64>, Vector3<f64>), RobotError> {
     robot.forward_kinematics(ws, q)?;
     let pose = robot.frame_jacobian(ws, t.frame, ReferenceFrame::WorldAligned, jac)?;
     let ep = t.position - pose.translation.vector;
     let er = match (&t.orientation, &t.axis_alignment) {
-        (Some(r), _) => Some(crate::robot::rotation_log(&(r * pose.rotation.inverse()))),
-        (None, Some((axis, dir))) => Some(pose.rotation.matrix().column(*axis).cross(dir)),
-        (None, None) => None,
+        (Some(r), _) => crate::robot::rotation_log(&(r * pose.rotation.inverse())),
+        (None, Some((axis, dir))) => pose.rotation.matrix().column(*axis).cross(dir),
+        (None, None) => {
+            jac.fixed_rows_mut::<3>(3).fill(0.0);
+            Vector3::zeros()
+        }
     };
-    let rows = if er.is_some() { 6 } else { 3 };
-    let e = DVector::from_iterator(rows, ep.iter().chain(er.iter().flat_map(|v| v.iter())).copied());
-    let j = DMatrix::from_fn(rows, robot.nq(), |r, c| jac[(r, c)]);
-    Ok((e, j))
+    Ok((ep, er))
 }
 
+/// Iterations between stall checks of a descent, and the least fraction
+/// by which its error must shrink over them to go on.
+const STALL_WINDOW: usize = 10;
+const STALL_PROGRESS: f64 = 0.1;
+
 /// One damped least-squares descent from `q`; returns the final position
-/// and angle errors.
-fn descend(robot: &RobotModel, t: &IkTarget, q: &mut [f64], s: &IkSettings) -> Result<(f64, f64), RobotError> {
-    let mut ws = KinematicsWorkspace::new(robot);
-    let mut jac = Matrix6xX::zeros(robot.nq());
+/// and angle errors. A descent whose error stops shrinking (stuck against
+/// joint limits, in a local minimum) is given up early: the restarts find
+/// solutions faster than the remaining iterations would.
+fn descend(
+    robot: &RobotModel,
+    ws: &mut KinematicsWorkspace,
+    jac: &mut Matrix6xX<f64>,
+    t: &IkTarget,
+    q: &mut [f64],
+    s: &IkSettings,
+) -> Result<(f64, f64), RobotError> {
     let mut errs = (f64::INFINITY, f64::INFINITY);
-    for _ in 0..s.iterations {
-        let (e, j) = error(robot, &mut ws, &mut jac, t, q)?;
-        errs = (e.rows(0, 3).norm(), if e.len() > 3 { e.rows(3, 3).norm() } else { 0.0 });
+    let mut checkpoint = f64::INFINITY;
+    for iteration in 0..s.iterations {
+        let (ep, er) = error(robot, ws, jac, t, q)?;
+        errs = (ep.norm(), er.norm());
         if errs.0 < s.position_tolerance && errs.1 < s.angle_tolerance {
             break;
         }
-        let jjt = &j * j.transpose() + DMatrix::identity(e.len(), e.len()) * (s.damping * s.damping);
-        let Some(step) = jjt.cholesky().map(|c| j.transpose() * c.solve(&e)) else { break };
-        for ((v, d), l) in q.iter_mut().zip(step.iter()).zip(robot.limits()) {
-            *v = (*v + d).clamp(l.lower, l.upper);
+        if iteration % STALL_WINDOW == 0 {
+            let total = errs.0 + errs.1;
+            if total > (1.0 - STALL_PROGRESS) * checkpoint {
+                break;
+            }
+            checkpoint = total;
+        }
+        // Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e, on the stack.
+        let e = Vector6::new(ep.x, ep.y, ep.z, er.x, er.y, er.z);
+        let jjt = &*jac * jac.transpose() + Matrix6::identity() * (s.damping * s.damping);
+        let Some(y) = jjt.cholesky().map(|c| c.solve(&e)) else { break };
+        for ((k, v), l) in q.iter_mut().enumerate().zip(robot.limits()) {
+            *v = (*v + jac.column(k).dot(&y)).clamp(l.lower, l.upper);
         }
     }
     Ok(errs)
@@ -128,13 +152,14 @@ pub fn solve_ik(
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let (mut found, mut colliding, mut best) = (Vec::<Vec<f64>>::new(), None, (f64::INFINITY, f64::INFINITY));
     let mut colliding_count = 0;
+    let (mut kinematics, mut jac) = (KinematicsWorkspace::new(&robot), Matrix6xX::zeros(robot.nq()));
     for attempt in 0..settings.restarts.max(1) {
         let mut q: Vec<f64> = if attempt == 0 {
             seed_q.to_vec()
         } else {
             robot.limits().iter().map(|l| rng.random_range(l.lower..=l.upper)).collect()
         };
-        let errs = descend(&robot, target, &mut q, settings)?;
+        let errs = descend(&robot, &mut kinematics, &mut jac, target, &mut q, settings)?;
         if errs.0 + errs.1 < best.0 + best.1 {
             best = errs;
         }
