@@ -250,13 +250,12 @@ impl SymmetricBand {
         for i in from..n {
             let (done, rest) = self.data.split_at_mut(i * stride);
             let row = &mut rest[..stride];
-            // Column c of row r sits at offset c + b − r of its storage.
             let fi = first[i];
-            for j in fi..i {
-                let rj = &done[j * stride..(j + 1) * stride];
-                let c0 = first[j].max(fi);
-                let s = dot(&row[c0 + b - i..j + b - i], &rj[c0 + b - j..b]);
-                row[j + b - i] = (row[j + b - i] - s) / rj[b];
+            let mut j = fi;
+            while j < i {
+                let m = (i - j).min(4);
+                factor_block(row, done, b, i, fi, j, m);
+                j += m;
             }
             let lower = &row[fi + b - i..b];
             let pivot = row[b] - dot(lower, lower);
@@ -292,6 +291,47 @@ impl SymmetricBand {
                 *y -= l * xi;
             }
         }
+    }
+}
+
+/// Entries `L[i][j .. j + m]` (`m ≤ 4`) of the factor's row `i` (band
+/// storage `row`, rows above it done in `done`), from its envelope's first
+/// column `fi`: the inner products over the columns before `j` are shared
+/// by the `m` entries, four running sums over one pass (a short dot
+/// product per entry costs more in loop overhead than in arithmetic);
+/// the few columns among `j .. j + m` follow one entry at a time. Row
+/// `k`'s entries before its envelope are zero, so every product may start
+/// at `fi`. Column `c` of row `r` sits at offset `c + b − r` of its row.
+#[inline(always)]
+fn factor_block(row: &mut [f64], done: &[f64], b: usize, i: usize, fi: usize, j: usize, m: usize) {
+    let stride = b + 1;
+    let len = j - fi;
+    let x = &row[fi + b - i..fi + b - i + len];
+    let segment = |q: usize| {
+        let k = j + q.min(m - 1);
+        &done[k * stride + fi + b - k..k * stride + fi + b - k + len]
+    };
+    let (y0, y1, y2, y3) = (segment(0), segment(1), segment(2), segment(3));
+    let mut sums = [0.0; 4];
+    for c in 0..len {
+        let v = x[c];
+        sums[0] += v * y0[c];
+        sums[1] += v * y1[c];
+        sums[2] += v * y2[c];
+        sums[3] += v * y3[c];
+    }
+    // Row k = j + q holds columns j ..= k (k's diagonal last) at offsets
+    // b − q ..= b.
+    let mut l = [0.0; 4];
+    for q in 0..m {
+        let k = j + q;
+        let t = &done[k * stride + b - q..k * stride + b + 1];
+        let mut s = sums[q];
+        for p in 0..q {
+            s += l[p] * t[p];
+        }
+        l[q] = (row[k + b - i] - s) / t[q];
+        row[k + b - i] = l[q];
     }
 }
 
