@@ -299,7 +299,7 @@ fn combine(first: &SolveReport, last: SolveReport) -> SolveReport {
 /// Plans `problem` with RRT-Connect, then optimizes from the shortcut path
 /// (from the straight line to the first goal configuration when planning
 /// fails), and validates the result; a result that collides between slices
-/// is re-optimized with collision checks between slices (1, 3, then 7 per
+/// is re-optimized with collision checks between slices (1, 3, 7, then 15 per
 /// interval).
 ///
 /// # Errors
@@ -324,7 +324,7 @@ pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<Proble
     // Slices far apart can be collision-free while the motion between them
     // is not: re-solve from the result with collision rows between slices.
     // Only a converged result is worth refining; a failed solve is reported.
-    for substeps in [1, 3, 7] {
+    for substeps in [1, 3, 7, 15] {
         if validation.collision_free || result.report.termination != Termination::Converged {
             break;
         }
