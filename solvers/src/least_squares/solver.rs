@@ -73,8 +73,10 @@ impl Default for SolverSettings {
 pub enum Termination {
     /// The inner loop converged and the constraints hold within tolerance.
     Converged,
-    /// The constraints still do not hold at the largest penalty: the problem
-    /// is (locally) infeasible, e.g. an unreachable target.
+    /// The constraints still do not hold at the largest penalty, or their
+    /// violation stopped shrinking well above tolerance while the penalty
+    /// grew: the problem is (locally) infeasible, e.g. an unreachable
+    /// target.
     Infeasible,
     /// `max_outer_iterations` outer iterations were not enough.
     IterationLimit,
@@ -134,6 +136,11 @@ pub enum SolveError<E> {
     #[error("the problem is not finite at the start point")]
     NotFiniteAtStart,
 }
+
+/// An outer iteration whose violation (above 10× tolerance) is above this
+/// fraction of the one two iterations before, with evaluations spent in
+/// between and the penalty raised, ends the solve infeasible.
+const STALLED: f64 = 0.9;
 
 /// Most re-solves of one step with newly activated inequality rows.
 const ACTIVATION_ROUNDS: usize = 8;
@@ -306,28 +313,47 @@ impl AugmentedLagrangian {
         if !warm {
             self.penalty = (self.settings.initial_penalty * self.curvature_ratio()).min(self.settings.max_penalty);
         }
-        let mut previous_violation = f64::INFINITY;
+        // Violations and evaluation counts after the last two outer
+        // iterations (most recent first).
+        let mut previous = [f64::INFINITY; 2];
+        let mut evaluated = [0; 2];
         let mut outer = 0;
         let termination = loop {
             outer += 1;
             let inner = self.minimize(problem, x, &budget)?;
             let (eq, ineq) = (self.current.equality_violation(), self.current.inequality_violation());
             let feasible = eq <= self.settings.equality_tolerance && ineq <= self.settings.inequality_tolerance;
+            let violation = eq.max(ineq);
+            // Two outer iterations of real work (evaluations), the penalty
+            // raised, that moved a violation well above tolerance by less
+            // than 10 %: it has settled where the constraints cannot hold (a
+            // local infeasibility); the penalties left would only stiffen
+            // the problem around it. (Near tolerance, violations often sit
+            // still for a few iterations before the penalty pushes them in.)
+            let tolerance = self.settings.equality_tolerance.max(self.settings.inequality_tolerance);
+            let stalled = violation > STALLED * previous[1]
+                && violation > 10.0 * tolerance
+                && self.evaluations >= evaluated[1] + 2;
             match inner {
                 InnerEnd::Budget(t) => break t,
                 InnerEnd::Converged if feasible => break Termination::Converged,
-                InnerEnd::Converged if self.penalty >= self.settings.max_penalty => break Termination::Infeasible,
+                InnerEnd::Converged if self.penalty >= self.settings.max_penalty || stalled => {
+                    break Termination::Infeasible;
+                }
                 InnerEnd::Converged if outer >= self.settings.max_outer_iterations => {
                     break Termination::IterationLimit;
                 }
                 InnerEnd::Converged => {}
             }
             self.update_multipliers();
-            let violation = eq.max(ineq);
-            if violation > 0.25 * previous_violation {
+            if violation > 0.25 * previous[0] {
                 self.penalty = (self.penalty * self.settings.penalty_increase).min(self.settings.max_penalty);
+            } else {
+                // Progress: the stall test restarts.
+                previous[0] = f64::INFINITY;
             }
-            previous_violation = violation;
+            previous = [violation, previous[0]];
+            evaluated = [self.evaluations, evaluated[0]];
         };
         Ok(SolveReport {
             termination,
