@@ -13,7 +13,7 @@
 mod mbm;
 
 use mbm::{Benchmark, FAMILIES, full_run, row};
-use tandem::plan::{PlanStatus, ProblemPlanner};
+use tandem::plan::{PlanStatus, ProblemPlanner, path_length};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -28,6 +28,8 @@ fn main() {
         .unwrap_or(10.0);
     let benchmark = Benchmark::unpack();
     let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
+    // Joint-space length of the simplified paths (rad): what simplification buys.
+    let mut lengths = Vec::new();
     for family in FAMILIES {
         for k in 1..=per_family {
             let mut problem = benchmark.problem(family, k);
@@ -38,6 +40,7 @@ fn main() {
                 let p = report.planning_time.as_secs_f64();
                 planning.push(p);
                 total.push(p + report.simplify_time.as_secs_f64());
+                lengths.push(path_length(&report.path));
             } else {
                 failed.push(format!("{family} {k}: {}", report.result.status.name()));
             }
@@ -48,11 +51,13 @@ fn main() {
     let p = row("planning time", &mut planning);
     let t = row("planning + simplification", &mut total);
     println!("| solved | {} of {} | | |", planning.len(), per_family * FAMILIES.len());
+    let mean_length = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
+    println!("mean path length after simplification: {mean_length:.4} rad");
     for f in &failed {
         println!("unsolved: {f}");
     }
     let out = serde_json::json!({"solved": planning.len(), "planning": p, "total": t, "unsolved": failed,
-        "time_limit_s": time_limit});
+        "time_limit_s": time_limit, "mean_path_length_rad": mean_length});
     if per_family < 100 {
         return;
     }

@@ -1,13 +1,27 @@
 //! Nearest-neighbour search over a growing set of configurations: an
 //! incremental k-d tree (split axis cycling with depth). RRT inserts points
 //! in random order, which keeps such a tree balanced in expectation, so
-//! queries stay logarithmic-ish to 100k nodes without rebuilding.
+//! queries stay logarithmic-ish to 100k nodes without rebuilding. Smaller
+//! sets (the trees of most problems) are scanned linearly instead, [`BLOCK`]
+//! points at a time from a copy stored coordinate by coordinate: in 7
+//! dimensions the tree search visits most nodes of a few hundred anyway,
+//! at many times the cost per node.
+
+/// Points a block of the linear scan holds.
+const BLOCK: usize = 8;
+
+/// Sets of at most this many points are scanned linearly.
+const LINEAR_SCAN: usize = 512;
 
 /// Points of dimension `dim`, stored flat, with a k-d tree over them.
 #[derive(Debug, Clone)]
 pub(crate) struct NearestNeighbors {
     dim: usize,
     points: Vec<f64>,
+    /// The points again, block by block, coordinate by coordinate inside a
+    /// block: coordinate `k` of point `BLOCK · b + l` at `(b · dim + k) ·
+    /// BLOCK + l`. Slots past the last point hold infinity.
+    blocks: Vec<f64>,
     /// Children of each node (u32::MAX: none).
     left: Vec<u32>,
     right: Vec<u32>,
@@ -19,7 +33,14 @@ const NONE: u32 = u32::MAX;
 
 impl NearestNeighbors {
     pub(crate) fn new(dim: usize) -> Self {
-        NearestNeighbors { dim, points: Vec::new(), left: Vec::new(), right: Vec::new(), stack: Vec::new() }
+        NearestNeighbors {
+            dim,
+            points: Vec::new(),
+            blocks: Vec::new(),
+            left: Vec::new(),
+            right: Vec::new(),
+            stack: Vec::new(),
+        }
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -34,6 +55,13 @@ impl NearestNeighbors {
     pub(crate) fn insert(&mut self, p: &[f64]) -> usize {
         let index = self.len() as u32;
         self.points.extend_from_slice(p);
+        let (block, lane) = (index as usize / BLOCK, index as usize % BLOCK);
+        if lane == 0 {
+            self.blocks.resize((block + 1) * self.dim * BLOCK, f64::INFINITY);
+        }
+        for (k, &v) in p.iter().enumerate() {
+            self.blocks[(block * self.dim + k) * BLOCK + lane] = v;
+        }
         self.left.push(NONE);
         self.right.push(NONE);
         if index == 0 {
@@ -57,6 +85,9 @@ impl NearestNeighbors {
     pub(crate) fn nearest(&mut self, q: &[f64]) -> Option<usize> {
         if self.len() == 0 {
             return None;
+        }
+        if self.len() <= LINEAR_SCAN {
+            return Some(self.scan(q));
         }
         let (mut best, mut best_d2) = (0usize, f64::INFINITY);
         self.stack.clear();
@@ -85,6 +116,27 @@ impl NearestNeighbors {
         }
         Some(best)
     }
+
+    /// Index of the point nearest to `q` by a linear scan (the first of
+    /// equally near ones).
+    fn scan(&self, q: &[f64]) -> usize {
+        let (mut best, mut best_d2) = (0usize, f64::INFINITY);
+        for (b, block) in self.blocks.chunks_exact(self.dim * BLOCK).enumerate() {
+            let mut d2 = [0.0; BLOCK];
+            for (coordinates, &v) in block.chunks_exact(BLOCK).zip(q) {
+                for l in 0..BLOCK {
+                    let d = coordinates[l] - v;
+                    d2[l] += d * d;
+                }
+            }
+            for (l, &d) in d2.iter().enumerate() {
+                if d < best_d2 {
+                    (best, best_d2) = (b * BLOCK + l, d);
+                }
+            }
+        }
+        best
+    }
 }
 
 #[cfg(test)]
@@ -97,10 +149,18 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
         let mut nn = NearestNeighbors::new(7);
         let mut all: Vec<Vec<f64>> = Vec::new();
-        for _ in 0..3000 {
+        for n in 0..3000 {
             let p: Vec<f64> = (0..7).map(|_| rng.random_range(-3.0..3.0)).collect();
             nn.insert(&p);
             all.push(p);
+            if n > 100 {
+                continue;
+            }
+            // Small sets (the linear scan, and the tree just past it).
+            let q: Vec<f64> = (0..7).map(|_| rng.random_range(-3.5..3.5)).collect();
+            let d2 = |p: &Vec<f64>| p.iter().zip(&q).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            let scan = (0..all.len()).min_by(|&a, &b| d2(&all[a]).total_cmp(&d2(&all[b]))).unwrap();
+            assert_eq!(d2(&all[nn.nearest(&q).unwrap()]), d2(&all[scan]));
         }
         for _ in 0..500 {
             let q: Vec<f64> = (0..7).map(|_| rng.random_range(-3.5..3.5)).collect();

@@ -178,6 +178,11 @@ impl Planner<'_> {
     /// One step of `tree` from its node nearest to `target` towards it.
     fn extend(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Extension, RobotError> {
         let near = tree.nn.nearest(target).expect("trees are never empty");
+        self.step(tree, near, target)
+    }
+
+    /// One step of `tree` from node `near` towards `target`.
+    fn step(&mut self, tree: &mut Tree, near: usize, target: &[f64]) -> Result<Extension, RobotError> {
         let from = tree.nn.point(near);
         let dist = from.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
         let reached = dist <= self.settings.step;
@@ -191,12 +196,16 @@ impl Planner<'_> {
         Ok(if reached { Extension::Reached(new) } else { Extension::Advanced(new) })
     }
 
-    /// Extends `tree` towards `target` until it reaches it or is blocked.
+    /// Extends `tree` towards `target` until it reaches it or is blocked:
+    /// from its node nearest to `target`, step after step along the
+    /// straight line (each new node is where the next step starts; a
+    /// nearest-neighbour query per step would cost more than it finds).
     fn connect(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Option<usize>, RobotError> {
+        let mut near = tree.nn.nearest(target).expect("trees are never empty");
         loop {
-            match self.extend(tree, target)? {
+            match self.step(tree, near, target)? {
                 Extension::Reached(i) => return Ok(Some(i)),
-                Extension::Advanced(_) => {}
+                Extension::Advanced(i) => near = i,
                 Extension::Trapped => return Ok(None),
             }
         }

@@ -43,6 +43,11 @@ pub(crate) struct SphereWorkspace {
     pub(super) group_sweep: Vec<f64>,
     pub(super) cluster_sweep: Vec<f64>,
     pub(super) margins: Margins,
+    /// Per lane, after a certification check that found it free: the
+    /// half-width around its configuration over which every pair keeps
+    /// `half` (at least its width when the lane was not split; NaN or
+    /// negative means none).
+    pub(super) room: Lane,
     /// Intervals of the motion still to certify.
     pub(crate) intervals: std::collections::VecDeque<(f64, f64)>,
 }
@@ -74,6 +79,7 @@ impl SphereWorkspace {
             group_sweep: vec![0.0; model.groups.len()],
             cluster_sweep: vec![0.0; model.clusters.len()],
             margins: Margins { half: 0.0, full: 0.0, width: [0.0; LANES] },
+            room: [0.0; LANES],
             intervals: std::collections::VecDeque::with_capacity(256),
         }
     }
@@ -108,14 +114,27 @@ fn all_beyond(d2: &Lane, pass: &Lane) -> bool {
 struct Flags {
     unsure: [bool; LANES],
     split: [bool; LANES],
+    /// Certification: per lane, the half-width (fraction of the motion)
+    /// around the checked configuration over which every pair met so far
+    /// keeps `half` (+∞ until a pair falls short of the lane's width).
+    room: Lane,
 }
 
 /// Folds one pair into the flags, given each lane's squared distance `d2`
 /// (m², negative inside), what it must clear to pass (`pass`, as for
 /// [`all_beyond`]) and the distance below which it fails (`fail`, m, more
-/// than the tolerance): true when a lane certainly fails.
+/// than the tolerance): true when a lane certainly fails. Certification
+/// also narrows each short lane's room to what the pair keeps, from the
+/// distance `keep` (m) it must stay above and its approach speed bound
+/// `sweep` (m per unit of motion, valid over the lane's whole width).
 #[inline(always)]
-fn fails(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> bool {
+fn fails<const CERTIFY: bool>(
+    d2: &Lane,
+    pass: &Lane,
+    fail: f64,
+    (keep, sweep): (f64, &Lane),
+    flags: &mut Flags,
+) -> bool {
     if all_beyond(d2, pass) {
         return false;
     }
@@ -127,7 +146,13 @@ fn fails(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> bool {
         }
         // NaN lands here too: the exact model decides.
         flags.unsure[l] |= d <= band || d.is_nan();
-        flags.split[l] |= d <= pass[l];
+        if d <= pass[l] {
+            flags.split[l] = true;
+            if CERTIFY {
+                // d ≥ keep + room · sweep: the pair keeps `half` over the room.
+                flags.room[l] = min(flags.room[l], (max(d, 0.0).sqrt() - keep) / sweep[l]);
+            }
+        }
     }
     false
 }
@@ -240,7 +265,7 @@ impl SphereModel {
         if CERTIFY {
             ws.tight_done.fill(false);
         }
-        let mut flags = Flags { unsure: [false; LANES], split: [false; LANES] };
+        let mut flags = Flags { unsure: [false; LANES], split: [false; LANES], room: [f64::INFINITY; LANES] };
         // Distal links first: they are the likelier to hit something.
         for g in (0..self.groups.len()).rev() {
             if self.check_environment::<CERTIFY>(ws, g, &mut flags) {
@@ -252,6 +277,7 @@ impl SphereModel {
                 return Verdict::Collides;
             }
         }
+        ws.room = flags.room;
         Verdict::Free { unsure: flags.unsure, split: flags.split }
     }
 
@@ -314,7 +340,9 @@ impl SphereModel {
             for s in cluster.spheres.clone() {
                 let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
                 let reach = self.spheres[s].reach + radius;
-                if fails(&d2, &Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep), reach + full, flags) {
+                let pass = Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep);
+                let keep = reach + ws.margins.half + TOLERANCE;
+                if fails::<CERTIFY>(&d2, &pass, reach + full, (keep, &sweep), flags) {
                     return true;
                 }
             }
@@ -364,7 +392,9 @@ impl SphereModel {
                     for j in kb.spheres.clone() {
                         let d2 = lane_distance_squared(&ws.centers[i], &ws.centers[j]);
                         let reach = self.spheres[i].reach + self.spheres[j].reach;
-                        if fails(&d2, &Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep), reach + full, flags) {
+                        let pass = Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep);
+                        let keep = reach + ws.margins.half + TOLERANCE;
+                        if fails::<CERTIFY>(&d2, &pass, reach + full, (keep, &sweep), flags) {
                             return true;
                         }
                     }

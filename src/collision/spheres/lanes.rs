@@ -88,20 +88,21 @@ impl LanePose {
     }
 
     /// `parent ∘ (rotation, translation)` for a constant transform
-    /// (rotation column-major), written into `self`.
+    /// (rotation column-major), written into `self`. Zero entries are
+    /// skipped (robots' joint frames are mostly axis permutations and
+    /// offsets along one axis): adding a zero product changes no bit
+    /// of the sum, so the result is that of the full product.
     #[inline(always)]
     fn set_constant(&mut self, parent: &LanePose, rotation: &[f64; 9], translation: &[f64; 3]) {
+        // Column j of the product: Σ_k rotation(k, j) · parent column k.
+        for j in 0..3 {
+            let column = combine(&parent.r, &[rotation[3 * j], rotation[3 * j + 1], rotation[3 * j + 2]]);
+            self.r[3 * j..3 * j + 3].copy_from_slice(&column);
+        }
+        let offset = combine(&parent.r, translation);
         for i in 0..3 {
-            let (p0, p1, p2) = (&parent.r[i], &parent.r[3 + i], &parent.r[6 + i]);
-            for j in 0..3 {
-                let (m0, m1, m2) = (rotation[3 * j], rotation[3 * j + 1], rotation[3 * j + 2]);
-                for l in 0..LANES {
-                    self.r[3 * j + i][l] = p0[l] * m0 + p1[l] * m1 + p2[l] * m2;
-                }
-            }
-            let (t0, t1, t2) = (translation[0], translation[1], translation[2]);
             for l in 0..LANES {
-                self.t[i][l] = parent.t[i][l] + (p0[l] * t0 + p1[l] * t1 + p2[l] * t2);
+                self.t[i][l] = parent.t[i][l] + offset[i][l];
             }
         }
     }
@@ -147,6 +148,34 @@ impl LanePose {
         }
         out
     }
+}
+
+/// `Σ_k weights[k] · column k of r` (rotation column-major), the sum
+/// taken in order of k over the nonzero weights only.
+#[inline(always)]
+fn combine(r: &[Lane; 9], weights: &[f64; 3]) -> [Lane; 3] {
+    let mut sum = [[0.0; LANES]; 3];
+    let Some(first) = weights.iter().position(|&w| w != 0.0) else { return sum };
+    let w = weights[first];
+    for i in 0..3 {
+        let column = &r[3 * first + i];
+        for l in 0..LANES {
+            sum[i][l] = column[l] * w;
+        }
+    }
+    for k in first + 1..3 {
+        let w = weights[k];
+        if w == 0.0 {
+            continue;
+        }
+        for i in 0..3 {
+            let column = &r[3 * k + i];
+            for l in 0..LANES {
+                sum[i][l] += column[l] * w;
+            }
+        }
+    }
+    sum
 }
 
 /// Beyond this |angle| (rad) the polynomial's argument reduction is not

@@ -67,6 +67,23 @@ pub(crate) enum Certification {
     Undecided,
 }
 
+/// Splits the widest of fewer than [`LANES`] pending intervals in halves
+/// until the next batch is full: its lanes cost the same used or not, and
+/// narrower intervals certify in fewer rounds.
+fn fill_lanes(intervals: &mut std::collections::VecDeque<(f64, f64)>) {
+    while !intervals.is_empty() && intervals.len() < LANES {
+        let (widest, &(lo, hi)) =
+            intervals.iter().enumerate().max_by(|a, b| (a.1.1 - a.1.0).total_cmp(&(b.1.1 - b.1.0))).expect("not empty");
+        // Thin ones are left to the bounded splitting of `certify`.
+        if hi - lo < 1e-9 {
+            return;
+        }
+        let m = 0.5 * (lo + hi);
+        intervals[widest] = (lo, m);
+        intervals.push_back((m, hi));
+    }
+}
+
 /// How far (m) spheres may move over the intervals a certification starts with.
 const FIRST_REACH: f64 = 0.2;
 
@@ -114,13 +131,24 @@ impl SphereModel {
             if unsure[..n].iter().any(|&u| u) {
                 return Certification::Undecided;
             }
-            for ((lo, hi), m) in taken.into_iter().zip(mid).take(n).zip(split).filter(|(_, s)| *s).map(|(x, _)| x) {
+            for l in (0..n).filter(|&l| split[l]) {
+                let ((lo, hi), m) = (taken[l], mid[l]);
                 // Bounded splitting: an interval this thin is for the exact model.
                 if hi - lo < 1e-12 {
                     return Certification::Undecided;
                 }
-                ws.intervals.extend([(lo, m), (m, hi)]);
+                // What is certified around the midpoint anyway (NaN: nothing)
+                // stays out of the halves left.
+                let room = ws.room[l];
+                let room = if room > 0.0 { room.min(ws.margins.width[l]) } else { 0.0 };
+                if m - room > lo {
+                    ws.intervals.push_back((lo, m - room));
+                }
+                if m + room < hi {
+                    ws.intervals.push_back((m + room, hi));
+                }
             }
+            fill_lanes(&mut ws.intervals);
         }
         Certification::Certified
     }
