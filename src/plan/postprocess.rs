@@ -40,6 +40,9 @@ pub fn shortcut(
 ) -> Result<Vec<Vec<f64>>, RobotError> {
     let mut out = greedy(model, ws, path, edge)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    // The shortcut's ends, reused by every attempt (copied only when kept).
+    let dim = path.first().map_or(0, Vec::len);
+    let (mut a, mut b) = (vec![0.0; dim], vec![0.0; dim]);
     for _ in 0..attempts {
         if out.len() < 3 {
             break;
@@ -52,16 +55,12 @@ pub fn shortcut(
         }
         // Points inside segments i and j.
         let (s, t) = (rng.random_range(0.0..1.0), rng.random_range(0.0..1.0));
-        let a: Vec<f64> = lerp(&out[i], &out[i + 1], s);
-        let b: Vec<f64> = lerp(&out[j], &out[j + 1], t);
+        lerp_into(&mut a, &out[i], &out[i + 1], s);
+        lerp_into(&mut b, &out[j], &out[j + 1], t);
         let old = distance(&a, &out[i + 1]) + path_length(&out[i + 1..=j]) + distance(&out[j], &b);
         if distance(&a, &b) < old - MIN_GAIN * path_length(&out) && edge.is_free(model, ws, &a, &b)? {
-            let mut next = out[..=i].to_vec();
-            next.push(a);
-            next.push(b);
-            next.extend_from_slice(&out[j + 1..]);
-            next.dedup_by(|x, y| distance(x, y) < 1e-12);
-            out = next;
+            out.splice(i + 1..=j, [a.clone(), b.clone()]);
+            out.dedup_by(|x, y| distance(x, y) < 1e-12);
         }
     }
     Ok(out)
@@ -89,6 +88,13 @@ fn greedy(
 
 fn lerp(a: &[f64], b: &[f64], t: f64) -> Vec<f64> {
     a.iter().zip(b).map(|(x, y)| x + (y - x) * t).collect()
+}
+
+/// [`lerp`] into `out` (of the same length).
+fn lerp_into(out: &mut [f64], a: &[f64], b: &[f64], t: f64) {
+    for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
+        *o = x + (y - x) * t;
+    }
 }
 
 /// `count` (≥ 2) waypoints evenly spaced by joint-space arc length along
