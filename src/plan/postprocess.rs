@@ -86,11 +86,14 @@ fn greedy(
     Ok(out)
 }
 
+/// `a + t (b − a)`.
 fn lerp(a: &[f64], b: &[f64], t: f64) -> Vec<f64> {
-    a.iter().zip(b).map(|(x, y)| x + (y - x) * t).collect()
+    let mut out = vec![0.0; a.len()];
+    lerp_into(&mut out, a, b, t);
+    out
 }
 
-/// [`lerp`] into `out` (of the same length).
+/// `a + t (b − a)` into `out` (of the same length).
 fn lerp_into(out: &mut [f64], a: &[f64], b: &[f64], t: f64) {
     for ((o, x), y) in out.iter_mut().zip(a).zip(b) {
         *o = x + (y - x) * t;
