@@ -9,6 +9,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# Disk is the scarce resource on CI machines (a run once died of a full
+# disk): say what there is, and skip what only helps repeated local builds.
+disk() { echo "== disk: $(df -h --output=avail . | tail -1 | tr -d ' ') free ($1)"; }
+disk "start"
+if [ -n "${CI:-}" ]; then
+  export CARGO_INCREMENTAL=0 PIP_NO_CACHE_DIR=1
+fi
+
 venv=python_ref/.venv
 stamp="$venv/.requirements.sha256"
 want=$(sha256sum python_ref/requirements.txt | cut -d' ' -f1)
@@ -21,10 +29,14 @@ fi
 "$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
 
+disk "Python environment ready"
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets --quiet -- -D warnings
 echo "== cargo test"
+cargo test --workspace --all-targets --no-run --quiet
+disk "tests built"
 cargo test --workspace --all-targets --no-fail-fast
 cargo test --workspace --doc --no-fail-fast
+disk "end"
