@@ -124,7 +124,13 @@ fn descend(
         }
         // Δq = Jᵀ (J Jᵀ + λ² I)⁻¹ e, on the stack.
         let e = Vector6::new(ep.x, ep.y, ep.z, er.x, er.y, er.z);
-        let jjt = &*jac * jac.transpose() + Matrix6::identity() * (s.damping * s.damping);
+        // J Jᵀ column by column: a dynamic-size product would go through a
+        // general matrix multiply that allocates its packing buffers.
+        let mut jjt = Matrix6::identity() * (s.damping * s.damping);
+        for column in jac.column_iter() {
+            let c = Vector6::from_iterator(column.iter().copied());
+            jjt += c * c.transpose();
+        }
         let Some(y) = jjt.cholesky().map(|c| c.solve(&e)) else { break };
         for ((k, v), l) in q.iter_mut().enumerate().zip(robot.limits()) {
             *v = (*v + jac.column(k).dot(&y)).clamp(l.lower, l.upper);

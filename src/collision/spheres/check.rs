@@ -8,8 +8,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::lanes::{
-    LANES, Lane, LanePose, box_distance_squared_local, cylinder_distance_squared, lane_distance_squared, max, min,
-    point_distance_squared, segment_distance_squared, sin_cos, to_local,
+    LANES, Lane, LanePose, box_distance_squared_local, cylinder_distance_squared, lane_distance_squared, lane_max,
+    lane_min, max, min, point_distance_squared, segment_distance_squared, sin_cos, to_local,
 };
 use super::{Isa, SphereModel, StaticKind, StaticShape, TOLERANCE};
 use crate::robot::Motion;
@@ -34,10 +34,15 @@ pub(crate) struct SphereWorkspace {
     /// Certification of the current motion (see `sweep.rs`): per body,
     /// its joint's `|Δq · multiplier|`; per cluster, the prefix sums
     /// of its loose sweep terms (m per unit of motion), a leading 0 first,
-    /// at its slot, and the same for its tight terms per lane (valid when
-    /// `tight_done`); per group and per cluster, the largest loose sweep.
+    /// at its slot (valid when `prefix_done`), and the same for its tight
+    /// terms per lane (valid when `tight_done`); per group and per
+    /// cluster, the largest loose sweep; per self pair, each side's
+    /// (valid when `pair_done`).
     pub(super) rates: Vec<f64>,
     pub(super) prefix: Vec<f64>,
+    pub(super) prefix_done: Vec<bool>,
+    pub(super) pair_sweep: Vec<[f64; 2]>,
+    pub(super) pair_done: Vec<bool>,
     pub(super) tight: Vec<Lane>,
     pub(super) tight_done: Vec<bool>,
     pub(super) group_sweep: Vec<f64>,
@@ -50,6 +55,16 @@ pub(crate) struct SphereWorkspace {
     pub(super) room: Lane,
     /// Intervals of the motion still to certify.
     pub(crate) intervals: std::collections::VecDeque<(f64, f64)>,
+    /// The pair that last failed, checked first: successive checks (the
+    /// steps of a search, a shortcut tried again) tend to fail on it.
+    last_failure: Option<Pair>,
+}
+
+/// A pair of the model: a group and a static shape, or a self pair.
+#[derive(Debug, Clone, Copy)]
+enum Pair {
+    Environment(usize, usize),
+    Robot(usize),
 }
 
 /// What a certification check asks of each pair (m): to stay `full` apart
@@ -74,6 +89,9 @@ impl SphereWorkspace {
             spheres_placed: vec![false; model.clusters.len()],
             rates: vec![0.0; model.bodies.len()],
             prefix: vec![0.0; model.sweep_terms.len() + model.clusters.len()],
+            prefix_done: vec![false; model.clusters.len()],
+            pair_sweep: vec![[0.0; 2]; model.self_pairs.len()],
+            pair_done: vec![false; model.self_pairs.len()],
             tight: vec![[0.0; LANES]; model.sweep_terms.len() + model.clusters.len()],
             tight_done: vec![false; model.clusters.len()],
             group_sweep: vec![0.0; model.groups.len()],
@@ -81,6 +99,7 @@ impl SphereWorkspace {
             margins: Margins { half: 0.0, full: 0.0, width: [0.0; LANES] },
             room: [0.0; LANES],
             intervals: std::collections::VecDeque::with_capacity(256),
+            last_failure: None,
         }
     }
 }
@@ -165,11 +184,9 @@ impl StaticShape {
         match &self.kind {
             StaticKind::Sphere { center, radius } => (point_distance_squared(p, center), *radius),
             StaticKind::Capsule { a, ab, len2, radius } => (segment_distance_squared(p, a, ab, *len2), *radius),
-            StaticKind::Box { rotation, translation, half } => {
-                (box_distance_squared_local(&to_local(p, rotation, translation), half), 0.0)
-            }
-            StaticKind::Cylinder { rotation, translation, radius, half_length } => {
-                (cylinder_distance_squared(&to_local(p, rotation, translation), *radius, *half_length), 0.0)
+            StaticKind::Box { frame, half } => (box_distance_squared_local(&to_local(p, frame), half), 0.0),
+            StaticKind::Cylinder { frame, radius, half_length } => {
+                (cylinder_distance_squared(&to_local(p, frame), *radius, *half_length), 0.0)
             }
         }
     }
@@ -266,6 +283,15 @@ impl SphereModel {
             ws.tight_done.fill(false);
         }
         let mut flags = Flags { unsure: [false; LANES], split: [false; LANES], room: [f64::INFINITY; LANES] };
+        // Checked again below if it passes: the flags it sets do not change.
+        let failed = match ws.last_failure {
+            Some(Pair::Environment(g, o)) => self.check_shape::<CERTIFY>(ws, g, o, &mut flags),
+            Some(Pair::Robot(p)) => self.check_self_pair::<CERTIFY>(ws, p, &mut flags),
+            None => false,
+        };
+        if failed {
+            return Verdict::Collides;
+        }
         // Distal links first: they are the likelier to hit something.
         for g in (0..self.groups.len()).rev() {
             if self.check_environment::<CERTIFY>(ws, g, &mut flags) {
@@ -274,6 +300,7 @@ impl SphereModel {
         }
         for p in 0..self.self_pairs.len() {
             if self.check_self_pair::<CERTIFY>(ws, p, &mut flags) {
+                ws.last_failure = Some(Pair::Robot(p));
                 return Verdict::Collides;
             }
         }
@@ -287,11 +314,10 @@ impl SphereModel {
         let group = &self.groups[g];
         // The box around the group's balls in every lane, grown by the
         // limit: shapes whose boxes it misses are cleared in every lane.
-        let reach =
-            Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g]).iter().fold(0.0, |a, &b| max(a, b)).sqrt();
+        let reach = lane_max(&Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g])).sqrt();
         let center = ws.group_centers[g];
-        let lo: [f64; 3] = std::array::from_fn(|i| center[i].iter().fold(f64::INFINITY, |a, &b| min(a, b)) - reach);
-        let hi: [f64; 3] = std::array::from_fn(|i| center[i].iter().fold(f64::NEG_INFINITY, |a, &b| max(a, b)) + reach);
+        let lo: [f64; 3] = std::array::from_fn(|i| lane_min(&center[i]) - reach);
+        let hi: [f64; 3] = std::array::from_fn(|i| lane_max(&center[i]) + reach);
         for chunk in &self.env[group.env.clone()] {
             // Per shape, the largest gap between the boxes along an axis.
             let mut gap = [f64::NEG_INFINITY; LANES];
@@ -302,6 +328,7 @@ impl SphereModel {
             }
             for (&o, _) in chunk.shapes[..chunk.count].iter().zip(gap).filter(|(_, gap)| *gap <= 0.0) {
                 if self.check_shape::<CERTIFY>(ws, g, o as usize, flags) {
+                    ws.last_failure = Some(Pair::Environment(g, o as usize));
                     return true;
                 }
             }
@@ -358,10 +385,8 @@ impl SphereModel {
         let full = if CERTIFY { ws.margins.full } else { 0.0 };
         // Joints moving both sides leave the pair's distance unchanged.
         let depth = self.common_depth[p];
-        let loose = |ws: &SphereWorkspace, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { 0.0 };
-        let largest =
-            |ws: &SphereWorkspace, g: &super::SphereGroup| g.clusters.clone().map(|c| loose(ws, c)).fold(0.0, max);
-        let (sweep_a, sweep_b) = (largest(ws, ga), largest(ws, gb));
+        let loose = |ws: &mut SphereWorkspace, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { 0.0 };
+        let [sweep_a, sweep_b] = if CERTIFY { self.pair_sweep(ws, p) } else { [0.0; 2] };
         let limit = Self::pass_limit::<CERTIFY>(ws, ga.radius + gb.radius, sweep_a + sweep_b);
         if all_beyond(&lane_distance_squared(&ws.group_centers[a], &ws.group_centers[b]), &limit) {
             return false;
@@ -415,10 +440,10 @@ impl SphereModel {
             let (parent, pose) = (&done[body.parent], &mut rest[0]);
             let placement = (&body.rotation, &body.translation);
             match body.motion {
-                Motion::Prismatic(axis) => pose.set_prismatic(parent, placement, &[axis.x, axis.y, axis.z], &value),
-                motion => {
-                    let (axis, (s, c)) = (motion.axis(), sin_cos(&value));
-                    pose.set_revolute(parent, placement, &[axis.x, axis.y, axis.z], (&s, &c));
+                Motion::Prismatic(_) => pose.set_prismatic(parent, placement, &body.axis, &value),
+                _ => {
+                    let (s, c) = sin_cos(&value);
+                    pose.set_revolute(parent, placement, &body.axis, (&s, &c));
                 }
             }
         }

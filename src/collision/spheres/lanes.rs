@@ -248,6 +248,32 @@ pub(crate) fn min(a: f64, b: f64) -> f64 {
     if a < b { a } else { b }
 }
 
+/// The largest lane, by halving (shuffles, not a scalar loop).
+#[inline(always)]
+pub(crate) fn lane_max(x: &Lane) -> f64 {
+    lane_reduce(x, max)
+}
+
+/// The smallest lane (see [`lane_max`]).
+#[inline(always)]
+pub(crate) fn lane_min(x: &Lane) -> f64 {
+    lane_reduce(x, min)
+}
+
+/// `pick` over the lanes by halving: the two halves combined lane by lane
+/// until one is left.
+#[inline(always)]
+fn lane_reduce(x: &Lane, pick: impl Fn(f64, f64) -> f64) -> f64 {
+    let (mut v, mut n) = (*x, LANES);
+    while n > 1 {
+        n /= 2;
+        for l in 0..n {
+            v[l] = pick(v[l], v[l + n]);
+        }
+    }
+    v[0]
+}
+
 /// Squared distance from each lane's point to a fixed point (m²).
 #[inline(always)]
 pub(crate) fn point_distance_squared(p: &[Lane; 3], c: &[f64; 3]) -> Lane {
@@ -285,11 +311,38 @@ pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3
     out
 }
 
-/// Each lane's point in the frame of a fixed pose (rotation column-major),
-/// i.e. `Rᵀ (p − t)`.
+/// A fixed pose (rotation column-major); `upright` when it turns about z
+/// only (MotionBenchMaker's boxes), whose zero entries [`to_local`] skips.
+#[derive(Debug, Clone)]
+pub(crate) struct Frame {
+    pub(crate) rotation: [f64; 9],
+    pub(crate) translation: [f64; 3],
+    upright: bool,
+}
+
+impl Frame {
+    pub(crate) fn new(rotation: [f64; 9], translation: [f64; 3]) -> Frame {
+        let upright = [rotation[2], rotation[5], rotation[6], rotation[7]] == [0.0; 4];
+        Frame { rotation, translation, upright }
+    }
+}
+
+/// Each lane's point in `frame`, i.e. `Rᵀ (p − t)`. Upright frames skip
+/// the products with zero, which change at most the sign of a zero
+/// coordinate (the distances below take absolute values).
 #[inline(always)]
-pub(crate) fn to_local(p: &[Lane; 3], rotation: &[f64; 9], translation: &[f64; 3]) -> [Lane; 3] {
+pub(crate) fn to_local(p: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
+    let (rotation, translation) = (&frame.rotation, &frame.translation);
     let mut out = [[0.0; LANES]; 3];
+    if frame.upright {
+        for l in 0..LANES {
+            let (x, y) = (p[0][l] - translation[0], p[1][l] - translation[1]);
+            out[0][l] = rotation[0] * x + rotation[1] * y;
+            out[1][l] = rotation[3] * x + rotation[4] * y;
+            out[2][l] = rotation[8] * (p[2][l] - translation[2]);
+        }
+        return out;
+    }
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - translation[0], p[1][l] - translation[1], p[2][l] - translation[2]);
         for (i, o) in out.iter_mut().enumerate() {
@@ -300,15 +353,16 @@ pub(crate) fn to_local(p: &[Lane; 3], rotation: &[f64; 9], translation: &[f64; 3
 }
 
 /// Squared distance from each lane's point (box frame) to a box of half
-/// extents `h` (m²), or −1 for points inside it.
+/// extents `h` (m²), or −1 for points inside it (and for those outside
+/// by less than 1e-154 m, whose square is 0: any pair limit fails them).
 #[inline(always)]
 pub(crate) fn box_distance_squared_local(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
     let mut out = [0.0; LANES];
     for l in 0..LANES {
         let e = [p[0][l].abs() - h[0], p[1][l].abs() - h[1], p[2][l].abs() - h[2]];
-        let inside = max(max(e[0], e[1]), e[2]);
         let (x, y, z) = (max(e[0], 0.0), max(e[1], 0.0), max(e[2], 0.0));
-        out[l] = if inside > 0.0 { x * x + y * y + z * z } else { -1.0 };
+        let d2 = x * x + y * y + z * z;
+        out[l] = if d2 > 0.0 { d2 } else { -1.0 };
     }
     out
 }
@@ -336,6 +390,21 @@ pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length:
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn upright_frames_transform_as_the_full_product() {
+        let (s, c) = 0.3f64.sin_cos();
+        let upright = Frame::new([c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0 - f64::EPSILON], [0.5, -0.2, 0.1]);
+        let full = Frame { upright: false, ..upright.clone() };
+        assert!(upright.upright);
+        let p: [Lane; 3] = std::array::from_fn(|i| std::array::from_fn(|l| (l as f64 - 3.5) * 0.37 + i as f64 * 0.1));
+        let (a, b) = (to_local(&p, &upright), to_local(&p, &full));
+        for i in 0..3 {
+            for l in 0..LANES {
+                assert_eq!(a[i][l].abs().to_bits(), b[i][l].abs().to_bits());
+            }
+        }
+    }
 
     #[test]
     fn sin_cos_matches_the_standard_library() {

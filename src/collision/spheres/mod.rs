@@ -45,6 +45,8 @@ struct LaneBody {
     rotation: [f64; 9],
     translation: [f64; 3],
     motion: Motion,
+    /// The joint's unit axis in its frame.
+    axis: [f64; 3],
     column: usize,
     multiplier: f64,
     offset: f64,
@@ -153,15 +155,12 @@ enum StaticKind {
         len2: f64,
         radius: f64,
     },
-    /// Pose rotation column-major.
     Box {
-        rotation: [f64; 9],
-        translation: [f64; 3],
+        frame: lanes::Frame,
         half: [f64; 3],
     },
     Cylinder {
-        rotation: [f64; 9],
-        translation: [f64; 3],
+        frame: lanes::Frame,
         radius: f64,
         half_length: f64,
     },
@@ -235,6 +234,9 @@ pub(crate) struct SphereModel {
     statics: Vec<StaticShape>,
     env: Vec<EnvChunk>,
     sweep_terms: Vec<SweepTerm>,
+    /// The sweep terms' levers by body then cluster (zero where the body's
+    /// joint does not move the cluster).
+    levers: Vec<f64>,
     /// Pairs of moving groups (indices into `groups`).
     self_pairs: Vec<[u32; 2]>,
     /// Per self pair: the joints moving both sides (the first ones of each
@@ -272,9 +274,11 @@ impl StaticShape {
                     radius,
                 }
             }
-            Shape::Box { half_extents } => StaticKind::Box { rotation, translation, half: vector(&half_extents) },
+            Shape::Box { half_extents } => {
+                StaticKind::Box { frame: lanes::Frame::new(rotation, translation), half: vector(&half_extents) }
+            }
             Shape::Cylinder { radius, half_length } => {
-                StaticKind::Cylinder { rotation, translation, radius, half_length }
+                StaticKind::Cylinder { frame: lanes::Frame::new(rotation, translation), radius, half_length }
             }
             Shape::Convex(_) => return None,
         };
@@ -298,6 +302,7 @@ impl SphereModel {
                     rotation: column_major(&placement),
                     translation: vector(&placement.translation.vector),
                     motion: b.motion,
+                    axis: vector(&b.motion.axis()),
                     column: b.column,
                     multiplier: b.multiplier,
                     offset: b.offset,
@@ -377,7 +382,14 @@ impl SphereModel {
         for (g, group) in groups.iter().enumerate() {
             cluster_group[group.clusters.clone()].fill(g as u32);
         }
+        let mut levers = vec![0.0; robot.bodies.len() * clusters.len()];
+        for (c, cluster) in clusters.iter().enumerate() {
+            for term in &sweep_terms[cluster.terms.clone()] {
+                levers[term.body * clusters.len() + c] = term.lever;
+            }
+        }
         Some(SphereModel {
+            levers,
             bodies,
             spheres,
             groups,

@@ -18,33 +18,74 @@
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane, min};
+use super::lanes::{LANES, Lane, max, min};
 
 impl SphereModel {
-    /// Loose sweep bounds of every cluster (prefix sums over its joints,
-    /// root first) and their maxima per cluster and group, for the motion
-    /// from `q0` to `q1`.
+    /// Loose sweep bounds of every cluster and their maxima per group for
+    /// the motion from `q0` to `q1`: a pass over the moving joints, all
+    /// clusters at once (root first, as the prefix sums add them; clusters
+    /// a joint does not move add a zero, which changes no bit). Prefix sums
+    /// and self pairs' bounds wait until a check needs them.
     pub(super) fn start_sweeps(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) {
         for (body, rate) in self.bodies.iter().zip(&mut ws.rates) {
             *rate = (q1[body.column] - q0[body.column]).abs() * body.multiplier.abs();
         }
-        for (c, cluster) in self.clusters.iter().enumerate() {
-            ws.prefix[cluster.slot] = 0.0;
-            for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
-                ws.prefix[cluster.slot + k + 1] = ws.prefix[cluster.slot + k] + ws.rates[term.body] * term.lever;
+        ws.cluster_sweep.fill(0.0);
+        let columns = self.levers.chunks_exact(self.clusters.len().max(1));
+        for (&rate, levers) in ws.rates.iter().zip(columns).filter(|(rate, _)| **rate != 0.0) {
+            for (sweep, &lever) in ws.cluster_sweep.iter_mut().zip(levers) {
+                *sweep += rate * lever;
             }
-            ws.cluster_sweep[c] = self.loose_sweep(ws, c, 0);
         }
         for (g, group) in self.groups.iter().enumerate() {
-            ws.group_sweep[g] = group.clusters.clone().map(|c| ws.cluster_sweep[c]).fold(0.0, f64::max);
+            ws.group_sweep[g] = ws.cluster_sweep[group.clusters.clone()].iter().fold(0.0, |a, &b| a.max(b));
         }
+        ws.prefix_done.fill(false);
+        ws.pair_done.fill(false);
+    }
+
+    /// Prefix sums of cluster `c`'s loose sweep terms, once per motion.
+    #[inline(always)]
+    fn ensure_prefix(&self, ws: &mut SphereWorkspace, c: usize) {
+        if ws.prefix_done[c] {
+            return;
+        }
+        let cluster = &self.clusters[c];
+        let prefix = &mut ws.prefix[cluster.slot..=cluster.slot + cluster.terms.len()];
+        prefix[0] = 0.0;
+        for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
+            prefix[k + 1] = prefix[k] + ws.rates[term.body] * term.lever;
+        }
+        ws.prefix_done[c] = true;
     }
 
     /// Loose sweep bound of cluster `c` without its first `depth` joints.
     #[inline(always)]
-    pub(super) fn loose_sweep(&self, ws: &SphereWorkspace, c: usize, depth: usize) -> f64 {
+    pub(super) fn loose_sweep(&self, ws: &mut SphereWorkspace, c: usize, depth: usize) -> f64 {
+        if depth == 0 {
+            return ws.cluster_sweep[c];
+        }
+        self.ensure_prefix(ws, c);
         let cluster = &self.clusters[c];
         ws.prefix[cluster.slot + cluster.terms.len()] - ws.prefix[cluster.slot + depth.min(cluster.terms.len())]
+    }
+
+    /// Per side of self pair `p`, the largest loose sweep bound of its
+    /// clusters without the joints moving both sides, once per motion.
+    #[inline(always)]
+    pub(super) fn pair_sweep(&self, ws: &mut SphereWorkspace, p: usize) -> [f64; 2] {
+        if !ws.pair_done[p] {
+            let depth = self.common_depth[p];
+            for (side, g) in self.self_pairs[p].into_iter().enumerate() {
+                let mut largest = 0.0;
+                for c in self.groups[g as usize].clusters.clone() {
+                    largest = max(largest, self.loose_sweep(ws, c, depth));
+                }
+                ws.pair_sweep[p][side] = largest;
+            }
+            ws.pair_done[p] = true;
+        }
+        ws.pair_sweep[p]
     }
 
     /// Per lane, the smaller of the tight and loose sweep bounds of placed
@@ -55,6 +96,7 @@ impl SphereModel {
         let cluster = &self.clusters[c];
         let (slot, n) = (cluster.slot, cluster.terms.len());
         if !ws.tight_done[c] {
+            self.ensure_prefix(ws, c);
             let (center, total) = (ws.cluster_centers[c], ws.prefix[slot + n]);
             ws.tight[slot] = [0.0; LANES];
             for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
