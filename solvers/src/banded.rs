@@ -5,7 +5,7 @@
 //! slice every row of the matrix has nonzeros within `(k + 1)·n − 1`
 //! columns of the diagonal. A dedicated band factorisation costs
 //! `O(N·b²)` for `N` unknowns and half bandwidth `b` and allocates nothing;
-//! each row's band is contiguous, so the inner products vectorise — on
+//! each row's band is contiguous, so the row updates vectorise — on
 //! AVX2 machines 4 lanes wide instead of SSE2's 2, with identical results
 //! (the same operations in the same order, no fused multiply-adds).
 //!
@@ -40,24 +40,22 @@ pub struct NotPositiveDefinite {
 }
 
 /// A symmetric `n × n` matrix with `A[i][j] = 0` for `|i − j| > b`, storing
-/// its lower band row by row. After [`factorize`](Self::factorize) the same
-/// storage holds the Cholesky factor `L` (`A = L Lᵀ`).
+/// its upper band row by row (row `i`: columns `i ..= i + b`). After
+/// [`factorize`](Self::factorize) the same storage holds the Cholesky
+/// factor `U = Lᵀ` (`A = Uᵀ U = L Lᵀ`), row by row.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SymmetricBand {
     n: usize,
     bandwidth: usize,
-    /// Row `i` holds columns `i − b ..= i` at `data[i(b+1) .. (i+1)(b+1)]`;
-    /// columns before 0 are zero padding.
+    /// Row `i` holds columns `i ..= i + b` at `data[i(b+1) .. (i+1)(b+1)]`;
+    /// columns past `n − 1` are zero padding.
     data: Vec<f64>,
-    /// Per row, the first column of its envelope (set by `factorize`).
-    first: Vec<usize>,
 }
 
 impl SymmetricBand {
     /// The zero matrix of size `n` and half bandwidth `bandwidth`.
     pub fn zeros(n: usize, bandwidth: usize) -> SymmetricBand {
-        let first = (0..n).map(|i| i.saturating_sub(bandwidth)).collect();
-        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)], first }
+        SymmetricBand { n, bandwidth, data: vec![0.0; n * (bandwidth + 1)] }
     }
 
     /// Number of rows (and columns).
@@ -75,16 +73,17 @@ impl SymmetricBand {
         self.data.fill(0.0);
     }
 
+    /// Storage index of `A[i][j]`, `i ≤ j ≤ i + b`.
     #[inline]
     fn index(&self, i: usize, j: usize) -> usize {
-        debug_assert!(j <= i && i - j <= self.bandwidth && i < self.n);
-        i * (self.bandwidth + 1) + self.bandwidth + j - i
+        debug_assert!(i <= j && j - i <= self.bandwidth && j < self.n);
+        i * (self.bandwidth + 1) + j - i
     }
 
     /// `A[i][j]` (zero outside the band).
     pub fn get(&self, i: usize, j: usize) -> f64 {
-        let (i, j) = if j > i { (j, i) } else { (i, j) };
-        if i - j > self.bandwidth { 0.0 } else { self.data[self.index(i, j)] }
+        let (i, j) = if j < i { (j, i) } else { (i, j) };
+        if j - i > self.bandwidth { 0.0 } else { self.data[self.index(i, j)] }
     }
 
     /// Adds `v` to `A[i][j]` (and so to `A[j][i]`).
@@ -92,8 +91,8 @@ impl SymmetricBand {
     /// # Panics
     /// If `(i, j)` is outside the matrix or the band.
     pub fn add(&mut self, i: usize, j: usize, v: f64) {
-        let (i, j) = if j > i { (j, i) } else { (i, j) };
-        assert!(i < self.n && i - j <= self.bandwidth, "entry ({i}, {j}) outside the band");
+        let (i, j) = if j < i { (j, i) } else { (i, j) };
+        assert!(j < self.n && j - i <= self.bandwidth, "entry ({i}, {j}) outside the band");
         let k = self.index(i, j);
         self.data[k] += v;
     }
@@ -104,9 +103,7 @@ impl SymmetricBand {
     /// # Panics
     /// If the sizes or bands differ.
     pub fn copy_from(&mut self, other: &SymmetricBand) {
-        assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
-        self.data.copy_from_slice(&other.data);
-        self.first.copy_from_slice(&other.first);
+        self.copy_rows_from(other, 0);
     }
 
     /// Copies rows `from ..` of `other` (of the same size and band) into
@@ -118,7 +115,6 @@ impl SymmetricBand {
         assert!(self.n == other.n && self.bandwidth == other.bandwidth, "band shapes differ");
         let start = from * (self.bandwidth + 1);
         self.data[start..].copy_from_slice(&other.data[start..]);
-        self.first[from..].copy_from_slice(&other.first[from..]);
     }
 
     /// Adds `v` to every diagonal entry.
@@ -129,15 +125,14 @@ impl SymmetricBand {
     /// Adds `v` to the diagonal entries of rows `from ..`.
     pub fn add_to_diagonal_from(&mut self, v: f64, from: usize) {
         let stride = self.bandwidth + 1;
-        for d in self.data.iter_mut().skip(from * stride + self.bandwidth).step_by(stride) {
+        for d in self.data.iter_mut().skip(from * stride).step_by(stride) {
             *d += v;
         }
     }
 
     /// The largest diagonal entry (0 for an empty matrix).
     pub fn max_diagonal(&self) -> f64 {
-        let stride = self.bandwidth + 1;
-        self.data.iter().skip(self.bandwidth).step_by(stride).fold(0.0, |m, &d| m.max(d))
+        self.data.iter().step_by(self.bandwidth + 1).fold(0.0, |m, &d| m.max(d))
     }
 
     /// Adds `w · v vᵀ` on the block starting at row and column `first`.
@@ -169,9 +164,9 @@ impl SymmetricBand {
             if va == 0.0 {
                 continue;
             }
-            let row = self.index(first + a, first);
+            let row = self.index(first + a, first + a);
             let wa = w * va;
-            for (dst, &vb) in self.data[row..=row + a].iter_mut().zip(v) {
+            for (dst, &vb) in self.data[row..row + v.len() - a].iter_mut().zip(&v[a..]) {
                 *dst += wa * vb;
             }
         }
@@ -184,27 +179,26 @@ impl SymmetricBand {
     pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
         assert!(x.len() == self.n && y.len() == self.n);
         y.fill(0.0);
+        let stride = self.bandwidth + 1;
         for i in 0..self.n {
-            let j0 = i.saturating_sub(self.bandwidth);
-            let row = &self.data[self.index(i, j0)..=self.index(i, i)];
-            for (k, &a) in row.iter().enumerate() {
-                let j = j0 + k;
-                y[i] += a * x[j];
-                if j != i {
-                    y[j] += a * x[i];
-                }
+            let width = stride.min(self.n - i);
+            let row = &self.data[i * stride..i * stride + width];
+            y[i] += row[0] * x[i];
+            for m in 1..width {
+                y[i] += row[m] * x[i + m];
+                y[i + m] += row[m] * x[i];
             }
         }
     }
 
-    /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`).
+    /// Replaces the matrix by its Cholesky factor (`A = Uᵀ U`).
     ///
-    /// Row by row (left-looking): entry `L[i][j]` is one dot product of
-    /// two contiguous row segments. Only each row's *envelope* is worked
-    /// on — from its first nonzero column to the diagonal, which the factor
-    /// keeps (`L[i][j] = 0` wherever `A` has only zeros left of `(i, j)`) —
-    /// so rows that reach less far than the band (e.g. a trajectory's first
-    /// joints of a slice) cost less.
+    /// Right-looking, row by row: row `k` of `U` is row `k` of what is left
+    /// of `A` divided by the square root of its pivot, and it is then
+    /// eliminated from the rows below, each update one contiguous segment
+    /// of a row minus a multiple of a segment of row `k` (which
+    /// vectorises). Updates by a zero entry of `U` (most of a trajectory's
+    /// first joints, whose rows reach less far) are skipped.
     ///
     /// # Errors
     /// [`NotPositiveDefinite`] when a pivot is not positive and finite; the
@@ -214,11 +208,12 @@ impl SymmetricBand {
     }
 
     /// [`factorize`](Self::factorize) of a matrix whose rows before `from`
-    /// already hold the factor of its leading `from × from` block — as
-    /// after a factorisation of a matrix that differs only in rows
-    /// `from ..` (e.g. rows `from ..` refreshed with
-    /// [`copy_rows_from`](Self::copy_rows_from)): those rows are kept, the
-    /// others factorised, with the same result as a full factorisation.
+    /// already hold the factor of a matrix that differs from this one only
+    /// in rows (and columns) `from ..` — as after a factorisation followed
+    /// by [`copy_rows_from`](Self::copy_rows_from) of the changed matrix:
+    /// those rows are kept, the eliminations of the last `b` of them are
+    /// replayed on the fresh rows, and the rest is factorised, with the
+    /// same result, bit for bit, as a full factorisation.
     ///
     /// # Errors
     /// As [`factorize`](Self::factorize).
@@ -239,32 +234,44 @@ impl SymmetricBand {
 
     #[inline(always)]
     fn factorize_body(&mut self, from: usize) -> Result<(), NotPositiveDefinite> {
-        let (n, b) = (self.n, self.bandwidth);
-        let stride = b + 1;
-        for (i, first) in self.first.iter_mut().enumerate().skip(from) {
-            // Padding columns before 0 are zero, so `lead ≥ b − i`.
-            let lead = self.data[i * stride..i * stride + b].iter().position(|v| *v != 0.0).unwrap_or(b);
-            *first = i + lead - b;
+        // Rows before `from` were eliminated from rows `.. from` only.
+        for k in from.saturating_sub(self.bandwidth)..from {
+            self.eliminate(k, from);
         }
-        let first = &self.first;
-        for i in from..n {
-            let (done, rest) = self.data.split_at_mut(i * stride);
-            let row = &mut rest[..stride];
-            let fi = first[i];
-            let mut j = fi;
-            while j < i {
-                let m = (i - j).min(4);
-                factor_block(row, done, b, i, fi, j, m);
-                j += m;
-            }
-            let lower = &row[fi + b - i..b];
-            let pivot = row[b] - dot(lower, lower);
+        let stride = self.bandwidth + 1;
+        for k in from..self.n {
+            let row = &mut self.data[k * stride..(k + 1) * stride];
+            let pivot = row[0];
             if !(pivot > 0.0 && pivot.is_finite()) {
-                return Err(NotPositiveDefinite { pivot: i, value: pivot });
+                return Err(NotPositiveDefinite { pivot: k, value: pivot });
             }
-            row[b] = pivot.sqrt();
+            let diagonal = pivot.sqrt();
+            row[0] = diagonal;
+            for u in &mut row[1..] {
+                *u /= diagonal;
+            }
+            self.eliminate(k, k + 1);
         }
         Ok(())
+    }
+
+    /// Subtracts `U[k][j] · U[k][j ..]` from every row `j ≥ rows_from`
+    /// within the band below row `k` (which holds `U`'s row).
+    #[inline(always)]
+    fn eliminate(&mut self, k: usize, rows_from: usize) {
+        let (b, stride) = (self.bandwidth, self.bandwidth + 1);
+        let (head, tail) = self.data.split_at_mut((k + 1) * stride);
+        let u = &head[k * stride..];
+        for m in rows_from.max(k + 1) - k..=b.min(self.n - 1 - k) {
+            let factor = u[m];
+            if factor == 0.0 {
+                continue;
+            }
+            let row = &mut tail[(m - 1) * stride..(m - 1) * stride + stride - m];
+            for (a, &x) in row.iter_mut().zip(&u[m..]) {
+                *a -= factor * x;
+            }
+        }
     }
 
     /// Solves `A x = rhs` in place, after [`factorize`](Self::factorize).
@@ -273,65 +280,24 @@ impl SymmetricBand {
     /// If `rhs` does not have `n` entries.
     pub fn solve_in_place(&self, rhs: &mut [f64]) {
         assert_eq!(rhs.len(), self.n);
-        // L y = rhs
-        for i in 0..self.n {
-            let k0 = self.first[i];
-            let row = self.index(i, k0);
-            let dot = dot(&self.data[row..row + i - k0], &rhs[k0..i]);
-            rhs[i] = (rhs[i] - dot) / self.data[row + i - k0];
-        }
-        // Lᵀ x = y, row by row from the bottom: once x_i is known, remove
-        // its contribution from the rows above.
-        for i in (0..self.n).rev() {
-            let k0 = self.first[i];
-            let row = self.index(i, k0);
-            rhs[i] /= self.data[row + i - k0];
-            let xi = rhs[i];
-            for (y, l) in rhs[k0..i].iter_mut().zip(&self.data[row..row + i - k0]) {
-                *y -= l * xi;
+        let stride = self.bandwidth + 1;
+        // Uᵀ y = rhs, column by column: once y_k is known, remove its
+        // contribution from the entries below.
+        for k in 0..self.n {
+            let width = stride.min(self.n - k);
+            let row = &self.data[k * stride..k * stride + width];
+            rhs[k] /= row[0];
+            let yk = rhs[k];
+            for (r, u) in rhs[k + 1..k + width].iter_mut().zip(&row[1..]) {
+                *r -= u * yk;
             }
         }
-    }
-}
-
-/// Entries `L[i][j .. j + m]` (`m ≤ 4`) of the factor's row `i` (band
-/// storage `row`, rows above it done in `done`), from its envelope's first
-/// column `fi`: the inner products over the columns before `j` are shared
-/// by the `m` entries, four running sums over one pass (a short dot
-/// product per entry costs more in loop overhead than in arithmetic);
-/// the few columns among `j .. j + m` follow one entry at a time. Row
-/// `k`'s entries before its envelope are zero, so every product may start
-/// at `fi`. Column `c` of row `r` sits at offset `c + b − r` of its row.
-#[inline(always)]
-fn factor_block(row: &mut [f64], done: &[f64], b: usize, i: usize, fi: usize, j: usize, m: usize) {
-    let stride = b + 1;
-    let len = j - fi;
-    let x = &row[fi + b - i..fi + b - i + len];
-    let segment = |q: usize| {
-        let k = j + q.min(m - 1);
-        &done[k * stride + fi + b - k..k * stride + fi + b - k + len]
-    };
-    let (y0, y1, y2, y3) = (segment(0), segment(1), segment(2), segment(3));
-    let mut sums = [0.0; 4];
-    for c in 0..len {
-        let v = x[c];
-        sums[0] += v * y0[c];
-        sums[1] += v * y1[c];
-        sums[2] += v * y2[c];
-        sums[3] += v * y3[c];
-    }
-    // Row k = j + q holds columns j ..= k (k's diagonal last) at offsets
-    // b − q ..= b.
-    let mut l = [0.0; 4];
-    for q in 0..m {
-        let k = j + q;
-        let t = &done[k * stride + b - q..k * stride + b + 1];
-        let mut s = sums[q];
-        for p in 0..q {
-            s += l[p] * t[p];
+        // U x = y, from the bottom: one dot product per row.
+        for k in (0..self.n).rev() {
+            let width = stride.min(self.n - k);
+            let row = &self.data[k * stride..k * stride + width];
+            rhs[k] = (rhs[k] - dot(&row[1..], &rhs[k + 1..k + width])) / row[0];
         }
-        l[q] = (row[k + b - i] - s) / t[q];
-        row[k + b - i] = l[q];
     }
 }
 
