@@ -1,5 +1,5 @@
 //! Collision queries against themselves and finite differences: the
-//! pruned queries (boolean, minimum, cutoff) agree with the exhaustive
+//! pruned queries (boolean, minimum, minimum below a bound, cutoff) agree with the exhaustive
 //! all-pairs distances, gradients agree with central differences, motion
 //! validation agrees with dense sampling, padding, SRDF pairs and attached
 //! objects behave, and no query allocates.
@@ -47,6 +47,10 @@ fn pruned_queries_agree_with_all_pairs() {
         let deepest = all.iter().map(|d| d.signed.distance).fold(f64::INFINITY, f64::min);
         let min = model.min_distance(&mut ws, &q).unwrap().unwrap();
         assert_eq!(min.signed.distance, deepest, "min_distance is not the minimum over all pairs");
+        for bound in [-0.02, 0.0, 0.05, f64::INFINITY] {
+            let below = model.min_distance_below(&mut ws, &q, bound).unwrap().map(|d| d.signed.distance);
+            assert_eq!(below, (deepest < bound).then_some(deepest), "min_distance_below {bound}");
+        }
         let is_free = model.collision_free(&mut ws, &q).unwrap();
         assert_eq!(is_free, deepest >= 0.0, "boolean check disagrees with the distances ({deepest})");
         for cutoff in [-0.02, 0.0, 0.05, 0.3] {

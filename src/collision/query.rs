@@ -303,20 +303,39 @@ impl CollisionModel {
     /// # Errors
     /// A `q` of the wrong length or with non-finite values.
     pub fn min_distance(&self, ws: &mut CollisionWorkspace, q: &[f64]) -> Result<Option<PairDistance>, RobotError> {
-        self.place(ws, q)?;
+        self.min_distance_below(ws, q, f64::INFINITY)
+    }
+
+    /// [`min_distance`](Self::min_distance) among the pairs closer than
+    /// `bound` (m): `None` when there is none. A known distance (e.g. the
+    /// smallest over the configurations seen so far) as `bound` prunes
+    /// most pairs by their bounding volumes, and groups whose volumes are
+    /// that far apart are not even placed.
+    ///
+    /// # Errors
+    /// A `q` of the wrong length or with non-finite values.
+    pub fn min_distance_below(
+        &self,
+        ws: &mut CollisionWorkspace,
+        q: &[f64],
+        bound: f64,
+    ) -> Result<Option<PairDistance>, RobotError> {
+        self.place_centers(ws, q)?;
         let mut best: Option<PairDistance> = None;
-        let bound = |best: &Option<PairDistance>| best.map_or(f64::INFINITY, |b| b.signed.distance);
+        let limit = |best: &Option<PairDistance>| best.map_or(bound, |b| b.signed.distance);
         for gp in &self.group_pairs {
-            if prunes(self.group_bound(ws, gp.a, gp.b), bound(&best)) {
+            if prunes(self.group_bound(ws, gp.a, gp.b), limit(&best)) {
                 continue;
             }
+            self.place_group(ws, gp.a);
+            self.place_group(ws, gp.b);
             for pair in gp.pairs.clone() {
                 let [i, j] = self.pairs[pair].map(|k| k as usize);
-                if prunes(self.object_bound(ws, i, j), bound(&best)) {
+                if prunes(self.object_bound(ws, i, j), limit(&best)) {
                     continue;
                 }
                 let d = self.pair_distance(ws, pair);
-                if d.signed.distance < bound(&best) {
+                if d.signed.distance < limit(&best) {
                     best = Some(d);
                 }
             }
@@ -327,9 +346,11 @@ impl CollisionModel {
     /// World pose of object `object` (see [`object_count`](Self::object_count))
     /// as placed by the last query with `ws` that placed the shapes (see
     /// [`CollisionWorkspace::kinematics`]); after
-    /// [`distances`](Self::distances), only the objects of the pairs it
-    /// could not prune by their groups' bounds (those of every pair it
-    /// returned among them) are placed, the others keep older poses.
+    /// [`distances`](Self::distances) or
+    /// [`min_distance_below`](Self::min_distance_below), only the objects
+    /// of the pairs it could not prune by their groups' bounds (those of
+    /// every pair it returned among them) are placed, the others keep older
+    /// poses.
     pub fn object_world_pose<'w>(&self, ws: &'w CollisionWorkspace, object: usize) -> &'w IsometryMatrix3<f64> {
         &ws.poses[object]
     }

@@ -175,8 +175,10 @@ impl TrajectoryOptimizer {
             let mut previous = self.problem.start();
             for q in trajectory {
                 collision_free &= model.motion_free(&mut ws, previous, q, resolution)?;
-                if let Some(d) = model.min_distance(&mut ws, q)? {
-                    min_distance = Some(min_distance.map_or(d.signed.distance, |m: f64| m.min(d.signed.distance)));
+                // Only pairs closer than the closest so far matter.
+                let below = min_distance.unwrap_or(f64::INFINITY);
+                if let Some(d) = model.min_distance_below(&mut ws, q, below)? {
+                    min_distance = Some(d.signed.distance);
                 }
                 previous = q;
             }
