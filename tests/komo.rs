@@ -9,12 +9,12 @@ use common::alloc::{CountingAllocator, allocations};
 use nalgebra::Vector3;
 use std::sync::Arc;
 use tandem::komo::{
-    Feature, FrameRef, Initialization, KomoError, Objective, SolveOptions, TimeSpan, TrajectoryOptimizer,
-    TrajectoryProblem, solve_problem, trajectory_solver_settings,
+    Feature, FrameRef, Initialization, JOINT_LIMIT_CUTOFF, KomoError, Objective, SolveOptions, TimeSpan,
+    TrajectoryOptimizer, TrajectoryProblem, TrajectoryWorkspace, solve_problem, trajectory_solver_settings,
 };
 use tandem::robot::{KinematicsWorkspace, RobotModel};
 use tandem::scene::{Goal, ObjectiveKind, Problem};
-use tandem_solvers::least_squares::Termination;
+use tandem_solvers::least_squares::{Residuals, Termination};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -157,6 +157,50 @@ fn a_problem_built_in_rust_converges() {
     let measured = optimizer.problem().measure(&result.trajectory).unwrap();
     assert!(measured.equality_violation < 1e-4 && measured.inequality_violation == 0.0);
     assert!((measured.cost - result.report.cost).abs() < 1e-9 * (1.0 + measured.cost));
+}
+
+/// Joint-limit rows exist only near a limit (`JOINT_LIMIT_CUTOFF`), yet a
+/// goal beyond a limit still stops at it: the row appears when a step
+/// brings the joint close.
+#[test]
+fn a_goal_beyond_a_joint_limit_stops_at_the_limit() {
+    let robot = Arc::new(RobotModel::panda());
+    let start = vec![0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+    let upper = robot.limits()[3].upper;
+    let mut goal = start.clone();
+    goal[3] = upper + 0.5;
+    let objectives = vec![
+        Objective::control(2),
+        Objective::new("limits", Feature::JointLimits { margin: 0.0 }, ObjectiveKind::Inequality),
+        Objective::new("goal", Feature::JointState, ObjectiveKind::SumOfSquares)
+            .time(TimeSpan::END)
+            .target(goal)
+            .scale(10.0),
+    ];
+    let problem = TrajectoryProblem::new(robot.clone(), None, objectives, 20, 2, 2.0, start.clone()).unwrap();
+    // Far from every limit: no limit rows at all.
+    let mut ws = TrajectoryWorkspace::new(&problem);
+    let mut rows = Residuals::default();
+    problem.residuals(&mut ws, &start.repeat(20), &mut rows).unwrap();
+    assert_eq!(rows.inequality.len(), 0);
+    let mut optimizer = TrajectoryOptimizer::new(problem, trajectory_solver_settings());
+    let result = optimizer.solve(Initialization::Interpolate(&start)).unwrap();
+    assert_eq!(result.report.termination, Termination::Converged, "{:?}", result.report);
+    let last = result.trajectory.last().unwrap();
+    assert!((last[3] - upper).abs() < 1e-3, "q_T[3] = {}, limit {upper}", last[3]);
+    for q in &result.trajectory {
+        for (v, l) in q.iter().zip(robot.limits()) {
+            assert!(*v <= l.upper + 1e-5 && *v >= l.lower - 1e-5, "{v} outside [{}, {}]", l.lower, l.upper);
+        }
+    }
+    let near = JOINT_LIMIT_CUTOFF;
+    optimizer.problem().residuals(&mut ws, &result.trajectory.concat(), &mut rows).unwrap();
+    let at_limit = result.trajectory.iter().filter(|q| q[3] > upper - near).count();
+    assert!(
+        at_limit > 0 && rows.inequality.len() >= at_limit,
+        "{} rows, {at_limit} slices near",
+        rows.inequality.len()
+    );
 }
 
 #[test]

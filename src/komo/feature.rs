@@ -201,11 +201,25 @@ impl Feature {
         Ok(())
     }
 
+    /// How far inside its bound (in the feature's units) an inequality row
+    /// of this feature may be left out: joint limits farther than
+    /// [`JOINT_LIMIT_CUTOFF`] away. Such a hinge is inactive, and a step
+    /// that reaches the limit anyway finds the row at the trial point
+    /// (like a collision pair beyond its cutoff). Most slices are far from
+    /// every limit, so this drops most of their rows.
+    pub fn inactive_cutoff(&self) -> Option<f64> {
+        matches!(self, Feature::JointLimits { .. }).then_some(JOINT_LIMIT_CUTOFF)
+    }
+
     /// Whether the feature reads frame poses (needs forward kinematics).
     pub fn reads_frames(&self) -> bool {
         !matches!(self, Feature::JointState | Feature::JointLimits { .. })
     }
 }
+
+/// Joint-limit inequality rows farther than this inside their limit (rad
+/// or m) get no row; see [`Feature::inactive_cutoff`].
+pub const JOINT_LIMIT_CUTOFF: f64 = 0.1;
 
 /// Active joints with finite limits: (column, limits).
 fn limited_joints(robot: &RobotModel) -> impl Iterator<Item = (usize, &crate::robot::JointLimits)> {

@@ -14,7 +14,7 @@ use tandem_solvers::least_squares::{LeastSquaresProblem, Residuals, RowBlock};
 /// Collision pairs farther than `margin + COLLISION_CUTOFF` (m) get no row:
 /// their inequality is inactive unless a multiplier would reach across
 /// that gap, which the penalty keeps from happening in practice.
-pub const COLLISION_CUTOFF: f64 = 0.05;
+pub const COLLISION_CUTOFF: f64 = 0.02;
 
 /// An immutable k-order trajectory problem: robot, collision model,
 /// objectives, horizon `T`, duration and start configuration. Slices
@@ -257,16 +257,30 @@ impl TrajectoryProblem {
         }
         let coefficients: &[f64] = [&[1.0][..], &[1.0, -1.0], &[1.0, -2.0, 1.0]][k];
         let weight = objective.scale / self.time_step().powi(k as i32);
+        // Inequality rows this far inside their bound are left out.
+        // (Only undifferenced: a difference of distances is no distance.)
+        let skip_below = match (objective.kind, objective.feature.inactive_cutoff()) {
+            (ObjectiveKind::Inequality, Some(cutoff)) if k == 0 => -cutoff * objective.scale.abs(),
+            _ => f64::NEG_INFINITY,
+        };
         for t in first..=last {
             let s0 = t.saturating_sub(k).max(1);
             let width = (t - s0 + 1) * n;
             for i in 0..dim {
+                let differenced: f64 = coefficients
+                    .iter()
+                    .enumerate()
+                    .map(|(j, c)| c * buffer.values[t.saturating_sub(j) * dim + i])
+                    .sum();
+                let target = objective.target.get(i).copied().unwrap_or(0.0);
+                let value = objective.scale * (differenced / self.time_step().powi(k as i32) - target);
+                if value < skip_below {
+                    continue;
+                }
                 let row = &mut ws.row[..width];
                 row.fill(0.0);
-                let mut value = 0.0;
                 for (j, c) in coefficients.iter().enumerate() {
                     let s = t.saturating_sub(j);
-                    value += c * buffer.values[s * dim + i];
                     if s >= 1 {
                         let grad = &buffer.jacobians[(s * dim + i) * n..(s * dim + i + 1) * n];
                         for (r, g) in row[(s - s0) * n..(s - s0 + 1) * n].iter_mut().zip(grad) {
@@ -274,15 +288,7 @@ impl TrajectoryProblem {
                         }
                     }
                 }
-                let target = objective.target.get(i).copied().unwrap_or(0.0);
-                let key = row_key(index, t, i);
-                push_trimmed(
-                    block,
-                    key,
-                    objective.scale * (value / self.time_step().powi(k as i32) - target),
-                    (s0 - 1) * n,
-                    row,
-                );
+                push_trimmed(block, row_key(index, t, i), value, (s0 - 1) * n, row);
             }
         }
         Ok(())
