@@ -23,7 +23,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let benchmark = Benchmark::unpack();
     if args.first().map(String::as_str) == Some("--band") {
-        let (lo, hi): (f64, f64) = (args[1].parse()?, args[2].parse()?);
+        let band = |i: usize| -> Result<f64, Box<dyn std::error::Error>> {
+            Ok(args.get(i).ok_or("--band needs two fractions, e.g. --band 0.25 0.75")?.parse()?)
+        };
+        let (lo, hi) = (band(1)?, band(2)?);
         let mut times = Vec::new();
         for family in FAMILIES {
             for k in 1..=100 {

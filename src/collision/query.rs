@@ -346,8 +346,8 @@ impl CollisionModel {
     /// World pose of object `object` (see [`object_count`](Self::object_count))
     /// as placed by the last query with `ws` that placed the shapes (see
     /// [`CollisionWorkspace::kinematics`]); after
-    /// [`distances`](Self::distances) or
-    /// [`min_distance_below`](Self::min_distance_below), only the objects
+    /// [`distances`](Self::distances), [`min_distance`](Self::min_distance)
+    /// or [`min_distance_below`](Self::min_distance_below), only the objects
     /// of the pairs it could not prune by their groups' bounds (those of
     /// every pair it returned among them) are placed, the others keep older
     /// poses.
