@@ -7,8 +7,10 @@
 //! doubling, and the finite-horizon recursion); and the constrained
 //! least-squares solver behind trajectory optimization ([`least_squares`]:
 //! augmented Lagrangian around Levenberg-Marquardt on the block-banded
-//! normal equations, factorised by [`banded`]). The QP/SOCP layer joins it as
-//! the pipeline grows.
+//! normal equations, factorised by [`banded`]); the small dense QPs and
+//! SOCPs of per-tick shared control ([`conic`], over Clarabel, with OSQP as
+//! a cross-check behind the `osqp` feature) and the allocation-free dense
+//! arithmetic around them ([`small`]).
 //!
 //! ```
 //! use tandem_solvers::finite_diff::central_jacobian;
@@ -25,6 +27,8 @@
 //! ```
 
 pub mod banded;
+pub mod conic;
 pub mod finite_diff;
 pub mod least_squares;
 pub mod riccati;
+pub mod small;
