@@ -13,6 +13,7 @@
 //! panda.forward_kinematics(&mut ws, &panda.neutral_configuration()).unwrap();
 //! ```
 
+pub mod arbitration;
 pub mod cli;
 pub mod collision;
 pub mod control;

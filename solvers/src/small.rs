@@ -166,6 +166,13 @@ pub fn mat_vec(m: &[f64], rows: usize, cols: usize, x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// `out = a + s·b`, element-wise.
+pub fn add_scaled(out: &mut [f64], a: &[f64], s: f64, b: &[f64]) {
+    for ((o, a), b) in out.iter_mut().zip(a).zip(b) {
+        *o = a + s * b;
+    }
+}
+
 /// Dot product of two slices of the same length.
 pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()

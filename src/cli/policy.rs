@@ -146,7 +146,6 @@ fn field_plot(policy: &TrackingPolicy, rollouts: &[Vec<Vec<f64>>], a: usize, b: 
     plot.marker(project(r.goal()), "#000", 5.0);
     // Policy commands on a lattice around the reference, arrows scaled so the
     // longest spans 6% of the reference's extent.
-    let mut ws = policy.workspace();
     let mut command = vec![0.0; r.dof()];
     let mut arrows = Vec::new();
     for i in (0..r.len()).step_by((r.len() / 12).max(1)) {
@@ -154,7 +153,8 @@ fn field_plot(policy: &TrackingPolicy, rollouts: &[Vec<Vec<f64>>], a: usize, b: 
             let mut q = r.position(i).to_vec();
             q[a] += da;
             q[b] += db;
-            policy.query(&mut ws, &q, None, &mut command)?;
+            // A fresh workspace per point: the field of an arm placed there.
+            policy.query(&mut policy.workspace(), &q, None, &mut command)?;
             arrows.push((project(&q), (command[a], command[b])));
         }
     }

@@ -92,6 +92,21 @@ impl CollisionModel {
         placed
     }
 
+    /// An upper bound (m) of how far any point of the robot's collision
+    /// geometry moves, for every configuration, under the joint
+    /// displacement `dq` (rad or m, one per active joint): `Σ |dq_k| ·
+    /// lever_k` over the moving bodies, a prismatic joint counting 1.
+    /// Pairs farther apart than this cannot close in one step.
+    pub fn displacement_bound(&self, dq: &[f64]) -> f64 {
+        (1..self.robot.body_count())
+            .map(|b| {
+                let (column, multiplier, prismatic, _) = self.robot.body_joint(b);
+                let lever = if prismatic { 1.0 } else { self.levers[b] };
+                dq.get(column).map_or(0.0, |d| d.abs()) * multiplier.abs() * lever
+            })
+            .sum()
+    }
+
     /// Relative-motion bound of every group pair over the motion q0 → q1.
     fn sweep_bounds(&self, ws: &mut CollisionWorkspace, q0: &[f64], q1: &[f64]) {
         for (sweep, gp) in ws.sweeps.iter_mut().zip(&self.group_pairs) {

@@ -6,8 +6,11 @@
 //! double integrator, applies the LQR gain from the discrete algebraic
 //! Riccati equation (constant, or time-varying along the reference) and
 //! integrates the acceleration over one time step into a joint-velocity
-//! command (the seed's Algorithm 1, §3.3.4). Queries are O(1) amortised
-//! (a windowed search around the previous index) and allocate nothing.
+//! command (the seed's Algorithm 1, §3.3.4). Queries follow the reference
+//! by progress (a local search from the previous closest point, so
+//! references that reverse or cross themselves are followed in order), are
+//! O(1) amortised and allocate nothing. [`RobotPolicy`] is the interface the
+//! arbiter queries; [`TrackingPolicy`] implements it.
 //!
 //! ```
 //! use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
@@ -26,9 +29,11 @@
 
 mod policy;
 mod reference;
+mod robot_policy;
 
 pub use policy::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights};
 pub use reference::JointTrajectory;
+pub use robot_policy::{PolicyState, RobotPolicy};
 
 use std::path::PathBuf;
 use tandem_solvers::riccati::RiccatiError;
@@ -66,6 +71,9 @@ pub enum ControlError {
     /// A query vector of the wrong length.
     #[error("{what} has {got} values, expected {expected}")]
     WrongLength { what: &'static str, expected: usize, got: usize },
+    /// A policy state made by another kind of policy.
+    #[error("the policy state was made by another kind of policy")]
+    ForeignState,
     /// A query vector holding NaN or an infinity.
     #[error("{what}[{index}] = {value} is not finite")]
     NonFinite { what: &'static str, index: usize, value: f64 },

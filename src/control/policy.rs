@@ -51,40 +51,82 @@ pub enum Feedforward {
     Acceleration,
 }
 
-/// Per-caller state of policy queries: the index hint of the closest
-/// waypoint and scratch space. One per control loop (or thread).
+/// Per-caller state of policy queries: the progress along the reference
+/// found by the last query (its hint for the next) and scratch space. One per
+/// control loop (or thread).
 #[derive(Debug, Clone)]
 pub struct PolicyWorkspace {
-    hint: Option<usize>,
+    progress: Option<f64>,
     error: Vec<f64>,
+}
+
+impl PolicyWorkspace {
+    /// The progress along the reference found by the last query (waypoint
+    /// coordinate `s ∈ [0, T − 1]`), `None` before the first.
+    pub fn progress(&self) -> Option<f64> {
+        self.progress
+    }
+
+    /// Forgets the progress: the next query searches the whole reference.
+    pub fn reset(&mut self) {
+        self.progress = None;
+    }
 }
 
 /// What one query found.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PolicyQuery {
-    /// Index of the closest reference waypoint.
+    /// The waypoint nearest to the closest point of the reference.
     pub index: usize,
-    /// Joint-space distance to it (rad, Euclidean).
+    /// The closest point of the reference, as a waypoint coordinate `s ∈
+    /// [0, T − 1]`: waypoint `⌊s⌋` plus the fraction `s − ⌊s⌋` of the
+    /// segment to the next (the reference is a polyline).
+    pub progress: f64,
+    /// Joint-space distance to the closest point (rad, Euclidean).
     pub distance: f64,
-    /// Index of the waypoint tracked: the closest plus the look-ahead.
-    pub target: usize,
+    /// Joint-space arc length of the reference from its start to the
+    /// closest point (rad).
+    pub arc_length: f64,
+    /// The point tracked: the progress plus the look-ahead, at most `T − 1`.
+    pub target: f64,
 }
 
 /// An LQR policy that steers the arm back onto a reference from anywhere
 /// nearby: `a = −K (x − x_d) + a_d` on the joint-space double integrator
 /// with state `x = [q, q̇]`, integrated over one time step to a joint
 /// velocity command. Immutable and `Send + Sync`; queries allocate nothing.
+///
+/// The reference is a polyline through its waypoints, and `x_d` is taken at
+/// the closest point of it (plus a look-ahead), interpolated between
+/// waypoints, so the command varies continuously with `q` — finite
+/// differences of the policy (the arbitration metrics) see the reference's
+/// direction, not a staircase of waypoint indices. The closest point is
+/// searched by *progress*: from the point found by the previous query,
+/// forward along the reference while the distance keeps falling (a few
+/// segments of patience), back at most `backtrack` waypoints; the whole
+/// reference only on the first query, preferring the earliest of nearly
+/// equidistant points. A reference that reverses, loops or crosses itself is
+/// followed in order, never short-cut to a later pass through the same place.
 #[derive(Debug, Clone)]
 pub struct TrackingPolicy {
     reference: JointTrajectory,
     /// One gain (n × 2n, column-major) or one per waypoint.
     gains: Vec<DMatrix<f64>>,
-    /// Half-width of the windowed closest-waypoint search.
-    window: usize,
-    /// Waypoints between the closest one and the one tracked.
-    lookahead: usize,
+    /// Segments searched past the last improvement before the forward search stops.
+    patience: usize,
+    /// Arc length a query may move back from the previous progress (rad).
+    backtrack: f64,
+    /// Arc length from the first waypoint to each waypoint (rad).
+    arc: Vec<f64>,
+    /// Waypoints between the closest point and the point tracked.
+    lookahead: f64,
     feedforward: Feedforward,
 }
+
+/// Relative tolerance under which two distances count as equal (a later
+/// waypoint wins a tie during the forward search, the earlier one on a
+/// first, global search).
+const TIE: f64 = 1e-9;
 
 impl TrackingPolicy {
     /// Builds the policy for `reference` with the given weights.
@@ -114,8 +156,22 @@ impl TrackingPolicy {
                 fh.gains
             }
         };
-        let window = (reference.len() / 20).clamp(4, 64);
-        Ok(TrackingPolicy { reference, gains, window, lookahead: 1, feedforward: Feedforward::default() })
+        let mut arc = Vec::with_capacity(reference.len());
+        arc.push(0.0);
+        for i in 1..reference.len() {
+            let step: f64 =
+                reference.position(i).iter().zip(reference.position(i - 1)).map(|(a, b)| (a - b) * (a - b)).sum();
+            arc.push(arc[i - 1] + step.sqrt());
+        }
+        Ok(TrackingPolicy {
+            reference,
+            gains,
+            patience: 3,
+            backtrack: 0.2,
+            arc,
+            lookahead: 1.0,
+            feedforward: Feedforward::default(),
+        })
     }
 
     /// Chooses the feedforward terms (default [`Feedforward::Velocity`]).
@@ -124,11 +180,21 @@ impl TrackingPolicy {
         self
     }
 
-    /// Tracks the waypoint `steps` after the closest one (default 1): the
-    /// reference segment starts at the closest waypoint (Algorithm 1), and
+    /// Tracks the point `steps` waypoints after the closest one (default 1):
+    /// the reference segment starts at the closest point (Algorithm 1), and
     /// aiming one step ahead keeps the arm moving along it.
     pub fn with_lookahead(mut self, steps: usize) -> Self {
-        self.lookahead = steps;
+        self.lookahead = steps as f64;
+        self
+    }
+
+    /// Bounds the search: at most `backtrack` of arc length back from the
+    /// previous progress (rad; default 0.2) and `patience` segments of the
+    /// forward search past the last improvement (default 3, at least 1).
+    /// A negative or NaN `backtrack` counts as 0.
+    pub fn with_search(mut self, backtrack: f64, patience: usize) -> Self {
+        self.backtrack = backtrack.max(0.0);
+        self.patience = patience.max(1);
         self
     }
 
@@ -144,16 +210,34 @@ impl TrackingPolicy {
 
     /// A workspace for queries of this policy.
     pub fn workspace(&self) -> PolicyWorkspace {
-        PolicyWorkspace { hint: None, error: vec![0.0; 2 * self.reference.dof()] }
+        PolicyWorkspace { progress: None, error: vec![0.0; 2 * self.reference.dof()] }
     }
 
     /// The velocity command at configuration `q` with current joint velocity
     /// `velocity` (zero when `None`), written into `command` (rad/s or m/s).
+    /// The progress found becomes the workspace's hint for the next query.
     ///
     /// # Errors
     /// Wrong lengths or non-finite values in `q` or `velocity`; `command` is
     /// then left untouched.
     pub fn query(
+        &self,
+        ws: &mut PolicyWorkspace,
+        q: &[f64],
+        velocity: Option<&[f64]>,
+        command: &mut [f64],
+    ) -> Result<PolicyQuery, ControlError> {
+        let found = self.probe(ws, q, velocity, command)?;
+        ws.progress = Some(found.progress);
+        Ok(found)
+    }
+
+    /// As [`TrackingPolicy::query`], searching from the workspace's progress
+    /// without moving it: for finite-difference probes around the state.
+    ///
+    /// # Errors
+    /// As [`TrackingPolicy::query`].
+    pub fn probe(
         &self,
         ws: &mut PolicyWorkspace,
         q: &[f64],
@@ -171,28 +255,49 @@ impl TrackingPolicy {
         if command.len() != n {
             return Err(ControlError::WrongLength { what: "command", expected: n, got: command.len() });
         }
-        let mut found = self.closest(ws, q);
-        found.target = (found.index + self.lookahead).min(self.reference.len() - 1);
-        let t = found.target;
-        let qd = self.reference.position(t);
-        // The reference ends at rest on its goal.
-        let at_goal = t + 1 == self.reference.len();
-        let (vd, ad) = (self.reference.velocity(t), self.reference.acceleration(t));
-        for j in 0..n {
-            ws.error[j] = q[j] - qd[j];
-            let vd = if at_goal { 0.0 } else { vd[j] };
-            ws.error[n + j] = velocity.map_or(0.0, |v| v[j]) - vd;
-        }
-        let k = self.gain(t);
-        let dt = self.reference.dt();
-        for j in 0..n {
-            // u_j = a_d,j − Σ_c K[j, c] e_c, then v⁺ = v + u·dt.
-            let feedback: f64 = (0..2 * n).map(|c| k[(j, c)] * ws.error[c]).sum();
-            let ad = if at_goal || self.feedforward == Feedforward::Velocity { 0.0 } else { ad[j] };
-            let accel = ad - feedback;
-            command[j] = velocity.map_or(0.0, |v| v[j]) + accel * dt;
-        }
+        let last = (self.reference.len() - 1) as f64;
+        // A hint past the end (a workspace made for another policy) is lost.
+        let hint = ws.progress.filter(|&s| s <= last);
+        let mut found = match hint {
+            Some(s) => self.search_from(q, s),
+            None => self.search_all(q),
+        };
+        found.target = (found.progress + self.lookahead).min(last);
+        self.command_at(ws, &found, q, velocity, command);
         Ok(found)
+    }
+
+    /// `command = v + (a_d − K e)·dt` with the error state `e` against the
+    /// reference interpolated at `found.target`.
+    fn command_at(
+        &self,
+        ws: &mut PolicyWorkspace,
+        found: &PolicyQuery,
+        q: &[f64],
+        velocity: Option<&[f64]>,
+        command: &mut [f64],
+    ) {
+        let n = self.reference.dof();
+        let r = &self.reference;
+        let (i, t) = split(found.target, r.len());
+        let j = (i + 1).min(r.len() - 1);
+        // The reference ends at rest on its goal.
+        let at_goal = found.target >= (r.len() - 1) as f64;
+        let lerp = |a: &[f64], b: &[f64], k: usize| a[k] + t * (b[k] - a[k]);
+        for k in 0..n {
+            ws.error[k] = q[k] - lerp(r.position(i), r.position(j), k);
+            let vd = if at_goal { 0.0 } else { lerp(r.velocity(i), r.velocity(j), k) };
+            ws.error[n + k] = velocity.map_or(0.0, |v| v[k]) - vd;
+        }
+        let (ki, kj) = (self.gain(i), self.gain(j));
+        let dt = r.dt();
+        let feedforward = !at_goal && self.feedforward == Feedforward::Acceleration;
+        for k in 0..n {
+            // u_k = a_d,k − Σ_c K[k, c] e_c, then v⁺ = v + u·dt.
+            let feedback: f64 = (0..2 * n).map(|c| (ki[(k, c)] + t * (kj[(k, c)] - ki[(k, c)])) * ws.error[c]).sum();
+            let ad = if feedforward { lerp(r.acceleration(i), r.acceleration(j), k) } else { 0.0 };
+            command[k] = velocity.map_or(0.0, |v| v[k]) + (ad - feedback) * dt;
+        }
     }
 
     /// Closed-loop rollout of a kinematic arm (`q ← q + q̇·dt`, `q̇` the
@@ -214,38 +319,93 @@ impl TrackingPolicy {
         Ok(path)
     }
 
-    /// Closest waypoint: a window around the hint, widened to the whole
-    /// reference on the first call or when the best lies on the window edge
-    /// (the hint is lost).
-    fn closest(&self, ws: &mut PolicyWorkspace, q: &[f64]) -> PolicyQuery {
-        let last = self.reference.len() - 1;
-        // A hint past the end (a workspace made for another policy) is lost.
-        if let Some(hint) = ws.hint.filter(|&h| h <= last) {
-            let (lo, hi) = (hint.saturating_sub(self.window), (hint + self.window).min(last));
-            let best = self.best_in(q, lo, hi);
-            let on_edge = (best.index == lo && lo > 0) || (best.index == hi && hi < last);
-            if !on_edge {
-                ws.hint = Some(best.index);
-                return best;
+    /// The closest point over the whole reference; of points within a
+    /// relative [`TIE`] of the closest, the earliest.
+    fn search_all(&self, q: &[f64]) -> PolicyQuery {
+        let mut best = self.project(q, 0);
+        for segment in 1..self.segments() {
+            let p = self.project(q, segment);
+            if p.distance < best.distance * (1.0 - TIE) {
+                best = p;
             }
         }
-        let best = self.best_in(q, 0, last);
-        ws.hint = Some(best.index);
         best
     }
 
-    fn best_in(&self, q: &[f64], lo: usize, hi: usize) -> PolicyQuery {
-        let mut best = PolicyQuery { index: lo, distance: f64::INFINITY, target: lo };
-        for i in lo..=hi {
-            let d2: f64 = self.reference.position(i).iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
-            // `<=` prefers the later waypoint on ties, so a resting arm advances.
-            if d2 <= best.distance {
-                best = PolicyQuery { index: i, distance: d2, target: i };
+    /// Local search from progress `s`: forward while the distance falls
+    /// (ties move forward; `patience` segments past the last improvement),
+    /// otherwise back by at most `backtrack` of arc length while it falls.
+    fn search_from(&self, q: &[f64], s: f64) -> PolicyQuery {
+        let first = (s.floor() as usize).min(self.segments() - 1);
+        let mut best = self.project(q, first);
+        let mut since = 0;
+        for segment in first + 1..self.segments() {
+            let p = self.project(q, segment);
+            if p.distance <= best.distance * (1.0 + TIE) {
+                best = p;
+                since = 0;
+            } else {
+                since += 1;
+                if since >= self.patience {
+                    break;
+                }
             }
         }
-        best.distance = best.distance.sqrt();
+        if best.progress <= s {
+            let lowest = self.arc_at(s) - self.backtrack;
+            for segment in (0..first).rev() {
+                let p = self.project(q, segment);
+                if p.arc_length < lowest || p.distance >= best.distance * (1.0 - TIE) {
+                    break;
+                }
+                best = p;
+            }
+        }
         best
     }
+
+    /// Number of polyline segments (one for a single-waypoint reference).
+    fn segments(&self) -> usize {
+        self.reference.len().saturating_sub(1).max(1)
+    }
+
+    /// The closest point of segment `i` (waypoints `i` and `i + 1`) to `q`.
+    fn project(&self, q: &[f64], i: usize) -> PolicyQuery {
+        let r = &self.reference;
+        let a = r.position(i);
+        let b = r.position((i + 1).min(r.len() - 1));
+        let (mut ab2, mut aq_ab) = (0.0, 0.0);
+        for k in 0..q.len() {
+            let ab = b[k] - a[k];
+            ab2 += ab * ab;
+            aq_ab += (q[k] - a[k]) * ab;
+        }
+        let t = if ab2 > 0.0 { (aq_ab / ab2).clamp(0.0, 1.0) } else { 0.0 };
+        let d2: f64 = (0..q.len()).map(|k| (q[k] - a[k] - t * (b[k] - a[k])).powi(2)).sum();
+        let progress = (i as f64 + t).min((r.len() - 1) as f64);
+        let arc_length = self.arc_at(progress);
+        PolicyQuery { index: progress.round() as usize, progress, distance: d2.sqrt(), arc_length, target: progress }
+    }
+
+    /// Arc length at waypoint coordinate `s` (rad).
+    fn arc_at(&self, s: f64) -> f64 {
+        let (i, t) = split(s, self.reference.len());
+        let j = (i + 1).min(self.arc.len() - 1);
+        self.arc[i] + t * (self.arc[j] - self.arc[i])
+    }
+
+    /// Joint-space arc length of the whole reference (rad).
+    pub fn length(&self) -> f64 {
+        self.arc[self.arc.len() - 1]
+    }
+}
+
+/// Waypoint `i = ⌊s⌋` and fraction `t = s − i` of a waypoint coordinate,
+/// with `i + t` clamped to the reference of `len` waypoints.
+fn split(s: f64, len: usize) -> (usize, f64) {
+    let last = len - 1;
+    let i = (s.max(0.0).floor() as usize).min(last);
+    if i == last { (i, 0.0) } else { (i, s - i as f64) }
 }
 
 fn check_vector(what: &'static str, x: &[f64], n: usize) -> Result<(), ControlError> {

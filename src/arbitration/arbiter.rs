@@ -1,0 +1,651 @@
+//! The [`Arbiter`] (immutable, shared) and its per-loop
+//! [`ArbiterWorkspace`]: one tick validates the inputs, updates the goal
+//! beliefs, queries the robot policies, builds the mode's objective, adds
+//! the hard constraints, solves (Clarabel only when the closed form breaks a
+//! constraint), certifies the step, and returns a command with a status.
+
+use super::ArbitrationError;
+use super::command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
+use super::intent::{IntentEstimator, IntentSettings};
+use super::metric::{Metric, MetricScratch, MetricSettings};
+use super::modes::{ArbitrationMode, ModeSettings};
+use super::safety::{Row, SafetyRows, SafetySettings};
+use crate::collision::{CollisionModel, CollisionWorkspace};
+use crate::control::{PolicyState, RobotPolicy};
+use crate::robot::{FrameId, KinematicsWorkspace, ReferenceFrame, RobotModel};
+use nalgebra::Matrix6xX;
+use std::sync::Arc;
+use tandem_solvers::conic::{ConicData, ConicError, ConicSettings, ConicSolverPool, SecondOrderCone};
+use tandem_solvers::small::add_scaled;
+
+/// One goal the operator may be heading for: a name, a point in the world
+/// the intent estimator compares the gripper path with (m), and the robot
+/// policy that reaches it.
+#[derive(Debug, Clone)]
+pub struct ArbiterGoal {
+    pub name: String,
+    pub position: [f64; 3],
+    pub policy: Arc<dyn RobotPolicy>,
+}
+
+/// Damped least squares for task commands near singularities (Nakamura's
+/// variable damping): `δ = floor + max_damping² · (1 − (σ_min/threshold)²)`
+/// when the smallest singular value `σ_min` of the task Jacobian is below
+/// `threshold`, else `floor`. The arm keeps moving where it can.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DampingSettings {
+    /// σ_min below which damping grows (m/rad; default 0.03).
+    pub threshold: f64,
+    /// Largest damping factor (m/rad; default 0.05).
+    pub max_damping: f64,
+    /// Damping always present, regularising the null space (default 1e-6).
+    pub floor: f64,
+}
+
+impl Default for DampingSettings {
+    fn default() -> Self {
+        DampingSettings { threshold: 0.03, max_damping: 0.05, floor: 1e-6 }
+    }
+}
+
+/// Which solver handles the QP modes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SolverBackend {
+    /// Clarabel's interior point method (every mode).
+    #[default]
+    Clarabel,
+    /// OSQP (QP modes; `Constrained` still uses Clarabel). Needs the `osqp`
+    /// cargo feature.
+    #[cfg(feature = "osqp")]
+    Osqp,
+}
+
+/// Everything an [`Arbiter`] can be told.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArbiterSettings {
+    /// The mode new workspaces start in.
+    pub mode: ArbitrationMode,
+    /// Control period `dt` (s; default 1/15, the seed's 15 Hz).
+    pub period: f64,
+    pub metric: MetricSettings,
+    pub intent: IntentSettings,
+    pub modes: ModeSettings,
+    pub safety: SafetySettings,
+    pub damping: DampingSettings,
+    pub solver: ConicSettings,
+    pub backend: SolverBackend,
+    /// Skip the solver when the mode's closed form meets every constraint
+    /// (it is then the optimum of the convex problem; default true).
+    pub closed_form_first: bool,
+}
+
+impl Default for ArbiterSettings {
+    fn default() -> Self {
+        ArbiterSettings {
+            mode: ArbitrationMode::default(),
+            period: 1.0 / 15.0,
+            metric: MetricSettings::default(),
+            intent: IntentSettings::default(),
+            modes: ModeSettings::default(),
+            safety: SafetySettings::default(),
+            damping: DampingSettings::default(),
+            solver: ConicSettings::default(),
+            backend: SolverBackend::default(),
+            closed_form_first: true,
+        }
+    }
+}
+
+/// Shared control every tick: the robot, its collision model, the goals
+/// with their policies, and the settings. Immutable and `Send + Sync`; each
+/// control loop owns an [`ArbiterWorkspace`].
+#[derive(Debug)]
+pub struct Arbiter {
+    pub(crate) robot: Arc<RobotModel>,
+    pub(crate) collision: Arc<CollisionModel>,
+    pub(crate) gripper: FrameId,
+    pub(crate) goals: Vec<ArbiterGoal>,
+    pub(crate) settings: ArbiterSettings,
+}
+
+/// Per-control-loop state of an [`Arbiter`]: buffers, policy states, the
+/// intent estimate and the solvers, allocated once.
+pub struct ArbiterWorkspace {
+    pub(crate) mode: ArbitrationMode,
+    pub(crate) kin: KinematicsWorkspace,
+    pub(crate) probe_kin: KinematicsWorkspace,
+    pub(crate) collision: CollisionWorkspace,
+    pub(crate) jac: Matrix6xX<f64>,
+    pub(crate) probe_jac: Matrix6xX<f64>,
+    pub(crate) gripper_position: [f64; 3],
+    pub(crate) states: Vec<PolicyState>,
+    /// Robot actions, goal-major (`k × n`).
+    pub(crate) actions: Vec<f64>,
+    pub(crate) intent: IntentEstimator,
+    pub(crate) beliefs: Vec<f64>,
+    pub(crate) scratch: MetricScratch,
+    pub(crate) task_scratch: MetricScratch,
+    pub(crate) raw: Vec<f64>,
+    pub(crate) goal_metric: Metric,
+    pub(crate) metric: Metric,
+    pub(crate) task_goal_metric: Metric,
+    pub(crate) task_metric: Metric,
+    pub(crate) velocity: Vec<f64>,
+    /// The operator's command in joint space (rad/s).
+    pub(crate) human: Vec<f64>,
+    /// Task Jacobian rows in use (row-major `k × n`) and the task target.
+    pub(crate) jk: Vec<f64>,
+    pub(crate) task: [f64; 6],
+    pub(crate) target: Vec<f64>,
+    /// The problem: `½uᵀPu + qᵀu`, its unconstrained minimiser, the cone.
+    pub(crate) p: Vec<f64>,
+    pub(crate) q: Vec<f64>,
+    pub(crate) u0: Vec<f64>,
+    pub(crate) chol: Vec<f64>,
+    pub(crate) cone_l: Vec<f64>,
+    pub(crate) cone_c: Vec<f64>,
+    pub(crate) radius: f64,
+    pub(crate) conic: bool,
+    pub(crate) rows: SafetyRows,
+    active: Vec<Row>,
+    qp_g: Vec<f64>,
+    qp_h: Vec<f64>,
+    qp: ConicSolverPool,
+    socp: ConicSolverPool,
+    #[cfg(feature = "osqp")]
+    osqp: tandem_solvers::conic::OsqpSolver,
+    pub(crate) u: Vec<f64>,
+    qnext: Vec<f64>,
+    qdot: Vec<f64>,
+    pub(crate) diagnostics: Diagnostics,
+}
+
+/// Distance rows beyond the bounds the solver may take per tick.
+const MAX_SOLVER_ROWS: usize = 64;
+
+impl Arbiter {
+    /// An arbiter for the robot of `collision`, the gripper frame `gripper`
+    /// (task commands and intent refer to it) and `goals`.
+    ///
+    /// # Errors
+    /// An unknown gripper frame, a goal policy for another number of
+    /// joints, a non-finite goal position, invalid settings.
+    pub fn new(
+        collision: Arc<CollisionModel>,
+        gripper: &str,
+        goals: Vec<ArbiterGoal>,
+        settings: ArbiterSettings,
+    ) -> Result<Arbiter, ArbitrationError> {
+        let robot = collision.robot().clone();
+        let gripper = robot.frame_id(gripper)?;
+        for goal in &goals {
+            if goal.policy.dof() != robot.nq() {
+                return Err(ArbitrationError::PolicyDof {
+                    goal: goal.name.clone(),
+                    expected: robot.nq(),
+                    got: goal.policy.dof(),
+                });
+            }
+            if goal.position.iter().any(|x| !x.is_finite()) {
+                return Err(ArbitrationError::GoalPosition { goal: goal.name.clone() });
+            }
+        }
+        validate_settings(&settings)?;
+        Ok(Arbiter { robot, collision, gripper, goals, settings })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &ArbiterSettings {
+        &self.settings
+    }
+
+    /// The goals.
+    pub fn goals(&self) -> &[ArbiterGoal] {
+        &self.goals
+    }
+
+    /// The robot.
+    pub fn robot(&self) -> &Arc<RobotModel> {
+        &self.robot
+    }
+
+    /// The collision model the hard constraints use.
+    pub fn collision_model(&self) -> &Arc<CollisionModel> {
+        &self.collision
+    }
+
+    /// A workspace for one control loop (allocates; ticks do not).
+    pub fn workspace(&self) -> ArbiterWorkspace {
+        let n = self.robot.nq();
+        let k = self.goals.len();
+        let positions: Vec<[f64; 3]> = self.goals.iter().map(|g| g.position).collect();
+        let max_rows = 2 * n + MAX_SOLVER_ROWS;
+        let solver = &self.settings.solver;
+        ArbiterWorkspace {
+            mode: self.settings.mode,
+            kin: KinematicsWorkspace::new(&self.robot),
+            probe_kin: KinematicsWorkspace::new(&self.robot),
+            collision: CollisionWorkspace::new(&self.collision),
+            jac: Matrix6xX::zeros(n),
+            probe_jac: Matrix6xX::zeros(n),
+            gripper_position: [0.0; 3],
+            states: self.goals.iter().map(|g| g.policy.new_state()).collect(),
+            actions: vec![0.0; k * n],
+            intent: IntentEstimator::new(&positions, self.settings.intent),
+            beliefs: vec![if k == 0 { 0.0 } else { 1.0 / k as f64 }; k],
+            scratch: MetricScratch::new(n),
+            task_scratch: MetricScratch::new(3),
+            raw: vec![0.0; n * n],
+            goal_metric: Metric::identity(n),
+            metric: Metric::identity(n),
+            task_goal_metric: Metric::identity(3),
+            task_metric: Metric::identity(3),
+            velocity: vec![0.0; n],
+            human: vec![0.0; n],
+            jk: vec![0.0; 6 * n.max(1)],
+            task: [0.0; 6],
+            target: vec![0.0; n.max(6)],
+            p: vec![0.0; n * n],
+            q: vec![0.0; n],
+            u0: vec![0.0; n],
+            chol: vec![0.0; n * n],
+            cone_l: vec![0.0; n * n],
+            cone_c: vec![0.0; n],
+            radius: 0.0,
+            conic: false,
+            rows: SafetyRows::new(n, self.settings.safety.max_distance_rows, self.collision.pair_count()),
+            active: Vec::with_capacity(max_rows + self.settings.safety.max_distance_rows),
+            qp_g: vec![0.0; max_rows * n],
+            qp_h: vec![0.0; max_rows],
+            qp: ConicSolverPool::new(n, max_rows, None, solver),
+            socp: ConicSolverPool::new(n, max_rows, Some(n), solver),
+            #[cfg(feature = "osqp")]
+            osqp: tandem_solvers::conic::OsqpSolver::new(n, max_rows, solver),
+            u: vec![0.0; n],
+            qnext: vec![0.0; n],
+            qdot: vec![0.0; n],
+            diagnostics: Diagnostics::default(),
+        }
+    }
+
+    /// Starts a new episode: forgets the observed path and the policies' progress.
+    pub fn reset(&self, ws: &mut ArbiterWorkspace) {
+        ws.intent.reset();
+        ws.beliefs.copy_from_slice(ws.intent.beliefs());
+        for (goal, state) in self.goals.iter().zip(&mut ws.states) {
+            goal.policy.reset(state);
+        }
+    }
+
+    /// One control tick: the joint velocity to execute for one period, a
+    /// status and diagnostics. Never panics; allocates nothing.
+    pub fn tick<'w>(&self, ws: &'w mut ArbiterWorkspace, input: &TickInput<'_>) -> Command<'w> {
+        ws.diagnostics = Diagnostics {
+            mode: ws.mode,
+            step_fraction: 1.0,
+            min_distance: f64::INFINITY,
+            metric_condition: 1.0,
+            ..Diagnostics::default()
+        };
+        let status = match self.run(ws, input) {
+            Ok(status) => status,
+            Err(status) => {
+                ws.u.fill(0.0);
+                status
+            }
+        };
+        if status.is_hold() {
+            ws.qdot.fill(0.0);
+        } else {
+            let f = ws.diagnostics.step_fraction;
+            for (v, u) in ws.qdot.iter_mut().zip(&ws.u) {
+                *v = f * u;
+            }
+        }
+        Command { qdot: &ws.qdot, status, diagnostics: ws.diagnostics }
+    }
+
+    fn run(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Result<TickStatus, TickStatus> {
+        self.validate(ws, input)?;
+        // Validated above: FK and the Jacobian cannot fail.
+        let _ = self.robot.forward_kinematics(&mut ws.kin, input.q);
+        let pose = self
+            .robot
+            .frame_jacobian(&ws.kin, self.gripper, ReferenceFrame::WorldAligned, &mut ws.jac)
+            .map_err(|_| TickStatus::InvalidState)?;
+        ws.gripper_position = pose.translation.vector.into();
+        self.update_beliefs(ws, input.beliefs);
+        let mut mode = ws.mode;
+        if let (ArbitrationMode::NaturalGradient(_), HumanCommand::Joint(_)) = (mode, &input.command) {
+            mode = ArbitrationMode::NaturalGradient(super::modes::MetricSpace::Joint);
+        }
+        let mut policy_failed = !self.robot_actions(ws, input.q);
+        if !policy_failed && mode.metric().is_some() && !self.compute_metric(ws, mode, input.q) {
+            policy_failed = true;
+        }
+        if policy_failed {
+            mode = ArbitrationMode::DirectControl;
+        }
+        self.objective(ws, mode, &input.command);
+        let s = &self.settings.safety;
+        let dt = self.settings.period;
+        ws.rows.build_bounds(&self.robot, input.q, dt, s);
+        let rate = if mode == ArbitrationMode::ObstacleAvoidance { s.avoidance_gain.min(1.0 / dt) } else { 1.0 / dt };
+        let reach = self.build_distance_rows(ws, rate, None);
+        let mut solved = self.enforce(ws)?;
+        // A solution that moves farther than the rows were built for: rebuild once.
+        let moved = self.step_reach(ws);
+        if moved > reach {
+            self.build_distance_rows(ws, rate, Some(moved));
+            solved = self.enforce(ws)? || solved;
+        }
+        ws.rows.clamp(&mut ws.u);
+        ws.diagnostics.min_distance = ws.rows.min_distance;
+        ws.diagnostics.rows = ws.rows.total();
+        ws.diagnostics.distance_pairs = ws.rows.count;
+        ws.diagnostics.active_rows = ws.rows.rows().filter(|&r| ws.rows.slack(r, &ws.u) <= 1e-7).count();
+        let in_collision = ws.rows.min_distance < 0.0;
+        let mut status =
+            if solved || ws.diagnostics.active_rows > 0 { TickStatus::Constrained } else { TickStatus::Nominal };
+        if in_collision {
+            status = TickStatus::InCollision;
+        } else if s.certify {
+            status = self.certify(ws, input.q, status)?;
+        }
+        if policy_failed {
+            status = TickStatus::PolicyFailed;
+        }
+        Ok(status)
+    }
+
+    fn validate(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Result<(), TickStatus> {
+        let n = self.robot.nq();
+        if !finite_of_len(input.q, n) {
+            return Err(TickStatus::InvalidState);
+        }
+        match input.velocity {
+            Some(v) if !finite_of_len(v, n) => return Err(TickStatus::InvalidState),
+            Some(v) => ws.velocity.copy_from_slice(v),
+            None => ws.velocity.fill(0.0),
+        }
+        let c = &input.command;
+        if !finite_of_len(c.values(), c.expected_len(n)) {
+            return Err(TickStatus::InvalidCommand);
+        }
+        if let Some(b) = input.beliefs {
+            let ok = b.len() == self.goals.len()
+                && b.iter().all(|x| x.is_finite() && *x >= 0.0)
+                && (b.is_empty() || (b.iter().sum::<f64>() - 1.0).abs() <= 1e-6);
+            if !ok {
+                return Err(TickStatus::InvalidBeliefs);
+            }
+        }
+        Ok(())
+    }
+
+    fn update_beliefs(&self, ws: &mut ArbiterWorkspace, given: Option<&[f64]>) {
+        match given {
+            Some(b) => ws.beliefs.copy_from_slice(b),
+            None => {
+                let b = ws.intent.observe(ws.gripper_position, self.settings.period);
+                ws.beliefs.copy_from_slice(b);
+            }
+        }
+        if let Some((g, &b)) = ws.beliefs.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) {
+            ws.diagnostics.goal = Some(g);
+            ws.diagnostics.confidence = b;
+        }
+    }
+
+    /// Every goal's action at `q`; false when a policy fails or returns a
+    /// non-finite action.
+    fn robot_actions(&self, ws: &mut ArbiterWorkspace, q: &[f64]) -> bool {
+        let n = self.robot.nq();
+        for (g, goal) in self.goals.iter().enumerate() {
+            let action = &mut ws.actions[g * n..(g + 1) * n];
+            let ok = goal.policy.act(&mut ws.states[g], q, &ws.velocity, action).is_ok();
+            if !ok || action.iter().any(|a| !a.is_finite()) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Distance rows for the pairs that the step could bring within the
+    /// margin: those closer than `margin + bound(|u|·dt) · 1.5 + 1 mm`, `u`
+    /// the larger of the closed form's and `at_least`. Returns the reach (m).
+    fn build_distance_rows(&self, ws: &mut ArbiterWorkspace, rate: f64, at_least: Option<f64>) -> f64 {
+        let dt = self.settings.period;
+        for (d, u) in ws.qnext.iter_mut().zip(&ws.u0) {
+            *d = u * dt;
+        }
+        let reach = self.collision.displacement_bound(&ws.qnext).max(at_least.unwrap_or(0.0));
+        let cutoff = self.settings.safety.margin + 1.5 * reach + 1e-3;
+        ws.rows.build_distances(&self.collision, &mut ws.collision, &ws.kin, cutoff, rate, &self.settings.safety);
+        reach
+    }
+
+    /// How far the robot's geometry can move under the current `u` (m).
+    fn step_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
+        let dt = self.settings.period;
+        for (d, u) in ws.qnext.iter_mut().zip(&ws.u) {
+            *d = u * dt;
+        }
+        self.collision.displacement_bound(&ws.qnext)
+    }
+
+    /// Meets every row: the closed form when it does (and
+    /// `closed_form_first`), else the solver on the violated rows, adding
+    /// rows the solution violates, up to 6 rounds. Returns whether the
+    /// solver ran.
+    fn enforce(&self, ws: &mut ArbiterWorkspace) -> Result<bool, TickStatus> {
+        ws.u.copy_from_slice(&ws.u0);
+        ws.active.clear();
+        let mut solved = !self.settings.closed_form_first;
+        if solved {
+            ws.active.extend(ws.rows.rows());
+            self.solve(ws)?;
+        }
+        for _round in 0..6 {
+            let before = ws.active.len();
+            for row in ws.rows.rows() {
+                if !ws.active.contains(&row) && ws.rows.slack(row, &ws.u) < -violation_tolerance(&ws.rows, row) {
+                    ws.active.push(row);
+                }
+            }
+            if ws.active.len() == before {
+                return Ok(solved);
+            }
+            self.solve(ws)?;
+            solved = true;
+        }
+        let worst = ws.rows.rows().map(|r| ws.rows.slack(r, &ws.u)).fold(0.0f64, f64::min);
+        if worst < -1e-6 { Err(TickStatus::SolverFailed) } else { Ok(solved) }
+    }
+
+    /// Solves the mode's problem with the active rows into `ws.u`.
+    fn solve(&self, ws: &mut ArbiterWorkspace) -> Result<(), TickStatus> {
+        let n = self.robot.nq();
+        if ws.active.len() > ws.qp_h.len() {
+            // More rows than the solvers take: the most violated first.
+            let rows = &ws.rows;
+            let u = &ws.u;
+            ws.active.sort_by(|a, b| rows.slack(*a, u).total_cmp(&rows.slack(*b, u)));
+            ws.active.truncate(ws.qp_h.len());
+        }
+        let m = ws.active.len();
+        for (i, &row) in ws.active.iter().enumerate() {
+            ws.qp_h[i] = ws.rows.row(row, &mut ws.qp_g[i * n..(i + 1) * n]);
+        }
+        let cone = ws.conic.then(|| SecondOrderCone { l: &ws.cone_l, c: &ws.cone_c, radius: ws.radius });
+        let data = ConicData { p: &ws.p, q: &ws.q, g: &ws.qp_g[..m * n], h: &ws.qp_h[..m], cone };
+        let result = match (cone.is_some(), self.settings.backend) {
+            (true, _) => ws.socp.solve(&data),
+            #[cfg(feature = "osqp")]
+            (false, SolverBackend::Osqp) => ws.osqp.solve(&data),
+            (false, _) => ws.qp.solve(&data),
+        };
+        match result {
+            Ok(solution) if solution.x.iter().all(|x| x.is_finite()) => {
+                ws.u.copy_from_slice(solution.x);
+                ws.diagnostics.solver_iterations += solution.iterations;
+                Ok(())
+            }
+            Ok(_) | Err(ConicError::Numerical | ConicError::MaxIterations | ConicError::Capacity { .. }) => {
+                Err(TickStatus::SolverFailed)
+            }
+            Err(ConicError::Infeasible | ConicError::Unbounded) => Err(TickStatus::Infeasible),
+        }
+    }
+
+    /// Certifies `q → q + u·dt` against the exact geometry, halving the
+    /// step up to 4 times; holds when none is certified.
+    fn certify(&self, ws: &mut ArbiterWorkspace, q: &[f64], status: TickStatus) -> Result<TickStatus, TickStatus> {
+        let dt = self.settings.period;
+        let clearance = self.settings.safety.certification_clearance;
+        if ws.u.iter().all(|u| *u == 0.0) {
+            return Ok(status);
+        }
+        let mut fraction = 1.0;
+        for attempt in 0..5 {
+            add_scaled(&mut ws.qnext, q, fraction * dt, &ws.u);
+            match self.collision.motion_free_certified(&mut ws.collision, q, &ws.qnext, clearance) {
+                Ok(true) => {
+                    ws.diagnostics.step_fraction = fraction;
+                    return Ok(if attempt == 0 { status } else { TickStatus::StepShortened });
+                }
+                Ok(false) => fraction *= 0.5,
+                Err(_) => break,
+            }
+        }
+        ws.diagnostics.step_fraction = 0.0;
+        Err(TickStatus::Halted)
+    }
+}
+
+impl ArbiterWorkspace {
+    /// The mode the next ticks run.
+    pub fn mode(&self) -> ArbitrationMode {
+        self.mode
+    }
+
+    /// Switches the mode from the next tick on.
+    pub fn set_mode(&mut self, mode: ArbitrationMode) {
+        self.mode = mode;
+    }
+
+    /// Beliefs over the goals after the last tick.
+    pub fn beliefs(&self) -> &[f64] {
+        &self.beliefs
+    }
+
+    /// Goal `g`'s robot action at the last tick (rad/s).
+    pub fn robot_action(&self, g: usize) -> &[f64] {
+        let n = self.u.len();
+        &self.actions[g * n..(g + 1) * n]
+    }
+
+    /// The joint-space metric of the last tick (the Hessian metric `W` for
+    /// `Constrained` and `SumOfSquares`, the Fisher metric `F` for
+    /// `NaturalGradient(Joint)`; the identity otherwise).
+    pub fn metric(&self) -> &Metric {
+        &self.metric
+    }
+
+    /// The 3 × 3 task-space Fisher metric of the last
+    /// `NaturalGradient(Task)` tick.
+    pub fn task_metric(&self) -> &Metric {
+        &self.task_metric
+    }
+
+    /// The gripper Jacobian of the last tick (6 × n, world-aligned, linear rows first).
+    pub fn jacobian(&self) -> &Matrix6xX<f64> {
+        &self.jac
+    }
+
+    /// The gripper position of the last tick (m, world).
+    pub fn gripper_position(&self) -> [f64; 3] {
+        self.gripper_position
+    }
+
+    /// The operator's command mapped to joint space at the last tick (rad/s).
+    pub fn human_joint_command(&self) -> &[f64] {
+        &self.human
+    }
+
+    /// The mode's unconstrained solution at the last tick (rad/s).
+    pub fn closed_form(&self) -> &[f64] {
+        &self.u0
+    }
+}
+
+fn finite_of_len(x: &[f64], n: usize) -> bool {
+    x.len() == n && x.iter().all(|v| v.is_finite())
+}
+
+/// How far below zero a row's slack may go before it counts as violated.
+fn violation_tolerance(rows: &SafetyRows, row: Row) -> f64 {
+    let h = match row {
+        Row::Upper(j) => rows.hi[j],
+        Row::Lower(j) => rows.lo[j],
+        Row::Distance(_) => 0.0,
+    };
+    1e-9 * (1.0 + h.abs())
+}
+
+fn validate_settings(s: &ArbiterSettings) -> Result<(), ArbitrationError> {
+    let bad = |what: &'static str, value: f64| Err(ArbitrationError::Setting { what, value });
+    let positive = |x: f64| x.is_finite() && x > 0.0;
+    if !positive(s.period) {
+        return bad("period", s.period);
+    }
+    if !positive(s.metric.step) {
+        return bad("metric.step", s.metric.step);
+    }
+    if !positive(s.metric.sample_radius) {
+        return bad("metric.sample_radius", s.metric.sample_radius);
+    }
+    if !positive(s.metric.task_sample_radius) {
+        return bad("metric.task_sample_radius", s.metric.task_sample_radius);
+    }
+    if !(s.metric.floor > 0.0 && s.metric.floor <= 1.0) {
+        return bad("metric.floor", s.metric.floor);
+    }
+    if !positive(s.modes.sum_of_squares_epsilon) {
+        return bad("modes.sum_of_squares_epsilon", s.modes.sum_of_squares_epsilon);
+    }
+    if !s.modes.constrained_center.is_finite() {
+        return bad("modes.constrained_center", s.modes.constrained_center);
+    }
+    if !(s.safety.margin.is_finite() && s.safety.margin >= 0.0) {
+        return bad("safety.margin", s.safety.margin);
+    }
+    if !positive(s.safety.avoidance_gain) {
+        return bad("safety.avoidance_gain", s.safety.avoidance_gain);
+    }
+    if !positive(s.safety.default_velocity_limit) {
+        return bad("safety.default_velocity_limit", s.safety.default_velocity_limit);
+    }
+    if !positive(s.safety.velocity_scale) {
+        return bad("safety.velocity_scale", s.safety.velocity_scale);
+    }
+    if !positive(s.safety.certification_clearance) {
+        return bad("safety.certification_clearance", s.safety.certification_clearance);
+    }
+    if !positive(s.intent.length_scale) {
+        return bad("intent.length_scale", s.intent.length_scale);
+    }
+    if !(s.intent.cap > 0.0 && s.intent.cap <= 1.0) {
+        return bad("intent.cap", s.intent.cap);
+    }
+    Ok(())
+}
+
+/// Whether the human command is a task command, and its dimension.
+pub(crate) fn task_dim(command: &HumanCommand<'_>) -> Option<usize> {
+    match command {
+        HumanCommand::Linear(_) => Some(3),
+        HumanCommand::Twist(_) => Some(6),
+        HumanCommand::Joint(_) => None,
+    }
+}

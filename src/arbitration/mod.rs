@@ -1,0 +1,89 @@
+//! Shared control every tick: blend the operator's command with the robot
+//! policies so the operator keeps authority while the robot prevents
+//! collisions and fixes what the operator overlooks (seed chapters 4–5;
+//! `DESIGN.md`, "One arbitration tick").
+//!
+//! An [`Arbiter`] holds the robot, its collision model, the goals (each a
+//! world point for intent and a [`RobotPolicy`](crate::control::RobotPolicy)
+//! that reaches it) and [`ArbiterSettings`]; it is immutable and shared. Each
+//! control loop owns an [`ArbiterWorkspace`]. [`Arbiter::tick`] takes the
+//! state and the operator's [`HumanCommand`] and returns a [`Command`]: the
+//! joint velocity for one period, a [`TickStatus`] from a closed set, and
+//! [`Diagnostics`]. A tick never panics and allocates nothing.
+//!
+//! Per tick: inputs validated (a wrong length or a NaN gives a hold and a
+//! status, no solve); the goal posterior updated ([`IntentEstimator`]); each
+//! goal's robot action queried; the mode's metric recovered from the
+//! policies ([`metric`](self#metrics)); the [`ArbitrationMode`]'s objective
+//! built; hard constraints added (joint position and velocity limits,
+//! linearised distances ≥ margin for the pairs within reach); the problem
+//! solved — the closed form when it meets every constraint, else Clarabel on
+//! the violated rows (an SOCP for `Constrained`, QPs otherwise); the step
+//! certified against the exact geometry.
+//!
+//! # Metrics
+//! See the [`metric`] module: the Hessian metric of eq. 5.5–5.6 from
+//! `1 + n(n+3)/2` policy queries, the Fisher metric of Algorithm 3 by
+//! locally weighted regression, both repaired (eigenvalue floor, mean
+//! eigenvalue 1) and combined over goals by belief (Algorithm 2).
+//!
+//! ```
+//! use std::sync::Arc;
+//! use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput};
+//! use tandem::collision::CollisionModel;
+//! use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+//! use tandem::robot::RobotModel;
+//!
+//! let panda = Arc::new(RobotModel::panda());
+//! let collision = Arc::new(CollisionModel::builder(panda.clone()).build()?);
+//! let ready = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
+//! let goal = [0.4, -0.3, 0.1, -2.0, 0.0, 1.8, 0.7];
+//! let reference = JointTrajectory::minimum_jerk(panda.joint_names().to_vec(), &ready, &goal, 3.0, 0.05)?;
+//! let policy = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant)?;
+//! let goals = vec![ArbiterGoal { name: "reach".into(), position: [0.5, 0.0, 0.3], policy: Arc::new(policy) }];
+//! let settings = ArbiterSettings { mode: ArbitrationMode::SumOfSquares, ..ArbiterSettings::default() };
+//! let arbiter = Arbiter::new(collision, "panda_hand_tcp", goals, settings)?;
+//! let mut ws = arbiter.workspace();
+//! // The operator pushes the gripper forward at 10 cm/s.
+//! let command = arbiter.tick(&mut ws, &TickInput::new(&ready, HumanCommand::Linear(&[0.1, 0.0, 0.0])));
+//! assert_eq!(command.qdot.len(), 7);
+//! // A NaN never reaches the robot: the tick holds and says why.
+//! let bad = arbiter.tick(&mut ws, &TickInput::new(&ready, HumanCommand::Linear(&[f64::NAN, 0.0, 0.0])));
+//! assert!(bad.qdot.iter().all(|v| *v == 0.0));
+//! assert_eq!(bad.status, tandem::arbitration::TickStatus::InvalidCommand);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod arbiter;
+mod command;
+mod intent;
+pub mod metric;
+mod modes;
+mod objective;
+mod safety;
+
+pub use arbiter::{Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolverBackend};
+pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
+pub use intent::{IntentEstimator, IntentSettings};
+pub use metric::{Metric, MetricSettings};
+pub use modes::{ArbitrationMode, BlendingStyle, MetricSpace, ModeSettings, UnknownMode};
+pub use safety::SafetySettings;
+
+use crate::robot::RobotError;
+
+/// Errors building an [`Arbiter`] (ticks never fail: they return a status).
+#[derive(Debug, thiserror::Error)]
+pub enum ArbitrationError {
+    /// A goal policy for another number of joints.
+    #[error("goal '{goal}': its policy has {got} joints, the robot {expected}")]
+    PolicyDof { goal: String, expected: usize, got: usize },
+    /// A goal position with NaN or an infinity.
+    #[error("goal '{goal}': its position is not finite")]
+    GoalPosition { goal: String },
+    /// A setting out of its range.
+    #[error("arbiter setting {what} = {value} is out of range")]
+    Setting { what: &'static str, value: f64 },
+    /// The gripper frame (or another robot-side input) is wrong.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+}

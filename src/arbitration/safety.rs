@@ -1,0 +1,203 @@
+//! Hard constraints on the executed step, in every mode: joint position and
+//! velocity limits as bounds on `u`, and linearised signed distances of the
+//! pairs within reach, `−∇d · u ≤ rate · (d − margin)`.
+//!
+//! A pair moving apart (`∇d · u ≥ 0`) always satisfies its row while it is
+//! outside the margin, so separating motion is never slowed. With `rate =
+//! 1/dt` the row keeps the linearised distance after one step above the
+//! margin; `ObstacleAvoidance` uses a smaller rate (a control barrier
+//! function: approach slows in proportion to the distance left). A pair
+//! already inside the margin must separate, at most at `recovery_speed`.
+
+use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
+use crate::robot::{KinematicsWorkspace, RobotModel};
+
+/// Settings of the hard constraints.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SafetySettings {
+    /// Distance every checked pair keeps, linearised (m; default 0.01). It
+    /// absorbs the linearisation error of one step; the certification
+    /// below guarantees contact-free motion whatever it is.
+    pub margin: f64,
+    /// `ObstacleAvoidance`: pairs approach at most `avoidance_gain · (d −
+    /// margin)` (1/s; default 2).
+    pub avoidance_gain: f64,
+    /// Separation speed asked of a pair inside the margin, at most (m/s;
+    /// default 0.05).
+    pub recovery_speed: f64,
+    /// Velocity limit of joints whose URDF gives none (rad/s or m/s; default 2).
+    pub default_velocity_limit: f64,
+    /// Factor on the URDF velocity limits (default 1).
+    pub velocity_scale: f64,
+    /// Certify each step against the exact geometry: every configuration
+    /// of the straight motion `q → q + u·dt` keeps
+    /// `certification_clearance / 2` from everything, else the step is
+    /// halved (up to 4 times) or the arm holds (default true).
+    pub certify: bool,
+    /// Clearance of the certification (m; default 1e-4).
+    pub certification_clearance: f64,
+    /// Most distance rows per tick, the closest pairs first (default 32).
+    pub max_distance_rows: usize,
+}
+
+impl Default for SafetySettings {
+    fn default() -> Self {
+        SafetySettings {
+            margin: 0.01,
+            avoidance_gain: 2.0,
+            recovery_speed: 0.05,
+            default_velocity_limit: 2.0,
+            velocity_scale: 1.0,
+            certify: true,
+            certification_clearance: 1e-4,
+            max_distance_rows: 32,
+        }
+    }
+}
+
+/// One hard-constraint row `gᵀu ≤ h`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Row {
+    /// `u_j ≤ hi_j`.
+    Upper(usize),
+    /// `−u_j ≤ −lo_j`.
+    Lower(usize),
+    /// Distance row `k`.
+    Distance(usize),
+}
+
+/// The rows of one tick. Allocated once for `n` joints.
+#[derive(Debug, Clone)]
+pub(crate) struct SafetyRows {
+    n: usize,
+    pub(crate) lo: Vec<f64>,
+    pub(crate) hi: Vec<f64>,
+    /// Distance rows, row-major `count × n`, and their bounds.
+    g: Vec<f64>,
+    h: Vec<f64>,
+    pub(crate) count: usize,
+    /// Smallest signed distance among the pairs within reach (m).
+    pub(crate) min_distance: f64,
+    /// The pairs within reach, closest first once trimmed.
+    pairs: Vec<PairDistance>,
+    gradient: Vec<f64>,
+}
+
+impl SafetyRows {
+    /// Rows for `n` joints, at most `max_rows` distance rows, from a model
+    /// of `pair_count` pairs.
+    pub(crate) fn new(n: usize, max_rows: usize, pair_count: usize) -> Self {
+        SafetyRows {
+            n,
+            lo: vec![0.0; n],
+            hi: vec![0.0; n],
+            g: vec![0.0; max_rows * n],
+            h: vec![0.0; max_rows],
+            count: 0,
+            min_distance: f64::INFINITY,
+            pairs: Vec::with_capacity(pair_count),
+            gradient: vec![0.0; n],
+        }
+    }
+
+    /// Bounds `lo ≤ u ≤ hi` from the velocity limits and from the position
+    /// limits reached in one period `dt`. Outside its limits, a joint must
+    /// move back toward them (as fast as its velocity limit allows).
+    pub(crate) fn build_bounds(&mut self, robot: &RobotModel, q: &[f64], dt: f64, settings: &SafetySettings) {
+        for (j, limits) in robot.limits().iter().enumerate() {
+            let urdf = limits.velocity * settings.velocity_scale;
+            let v = if urdf.is_finite() && urdf > 0.0 { urdf } else { settings.default_velocity_limit };
+            let up = if limits.upper.is_finite() { (limits.upper - q[j]) / dt } else { f64::INFINITY };
+            let down = if limits.lower.is_finite() { (limits.lower - q[j]) / dt } else { f64::NEG_INFINITY };
+            self.hi[j] = v.min(up.max(-v));
+            self.lo[j] = (-v).max(down.min(v)).min(self.hi[j]);
+        }
+    }
+
+    /// Distance rows for the pairs closer than `cutoff` (m) at the
+    /// placement in `kinematics`: `−∇d · u ≤ rate · (d − margin)`, the
+    /// closest `max` pairs.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn build_distances(
+        &mut self,
+        model: &CollisionModel,
+        cws: &mut CollisionWorkspace,
+        kinematics: &KinematicsWorkspace,
+        cutoff: f64,
+        rate: f64,
+        settings: &SafetySettings,
+    ) {
+        let n = self.n;
+        self.pairs.clear();
+        self.pairs.extend_from_slice(model.distances_at(cws, kinematics, cutoff));
+        let keep = self.pairs.len().min(settings.max_distance_rows).min(self.h.len());
+        if keep < self.pairs.len() {
+            self.pairs.select_nth_unstable_by(keep, |a, b| a.signed.distance.total_cmp(&b.signed.distance));
+        }
+        self.count = 0;
+        self.min_distance = f64::INFINITY;
+        for pair in &self.pairs[..keep] {
+            let distance = pair.signed.distance;
+            if model.distance_gradient(cws, pair, &mut self.gradient).is_err() {
+                continue;
+            }
+            let row = &mut self.g[self.count * n..(self.count + 1) * n];
+            for (r, g) in row.iter_mut().zip(&self.gradient) {
+                *r = -g;
+            }
+            let gap = distance - settings.margin;
+            self.h[self.count] = if gap >= 0.0 { rate * gap } else { -(rate * -gap).min(settings.recovery_speed) };
+            self.min_distance = self.min_distance.min(distance);
+            self.count += 1;
+        }
+    }
+
+    /// Number of rows (bounds count two per joint).
+    pub(crate) fn total(&self) -> usize {
+        2 * self.n + self.count
+    }
+
+    /// Row `row` as `(g, h)` written into `g` (n values); returns `h`.
+    pub(crate) fn row(&self, row: Row, g: &mut [f64]) -> f64 {
+        match row {
+            Row::Upper(j) => {
+                g.fill(0.0);
+                g[j] = 1.0;
+                self.hi[j]
+            }
+            Row::Lower(j) => {
+                g.fill(0.0);
+                g[j] = -1.0;
+                -self.lo[j]
+            }
+            Row::Distance(k) => {
+                g.copy_from_slice(&self.g[k * self.n..(k + 1) * self.n]);
+                self.h[k]
+            }
+        }
+    }
+
+    /// `h − gᵀu` of a row (negative when violated).
+    pub(crate) fn slack(&self, row: Row, u: &[f64]) -> f64 {
+        match row {
+            Row::Upper(j) => self.hi[j] - u[j],
+            Row::Lower(j) => u[j] - self.lo[j],
+            Row::Distance(k) => {
+                let g = &self.g[k * self.n..(k + 1) * self.n];
+                self.h[k] - g.iter().zip(u).map(|(g, u)| g * u).sum::<f64>()
+            }
+        }
+    }
+
+    /// Every row, bounds first.
+    pub(crate) fn rows(&self) -> impl Iterator<Item = Row> + '_ {
+        (0..self.n).flat_map(|j| [Row::Upper(j), Row::Lower(j)]).chain((0..self.count).map(Row::Distance))
+    }
+
+    /// Clamps `u` into the bounds (exactly, after a solver's tolerance).
+    pub(crate) fn clamp(&self, u: &mut [f64]) {
+        for ((u, lo), hi) in u.iter_mut().zip(&self.lo).zip(&self.hi) {
+            *u = u.clamp(*lo, *hi);
+        }
+    }
+}
