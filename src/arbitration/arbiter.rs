@@ -29,9 +29,11 @@ pub struct ArbiterGoal {
 }
 
 /// Damped least squares for task commands near singularities (Nakamura's
-/// variable damping): `δ = floor + max_damping² · (1 − (σ_min/threshold)²)`
-/// when the smallest singular value `σ_min` of the task Jacobian is below
-/// `threshold`, else `floor`. The arm keeps moving where it can.
+/// variable damping, per singular direction): a direction of the task
+/// Jacobian whose singular value `σ` is below `threshold` is damped by
+/// `max_damping² · (1 − (σ/threshold)²)`; `floor` regularises the null
+/// space. Only the directions losing rank slow down: the arm keeps moving
+/// where it can.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DampingSettings {
     /// σ_min below which damping grows (m/rad; default 0.03).
@@ -142,6 +144,7 @@ pub struct ArbiterWorkspace {
     pub(crate) q: Vec<f64>,
     pub(crate) u0: Vec<f64>,
     pub(crate) chol: Vec<f64>,
+    pub(crate) column: Vec<f64>,
     pub(crate) cone_l: Vec<f64>,
     pub(crate) cone_c: Vec<f64>,
     pub(crate) radius: f64,
@@ -209,6 +212,11 @@ impl Arbiter {
         &self.robot
     }
 
+    /// The gripper frame task commands and intent refer to.
+    pub fn gripper_frame(&self) -> FrameId {
+        self.gripper
+    }
+
     /// The collision model the hard constraints use.
     pub fn collision_model(&self) -> &Arc<CollisionModel> {
         &self.collision
@@ -249,6 +257,7 @@ impl Arbiter {
             q: vec![0.0; n],
             u0: vec![0.0; n],
             chol: vec![0.0; n * n],
+            column: vec![0.0; n],
             cone_l: vec![0.0; n * n],
             cone_c: vec![0.0; n],
             radius: 0.0,

@@ -61,6 +61,7 @@ pub mod metric;
 mod modes;
 mod objective;
 mod safety;
+mod setup;
 
 pub use arbiter::{Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolverBackend};
 pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
@@ -68,6 +69,7 @@ pub use intent::{IntentEstimator, IntentSettings};
 pub use metric::{Metric, MetricSettings};
 pub use modes::{ArbitrationMode, BlendingStyle, MetricSpace, ModeSettings, UnknownMode};
 pub use safety::SafetySettings;
+pub use setup::{GoalObjects, GoalOptions, ProblemGoal, problem_goals};
 
 use crate::robot::RobotError;
 
@@ -86,4 +88,18 @@ pub enum ArbitrationError {
     /// The gripper frame (or another robot-side input) is wrong.
     #[error(transparent)]
     Robot(#[from] RobotError),
+    /// The problem names no gripper frame (`robot.gripper`).
+    #[error("the problem names no gripper frame (robot.gripper): task commands and intent need one")]
+    NoGripper,
+    /// A goal's reference could not be optimized.
+    #[error("goal '{goal}': the optimizer ended '{status}', no reference to track")]
+    GoalNotReached { goal: String, status: &'static str },
+    #[error(transparent)]
+    Problem(#[from] crate::scene::ProblemError),
+    #[error(transparent)]
+    Optimizer(#[from] crate::komo::KomoError),
+    #[error(transparent)]
+    Collision(#[from] crate::collision::CollisionError),
+    #[error(transparent)]
+    Control(#[from] crate::control::ControlError),
 }

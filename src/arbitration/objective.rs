@@ -1,8 +1,8 @@
 //! Each mode's objective and closed form, and the metrics they read.
 //!
 //! Task commands use the first `k` rows of the gripper Jacobian (`k = 3`
-//! for a linear velocity, 6 for a twist); `J†` is the damped pseudo-inverse
-//! `Jᵀ(JJᵀ + δI)⁻¹` with δ from [`DampingSettings`](super::DampingSettings).
+//! for a linear velocity, 6 for a twist); `J†v` is the damped least-squares
+//! solution `(JᵀJ + D)⁻¹Jᵀv` with `D` from [`DampingSettings`](super::DampingSettings).
 
 use super::arbiter::{Arbiter, ArbiterWorkspace, task_dim};
 use super::command::HumanCommand;
@@ -22,21 +22,19 @@ impl Arbiter {
         ws.conic = false;
         let k = task_dim(command);
         let v = command.values();
-        let delta = match k {
+        let damping = &self.settings.damping;
+        match k {
             Some(k) => {
                 load_task(ws, k, v);
-                damping(&ws.jk, k, n, &self.settings.damping)
+                damped_normal(&ws.jk, k, n, damping, &mut ws.column, &mut ws.chol);
+                dls(&ws.jk, k, n, &mut ws.chol, v, &mut ws.human);
             }
-            None => 0.0,
-        };
-        match k {
-            Some(k) => dls(&ws.jk, k, n, delta, &ws.task[..k], &mut ws.human),
             None => ws.human.copy_from_slice(v),
         }
         let modes = &self.settings.modes;
         match mode {
             ArbitrationMode::DirectControl | ArbitrationMode::ObstacleAvoidance => match k {
-                Some(k) => task_objective(ws, k, n, delta),
+                Some(k) => task_objective(ws, k, n, damping),
                 None => joint_objective(ws, n, |ws, t| t.copy_from_slice(&ws.human)),
             },
             ArbitrationMode::LinearBlending(style) => {
@@ -59,7 +57,7 @@ impl Arbiter {
                 for (t, s) in ws.task.iter_mut().zip(shaped) {
                     *t = scale * s;
                 }
-                task_objective(ws, k, n, delta);
+                task_objective(ws, k, n, damping);
             }
             ArbitrationMode::NaturalGradient(_) => {
                 joint_objective(ws, n, |ws, t| mat_vec(ws.metric.inverse(), n, n, &ws.human, t));
@@ -216,54 +214,69 @@ fn load_task(ws: &mut ArbiterWorkspace, k: usize, v: &[f64]) {
     ws.task[..k].copy_from_slice(v);
 }
 
-/// Variable damping from the smallest singular value of `J_k`.
-fn damping(jk: &[f64], k: usize, n: usize, s: &super::DampingSettings) -> f64 {
+/// `N = J_kᵀJ_k + D` (n × n, column-major) with the damping `D = μI + Σᵢ
+/// δᵢ vᵢvᵢᵀ` over the right singular vectors `vᵢ` of `J_k` whose singular
+/// value `σᵢ` is below the threshold, `δᵢ = λ²(1 − (σᵢ/σ₀)²)` (Nakamura's
+/// variable damping, per direction: only the directions losing rank slow
+/// down, the others keep the operator's speed).
+fn damped_normal(jk: &[f64], k: usize, n: usize, s: &super::DampingSettings, v: &mut [f64], out: &mut [f64]) {
     let mut m = [0.0; 36];
     for a in 0..k {
         for b in 0..k {
             m[a + b * k] = dot(&jk[a * n..(a + 1) * n], &jk[b * n..(b + 1) * n]);
         }
     }
-    let (mut values, mut vectors) = ([0.0; 6], [0.0; 36]);
-    symmetric_eigen(&mut m[..k * k], k, &mut values[..k], &mut vectors[..k * k]);
-    let sigma_min = values[..k].iter().copied().fold(f64::INFINITY, f64::min).max(0.0).sqrt();
-    let ratio = sigma_min / s.threshold;
-    if ratio < 1.0 { s.floor + s.max_damping * s.max_damping * (1.0 - ratio * ratio) } else { s.floor }
-}
-
-/// `out = J_kᵀ (J_k J_kᵀ + δI)⁻¹ v` (damped least squares).
-fn dls(jk: &[f64], k: usize, n: usize, delta: f64, v: &[f64], out: &mut [f64]) {
-    let mut m = [0.0; 36];
-    for a in 0..k {
-        for b in 0..k {
-            m[a + b * k] = dot(&jk[a * n..(a + 1) * n], &jk[b * n..(b + 1) * n]) + if a == b { delta } else { 0.0 };
-        }
-    }
-    let mut y = [0.0; 6];
-    y[..k].copy_from_slice(v);
-    if !tandem_solvers::small::cholesky_solve_in_place(&mut m[..k * k], k, &mut y[..k]) {
-        out.fill(0.0);
-        return;
-    }
-    out.fill(0.0);
-    for a in 0..k {
-        for c in 0..n {
-            out[c] += jk[a * n + c] * y[a];
-        }
-    }
-}
-
-/// `min ‖J_k u − t‖² + δ‖u‖²` with `t = ws.task[..k]`.
-fn task_objective(ws: &mut ArbiterWorkspace, k: usize, n: usize, delta: f64) {
     for c in 0..n {
         for r in 0..n {
-            let jtj: f64 = (0..k).map(|a| ws.jk[a * n + r] * ws.jk[a * n + c]).sum();
-            ws.p[r + c * n] = 2.0 * (jtj + if r == c { delta } else { 0.0 });
+            out[r + c * n] =
+                (0..k).map(|a| jk[a * n + r] * jk[a * n + c]).sum::<f64>() + if r == c { s.floor } else { 0.0 };
         }
+    }
+    let (mut values, mut vectors) = ([0.0; 6], [0.0; 36]);
+    symmetric_eigen(&mut m[..k * k], k, &mut values[..k], &mut vectors[..k * k]);
+    for i in 0..k {
+        let sigma = values[i].max(0.0).sqrt();
+        let ratio = sigma / s.threshold;
+        if ratio >= 1.0 || sigma < 1e-12 {
+            continue;
+        }
+        let delta = s.max_damping * s.max_damping * (1.0 - ratio * ratio);
+        // vᵢ = J_kᵀ uᵢ / σᵢ.
+        for (c, vc) in v.iter_mut().enumerate().take(n) {
+            *vc = (0..k).map(|a| jk[a * n + c] * vectors[a + i * k]).sum::<f64>() / sigma;
+        }
+        for c in 0..n {
+            for r in 0..n {
+                out[r + c * n] += delta * v[r] * v[c];
+            }
+        }
+    }
+}
+
+/// `out = N⁻¹ J_kᵀ v` with `N` from [`damped_normal`] in `normal` (the
+/// damped least-squares solution; `normal` is factorised in place).
+fn dls(jk: &[f64], k: usize, n: usize, normal: &mut [f64], v: &[f64], out: &mut [f64]) {
+    for (c, o) in out.iter_mut().enumerate().take(n) {
+        *o = (0..k).map(|a| jk[a * n + c] * v[a]).sum();
+    }
+    if cholesky_in_place(normal, n) {
+        cholesky_solve_factored(normal, n, out);
+    } else {
+        out.fill(0.0);
+    }
+}
+
+/// `min ‖J_k u − t‖² + uᵀDu` with `t = ws.task[..k]`.
+fn task_objective(ws: &mut ArbiterWorkspace, k: usize, n: usize, damping: &super::DampingSettings) {
+    damped_normal(&ws.jk, k, n, damping, &mut ws.column, &mut ws.chol);
+    for (p, c) in ws.p.iter_mut().zip(&ws.chol) {
+        *p = 2.0 * c;
+    }
+    for c in 0..n {
         ws.q[c] = -2.0 * (0..k).map(|a| ws.jk[a * n + c] * ws.task[a]).sum::<f64>();
     }
     let task = ws.task;
-    dls(&ws.jk, k, n, delta, &task[..k], &mut ws.u0);
+    dls(&ws.jk, k, n, &mut ws.chol, &task[..k], &mut ws.u0);
 }
 
 /// `min ‖u − t‖²` with `t` written by `fill` into `ws.target[..n]`.

@@ -10,6 +10,7 @@
 //! # let _ = cli;
 //! ```
 
+mod arbitrate;
 mod check;
 mod demo;
 mod generate;
@@ -155,6 +156,23 @@ pub enum Command {
     ///     --seed 7 --out grasps/ --shard 0/4        (and 1/4, 2/4, 3/4 elsewhere)
     #[command(verbatim_doc_comment)]
     Generate(generate::GenerateArgs),
+    /// Run one shared-control episode: a simulated operator drives the arm
+    /// through the arbiter, which blends the operator's command with LQR
+    /// tracking policies of optimized references (one per graspable object)
+    /// under hard constraints (joint limits, velocity limits, distances),
+    /// at 15 Hz in the kinematic simulator, with a collision check each step.
+    ///
+    /// The episode ends in success (the gripper at the goal's grasp pose:
+    /// within 1 cm and 0.2 rad of its z axis), collision, or timeout (30 s).
+    /// Reports the tick time (median, p99, max), hard-constraint violations
+    /// (should be 0), the smallest clearance and the fallbacks.
+    ///
+    /// Examples:
+    ///   tandem arbitrate --mode constrained --operator straightline
+    ///   tandem arbitrate problems/planar_pick.toml --mode natural-gradient-joint --plot episode.svg
+    ///   tandem arbitrate builtin:panda_grasp_box --mode sos --json
+    #[command(verbatim_doc_comment)]
+    Arbitrate(arbitrate::ArbitrateArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -171,6 +189,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Plan(args) => plan::run(&args),
         Command::Solve(args) => solve::run(&args),
         Command::Generate(args) => generate::run(&args),
+        Command::Arbitrate(args) => arbitrate::run(&args),
     }
 }
 

@@ -6,6 +6,7 @@ use super::KomoError;
 use super::objective::{Objective, default_objectives, objective_from_spec};
 use super::problem::{Evaluator, TrajectoryProblem, TrajectoryWorkspace};
 use crate::collision::CollisionWorkspace;
+use crate::control::{ControlError, GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use crate::plan::{PlanReport, PlanStatus, ProblemPlanner, resample};
 use crate::scene::{Goal, Problem};
 use std::time::{Duration, Instant};
@@ -282,6 +283,34 @@ impl ProblemSolution {
             t if self.plan.result.status != PlanStatus::Solved && t != Termination::Converged => "plan_failed",
             t => t.as_str(),
         }
+    }
+}
+
+impl ProblemSolution {
+    /// The trajectory as a reference for tracking: `start` (the problem's
+    /// start configuration, which the optimizer holds fixed), then `q_1 …
+    /// q_T`, `time_step` apart.
+    ///
+    /// # Errors
+    /// A `start` of the wrong length or with non-finite values.
+    pub fn reference(&self, start: &[f64]) -> Result<JointTrajectory, ControlError> {
+        let mut waypoints = Vec::with_capacity(self.trajectory.len() + 1);
+        waypoints.push(start.to_vec());
+        waypoints.extend(self.trajectory.iter().cloned());
+        JointTrajectory::new(self.joints.clone(), self.time_step, &waypoints)
+    }
+
+    /// An LQR tracking policy of [`reference`](Self::reference) in one call.
+    ///
+    /// # Errors
+    /// As [`reference`](Self::reference) and [`TrackingPolicy::new`].
+    pub fn tracking_policy(
+        &self,
+        start: &[f64],
+        weights: TrackingWeights,
+        schedule: GainSchedule,
+    ) -> Result<TrackingPolicy, ControlError> {
+        TrackingPolicy::new(self.reference(start)?, weights, schedule)
     }
 }
 

@@ -317,10 +317,27 @@ impl Problem {
     /// # Errors
     /// As [`collision_model`](Self::collision_model).
     pub fn collision_model_padded(&self, extra: f64) -> Result<CollisionModel, CollisionError> {
+        let targets: Vec<&str> = match &self.goal {
+            Goal::Grasp { object, .. } => vec![object.as_str()],
+            _ => vec![],
+        };
+        self.collision_model_grasping(&targets, extra)
+    }
+
+    /// The collision model with contact allowed between the gripper's rigid
+    /// body and each of `objects` (the grasp targets; e.g. every object an
+    /// operator may be reaching for), padded by `extra` (m).
+    ///
+    /// # Errors
+    /// As [`collision_model`](Self::collision_model).
+    pub fn collision_model_grasping(&self, objects: &[&str], extra: f64) -> Result<CollisionModel, CollisionError> {
         let mut scene = self.scene.clone();
-        if let (Goal::Grasp { object, .. }, Some(gripper)) = (&self.goal, &self.robot_spec.gripper) {
-            for link in self.links_moving_with(gripper)? {
-                scene.allow_contact(link, object.clone());
+        if let Some(gripper) = &self.robot_spec.gripper {
+            let links = self.links_moving_with(gripper)?;
+            for object in objects {
+                for link in &links {
+                    scene.allow_contact(link.clone(), object.to_string());
+                }
             }
         }
         let mut builder =
@@ -332,6 +349,45 @@ impl Problem {
             builder = builder.geometry_from(geometry.clone());
         }
         builder.build()
+    }
+
+    /// The same problem with its grasp goal moved to scene object `object`:
+    /// the goal grasps `object` at the grasp frame of the same name, and
+    /// every objective frame of the old target (`box`, `box/approach`)
+    /// names the new one (`cup`, `cup/approach`). One goal-conditioned
+    /// problem per graspable object, for shared control.
+    ///
+    /// # Errors
+    /// A goal that is not a grasp; an unknown object, or one without the
+    /// goal's grasp frame.
+    pub fn retarget_grasp(&self, object: &str) -> Result<Problem, ProblemError> {
+        let invalid = |message: String| ProblemError::Invalid {
+            file: self.origin.clone(),
+            line: None,
+            key: Some("goal.grasp".into()),
+            message,
+        };
+        let Goal::Grasp { object: old, grasp } = &self.goal else {
+            return Err(invalid("the goal is not a grasp: it cannot be moved to another object".into()));
+        };
+        let target = self.scene.object(object).ok_or_else(|| invalid(format!("no scene object named '{object}'")))?;
+        if !target.grasps.iter().any(|g| &g.name == grasp) {
+            return Err(invalid(format!("object '{object}' has no grasp frame '{grasp}'")));
+        }
+        let mut problem = self.clone();
+        problem.goal = Goal::Grasp { object: object.to_string(), grasp: grasp.clone() };
+        let prefix = format!("{old}/");
+        for spec in &mut problem.optimizer.objectives {
+            for frame in &mut spec.frames {
+                if frame == old {
+                    *frame = object.to_string();
+                } else if let Some(rest) = frame.strip_prefix(&prefix) {
+                    *frame = format!("{object}/{rest}");
+                }
+            }
+        }
+        problem.name = format!("{}@{object}", self.name);
+        Ok(problem)
     }
 
     /// Names of the links on the same rigid body as `frame`.

@@ -1,0 +1,152 @@
+//! `tandem arbitrate`: one shared-control episode on a problem.
+
+use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, ProblemGoal, problem_goals};
+use crate::figures::{Panel, Series, render_panels};
+use crate::scene::Problem;
+use crate::sim::{Approach, EpisodeRecord, EpisodeSettings, Operator, Straightline, percentiles, run_episode};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `tandem arbitrate`.
+#[derive(Debug, clap::Args)]
+pub struct ArbitrateArgs {
+    /// Problem file, or builtin:NAME. Its goal object (for a grasp, every
+    /// object with the goal's grasp frame) gets an optimized reference and
+    /// an LQR tracking policy; the simulated operator aims at the problem's
+    /// own goal.
+    #[arg(default_value = "builtin:panda_grasp_box")]
+    pub problem: PathBuf,
+    /// Arbitration mode: direct, blend-timid, blend-aggressive, avoid,
+    /// natural-gradient, natural-gradient-joint, constrained, sos.
+    #[arg(long, default_value = "sos")]
+    pub mode: ArbitrationMode,
+    /// Simulated operator: straightline (straight at the grasp point) or
+    /// approach (to a point 10 cm above it, then down).
+    #[arg(long, default_value = "approach", value_parser = ["straightline", "approach"])]
+    pub operator: String,
+    /// Seed of the planner that seeds each goal's reference.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Operator speed (m/s).
+    #[arg(long, default_value_t = 0.1)]
+    pub speed: f64,
+    /// Control rate (Hz; the seed's 15 Hz by default).
+    #[arg(long, default_value_t = 15.0)]
+    pub rate: f64,
+    /// Write the gripper path (top and side views, with the reference) as SVG.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+    /// Print one JSON object: {"problem", "mode", "operator", "seed",
+    /// "outcome", "steps", "tick_us": {"median", "p99", "max"},
+    /// "hard_violations", "min_clearance_m", "fallbacks"}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>> {
+    if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 10_000.0) {
+        return Err(format!("--rate {} Hz: give a rate in (0, 10000]", args.rate).into());
+    }
+    if !(args.speed.is_finite() && args.speed > 0.0 && args.speed <= 2.0) {
+        return Err(format!("--speed {} m/s: give a speed in (0, 2]", args.speed).into());
+    }
+    let problem = load(&args.problem)?;
+    let began = Instant::now();
+    let options = GoalOptions { seed: Some(args.seed), ..GoalOptions::default() };
+    let goals = problem_goals(&problem, &options)?;
+    let prepared = began.elapsed();
+    let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
+    let settings = ArbiterSettings { mode: args.mode, period: 1.0 / args.rate, ..ArbiterSettings::default() };
+    let arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
+    let goal_pose = goals[target].final_gripper_pose()?;
+    let mut operator: Box<dyn Operator> = match args.operator.as_str() {
+        "straightline" => Box::new(Straightline { speed: args.speed, ..Straightline::default() }),
+        _ => Box::new(Approach::at_speed(args.speed)),
+    };
+    let mut ws = arbiter.workspace();
+    let record =
+        run_episode(&arbiter, &mut ws, &problem.start, &goal_pose, operator.as_mut(), &EpisodeSettings::default())?;
+    if let Some(path) = &args.plot {
+        let svg = episode_svg(&problem, &goals[target], &record, args)?;
+        std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    let (median, p99, max) = percentiles(&record.tick_us);
+    if args.json {
+        let json = serde_json::json!({
+            "problem": problem.name,
+            "mode": args.mode.as_str(),
+            "operator": args.operator,
+            "seed": args.seed,
+            "outcome": record.outcome.as_str(),
+            "steps": record.steps,
+            "tick_us": {"median": median, "p99": p99, "max": max},
+            "hard_violations": record.hard_violations,
+            "min_clearance_m": record.min_clearance,
+            "fallbacks": record.fallbacks,
+        });
+        println!("{json}");
+        return Ok(());
+    }
+    println!(
+        "{}: {} goal reference(s) planned and optimized in {:.1} ms ({})",
+        problem.name,
+        goals.len(),
+        prepared.as_secs_f64() * 1e3,
+        goals.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
+    );
+    println!(
+        "{} operator, mode {} at {} Hz: {} after {} ticks ({:.1} s)",
+        args.operator,
+        args.mode,
+        args.rate,
+        record.outcome.as_str(),
+        record.steps,
+        record.steps as f64 / args.rate
+    );
+    println!("tick: median {median:.1} µs, p99 {p99:.1} µs, max {max:.1} µs");
+    println!(
+        "hard-constraint violations {}, smallest clearance {:.4} m, fallbacks {}",
+        record.hard_violations, record.min_clearance, record.fallbacks
+    );
+    if let Some(path) = &args.plot {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+pub(super) fn load(path: &std::path::Path) -> Result<Problem, Box<dyn std::error::Error>> {
+    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
+        Some(name) => Ok(Problem::builtin(name)?),
+        None => Ok(Problem::from_file(path)?),
+    }
+}
+
+/// Top and side views of the executed gripper path and the reference's.
+fn episode_svg(
+    problem: &Problem,
+    goal: &ProblemGoal,
+    record: &EpisodeRecord,
+    args: &ArbitrateArgs,
+) -> Result<String, Box<dyn std::error::Error>> {
+    let robot = &problem.robot;
+    let gripper = robot.frame_id(problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
+    let mut kin = crate::robot::KinematicsWorkspace::new(robot);
+    let reference = goal.policy.reference();
+    let mut planned = Vec::with_capacity(reference.len());
+    for i in 0..reference.len() {
+        robot.forward_kinematics(&mut kin, reference.position(i))?;
+        planned.push(robot.frame_pose(&kin, gripper).translation.vector);
+    }
+    let view = |a: usize, b: usize, title: &str, ya: &str| {
+        let executed: Vec<(f64, f64)> = record.gripper.iter().map(|p| (p[a], p[b])).collect();
+        let reference: Vec<(f64, f64)> = planned.iter().map(|p| (p[a], p[b])).collect();
+        let end = goal.position;
+        Panel::new(title, if a == 0 { "x (m)" } else { "y (m)" }, ya)
+            .with(Series::dashed("reference", &reference, 7))
+            .with(Series::line(&format!("executed ({})", args.mode), &executed, 0))
+            .with(Series::points("goal", &[(end[a], end[b])], 3))
+            .equal()
+    };
+    let title = format!("{}: {} operator, {}", problem.name, args.operator, record.outcome.as_str());
+    Ok(render_panels(&title, &[view(0, 1, "top view", "y (m)"), view(0, 2, "side view", "z (m)")], 480, 440)?)
+}
