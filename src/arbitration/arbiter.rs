@@ -42,11 +42,15 @@ pub struct DampingSettings {
     pub max_damping: f64,
     /// Damping always present, regularising the null space (default 1e-6).
     pub floor: f64,
+    /// Weight of joint-space deviation from the operator's command against
+    /// task-space deviation when a constraint binds (m²/rad²; default
+    /// 0.01): the command gives way in the null space first.
+    pub null_space_weight: f64,
 }
 
 impl Default for DampingSettings {
     fn default() -> Self {
-        DampingSettings { threshold: 0.03, max_damping: 0.05, floor: 1e-6 }
+        DampingSettings { threshold: 0.03, max_damping: 0.05, floor: 1e-6, null_space_weight: 0.01 }
     }
 }
 
@@ -153,6 +157,9 @@ pub struct ArbiterWorkspace {
     active: Vec<Row>,
     qp_g: Vec<f64>,
     qp_h: Vec<f64>,
+    qp_z: Vec<f64>,
+    /// Rows of the last solve (0 when the closed form was feasible).
+    solved_rows: usize,
     qp: ConicSolverPool,
     socp: ConicSolverPool,
     #[cfg(feature = "osqp")]
@@ -266,6 +273,8 @@ impl Arbiter {
             active: Vec::with_capacity(max_rows + self.settings.safety.max_distance_rows),
             qp_g: vec![0.0; max_rows * n],
             qp_h: vec![0.0; max_rows],
+            qp_z: vec![0.0; max_rows],
+            solved_rows: 0,
             qp: ConicSolverPool::new(n, max_rows, None, solver),
             socp: ConicSolverPool::new(n, max_rows, Some(n), solver),
             #[cfg(feature = "osqp")]
@@ -341,19 +350,20 @@ impl Arbiter {
         ws.rows.build_bounds(&self.robot, input.q, dt, s);
         let rate = if mode == ArbitrationMode::ObstacleAvoidance { s.avoidance_gain.min(1.0 / dt) } else { 1.0 / dt };
         let reach = self.build_distance_rows(ws, rate, None);
+        self.note_rows(ws);
         let mut solved = self.enforce(ws)?;
         // A solution that moves farther than the rows were built for: rebuild once.
         let moved = self.step_reach(ws);
         if moved > reach {
             self.build_distance_rows(ws, rate, Some(moved));
+            self.note_rows(ws);
             solved = self.enforce(ws)? || solved;
         }
         ws.rows.clamp(&mut ws.u);
-        ws.diagnostics.min_distance = ws.rows.min_distance;
-        ws.diagnostics.rows = ws.rows.total();
-        ws.diagnostics.distance_pairs = ws.rows.count;
         ws.diagnostics.active_rows = ws.rows.rows().filter(|&r| ws.rows.slack(r, &ws.u) <= 1e-7).count();
-        let in_collision = ws.rows.min_distance < 0.0;
+        // A contact no joint moves (a mounting, say) cannot be helped: it does
+        // not stop the certification of everything else.
+        let in_collision = ws.rows.min_moving_distance < 0.0;
         let mut status =
             if solved || ws.diagnostics.active_rows > 0 { TickStatus::Constrained } else { TickStatus::Nominal };
         if in_collision {
@@ -434,6 +444,12 @@ impl Arbiter {
         reach
     }
 
+    fn note_rows(&self, ws: &mut ArbiterWorkspace) {
+        ws.diagnostics.min_distance = ws.rows.min_distance;
+        ws.diagnostics.rows = ws.rows.total();
+        ws.diagnostics.distance_pairs = ws.rows.count;
+    }
+
     /// How far the robot's geometry can move under the current `u` (m).
     fn step_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
         let dt = self.settings.period;
@@ -450,6 +466,7 @@ impl Arbiter {
     fn enforce(&self, ws: &mut ArbiterWorkspace) -> Result<bool, TickStatus> {
         ws.u.copy_from_slice(&ws.u0);
         ws.active.clear();
+        ws.solved_rows = 0;
         let mut solved = !self.settings.closed_form_first;
         if solved {
             ws.active.extend(ws.rows.rows());
@@ -497,7 +514,10 @@ impl Arbiter {
         match result {
             Ok(solution) if solution.x.iter().all(|x| x.is_finite()) => {
                 ws.u.copy_from_slice(solution.x);
+                ws.qp_z[..m].copy_from_slice(solution.z);
+                ws.solved_rows = m;
                 ws.diagnostics.solver_iterations += solution.iterations;
+                ws.diagnostics.solves += 1;
                 Ok(())
             }
             Ok(_) | Err(ConicError::Numerical | ConicError::MaxIterations | ConicError::Capacity { .. }) => {
@@ -582,10 +602,38 @@ impl ArbiterWorkspace {
         &self.human
     }
 
+    /// The last problem the solver solved this tick, with its multipliers
+    /// (for KKT checks); `None` when the closed form met every constraint.
+    pub fn last_solve(&self) -> Option<SolvedProblem<'_>> {
+        let (n, m) = (self.u.len(), self.solved_rows);
+        (m > 0).then(|| SolvedProblem {
+            p: &self.p,
+            q: &self.q,
+            g: &self.qp_g[..m * n],
+            h: &self.qp_h[..m],
+            z: &self.qp_z[..m],
+            conic: self.conic,
+        })
+    }
+
     /// The mode's unconstrained solution at the last tick (rad/s).
     pub fn closed_form(&self) -> &[f64] {
         &self.u0
     }
+}
+
+/// A solved problem `min ½uᵀPu + qᵀu s.t. Gu ≤ h` (plus the trust-region
+/// cone when `conic`) and the solver's multipliers `z` of the rows.
+#[derive(Debug, Clone, Copy)]
+pub struct SolvedProblem<'w> {
+    /// `P` (n × n, column-major) and `q`.
+    pub p: &'w [f64],
+    pub q: &'w [f64],
+    /// `G` (m × n, row-major) and `h`.
+    pub g: &'w [f64],
+    pub h: &'w [f64],
+    pub z: &'w [f64],
+    pub conic: bool,
 }
 
 fn finite_of_len(x: &[f64], n: usize) -> bool {
@@ -640,6 +688,12 @@ fn validate_settings(s: &ArbiterSettings) -> Result<(), ArbitrationError> {
     }
     if !positive(s.safety.certification_clearance) {
         return bad("safety.certification_clearance", s.safety.certification_clearance);
+    }
+    if !positive(s.damping.null_space_weight) {
+        return bad("damping.null_space_weight", s.damping.null_space_weight);
+    }
+    if !(s.damping.floor >= 0.0 && s.damping.floor.is_finite()) {
+        return bad("damping.floor", s.damping.floor);
     }
     if !positive(s.intent.length_scale) {
         return bad("intent.length_scale", s.intent.length_scale);

@@ -82,8 +82,8 @@ pub enum TickStatus {
     /// The beliefs given had the wrong length, a negative or non-finite
     /// value, or did not sum to 1: hold.
     InvalidBeliefs,
-    /// The hard constraints admit no command (e.g. two contacts pushing
-    /// opposite ways): hold.
+    /// The hard constraints admit no command: hold. (With the state within
+    /// its limits this cannot happen: `u = 0` meets every row.)
     Infeasible,
     /// The solver failed (iteration limit, numerical trouble): hold.
     SolverFailed,
@@ -146,7 +146,9 @@ pub struct Diagnostics {
     pub active_rows: usize,
     /// Smallest signed distance among the pairs within reach (m; +∞ when none).
     pub min_distance: f64,
-    /// Interior-point iterations (0 when the closed form was feasible).
+    /// Solver calls this tick (0 when the closed form was feasible) and
+    /// their iterations.
+    pub solves: u32,
     pub solver_iterations: u32,
     /// Fraction of the solved step executed after certification (1 unless shortened).
     pub step_fraction: f64,

@@ -63,7 +63,9 @@ mod objective;
 mod safety;
 mod setup;
 
-pub use arbiter::{Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolverBackend};
+pub use arbiter::{
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolvedProblem, SolverBackend,
+};
 pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
 pub use intent::{IntentEstimator, IntentSettings};
 pub use metric::{Metric, MetricSettings};

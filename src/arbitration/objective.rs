@@ -266,17 +266,25 @@ fn dls(jk: &[f64], k: usize, n: usize, normal: &mut [f64], v: &[f64], out: &mut 
     }
 }
 
-/// `min ‖J_k u − t‖² + uᵀDu` with `t = ws.task[..k]`.
+/// `min ‖J_k (u − h)‖² + ν‖u − h‖²` with `h = J†t` the damped
+/// least-squares joint velocity of the task target `t = ws.task[..k]`: its
+/// minimiser is `h`, and when a constraint binds the command gives way in
+/// the null space (weight ν) before it gives way in the task (weight 1).
+/// Minimising `‖J_k u − t‖²` alone would leave the null space nearly flat,
+/// and the constrained solution ill-defined.
 fn task_objective(ws: &mut ArbiterWorkspace, k: usize, n: usize, damping: &super::DampingSettings) {
     damped_normal(&ws.jk, k, n, damping, &mut ws.column, &mut ws.chol);
-    for (p, c) in ws.p.iter_mut().zip(&ws.chol) {
-        *p = 2.0 * c;
-    }
-    for c in 0..n {
-        ws.q[c] = -2.0 * (0..k).map(|a| ws.jk[a * n + c] * ws.task[a]).sum::<f64>();
-    }
     let task = ws.task;
     dls(&ws.jk, k, n, &mut ws.chol, &task[..k], &mut ws.u0);
+    let nu = damping.null_space_weight;
+    for c in 0..n {
+        for r in 0..n {
+            let jtj: f64 = (0..k).map(|a| ws.jk[a * n + r] * ws.jk[a * n + c]).sum();
+            ws.p[r + c * n] = 2.0 * (jtj + if r == c { nu } else { 0.0 });
+        }
+    }
+    mat_vec(&ws.p, n, n, &ws.u0, &mut ws.q);
+    ws.q.iter_mut().for_each(|q| *q = -*q);
 }
 
 /// `min ‖u − t‖²` with `t` written by `fill` into `ws.target[..n]`.

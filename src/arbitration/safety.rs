@@ -7,7 +7,10 @@
 //! 1/dt` the row keeps the linearised distance after one step above the
 //! margin; `ObstacleAvoidance` uses a smaller rate (a control barrier
 //! function: approach slows in proportion to the distance left). A pair
-//! already inside the margin must separate, at most at `recovery_speed`.
+//! already inside the margin may not approach further (its row's bound is
+//! 0), and a pair no active joint moves has no row. So `u = 0` meets every
+//! distance row, and with the state within its limits, every tick's
+//! problem is feasible.
 
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
 use crate::robot::{KinematicsWorkspace, RobotModel};
@@ -22,9 +25,6 @@ pub struct SafetySettings {
     /// `ObstacleAvoidance`: pairs approach at most `avoidance_gain · (d −
     /// margin)` (1/s; default 2).
     pub avoidance_gain: f64,
-    /// Separation speed asked of a pair inside the margin, at most (m/s;
-    /// default 0.05).
-    pub recovery_speed: f64,
     /// Velocity limit of joints whose URDF gives none (rad/s or m/s; default 2).
     pub default_velocity_limit: f64,
     /// Factor on the URDF velocity limits (default 1).
@@ -45,7 +45,6 @@ impl Default for SafetySettings {
         SafetySettings {
             margin: 0.01,
             avoidance_gain: 2.0,
-            recovery_speed: 0.05,
             default_velocity_limit: 2.0,
             velocity_scale: 1.0,
             certify: true,
@@ -76,8 +75,10 @@ pub(crate) struct SafetyRows {
     g: Vec<f64>,
     h: Vec<f64>,
     pub(crate) count: usize,
-    /// Smallest signed distance among the pairs within reach (m).
+    /// Smallest signed distance among the pairs within reach (m), and
+    /// among those some joint moves.
     pub(crate) min_distance: f64,
+    pub(crate) min_moving_distance: f64,
     /// The pairs within reach, closest first once trimmed.
     pairs: Vec<PairDistance>,
     gradient: Vec<f64>,
@@ -95,6 +96,7 @@ impl SafetyRows {
             h: vec![0.0; max_rows],
             count: 0,
             min_distance: f64::INFINITY,
+            min_moving_distance: f64::INFINITY,
             pairs: Vec::with_capacity(pair_count),
             gradient: vec![0.0; n],
         }
@@ -115,8 +117,8 @@ impl SafetyRows {
     }
 
     /// Distance rows for the pairs closer than `cutoff` (m) at the
-    /// placement in `kinematics`: `−∇d · u ≤ rate · (d − margin)`, the
-    /// closest `max` pairs.
+    /// placement in `kinematics`: `−∇d · u ≤ rate · max(d − margin, 0)`,
+    /// the closest `max` pairs that some joint moves.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn build_distances(
         &mut self,
@@ -136,18 +138,21 @@ impl SafetyRows {
         }
         self.count = 0;
         self.min_distance = f64::INFINITY;
+        self.min_moving_distance = f64::INFINITY;
         for pair in &self.pairs[..keep] {
             let distance = pair.signed.distance;
-            if model.distance_gradient(cws, pair, &mut self.gradient).is_err() {
+            self.min_distance = self.min_distance.min(distance);
+            let moved = model.distance_gradient(cws, pair, &mut self.gradient).is_ok()
+                && self.gradient.iter().any(|g| g.abs() > 1e-12);
+            if !moved {
                 continue;
             }
+            self.min_moving_distance = self.min_moving_distance.min(distance);
             let row = &mut self.g[self.count * n..(self.count + 1) * n];
             for (r, g) in row.iter_mut().zip(&self.gradient) {
                 *r = -g;
             }
-            let gap = distance - settings.margin;
-            self.h[self.count] = if gap >= 0.0 { rate * gap } else { -(rate * -gap).min(settings.recovery_speed) };
-            self.min_distance = self.min_distance.min(distance);
+            self.h[self.count] = rate * (distance - settings.margin).max(0.0);
             self.count += 1;
         }
     }
