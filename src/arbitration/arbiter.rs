@@ -139,6 +139,8 @@ pub struct ArbiterWorkspace {
     pub(crate) velocity: Vec<f64>,
     /// The operator's command in joint space (rad/s).
     pub(crate) human: Vec<f64>,
+    /// The operator's command as used (capped), `max(n, 6)` values.
+    pub(crate) command: Vec<f64>,
     /// Task Jacobian rows in use (row-major `k × n`) and the task target.
     pub(crate) jk: Vec<f64>,
     pub(crate) task: [f64; 6],
@@ -257,6 +259,7 @@ impl Arbiter {
             task_metric: Metric::identity(3),
             velocity: vec![0.0; n],
             human: vec![0.0; n],
+            command: vec![0.0; n.max(6)],
             jk: vec![0.0; 6 * n.max(1)],
             task: [0.0; 6],
             target: vec![0.0; n.max(6)],
@@ -358,6 +361,9 @@ impl Arbiter {
             self.build_distance_rows(ws, rate, Some(moved));
             self.note_rows(ws);
             solved = self.enforce(ws)? || solved;
+        }
+        if ws.u.iter().any(|u| !u.is_finite()) {
+            return Err(TickStatus::SolverFailed);
         }
         ws.rows.clamp(&mut ws.u);
         ws.diagnostics.active_rows = ws.rows.rows().filter(|&r| ws.rows.slack(r, &ws.u) <= 1e-7).count();

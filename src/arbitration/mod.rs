@@ -56,16 +56,20 @@
 
 mod arbiter;
 mod command;
+mod field;
 mod intent;
 pub mod metric;
 mod modes;
 mod objective;
+mod repulsion;
 mod safety;
 mod setup;
 
 pub use arbiter::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolvedProblem, SolverBackend,
 };
+pub use field::{FieldSample, metric_field};
+pub use repulsion::ObstacleRepulsion;
 pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
 pub use intent::{IntentEstimator, IntentSettings};
 pub use metric::{Metric, MetricSettings};

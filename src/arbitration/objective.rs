@@ -14,6 +14,10 @@ use crate::control::ControlError;
 use crate::robot::ReferenceFrame;
 use tandem_solvers::small::{add_scaled, cholesky_in_place, cholesky_solve_factored, dot, mat_vec, symmetric_eigen};
 
+/// Largest command component kept as given (m/s, rad/s): larger commands
+/// are scaled down to it, direction kept.
+const COMMAND_CAP: f64 = 1e3;
+
 impl Arbiter {
     /// Fills `ws.p`, `ws.q` (and the cone) with `mode`'s problem and
     /// `ws.u0` with its unconstrained solution.
@@ -21,7 +25,16 @@ impl Arbiter {
         let n = self.robot.nq();
         ws.conic = false;
         let k = task_dim(command);
-        let v = command.values();
+        // Commands beyond any physical speed keep their direction only: the
+        // hard limits clip the magnitude, and the arithmetic stays finite.
+        let given = command.values();
+        let largest = given.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let scale = if largest > COMMAND_CAP { COMMAND_CAP / largest } else { 1.0 };
+        let mut command_values = std::mem::take(&mut ws.command);
+        for (c, x) in command_values.iter_mut().zip(given) {
+            *c = x * scale;
+        }
+        let v = &command_values[..given.len()];
         let damping = &self.settings.damping;
         match k {
             Some(k) => {
@@ -71,6 +84,7 @@ impl Arbiter {
             ArbitrationMode::Constrained => self.constrained_objective(ws, k, n),
             ArbitrationMode::SumOfSquares => sum_of_squares_objective(ws, k, n, modes.sum_of_squares_epsilon),
         }
+        ws.command = command_values;
     }
 
     /// `max ⟨g, u⟩ s.t. ‖u − c‖_W ≤ r`, `g = J† v_H`, `c = κ ā_R`: closed

@@ -36,6 +36,13 @@ pub struct ArbitrateArgs {
     /// Write the gripper path (top and side views, with the reference) as SVG.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
+    /// Write the Fig. 4.2-style metric field as SVG: ellipses of F⁻¹ (the
+    /// natural gradient's metric) over the first two joints — the workspace
+    /// of a planar problem such as problems/planar_pick.toml — for the goal
+    /// alone, for every goal with distance-based beliefs, and for a policy
+    /// that only avoids obstacles.
+    #[arg(long, value_name = "FILE")]
+    pub field: Option<PathBuf>,
     /// Print one JSON object: {"problem", "mode", "operator", "seed",
     /// "outcome", "steps", "tick_us": {"median", "p99", "max"},
     /// "hard_violations", "min_clearance_m", "fallbacks"}.
@@ -58,6 +65,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
     let settings = ArbiterSettings { mode: args.mode, period: 1.0 / args.rate, ..ArbiterSettings::default() };
     let arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
+    let settings = *arbiter.settings();
     let goal_pose = goals[target].final_gripper_pose()?;
     let mut operator: Box<dyn Operator> = match args.operator.as_str() {
         "straightline" => Box::new(Straightline { speed: args.speed, ..Straightline::default() }),
@@ -68,6 +76,10 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
         run_episode(&arbiter, &mut ws, &problem.start, &goal_pose, operator.as_mut(), &EpisodeSettings::default())?;
     if let Some(path) = &args.plot {
         let svg = episode_svg(&problem, &goals[target], &record, args)?;
+        std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    if let Some(path) = &args.field {
+        let svg = field_svg(&problem, &goals, target, &settings)?;
         std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     let (median, p99, max) = percentiles(&record.tick_us);
@@ -108,7 +120,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
         "hard-constraint violations {}, smallest clearance {:.4} m, fallbacks {}",
         record.hard_violations, record.min_clearance, record.fallbacks
     );
-    if let Some(path) = &args.plot {
+    for path in args.plot.iter().chain(&args.field) {
         println!("wrote {}", path.display());
     }
     Ok(())
@@ -149,4 +161,73 @@ fn episode_svg(
     };
     let title = format!("{}: {} operator, {}", problem.name, args.operator, record.outcome.as_str());
     Ok(render_panels(&title, &[view(0, 1, "top view", "y (m)"), view(0, 2, "side view", "z (m)")], 480, 440)?)
+}
+
+/// The seed's Fig. 4.2: F⁻¹ ellipses for (a) the goal, (b) every goal with
+/// beliefs from distance (exp(−d / 10 cm)), (c) obstacle avoidance only.
+fn field_svg(
+    problem: &Problem,
+    goals: &[ProblemGoal],
+    target: usize,
+    settings: &ArbiterSettings,
+) -> Result<String, Box<dyn std::error::Error>> {
+    use crate::arbitration::{ArbiterGoal, ObstacleRepulsion, metric_field};
+    use crate::figures::SeriesKind;
+    const GRID: usize = 11;
+    let single = Arbiter::for_problem(problem, &goals[target..=target], *settings)?;
+    let all = Arbiter::for_problem(problem, goals, *settings)?;
+    let model = all.collision_model().clone();
+    let repulsion = ArbiterGoal {
+        name: "obstacles".into(),
+        position: goals[target].position,
+        policy: std::sync::Arc::new(ObstacleRepulsion::new(model.clone(), 0.1, 1.0)),
+    };
+    let gripper = problem.robot_spec.gripper.as_deref().unwrap_or_default();
+    let avoid = Arbiter::new(model, gripper, vec![repulsion], *settings)?;
+    let points: Vec<[f64; 2]> = goals.iter().map(|g| [g.position[0], g.position[1]]).collect();
+    let by_distance = |p: [f64; 2]| {
+        let w: Vec<f64> = points.iter().map(|g| (-((p[0] - g[0]).hypot(p[1] - g[1])) / 0.1).exp()).collect();
+        let total: f64 = w.iter().sum();
+        w.iter().map(|x| x / total).collect::<Vec<_>>()
+    };
+    let fields = [
+        ("(a) goal-directed", metric_field(&single, &problem.start, GRID, |_| vec![1.0])),
+        ("(b) two goals, beliefs by distance", metric_field(&all, &problem.start, GRID, by_distance)),
+        ("(c) obstacle avoidance only", metric_field(&avoid, &problem.start, GRID, |_| vec![1.0])),
+    ];
+    let limits = problem.robot.limits();
+    let spacing = (limits[0].upper - limits[0].lower) * 0.9 / (GRID - 1) as f64;
+    let obstacles: Vec<(f64, f64, f64)> = problem
+        .scene
+        .obstacles()
+        .iter()
+        .map(|o| (o.pose.translation.x, o.pose.translation.y, o.shape.extents().x.min(o.shape.extents().y) / 2.0))
+        .collect();
+    let panels: Vec<Panel> = fields
+        .iter()
+        .map(|(title, samples)| {
+            let largest = samples.iter().map(|s| s.inverse[0].abs().max(s.inverse[3].abs()) + s.inverse[1].abs()).fold(1e-12, f64::max);
+            let scale = 0.45 * spacing / largest;
+            let ellipses = crate::figures::Series {
+                label: Some("F⁻¹".into()),
+                points: samples.iter().map(|s| (s.at[0], s.at[1])).collect(),
+                color: 0,
+                kind: SeriesKind::Ellipses(samples.iter().map(|s| s.inverse.map(|v| v * scale)).collect()),
+            };
+            let mut panel = Panel::new(title, &format!("{} (m)", problem.robot.joint_names()[0]), &format!("{} (m)", problem.robot.joint_names()[1]))
+                .with(ellipses)
+                .with(Series::points("goals", &points.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), 3))
+                .equal();
+            for &(x, y, r) in &obstacles {
+                panel = panel.with(crate::figures::Series {
+                    label: None,
+                    points: vec![(x, y)],
+                    color: 7,
+                    kind: SeriesKind::Circles(r),
+                });
+            }
+            panel
+        })
+        .collect();
+    Ok(render_panels(&format!("{}: metric fields (F⁻¹ ellipses)", problem.name), &panels, 420, 440)?)
 }

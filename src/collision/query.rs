@@ -59,6 +59,13 @@ impl CollisionWorkspace {
         }
     }
 
+    /// The pairs returned by the last [`CollisionModel::distances`] call with
+    /// this workspace (for callers that must read them after releasing the
+    /// borrow, e.g. to take their gradients).
+    pub fn last_distances(&self) -> &[PairDistance] {
+        &self.distances
+    }
+
     /// The kinematics state of the last query that placed the shapes (frame
     /// poses at its `q`): every query but the boolean checks on the sphere
     /// fast path, which keep their own state.

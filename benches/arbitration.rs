@@ -1,0 +1,180 @@
+//! One full arbitration tick per mode on the Panda grasp scene
+//! (`builtin:panda_grasp_box`: table, box; the reference optimized, an LQR
+//! tracking policy): validation, intent, the robot action, the mode's
+//! metric (36 policy queries for the Hessian metric), distances of the
+//! pairs within reach, the solve, the certified step.
+//!
+//! The ticks replay an Approach-operator episode recorded under
+//! SumOfSquares, so the policies' progress, the distances and the
+//! constraints are those of a real run. Groups:
+//! * `arbitration/tick/<mode>`: the default settings (Clarabel, closed form first);
+//! * `arbitration/solver/<mode>/<backend>`: the solver forced on every tick
+//!   (`closed_form_first = false`), Clarabel and, with `--features osqp`, OSQP.
+//!
+//! After criterion, a percentile table (median, p99, max over 20 passes of
+//! the episode) is printed for every mode. With `TANDEM_EXPORT_QP=FILE` the
+//! forced-solve DirectControl problems (objective, every constraint row)
+//! are written as JSON for `benches/peers/compare_arbitration.sh`.
+
+use criterion::Criterion;
+use std::hint::black_box;
+use std::time::Instant;
+use tandem::arbitration::{
+    Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, TickInput, problem_goals,
+};
+use tandem::scene::Problem;
+use tandem::sim::{Approach, EpisodeSettings, run_episode};
+
+/// One recorded tick: state, velocity, operator command.
+struct Recorded {
+    q: Vec<f64>,
+    velocity: Vec<f64>,
+    command: [f64; 3],
+}
+
+struct Setup {
+    problem: Problem,
+    goals: Vec<tandem::arbitration::ProblemGoal>,
+    ticks: Vec<Recorded>,
+}
+
+fn setup() -> Setup {
+    let problem = Problem::builtin("panda_grasp_box").expect("builtin problem");
+    let goals = problem_goals(&problem, &GoalOptions::default()).expect("goal references");
+    let settings = ArbiterSettings { mode: ArbitrationMode::SumOfSquares, ..ArbiterSettings::default() };
+    let arbiter = Arbiter::for_problem(&problem, &goals, settings).expect("arbiter");
+    let goal = goals[0].final_gripper_pose().expect("gripper pose");
+    let record = run_episode(
+        &arbiter,
+        &mut arbiter.workspace(),
+        &problem.start,
+        &goal,
+        &mut Approach::default(),
+        &EpisodeSettings::default(),
+    )
+    .expect("episode");
+    let dt = arbiter.settings().period;
+    let ticks = (0..record.steps)
+        .map(|t| Recorded {
+            q: record.q[t].clone(),
+            velocity: record.q[t].iter().zip(&record.q[t + 1]).map(|(a, b)| (b - a) / dt).collect(),
+            command: record.commands[t],
+        })
+        .collect::<Vec<_>>();
+    eprintln!("recorded {} ticks ({})", ticks.len(), record.outcome.as_str());
+    Setup { problem, goals, ticks }
+}
+
+fn arbiter(s: &Setup, mode: ArbitrationMode, backend: SolverBackend, closed_form_first: bool) -> Arbiter {
+    let settings = ArbiterSettings { mode, backend, closed_form_first, ..ArbiterSettings::default() };
+    Arbiter::for_problem(&s.problem, &s.goals, settings).expect("arbiter")
+}
+
+/// Runs tick `k` of the recorded episode (resetting at its start).
+fn tick(a: &Arbiter, ws: &mut tandem::arbitration::ArbiterWorkspace, s: &Setup, k: usize) -> usize {
+    let r = &s.ticks[k % s.ticks.len()];
+    if k % s.ticks.len() == 0 {
+        a.reset(ws);
+    }
+    let input = TickInput { q: &r.q, velocity: Some(&r.velocity), command: HumanCommand::Linear(&r.command), beliefs: None };
+    let out = a.tick(ws, &input);
+    black_box(out.qdot[0]);
+    out.diagnostics.solves as usize
+}
+
+fn backends() -> Vec<(SolverBackend, &'static str)> {
+    #[allow(unused_mut)]
+    let mut b = vec![(SolverBackend::Clarabel, "clarabel")];
+    #[cfg(feature = "osqp")]
+    b.push((SolverBackend::Osqp, "osqp"));
+    b
+}
+
+fn criterion_groups(c: &mut Criterion, s: &Setup) {
+    let mut group = c.benchmark_group("arbitration/tick");
+    for mode in ArbitrationMode::ALL {
+        let a = arbiter(s, mode, SolverBackend::Clarabel, true);
+        let mut ws = a.workspace();
+        let mut k = 0;
+        group.bench_function(mode.as_str(), |b| {
+            b.iter(|| {
+                k += 1;
+                tick(&a, &mut ws, s, k)
+            })
+        });
+    }
+    group.finish();
+    let mut group = c.benchmark_group("arbitration/solver");
+    for mode in ArbitrationMode::ALL {
+        for (backend, name) in backends() {
+            if mode.is_conic() && name != "clarabel" {
+                continue;
+            }
+            let a = arbiter(s, mode, backend, false);
+            let mut ws = a.workspace();
+            let mut k = 0;
+            group.bench_function(format!("{mode}/{name}"), |b| {
+                b.iter(|| {
+                    k += 1;
+                    tick(&a, &mut ws, s, k)
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+/// Median, p99 and max tick times over 20 passes of the episode.
+fn percentile_table(s: &Setup) {
+    println!("\n{:<24} {:>10} {:>10} {:>10} {:>10}", "mode (Clarabel)", "median µs", "p99 µs", "max µs", "solves");
+    for mode in ArbitrationMode::ALL {
+        let a = arbiter(s, mode, SolverBackend::Clarabel, true);
+        let mut ws = a.workspace();
+        for k in 0..s.ticks.len() {
+            tick(&a, &mut ws, s, k);
+        }
+        let mut times = Vec::with_capacity(20 * s.ticks.len());
+        let mut solves = 0;
+        for k in 0..20 * s.ticks.len() {
+            let began = Instant::now();
+            solves += tick(&a, &mut ws, s, k);
+            times.push(began.elapsed().as_secs_f64() * 1e6);
+        }
+        let (median, p99, max) = tandem::sim::percentiles(&times);
+        println!("{:<24} {median:>10.1} {p99:>10.1} {max:>10.1} {solves:>10}", mode.as_str());
+    }
+}
+
+/// The forced-solve DirectControl problems (every row) as JSON.
+fn export(s: &Setup, path: &str) {
+    let a = arbiter(s, ArbitrationMode::DirectControl, SolverBackend::Clarabel, false);
+    let mut ws = a.workspace();
+    let mut problems = vec![];
+    for (k, r) in s.ticks.iter().enumerate() {
+        if k == 0 {
+            a.reset(&mut ws);
+        }
+        let input =
+            TickInput { q: &r.q, velocity: Some(&r.velocity), command: HumanCommand::Linear(&r.command), beliefs: None };
+        let out = a.tick(&mut ws, &input);
+        let (qdot, fraction) = (out.qdot.to_vec(), out.diagnostics.step_fraction);
+        if let (Some(p), true) = (ws.last_solve(), fraction == 1.0) {
+            problems.push(serde_json::json!({"p": p.p, "q": p.q, "g": p.g, "h": p.h, "u": qdot}));
+        }
+    }
+    let json = serde_json::json!({"n": 7, "problems": problems});
+    std::fs::write(path, json.to_string()).expect("write the exported problems");
+    eprintln!("exported {} problems to {path}", problems.len());
+}
+
+fn main() {
+    let s = setup();
+    if let Ok(path) = std::env::var("TANDEM_EXPORT_QP") {
+        export(&s, &path);
+        return;
+    }
+    let mut c = Criterion::default().configure_from_args();
+    criterion_groups(&mut c, &s);
+    c.final_summary();
+    percentile_table(&s);
+}
