@@ -60,6 +60,14 @@ pub enum CollisionError {
     /// A name (link, obstacle, object) that matches nothing.
     #[error("no link, obstacle or object named '{name}'{}", crate::robot::did_you_mean(suggestions))]
     UnknownName { name: String, suggestions: Vec<String> },
+    /// A surface group name that no robot collision element has.
+    #[error("no robot collision element is named '{name}'{}", crate::robot::did_you_mean(suggestions))]
+    UnknownSurface { name: String, suggestions: Vec<String> },
+    /// A surface group name (see
+    /// [`CollisionModelBuilder::surface_groups`]) that is already a link's,
+    /// an obstacle's or an object's.
+    #[error("surface '{name}' has the name of a link, obstacle or object; name its collision elements apart")]
+    SurfaceNameTaken { name: String },
     /// A robot-side error (unknown frame, …).
     #[error(transparent)]
     Robot(#[from] RobotError),

@@ -17,12 +17,14 @@
 //! ```
 
 mod family;
+pub mod grasp;
 mod moveit;
 mod problem;
 mod problem_file;
 mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
+pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
 pub use moveit::{MoveItRequest, read_moveit_request, read_moveit_scene};
 pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
