@@ -4,9 +4,10 @@
 # on the final slice of every accepted trajectory — example-robot-data's Panda
 # collision meshes placed by Pinocchio, measured against the box with coal.
 # Prints the worst clearances of the hand, the fingers' outer parts, the arm
-# and the pads, the largest tilt and the failures (box not between the pads,
-# fingertip centre outside the footprint, a clearance below the margin);
-# exits 1 when a grasp fails.
+# and the pads at the final slice and over every slice of the motion, the
+# largest tilt and the failures (box not between the pads, fingertip centre
+# outside the footprint, a clearance below the margin at any slice; the pads
+# may come close during the motion); exits 1 when a grasp fails.
 #
 #   benches/grasp_clearance.sh [--count N] [--seed S] [--threads K] [--margin M]
 #
@@ -39,7 +40,7 @@ target/release/tandem generate --family problems/panda_grasp_family.toml --count
   --seed "$seed" --threads "$threads" --out "$work/data" --quiet --json >"$work/generate.json"
 echo "== mesh check of every accepted grasp" >&2
 status=0
-"$python" python_ref/grasp_mesh_check.py --dataset "$work/data" --object box --margin "$margin" \
+"$python" python_ref/grasp_mesh_check.py --dataset "$work/data" --object box --margin "$margin" --slices all \
   >"$work/check.json" || status=$?
 mkdir -p target/peers
 python3 - "$work/generate.json" "$work/check.json" "$margin" <<'PY'
@@ -51,7 +52,11 @@ print(f"{gen['accepted']} accepted of {gen['accepted'] + sum(gen['rejected_by_re
 print(f"mesh check (coal {check['coal_version']}) of {check['count']} grasps, margin {margin * 1e3:g} mm:")
 print(f"  worst clearance to the box: hand {w['hand'] * 1e3:.2f} mm, fingers' outer parts "
       f"{w['finger_outer'] * 1e3:.2f} mm, arm {w['arm'] * 1e3:.2f} mm, pads {w['pad'] * 1e3:.2f} mm; "
-      f"largest tilt {w['tilt'] * 1e3:.3f} mrad; failed grasps {w['failed']}")
+      f"largest tilt {w['tilt'] * 1e3:.3f} mrad")
+m = check["worst_motion"]
+print(f"  over all {check['configurations']} slices of the motions: hand {m['hand'] * 1e3:.2f} mm, fingers' outer "
+      f"parts {m['finger_outer'] * 1e3:.2f} mm, arm {m['arm'] * 1e3:.2f} mm, pads {m['pad'] * 1e3:.2f} mm; "
+      f"failed {w['failed']}")
 for g in check.get("failed_grasps", [])[:20]:
     print("  FAILED", g)
 json.dump({"generate": gen, "check": check, "margin": margin},

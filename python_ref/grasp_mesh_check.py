@@ -4,11 +4,13 @@ independently of tandem's sphere model, for tandem's grasp tests and benches.
 
 Usage:
   grasp_mesh_check.py < request.json
-  grasp_mesh_check.py --dataset DIR [--object NAME] [--margin M]
+  grasp_mesh_check.py --dataset DIR [--object NAME] [--margin M] [--slices final|all]
       the final slice (q_T) of every trajectory of a `tandem generate` dataset, grasping
       its object NAME (default: its only object) with the fingers open at 0.04 m, margin M
       (default 0.005 m); prints the same summary without the per-grasp list unless a
-      grasp fails (then the failing ones, with their ids).
+      grasp fails (then the failing ones, with their ids). With `--slices all`, also the
+      clearances at every slice q_1 ... q_T ("motion": hand, fingers' outer parts and arm
+      must keep the margin there too; the pads are reported, they may come close).
 
 Request:
   {"joints": [the 7 arm joint names, the order of each q],
@@ -16,7 +18,8 @@ Request:
    "margin": clearance the palm and the fingers' outer parts must keep (m),
    "pad_depth": thickness of the fingers' contact layer (m; default 0.005),
    "grasps": [{"q": [7 values], "box": {"half_extents": [3], "translation": [3],
-               "rotation": [[3] x 3]}}]}
+               "rotation": [[3] x 3]}, "final": true}]}
+  A grasp with "final": false is a configuration on the way: only the clearances count.
 
 Geometry (erd's, placed by Pinocchio's forward kinematics of erd's panda.urdf, whose
 frames agree with tandem's embedded Panda to 0 m, see problems/robots/panda/README.md):
@@ -135,19 +138,22 @@ def main(req):
         local = R.T @ (tcp.translation - t)
         res["in_footprint"] = bool(abs(local[0]) <= half[0] and abs(local[1]) <= half[1])
         res["tilt"] = float(np.arccos(np.clip(-tcp.rotation[2, 2], -1.0, 1.0)))
-        res["ok"] = bool(
-            res["hand"] >= margin and res["finger_outer"] >= margin and res["arm"] >= margin
-            and res["pad"] >= 0.0 and res["between_pads"] and res["in_footprint"]
-        )
+        clear = res["hand"] >= margin and res["finger_outer"] >= margin and res["arm"] >= margin
+        res["final"] = bool(g.get("final", True))
+        res["ok"] = bool(clear and (not res["final"] or (res["pad"] >= 0.0 and res["between_pads"] and res["in_footprint"])))
         out.append(res)
-    worst = {k: min(r[k] for r in out) for k in ("hand", "arm", "finger_outer", "pad")} if out else {}
-    worst["tilt"] = max((r["tilt"] for r in out), default=0.0)
+    finals = [r for r in out if r["final"]]
+    worst = {k: min(r[k] for r in finals) for k in ("hand", "arm", "finger_outer", "pad")} if finals else {}
+    worst["tilt"] = max((r["tilt"] for r in finals), default=0.0)
     worst["failed"] = sum(not r["ok"] for r in out)
-    return {"coal_version": coal.__version__, "grasps": out, "worst": worst}
+    summary = {"coal_version": coal.__version__, "grasps": out, "worst": worst}
+    if len(finals) < len(out):
+        summary["worst_motion"] = {k: min(r[k] for r in out) for k in ("hand", "arm", "finger_outer", "pad")}
+    return summary
 
 
-def dataset_request(folder, object_name, margin):
-    """A request of the final slices of a dataset's trajectories, and their ids."""
+def dataset_request(folder, object_name, margin, every_slice=False):
+    """A request of the final slices (or every slice) of a dataset's trajectories, and their ids."""
     import pyarrow.parquet as pq
 
     manifest = json.load(open(Path(folder) / "_manifest.json"))
@@ -162,8 +168,10 @@ def dataset_request(folder, object_name, margin):
         rotation = pin.Quaternion(qw, qx, qy, qz).toRotationMatrix()
         box = {"half_extents": [v / 2 for v in row["object_sizes"][k]], "translation": [x, y, z],
                "rotation": rotation.tolist()}
-        grasps.append({"q": row["q"][-1], "box": box})
-        ids.append(row["id"])
+        slices = row["q"] if every_slice else row["q"][-1:]
+        for k, q in enumerate(slices):
+            grasps.append({"q": q, "box": box, "final": k == len(slices) - 1})
+            ids.append(row["id"])
     return {"joints": manifest["joints"], "margin": margin, "grasps": grasps}, ids
 
 
@@ -173,10 +181,12 @@ if __name__ == "__main__":
         json.dump(main(json.load(sys.stdin)), sys.stdout)
     elif args[0] == "--dataset" and len(args) >= 2:
         opts = dict(zip(args[2::2], args[3::2]))
-        req, ids = dataset_request(args[1], opts.get("--object"), float(opts.get("--margin", 0.005)))
+        every = {"final": False, "all": True}[opts.get("--slices", "final")]
+        req, ids = dataset_request(args[1], opts.get("--object"), float(opts.get("--margin", 0.005)), every)
         res = main(req)
         failed = [dict(id=i, **g) for i, g in zip(ids, res.pop("grasps")) if not g["ok"]]
-        res["count"] = len(ids)
+        res["count"] = len(set(ids))
+        res["configurations"] = len(ids)
         if failed:
             res["failed_grasps"] = failed
         json.dump(res, sys.stdout)

@@ -186,6 +186,14 @@ fn grasp_depth_is_the_objects_extent_against_the_approach() {
     assert!((grasp_depth(&object, &object.grasps[1]) - 0.03).abs() < 1e-12);
     let ball = SceneObject { shape: Shape::sphere(0.05), ..object.clone() };
     assert!((grasp_depth(&ball, &object.grasps[0]) - 0.03).abs() < 1e-12);
+    // Support values: a capsule along z, a box and a tetrahedron's hull, in an oblique direction.
+    let d = nalgebra::Vector3::new(0.3, -0.4, 1.2);
+    assert!((Shape::capsule(0.02, 0.1).support(&d) - (0.05 * 1.2 + 0.02 * d.norm())).abs() < 1e-12);
+    assert!((Shape::cuboid([0.1, 0.2, 0.3]).support(&d) - (0.05 * 0.3 + 0.1 * 0.4 + 0.15 * 1.2)).abs() < 1e-12);
+    let tet = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]].map(nalgebra::Point3::from);
+    let hull = Shape::Convex(std::sync::Arc::new(tandem::collision::ConvexHull::new(&tet).unwrap()));
+    assert!((hull.support(&d) - 0.12).abs() < 1e-12);
+    assert!((Shape::cylinder(0.03, 0.1).support(&d) - (0.05 * 1.2 + 0.03 * 0.5)).abs() < 1e-12);
 }
 
 #[test]
