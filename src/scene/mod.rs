@@ -1,7 +1,9 @@
 //! The robot's surroundings: static obstacles, a table, and graspable
 //! objects with named grasp frames, each with a pose in the world (the URDF
 //! root frame). Objects can be attached to a robot frame (grasped) and
-//! detached again; problem files ([`Problem`]) describe a scene and a task.
+//! detached again; problem files ([`Problem`]) describe a scene and a task;
+//! [`grasp`] says which parts of a gripper may touch what it grasps, how
+//! deep a grasp frame may lie, and judges a grasp.
 //!
 //! ```
 //! use tandem::collision::Shape;
