@@ -759,6 +759,11 @@ fn finger_pads_name_collision_elements() {
     expect_problem_error(&text, "finger_pads", "robot.finger_pads[1]", message);
     let text = with("finger_pads = [\"panda_leftfinger\"]");
     expect_problem_error(&text, "finger_pads", "robot.finger_pads[0]", "'panda_leftfinger' is a link");
+    let text = format!(
+        "{}\n[[scene.obstacles]]\nname = \"panda_leftfinger_pad\"\nshape = \"sphere\"\nradius = 0.05\nposition = [1.0, 1.0, 1.0]\n",
+        with("finger_pads = [\"panda_leftfinger_pad\"]")
+    );
+    expect_problem_error(&text, "finger_pads", "robot.finger_pads[0]", "a name apart from the scene's obstacles");
     let text = with("max_grasp_depth = -0.01");
     expect_problem_error(&text, "max_grasp_depth", "robot.max_grasp_depth", "must be positive, got -0.01");
     let text = problem(&[ROBOT, START, JOINT_GOAL])

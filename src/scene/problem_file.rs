@@ -305,6 +305,12 @@ impl RawProblem {
         let root = KeyPath::root();
         let (robot_spec, robot, srdf, collision_geometry) = self.robot.load(&check, &root.key("robot"))?;
         let scene = self.scene.build(&check, &robot)?;
+        let clash =
+            robot_spec.finger_pads.iter().position(|p| scene.obstacle(p).is_some() || scene.object(p).is_some());
+        if let Some(i) = clash {
+            let at = root.key("robot").key("finger_pads").index(i);
+            return Err(src.error(&at, "a finger pad needs a name apart from the scene's obstacles and objects"));
+        }
         let start_path = root.key("start").key("q");
         check_configuration(&check, &robot, &start_path, &self.start.q)?;
         let goal = self.goal.build(&check, &root.key("goal"), &robot, &scene)?;
@@ -335,8 +341,9 @@ impl RawProblem {
 
 /// Every grasp frame within the gripper's reach (see [`GripperGeometry`](super::GripperGeometry)).
 fn check_grasp_depths(src: &Source, problem: &Problem) -> Result<(), ProblemError> {
-    if problem.robot_spec.gripper.is_none() {
-        return Ok(());
+    let spec = &problem.robot_spec;
+    if spec.gripper.is_none() || (spec.finger_pads.is_empty() && spec.max_grasp_depth.is_none()) {
+        return Ok(()); // no reach to check against
     }
     let at = |key: KeyPath, source: GraspError| {
         let line = super::toml_source::line_of_path(src.text, &key);
