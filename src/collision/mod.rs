@@ -1,7 +1,9 @@
 //! Collision checking and signed distances between the robot and its scene.
 //!
 //! A [`CollisionModel`] compiles the robot's URDF collision elements (one
-//! group per link; primitives as they are, meshes as convex hulls), the
+//! group per link, and per named surface such as a finger pad, see
+//! [`CollisionModelBuilder::surface_groups`]; primitives as they are,
+//! meshes as convex hulls), the
 //! scene's obstacles and objects, and the list of pairs to check: every
 //! robot link against every obstacle and free object, attached objects
 //! against both, and self-collision pairs between links that are neither on
