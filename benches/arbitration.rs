@@ -76,7 +76,8 @@ fn tick(a: &Arbiter, ws: &mut tandem::arbitration::ArbiterWorkspace, s: &Setup, 
     if k % s.ticks.len() == 0 {
         a.reset(ws);
     }
-    let input = TickInput { q: &r.q, velocity: Some(&r.velocity), command: HumanCommand::Linear(&r.command), beliefs: None };
+    let input =
+        TickInput { q: &r.q, velocity: Some(&r.velocity), command: HumanCommand::Linear(&r.command), beliefs: None };
     let out = a.tick(ws, &input);
     black_box(out.qdot[0]);
     out.diagnostics.solves as usize
@@ -154,8 +155,12 @@ fn export(s: &Setup, path: &str) {
         if k == 0 {
             a.reset(&mut ws);
         }
-        let input =
-            TickInput { q: &r.q, velocity: Some(&r.velocity), command: HumanCommand::Linear(&r.command), beliefs: None };
+        let input = TickInput {
+            q: &r.q,
+            velocity: Some(&r.velocity),
+            command: HumanCommand::Linear(&r.command),
+            beliefs: None,
+        };
         let out = a.tick(&mut ws, &input);
         let (qdot, fraction) = (out.qdot.to_vec(), out.diagnostics.step_fraction);
         if let (Some(p), true) = (ws.last_solve(), fraction == 1.0) {

@@ -1,4 +1,4 @@
-//! Collision queries of the Panda (61 spheres) in `panda_grasp_box.toml`
+//! Collision queries of the Panda (81 spheres) in `panda_grasp_box.toml`
 //! (table and box) plus 10 seeded random obstacles (boxes, spheres,
 //! cylinders), cycling through 1000 seeded random configurations:
 //! `collision_free` (boolean, early exit; on the sphere fast path and on

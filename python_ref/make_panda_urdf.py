@@ -108,7 +108,11 @@ INERTIA = {
                           (2.375e-06, 0.0, 0.0, 2.375e-06, 0.0, 7.5e-07)),
 }
 
-# Spheres per link (chosen by hand from the K-vs-excess trade-off; see README).
+# Sphere groups and their sphere counts (chosen by hand from the K-vs-excess trade-off; see
+# README).  A group is a link's own spheres (`<link>_s<i>`) or, for the fingers, their pads:
+# the inner layer of each finger, which a grasp lets come close to its object, as collision
+# elements all named after the group (`panda_leftfinger_pad`).  The arm links keep their
+# seeds (the index in this dict), so refitting the gripper leaves them unchanged.
 N_SPHERES = {
     "panda_link0": 7,
     "panda_link1": 6,
@@ -118,10 +122,25 @@ N_SPHERES = {
     "panda_link5": 7,
     "panda_link6": 6,
     "panda_link7": 5,
-    "panda_hand": 6,
-    "panda_leftfinger": 3,
-    "panda_rightfinger": 3,
+    "panda_hand": 16,
+    "panda_leftfinger": 5,
+    "panda_rightfinger": 5,
+    "panda_leftfinger_pad": 4,
+    "panda_rightfinger_pad": 4,
 }
+# The link of each group that is not a link itself.
+GROUP_LINK = {"panda_leftfinger_pad": "panda_leftfinger", "panda_rightfinger_pad": "panda_rightfinger"}
+# Groups fitted as the mirror image (turned by pi about z) of another: the right finger is the
+# left one turned by pi about z, in the erd URDF as here.
+MIRRORED = {"panda_rightfinger": "panda_leftfinger", "panda_rightfinger_pad": "panda_leftfinger_pad"}
+# A finger's pad is the part of it within PAD_DEPTH of its inner face (finger frame y <= PAD_DEPTH
+# for the left finger; the inner face is y = 0, towards the other finger): the contact surface.
+PAD_DEPTH = 5.0e-3
+# Where a bulge of the model costs a grasp: below the palm (hand frame z beyond the lowest point of
+# hand.stl, the palm face between the fingers) the hand's spheres would meet the top of the grasped
+# object; past the inner face (y < 0) the fingers' outer spheres would meet its sides.  The fit
+# weighs excess volume there BULGE_WEIGHT times more.
+BULGE_WEIGHT = 30.0
 
 FIT_SPACING = 4.0e-3  # surface sample spacing used for fitting [m]
 SHELL_SPACING = 6.0e-3  # grid spacing of the outside-shell samples (excess volume) [m]
@@ -135,6 +154,7 @@ SCHEDULE = [(3.0, 30.0), (1.0, 1e3), (0.5, 1e4)]  # (tau [mm], penalty weight)
 MAXITER = 200
 CHECK_SPACING = 0.2e-3  # dense surface sample spacing used for the coverage check [m]
 EXCESS_SPACING = 1.5e-3  # sample spacing on the sphere-union boundary for excess stats [m]
+DEPTH_SPACING = 1.0e-3  # sample spacing of mesh surface and union boundary for depth stats [m]
 DECIMALS = 4  # sphere centres/radii written with 0.1 mm resolution (radii rounded up)
 N_RESTARTS = 6
 FK_SAMPLES = 2000
@@ -245,6 +265,69 @@ def link_solids() -> dict[str, list[np.ndarray]]:
     solids["panda_leftfinger"] = left
     solids["panda_rightfinger"] = right
     return solids
+
+
+def group_solids() -> dict[str, list[np.ndarray]]:
+    """Per sphere group, the closed convex pieces (link frame) its spheres must enclose: a finger's
+    pieces split at y = PAD_DEPTH (left; -PAD_DEPTH right) into the outer part and the pad."""
+    solids = link_solids()
+    for side, sign in (("left", 1.0), ("right", -1.0)):
+        pieces = solids[f"panda_{side}finger"]
+        normal = np.array([0.0, sign, 0.0])  # inward normal of the pad layer is -normal
+        solids[f"panda_{side}finger_pad"] = [c for t in pieces if (c := clip_convex(t, normal, PAD_DEPTH)) is not None]
+        solids[f"panda_{side}finger"] = [c for t in pieces if (c := clip_convex(t, -normal, -PAD_DEPTH)) is not None]
+    return solids
+
+
+def group_link(name: str) -> str:
+    return GROUP_LINK.get(name, name)
+
+
+def palm_z() -> float:
+    """Lowest point of the hand (largest hand-frame z of hand.stl): the palm face."""
+    return float(read_stl(ERD_COLLISION / "hand.stl")[..., 2].max())
+
+
+def clip_convex(tris: np.ndarray, normal: np.ndarray, offset: float):
+    """The part of a convex closed mesh with x . normal <= offset, as a closed, consistently
+    oriented triangle mesh (its convex hull); None when it has no volume."""
+    v = np.unique(tris.reshape(-1, 3), axis=0)
+    side = v @ normal - offset
+    pts = [v[side <= 0]]
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        sa, sb = tris[:, a] @ normal - offset, tris[:, b] @ normal - offset
+        cut = sa * sb < 0
+        t = (sa[cut] / (sa[cut] - sb[cut]))[:, None]
+        pts.append(tris[cut, a] + t * (tris[cut, b] - tris[cut, a]))
+    p = np.unique(np.round(np.concatenate(pts), 12), axis=0)
+    if len(p) < 4:
+        return None
+    try:
+        hull = ConvexHull(p)
+    except Exception:  # flat: no volume on this side
+        return None
+    if hull.volume < 1e-12:
+        return None
+    out = p[hull.simplices]
+    centre = p[hull.vertices].mean(0)
+    flip = (np.cross(out[:, 1] - out[:, 0], out[:, 2] - out[:, 0]) * (out[:, 0] - centre)).sum(1) < 0
+    out[flip] = out[flip][:, [0, 2, 1]]
+    return out
+
+
+def bulge_weight(name: str):
+    """Per shell point, how much its excess volume counts (see BULGE_WEIGHT)."""
+    if name == "panda_hand":
+        z = palm_z()
+        return lambda S: 1.0 + BULGE_WEIGHT * (S[:, 2] > z)
+    if name == "panda_leftfinger":
+        return lambda S: 1.0 + BULGE_WEIGHT * (S[:, 1] < 0.0)
+    return None
+
+
+def mirrored(C: np.ndarray, R: np.ndarray):
+    """Spheres turned by pi about z."""
+    return C * np.array([-1.0, -1.0, 1.0]), R.copy()
 
 
 def sample_surface_grid(tris: np.ndarray, spacing: float) -> np.ndarray:
@@ -411,7 +494,7 @@ def shell_points(solids, spacing, width, rng):
 
 def smooth_fit(P, S, w, C0, R0, schedule):
     """Minimise (smoothed) volume of the sphere union outside the solid, sampled by the
-    shell points S (each weighing w), plus a coverage penalty on surface points P.
+    shell points S (weighing w, a number or one per point), plus a coverage penalty on surface points P.
     Units: mm.  Annealed over `schedule` = [(tau, lambda), ...]."""
     k = len(R0)
     x = np.r_[C0.ravel(), R0]
@@ -426,7 +509,7 @@ def smooth_fit(P, S, w, C0, R0, schedule):
         a = s.argmax(1)
         z = np.clip(s[iS, a] / tau, -60, 60)
         sig = 1 / (1 + np.exp(-z))
-        val = w * sig.sum()
+        val = (w * sig).sum()
         ds = w * sig * (1 - sig) / tau
         gR = np.bincount(a, ds, k)
         u = dvec[iS, a] * (ds / d[iS, a])[:, None]
@@ -467,9 +550,10 @@ def union_boundary_samples(C, R, spacing):
     return np.concatenate(pts)
 
 
-def excess_stats(C, R, solids, spacing, exact=True, tree=None, above_z=None):
+def excess_stats(C, R, solids, spacing, exact=True, tree=None, above_z=None, weigh=None):
     """Excess = distance from the sphere-union boundary to the enclosed solid (0 inside it).
-    Returns (max, area-weighted mean); with above_z, only boundary points with z >= above_z."""
+    Returns (max, area-weighted mean); with above_z, only boundary points with z >= above_z;
+    with weigh, each point's excess multiplied by weigh(points) (for choosing fits only)."""
     b = union_boundary_samples(C, R, spacing)
     tris = np.concatenate(solids)
     if exact:
@@ -482,6 +566,8 @@ def excess_stats(C, R, solids, spacing, exact=True, tree=None, above_z=None):
         d = tree.query(b)[0]
     if above_z is not None:
         d = d[b[:, 2] >= above_z]
+    if weigh is not None:
+        d = d * weigh(b)
     return float(d.max()), float(d.mean())
 
 
@@ -493,13 +579,17 @@ def round_spheres(C, R, cover_pts):
 
 
 def fit_link(name, solids, k, seed=0):
-    """Best of N_RESTARTS: k-means++ init -> smooth fit -> exact cover -> monotone shrink."""
+    """Best of N_RESTARTS: k-means++ init -> smooth fit -> exact cover -> monotone shrink.
+    Excess volume where `bulge_weight(name)` says so counts more (fit and choice of restart)."""
     rng = np.random.default_rng(seed)
     tris = np.concatenate(solids)
     area = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1).sum()
     P = sample_surface(tris, FIT_SPACING, rng)
     S = shell_points(solids, SHELL_SPACING, SHELL_WIDTH, rng)
     w = SHELL_SPACING ** 3 / area * 1e3  # [mm] per shell point: excess volume / area
+    weigh = bulge_weight(name)
+    if weigh is not None:
+        w = w * weigh(S)
     tree = cKDTree(sample_surface(tris, 0.5e-3, rng))
     schedule = SCHEDULE
     best = None
@@ -509,7 +599,7 @@ def fit_link(name, solids, k, seed=0):
         C, R = smooth_fit(P * 1e3, S * 1e3, w, C0 * 1e3, R0 * 1e3, schedule)
         C, R = cover(P, C * 1e-3, R * 1e-3)
         C, R = refine(P, C, R)
-        mx, mean = excess_stats(C, R, solids, 2e-3, exact=False, tree=tree)
+        mx, mean = excess_stats(C, R, solids, 2e-3, exact=False, tree=tree, weigh=weigh)
         score = mean + 0.25 * mx
         if best is None or score < best[0]:
             best = (score, C, R)
@@ -548,10 +638,10 @@ def urdf_text(spheres: dict[str, tuple[np.ndarray, np.ndarray]]) -> str:
                 f'iyy="{fmt(iyy)}" iyz="{fmt(iyz)}" izz="{fmt(izz)}"/>',
                 "    </inertial>",
             ])
-        if name in spheres:
-            for i, (c, r) in enumerate(zip(*spheres[name])):
+        for group in (g for g in spheres if group_link(g) == name):
+            for i, (c, r) in enumerate(zip(*spheres[group])):
                 out.extend([
-                    f'    <collision name="{name}_s{i}">',
+                    f'    <collision name="{group}_s{i}">' if group == name else f'    <collision name="{group}">',
                     f'      <origin xyz="{" ".join(fmt_round(x) for x in c)}" rpy="0 0 0"/>',
                     f'      <geometry><sphere radius="{fmt_round(r)}"/></geometry>',
                     "    </collision>",
@@ -684,8 +774,20 @@ def check_kinematics(urdf: Path) -> dict:
     return res
 
 
-def check_spheres(spheres, solids) -> dict:
-    out = {}
+def depth_stats(C, R, solids, spacing) -> tuple[float, float]:
+    """Distance from the mesh surface to the model surface (how deep inside the sphere union the
+    enclosed surface lies), over a `spacing` grid sampling of the mesh surface, measured to a
+    `spacing` sampling of the union boundary: (max, mean)."""
+    tree = cKDTree(union_boundary_samples(C, R, spacing))
+    d = tree.query(sample_surface_grid(np.concatenate(solids), spacing))[0]
+    return float(d.max()), float(d.mean())
+
+
+def check_spheres(spheres, solids, links) -> dict:
+    """Per group: coverage of its solids (vertices and a dense sampling inside a sphere).
+    Per link (all its groups): excess (model surface -> mesh) and depth (mesh surface -> model
+    surface) against the link's full solids, and the grasp-critical bulges."""
+    groups, per_link = {}, {}
     for name, (C, R) in spheres.items():
         tris = np.concatenate(solids[name])
         verts = np.unique(tris.reshape(-1, 3), axis=0)
@@ -693,12 +795,27 @@ def check_spheres(spheres, solids) -> dict:
         dense = sample_surface_grid(tris, CHECK_SPACING)
         dgap = max((np.linalg.norm(ch[:, None] - C[None], axis=2) - R[None]).min(1).max()
                    for ch in np.array_split(dense, max(1, len(dense) // 200000)))
-        mx, mean = excess_stats(C, R, solids[name], EXCESS_SPACING)
-        out[name] = dict(n=len(R), nverts=len(verts), vgap=float(vgap), ndense=len(dense), dgap=float(dgap),
-                         max=mx, mean=mean, rmin=float(R.min()), rmax=float(R.max()))
-        if name == "panda_link0":  # the base sits on its mounting plane z = 0
-            out[name]["above"] = excess_stats(C, R, solids[name], EXCESS_SPACING, above_z=0.0)
-    return out
+        groups[name] = dict(n=len(R), nverts=len(verts), vgap=float(vgap), ndense=len(dense), dgap=float(dgap),
+                            rmin=float(R.min()), rmax=float(R.max()))
+    for link in links:
+        names = [g for g in spheres if group_link(g) == link]
+        C = np.concatenate([spheres[g][0] for g in names])
+        R = np.concatenate([spheres[g][1] for g in names])
+        mx, mean = excess_stats(C, R, links[link], EXCESS_SPACING)
+        dmx, dmean = depth_stats(C, R, links[link], DEPTH_SPACING)
+        per_link[link] = dict(groups=names, n=len(R), max=mx, mean=mean, depth_max=dmx, depth_mean=dmean,
+                              rmin=float(R.min()), rmax=float(R.max()))
+        if link == "panda_link0":  # the base sits on its mounting plane z = 0
+            per_link[link]["above"] = excess_stats(C, R, links[link], EXCESS_SPACING, above_z=0.0)
+    C, R = spheres["panda_hand"]
+    outer, pad = spheres["panda_leftfinger"], spheres["panda_leftfinger_pad"]
+    critical = dict(
+        palm=palm_z(),
+        palm_bulge=float((C[:, 2] + R).max() - palm_z()),  # hand model below the palm face
+        finger_inner=float(-(outer[0][:, 1] - outer[1]).min()),  # outer finger model past the inner face
+        pad_inner=float(-(pad[0][:, 1] - pad[1]).min()),  # pad model past the inner face
+    )
+    return dict(groups=groups, links=per_link, critical=critical)
 
 
 def order_spheres(C, R):
@@ -717,19 +834,27 @@ def _fit_one(args):
 
     name, k, seed = args
     t = time.time()
-    res = fit_link(name, link_solids()[name], k, seed)
+    res = fit_link(name, group_solids()[name], k, seed)
     print(f"  fitted {name}: {len(res[1])} spheres in {time.time() - t:.0f} s", flush=True)
     return name, res
 
 
-def main() -> int:
+def main(refit: list[str] | None = None) -> int:
+    """Fits every group (or only `refit`, keeping the others' spheres from the current URDF),
+    writes the URDF and README, and checks them."""
     from concurrent.futures import ProcessPoolExecutor
 
-    solids = link_solids()
-    jobs = [(name, k, i) for i, (name, k) in enumerate(N_SPHERES.items())]
+    solids = group_solids()
+    todo = [n for n in N_SPHERES if n not in MIRRORED and (refit is None or n in refit or MIRRORED.get(n) in refit)]
+    jobs = [(name, k, i) for i, (name, k) in enumerate(N_SPHERES.items()) if name in todo]
     jobs.sort(key=lambda j: -len(np.concatenate(solids[j[0]])))
-    with ProcessPoolExecutor(max_workers=min(len(jobs), os.cpu_count() or 1)) as ex:
-        fitted = dict(ex.map(_fit_one, jobs))
+    fitted = read_spheres(OUT_URDF) if refit is not None else {}
+    if jobs:
+        with ProcessPoolExecutor(max_workers=min(len(jobs), os.cpu_count() or 1)) as ex:
+            fitted.update(dict(ex.map(_fit_one, jobs)))
+    for name, source in MIRRORED.items():
+        if name not in fitted or source in todo:
+            fitted[name] = mirrored(*fitted[source])
     spheres = {name: order_spheres(*fitted[name]) for name in N_SPHERES}
 
     OUT_DIR.mkdir(parents=True, exist_ok=True)
@@ -751,18 +876,24 @@ def main() -> int:
     print(f"collision geometry via pin.buildGeomFromUrdf: {kin['geom'][0]} objects, types {kin['geom'][1]}")
     ok &= kin["geom"][1] == {"Sphere"}
 
-    cov = check_spheres(spheres, solids)
-    tot = sum(c["n"] for c in cov.values())
+    cov = check_spheres(spheres, solids, link_solids())
+    tot = sum(c["n"] for c in cov["groups"].values())
     ok &= kin["geom"][0] == tot
-    for name, c in cov.items():
-        print(f"{name:18s} {c['n']:2d} spheres r {c['rmin']*1e3:5.1f}..{c['rmax']*1e3:5.1f} mm | "
+    for name, c in cov["groups"].items():
+        print(f"{name:22s} {c['n']:2d} spheres r {c['rmin']*1e3:5.1f}..{c['rmax']*1e3:5.1f} mm | "
               f"vertex gap {c['vgap']*1e3:+.3f} mm ({c['nverts']} verts), dense gap {c['dgap']*1e3:+.3f} mm "
-              f"({c['ndense']} pts) | excess max {c['max']*1e3:5.1f} mean {c['mean']*1e3:5.1f} mm")
+              f"({c['ndense']} pts)")
         ok &= c["vgap"] <= 0 and c["dgap"] <= 0
+    for name, c in cov["links"].items():
+        print(f"{name:22s} model -> mesh (excess) max {c['max']*1e3:5.1f} mean {c['mean']*1e3:5.1f} mm | "
+              f"mesh -> model max {c['depth_max']*1e3:5.1f} mean {c['depth_mean']*1e3:5.1f} mm")
         if "above" in c:
-            print(f"{'':18s} (above its mounting plane z >= 0: excess max {c['above'][0]*1e3:.1f} "
+            print(f"{'':22s} (above its mounting plane z >= 0: excess max {c['above'][0]*1e3:.1f} "
                   f"mean {c['above'][1]*1e3:.1f} mm)")
-    allmax = max(c["max"] for c in cov.values())
+    k = cov["critical"]
+    print(f"grasp-critical: hand model {k['palm_bulge']*1e3:.1f} mm below the palm face (z = {k['palm']*1e3:.1f} mm); "
+          f"finger outer spheres {k['finger_inner']*1e3:.1f} mm, pads {k['pad_inner']*1e3:.1f} mm past the inner face")
+    allmax = max(c["max"] for c in cov["links"].values())
     print(f"total spheres {tot}; excess max {allmax*1e3:.1f} mm")
     OUT_README.write_text(readme_text(kin, cov))
     print("wrote", OUT_URDF.relative_to(REPO), "and", OUT_README.relative_to(REPO))
@@ -771,18 +902,19 @@ def main() -> int:
 
 
 def read_spheres(urdf: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per sphere group (a link's `<link>_s<i>` elements, or the elements named after a pad group)."""
     import xml.etree.ElementTree as ET
 
-    out = {}
+    found: dict[str, tuple[list, list]] = {}
     for link in ET.parse(urdf).getroot().iter("link"):
-        cs, rs = [], []
         for col in link.iter("collision"):
+            name = col.get("name", "")
+            group = link.get("name") if name.startswith(link.get("name") + "_s") else name
             sph = col.find("geometry/sphere")
+            cs, rs = found.setdefault(group, ([], []))
             cs.append([float(t) for t in col.find("origin").get("xyz").split()])
             rs.append(float(sph.get("radius")))
-        if rs:
-            out[link.get("name")] = (np.array(cs), np.array(rs))
-    return out
+    return {g: (np.array(cs), np.array(rs)) for g, (cs, rs) in found.items()}
 
 
 def readme_text(kin, cov) -> str:
@@ -794,15 +926,17 @@ def readme_text(kin, cov) -> str:
     lim_rows = "\n".join(
         f"  | {n.replace('panda_', '')} | {fmt(lo)} | {fmt(hi)} | {fmt(v)} | {fmt(e)} |" for n, (lo, hi, v, e) in ARM_LIMITS.items()
     )
-    tot = sum(c["n"] for c in cov.values())
+    links, crit = cov["links"], cov["critical"]
+    tot = sum(c["n"] for c in links.values())
     sph_rows = "\n".join(
-        f"| {n} | {c['n']} | {c['rmin']*1e3:.1f}–{c['rmax']*1e3:.1f} | {c['max']*1e3:.1f} | {c['mean']*1e3:.1f} |"
-        for n, c in cov.items()
+        f"| {n} | {' + '.join(str(cov['groups'][g]['n']) for g in c['groups'])} | {c['rmin']*1e3:.1f}–{c['rmax']*1e3:.1f} "
+        f"| {c['max']*1e3:.1f} | {c['mean']*1e3:.1f} | {c['depth_max']*1e3:.1f} | {c['depth_mean']*1e3:.1f} |"
+        for n, c in links.items()
     )
-    allmax = max(c["max"] for c in cov.values())
+    allmax = max(c["max"] for c in links.values())
     # area-weighted mean is not meaningful across links of very different size: report the plain average
-    avgmean = sum(c["mean"] for c in cov.values()) / len(cov)
-    above = cov["panda_link0"]["above"]
+    avgmean = sum(c["mean"] for c in links.values()) / len(links)
+    above = links["panda_link0"]["above"]
     fk = kin[False]
     fkm = kin[True]
     diffs = "; ".join(kin["limit_diffs"]) or "none"
@@ -874,12 +1008,35 @@ The generator checks it independently: every mesh vertex and a {CHECK_SPACING*1e
 sampling lie inside at least one sphere.  Centres are written with 0.1 mm resolution, radii
 rounded up to 0.1 mm.
 
-*Excess* = distance from a point on the boundary of the sphere union to the enclosed mesh
-(0 where inside it), sampled uniformly over the union boundary; max is the worst bulge, mean is
-area-weighted.
+**Finger pads.** Each finger's spheres come in two groups: the finger's own (`<finger>_s<i>`)
+enclose the part of the finger more than {PAD_DEPTH*1e3:g} mm from its inner face (the face towards the
+other finger), and the **pad** spheres, every one named `panda_leftfinger_pad` (or
+`panda_rightfinger_pad`), enclose the inner {PAD_DEPTH*1e3:g} mm layer: the contact surface.  Problem files
+name them in `robot.finger_pads` (see `problems/README.md`): a grasp goal lets only the pads come
+close to the grasped object.  The right finger's spheres are the left finger's turned by π about z.
 
-| link | spheres | radii [mm] | excess max [mm] | excess mean [mm] |
-|---|---|---|---|---|
+**Where tightness matters for grasping.** The fit weighs excess volume {BULGE_WEIGHT:g}× more below
+the palm (hand frame z > {crit['palm']*1e3:.1f} mm, the lowest point of `hand.stl`) and, for the
+fingers' own spheres, past the inner face.  Result: the hand's spheres reach
+{crit['palm_bulge']*1e3:.1f} mm below the palm face, so the fingers reach
+{(TCP_Z - crit['palm'] - crit['palm_bulge'])*1e3:.1f} mm from `panda_hand_tcp` back to the
+model's palm ({(TCP_Z - crit['palm'])*1e3:.1f} mm to the mesh's); the fingers' own spheres reach
+{crit['finger_inner']*1e3:.1f} mm past the inner face and the pads {crit['pad_inner']*1e3:.1f} mm, of the
+10 mm per side that an 8 cm opening leaves around a 6 cm box.
+
+Two measures of the approximation error per link (all its groups), both against the link's full
+erd collision geometry:
+
+* *model → mesh* (excess): distance from a point on the boundary of the sphere union to the
+  enclosed mesh (0 where inside it), sampled uniformly every {EXCESS_SPACING*1e3:g} mm over the union
+  boundary; max is the worst bulge, mean is area-weighted;
+* *mesh → model*: distance from a point of the mesh surface to the boundary of the sphere union
+  (how deep inside the model the real surface lies), over a {DEPTH_SPACING*1e3:g} mm sampling of the mesh
+  surface, measured to a {DEPTH_SPACING*1e3:g} mm sampling of the union boundary (so within about
+  {DEPTH_SPACING*1e3:g} mm).
+
+| link | spheres | radii [mm] | model → mesh max [mm] | mean [mm] | mesh → model max [mm] | mean [mm] |
+|---|---|---|---|---|---|---|
 {sph_rows}
 
 Overall: {tot} spheres, worst excess {allmax*1e3:.1f} mm, mean excess (average over links)
@@ -889,15 +1046,16 @@ normally not checked) and under the flat bottom of `panda_link0` (below its moun
 only the part above z = 0, `panda_link0` has excess max {above[0]*1e3:.1f} mm, mean
 {above[1]*1e3:.1f} mm).  The cylindrical parts are covered more tightly.
 
-Fitting (per link): k-means++ initialisation on surface samples, then minimisation of the
-(smoothed) union volume outside the mesh with a coverage penalty, exact re-covering, and a
+Fitting (per group): k-means++ initialisation on surface samples, then minimisation of the
+(smoothed, weighted) union volume outside the mesh with a coverage penalty, exact re-covering, and a
 monotone shrink step (each sphere replaced by the minimum ball of the points it covers); best of
-{N_RESTARTS} restarts.  Sphere counts per link are set in `N_SPHERES` in the script.
+{N_RESTARTS} restarts.  Sphere counts per group are set in `N_SPHERES` in the script.
 
 ## Regenerating
 
 ```sh
-python_ref/.venv/bin/python python_ref/make_panda_urdf.py
+python_ref/.venv/bin/python python_ref/make_panda_urdf.py                   # every group
+python_ref/.venv/bin/python python_ref/make_panda_urdf.py --refit panda_hand  # only these, keep the rest
 ```
 
 (venv with `pin` (Pinocchio) 4.1, numpy, scipy, example-robot-data; about 10 min on 2 cores, the
@@ -908,7 +1066,7 @@ prints all checks, exiting non-zero if one fails.
 
 def explore(names, ks=range(3, 10)) -> None:
     """`make_panda_urdf.py --explore LINK...`: print excess vs sphere count (to pick N_SPHERES)."""
-    solids = link_solids()
+    solids = group_solids()
     for name in names:
         for k in ks:
             C, R = fit_link(name, solids[name], k)
@@ -920,4 +1078,9 @@ if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--explore":
         explore(sys.argv[2:])
         sys.exit(0)
+    if len(sys.argv) > 1 and sys.argv[1] == "--refit":
+        unknown = [n for n in sys.argv[2:] if n not in N_SPHERES]
+        if unknown:
+            sys.exit(f"unknown sphere groups {unknown} (have {list(N_SPHERES)})")
+        sys.exit(main(sys.argv[2:]))
     sys.exit(main())

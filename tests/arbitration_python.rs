@@ -5,7 +5,9 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
-use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, MetricSpace, TickInput};
+use tandem::arbitration::{
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, MetricSpace, TickInput,
+};
 use tandem::collision::CollisionModel;
 use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
@@ -65,7 +67,8 @@ fn metrics_match_the_python_reference_on_the_lqr_policy() {
         ] {
             let mut ws = arbiter.workspace();
             ws.set_mode(mode);
-            let input = TickInput { q, velocity: Some(v), command: HumanCommand::Joint(&[0.0; 7]), beliefs: Some(&[1.0]) };
+            let input =
+                TickInput { q, velocity: Some(v), command: HumanCommand::Joint(&[0.0; 7]), beliefs: Some(&[1.0]) };
             arbiter.tick(&mut ws, &input);
             let action: Vec<f64> = want["action"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
             worst_action = worst_action.max(max_relative(ws.robot_action(0), &action));
@@ -77,7 +80,9 @@ fn metrics_match_the_python_reference_on_the_lqr_policy() {
             }
         }
     }
-    eprintln!("relative errors: action {worst_action:e}, Hessian metric {worst_hessian:e}, Fisher metric {worst_fisher:e}");
+    eprintln!(
+        "relative errors: action {worst_action:e}, Hessian metric {worst_hessian:e}, Fisher metric {worst_fisher:e}"
+    );
     // Observed: 1.3e-15, 4.9e-14 and 4.5e-10 (the fit's 1e-9 ridge); asserted at ~100×.
     assert!(worst_action < 1e-13, "policy action differs by {worst_action:e}");
     assert!(worst_hessian < 5e-12, "Hessian metric differs by {worst_hessian:e}");

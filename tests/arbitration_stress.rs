@@ -11,7 +11,9 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::sync::Arc;
-use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput, TickStatus};
+use tandem::arbitration::{
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput, TickStatus,
+};
 use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
 use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
@@ -130,7 +132,12 @@ fn run_scene(seed: u64, ticks: usize) -> Tally {
         };
         let given_velocity = if rng.random_range(0..100) == 0 { vec![f64::NAN; 7] } else { velocity.clone() };
         let was_free = model.collision_free(&mut cws, &q).unwrap();
-        let input = TickInput { q: &q, velocity: Some(&given_velocity), command: human, beliefs: beliefs.as_ref().map(|b| &b[..]) };
+        let input = TickInput {
+            q: &q,
+            velocity: Some(&given_velocity),
+            command: human,
+            beliefs: beliefs.as_ref().map(|b| &b[..]),
+        };
         let out = arbiter.tick(&mut ws, &input);
         tally.ticks += 1;
         *tally.statuses.entry(out.status.as_str()).or_default() += 1;

@@ -1,5 +1,5 @@
 //! Signed distances against coal (hpp-fcl) through Pinocchio's collision
-//! module: the embedded Panda (61 spheres) against a table, boxes, a
+//! module: the embedded Panda (81 spheres) against a table, boxes, a
 //! sphere, a cylinder and a capsule, plus its self-collision pairs, on
 //! 1000 random configurations; distances agree to 1e-6 m, penetrating
 //! pairs included, and witness points and normals of separated pairs too.

@@ -117,38 +117,15 @@ fn goal_kinds_of_the_shipped_problems() {
 #[test]
 fn grasp_goal_target_pose_exists() {
     let problem = Problem::from_file(shipped("panda_grasp_box.toml")).unwrap();
-    assert_eq!(problem.goal, Goal::Grasp { object: "box".into(), grasp: "center".into() });
+    assert_eq!(problem.goal, Goal::Grasp { object: "box".into(), grasp: "grasp".into() });
     let target = problem.grasp_target().expect("the grasp target exists");
-    // The middle of the box at (0.5, 0.1, 0.06), the gripper's z pointing down.
-    assert!((target.translation.vector - nalgebra::Vector3::new(0.5, 0.1, 0.06)).norm() < 1e-12);
+    // Above the middle of the box at (0.5, 0.1, 0.06), within the fingers'
+    // reach below its top (tests/grasp.rs checks the depth), pointing down.
+    assert!((target.translation.vector.xy() - nalgebra::Vector2::new(0.5, 0.1)).norm() < 1e-12);
+    assert!(target.translation.z > 0.09 && target.translation.z < 0.12, "{}", target.translation.z);
     assert!((target.rotation * nalgebra::Vector3::z() + nalgebra::Vector3::z()).norm() < 1e-12);
     let approach = problem.scene.grasp_pose("box", "approach").unwrap();
     assert!((approach.translation.z - 0.21).abs() < 1e-12);
-}
-
-#[test]
-fn grasp_goal_allows_contact_between_the_object_and_the_hand_only() {
-    let problem = Problem::builtin("panda_grasp_box").unwrap();
-    let model = problem.collision_model().unwrap();
-    let checked_with_box: Vec<&str> = model.body_pairs().filter(|(_, b)| *b == "box").map(|(a, _)| a).collect();
-    // The links on the gripper frame's rigid body (link7, link8, the hand and
-    // the held fingers) may touch the box; the rest of the arm may not.
-    let arm: Vec<String> = (0..7).map(|i| format!("panda_link{i}")).collect();
-    assert_eq!(checked_with_box, arm);
-    // With a joint goal instead, the whole arm is checked against the box.
-    let grasp_text = BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == "panda_grasp_box").unwrap().1;
-    let joint_text = grasp_text
-        .replace("grasp = \"box\"\ngrasp_frame = \"center\"", "q = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785]");
-    assert_ne!(joint_text, grasp_text);
-    let base = Problem::from_str_with(&joint_text, "joint_goal", None).unwrap();
-    let model = base.collision_model().unwrap();
-    for link in ["panda_link7", "panda_hand", "panda_leftfinger", "panda_rightfinger"] {
-        assert!(model.body_pairs().any(|(a, b)| b == "box" && a == link), "{link} is not checked against the box");
-    }
-    // A joint goal allows nothing extra.
-    let reach = Problem::builtin("panda_reach_obstacle").unwrap();
-    let model = reach.collision_model().unwrap();
-    assert!(model.body_pairs().any(|(a, b)| a == "panda_hand" && b == "wall"));
 }
 
 #[test]
@@ -769,6 +746,32 @@ fn missing_grasp_frame() {
 }
 
 #[test]
+fn finger_pads_name_collision_elements() {
+    let with = |keys: &str| {
+        problem(&[ROBOT, START, JOINT_GOAL])
+            .replace("gripper = \"panda_hand_tcp\"\n", &format!("gripper = \"panda_hand_tcp\"\n{keys}\n"))
+    };
+    Problem::from_str_with(&with("finger_pads = [\"panda_leftfinger_pad\", \"panda_rightfinger_pad\"]"), "ok", None)
+        .unwrap();
+    let text = with("finger_pads = [\"panda_leftfinger_pad\", \"panda_rightfinger_pda\"]");
+    let message =
+        "no collision element of the robot is named 'panda_rightfinger_pda' (did you mean panda_rightfinger_pad";
+    expect_problem_error(&text, "finger_pads", "robot.finger_pads[1]", message);
+    let text = with("finger_pads = [\"panda_leftfinger\"]");
+    expect_problem_error(&text, "finger_pads", "robot.finger_pads[0]", "'panda_leftfinger' is a link");
+    let text = format!(
+        "{}\n[[scene.obstacles]]\nname = \"panda_leftfinger_pad\"\nshape = \"sphere\"\nradius = 0.05\nposition = [1.0, 1.0, 1.0]\n",
+        with("finger_pads = [\"panda_leftfinger_pad\"]")
+    );
+    expect_problem_error(&text, "finger_pads", "robot.finger_pads[0]", "a name apart from the scene's obstacles");
+    let text = with("max_grasp_depth = -0.01");
+    expect_problem_error(&text, "max_grasp_depth", "robot.max_grasp_depth", "must be positive, got -0.01");
+    let text = problem(&[ROBOT, START, JOINT_GOAL])
+        .replace("gripper = \"panda_hand_tcp\"\n", "finger_pads = [\"panda_leftfinger_pad\"]\n");
+    expect_problem_error(&text, "finger_pads", "robot.finger_pads[0]", "finger pads need `robot.gripper`");
+}
+
+#[test]
 fn grasp_goal_without_a_gripper() {
     let text = problem(&[ROBOT, START, "[goal]\ngrasp = \"box\"\n", BOX]).replace("gripper = \"panda_hand_tcp\"\n", "");
     expect_problem_error(&text, "grasp = \"box\"", "goal.grasp", "a grasp goal needs `robot.gripper`");
@@ -1021,15 +1024,15 @@ fn family_obstacle_ranges() {
 #[test]
 fn flipped_grasp_keeps_position_and_approach_axis() {
     let mut problem = Problem::builtin("panda_grasp_box").unwrap();
-    let before = problem.scene.grasp_pose("box", "center").unwrap();
-    problem.scene.flip_grasp("box", "center").unwrap();
-    let after = problem.scene.grasp_pose("box", "center").unwrap();
+    let before = problem.scene.grasp_pose("box", "grasp").unwrap();
+    problem.scene.flip_grasp("box", "grasp").unwrap();
+    let after = problem.scene.grasp_pose("box", "grasp").unwrap();
     assert!((after.translation.vector - before.translation.vector).norm() < 1e-15);
     let axis = |p: &nalgebra::IsometryMatrix3<f64>, i: usize| p.rotation.matrix().column(i).into_owned();
     assert!((axis(&after, 2) - axis(&before, 2)).norm() < 1e-15, "approach axis kept");
     assert!((axis(&after, 0) + axis(&before, 0)).norm() < 1e-15, "x turned by π");
     assert!((axis(&after, 1) + axis(&before, 1)).norm() < 1e-15, "y turned by π");
-    let err = problem.scene.flip_grasp("box", "centre").unwrap_err().to_string();
-    assert!(err.contains("grasp frame named 'centre'") && err.contains("center"), "{err}");
-    assert!(problem.scene.flip_grasp("crate", "center").is_err());
+    let err = problem.scene.flip_grasp("box", "grasps").unwrap_err().to_string();
+    assert!(err.contains("grasp frame named 'grasps' (did you mean grasp?)"), "{err}");
+    assert!(problem.scene.flip_grasp("crate", "grasp").is_err());
 }

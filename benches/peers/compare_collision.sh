@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Side-by-side collision speed: tandem (criterion, benches/collision.rs) and
 # coal through Pinocchio's C++ (benches/peers/coal_collision.cpp) on the same
-# geometry — the Panda's 61 spheres, the table and box of
+# geometry — the Panda's 81 spheres, the table and box of
 # problems/panda_grasp_box.toml and 10 seeded random obstacles — the same
 # pairs and the same 1000 random configurations, measured in one run, with
 # ratios coal / tandem (above 1 means tandem is faster).

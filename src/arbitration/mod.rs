@@ -68,12 +68,12 @@ mod setup;
 pub use arbiter::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolvedProblem, SolverBackend,
 };
-pub use field::{FieldSample, metric_field};
-pub use repulsion::ObstacleRepulsion;
 pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
+pub use field::{FieldSample, metric_field};
 pub use intent::{IntentEstimator, IntentSettings};
 pub use metric::{Metric, MetricSettings};
 pub use modes::{ArbitrationMode, BlendingStyle, MetricSpace, ModeSettings, UnknownMode};
+pub use repulsion::ObstacleRepulsion;
 pub use safety::SafetySettings;
 pub use setup::{GoalObjects, GoalOptions, ProblemGoal, problem_goals};
 

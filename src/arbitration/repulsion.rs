@@ -35,10 +35,19 @@ impl RobotPolicy for ObstacleRepulsion {
     }
 
     fn new_state(&self) -> PolicyState {
-        PolicyState::new(RepulsionState { collision: CollisionWorkspace::new(&self.model), gradient: vec![0.0; self.dof()] })
+        PolicyState::new(RepulsionState {
+            collision: CollisionWorkspace::new(&self.model),
+            gradient: vec![0.0; self.dof()],
+        })
     }
 
-    fn act(&self, state: &mut PolicyState, q: &[f64], velocity: &[f64], action: &mut [f64]) -> Result<(), ControlError> {
+    fn act(
+        &self,
+        state: &mut PolicyState,
+        q: &[f64],
+        velocity: &[f64],
+        action: &mut [f64],
+    ) -> Result<(), ControlError> {
         self.probe(state, q, velocity, action)
     }
 

@@ -206,7 +206,10 @@ fn field_svg(
     let panels: Vec<Panel> = fields
         .iter()
         .map(|(title, samples)| {
-            let largest = samples.iter().map(|s| s.inverse[0].abs().max(s.inverse[3].abs()) + s.inverse[1].abs()).fold(1e-12, f64::max);
+            let largest = samples
+                .iter()
+                .map(|s| s.inverse[0].abs().max(s.inverse[3].abs()) + s.inverse[1].abs())
+                .fold(1e-12, f64::max);
             let scale = 0.45 * spacing / largest;
             let ellipses = crate::figures::Series {
                 label: Some("F⁻¹".into()),
@@ -214,10 +217,14 @@ fn field_svg(
                 color: 0,
                 kind: SeriesKind::Ellipses(samples.iter().map(|s| s.inverse.map(|v| v * scale)).collect()),
             };
-            let mut panel = Panel::new(title, &format!("{} (m)", problem.robot.joint_names()[0]), &format!("{} (m)", problem.robot.joint_names()[1]))
-                .with(ellipses)
-                .with(Series::points("goals", &points.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), 3))
-                .equal();
+            let mut panel = Panel::new(
+                title,
+                &format!("{} (m)", problem.robot.joint_names()[0]),
+                &format!("{} (m)", problem.robot.joint_names()[1]),
+            )
+            .with(ellipses)
+            .with(Series::points("goals", &points.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), 3))
+            .equal();
             for &(x, y, r) in &obstacles {
                 panel = panel.with(crate::figures::Series {
                     label: None,

@@ -76,6 +76,18 @@ fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Erro
             miss * 1e3,
             tilt * 1e3
         );
+        let judge = crate::scene::GraspJudge::new(&problem)?;
+        let criteria = crate::scene::GraspCriteria::default();
+        if let Some(object) = problem.scene.object("box") {
+            let g = judge.judge(&mut ws, last, object, &criteria)?;
+            println!(
+                "grasp (sphere model): box between the finger pads: {}, palm {:.1} mm and fingers {:.1} mm from it: {}",
+                if g.between_pads { "yes" } else { "no" },
+                g.palm_clearance * 1e3,
+                g.finger_clearance * 1e3,
+                g.failure(&criteria).unwrap_or_else(|| "a grasp".into())
+            );
+        }
     }
     super::solve::write_outputs(&problem, &solution, out)?;
     println!("wrote trajectory.csv, trajectory.parquet, joints.svg and path.svg to {}", out.display());
@@ -99,7 +111,9 @@ fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
         q[1] += 1.9 * s as f64 / (steps - 1) as f64;
         let free = model.collision_free(&mut ws, &q)?;
         // The scene's clearance, not the arm's own (self pairs are in the check above).
-        let is_scene = |pair: usize| problem.robot.description().link(model.pair_names(pair).1).is_none();
+        let is_scene = |pair: usize| {
+            !matches!(model.object_source(model.pair_objects(pair).1), crate::collision::ObjectSource::RobotLink { .. })
+        };
         let closest = model
             .distances(&mut ws, &q, f64::INFINITY)?
             .iter()

@@ -1,7 +1,9 @@
 //! Collision checking and signed distances between the robot and its scene.
 //!
 //! A [`CollisionModel`] compiles the robot's URDF collision elements (one
-//! group per link; primitives as they are, meshes as convex hulls), the
+//! group per link, and per named surface such as a finger pad, see
+//! [`CollisionModelBuilder::surface_groups`]; primitives as they are,
+//! meshes as convex hulls), the
 //! scene's obstacles and objects, and the list of pairs to check: every
 //! robot link against every obstacle and free object, attached objects
 //! against both, and self-collision pairs between links that are neither on
@@ -60,6 +62,14 @@ pub enum CollisionError {
     /// A name (link, obstacle, object) that matches nothing.
     #[error("no link, obstacle or object named '{name}'{}", crate::robot::did_you_mean(suggestions))]
     UnknownName { name: String, suggestions: Vec<String> },
+    /// A surface group name that no robot collision element has.
+    #[error("no robot collision element is named '{name}'{}", crate::robot::did_you_mean(suggestions))]
+    UnknownSurface { name: String, suggestions: Vec<String> },
+    /// A surface group name (see
+    /// [`CollisionModelBuilder::surface_groups`]) that is already a link's,
+    /// an obstacle's or an object's.
+    #[error("surface '{name}' has the name of a link, obstacle or object; name its collision elements apart")]
+    SurfaceNameTaken { name: String },
     /// A robot-side error (unknown frame, …).
     #[error(transparent)]
     Robot(#[from] RobotError),

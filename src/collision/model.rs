@@ -39,10 +39,14 @@ pub(crate) struct CollisionObject {
     pub(crate) unrotated: bool,
 }
 
-/// A rigid set of objects: a robot link, an attached object, an obstacle.
+/// A rigid set of objects: a robot link (or a named surface of one, see
+/// [`CollisionModelBuilder::surface_groups`]), an attached object, an obstacle.
 #[derive(Debug, Clone)]
 pub(crate) struct Group {
     pub(crate) name: String,
+    /// The link a surface group belongs to (its own name otherwise): SRDF
+    /// pairs and allowed contacts naming the link cover its surfaces too.
+    pub(crate) owner: String,
     /// The body carrying the group; `None` for static groups.
     pub(crate) body: Option<usize>,
     pub(crate) objects: Range<usize>,
@@ -95,6 +99,7 @@ pub struct CollisionModelBuilder {
     disabled: Vec<(String, String)>,
     padding: f64,
     geometry: Option<Arc<RobotDescription>>,
+    surfaces: Vec<String>,
 }
 
 impl CollisionModelBuilder {
@@ -124,18 +129,35 @@ impl CollisionModelBuilder {
         self
     }
 
+    /// The robot collision elements named `name` (their URDF `<collision
+    /// name="…">`) form a group of their own, named `name`, instead of
+    /// joining their link's: pairs can then be allowed for that surface
+    /// alone, e.g. a gripper's finger pads against the object it grasps
+    /// ([`Scene::allow_contact`](crate::scene::Scene::allow_contact) with
+    /// `name`). SRDF pairs and allowed contacts naming the link still cover
+    /// the surface. Several elements of a link may share the name.
+    pub fn surface_groups<S: Into<String>>(mut self, names: impl IntoIterator<Item = S>) -> Self {
+        self.surfaces.extend(names.into_iter().map(Into::into));
+        self
+    }
+
     /// Compiles the model.
     ///
     /// # Errors
     /// A negative or non-finite padding, a mesh tandem cannot read, a
     /// geometry description naming links the robot lacks, an attachment to
-    /// an unknown frame, allowed-contact names that match nothing.
+    /// an unknown frame, allowed-contact names that match nothing, a
+    /// surface name that no collision element has or that names a link,
+    /// obstacle or object.
     pub fn build(self) -> Result<CollisionModel, CollisionError> {
         if !(self.padding.is_finite() && self.padding >= 0.0) {
             return Err(CollisionError::InvalidShape { what: "padding", value: self.padding });
         }
-        let mut compiler = Compiler { robot: &self.robot, objects: Vec::new(), groups: Vec::new() };
-        compiler.robot_links(self.geometry.as_deref().unwrap_or(self.robot.description()), self.padding)?;
+        let geometry = self.geometry.as_deref().unwrap_or(self.robot.description());
+        self.check_surfaces(geometry)?;
+        let mut compiler =
+            Compiler { robot: &self.robot, objects: Vec::new(), groups: Vec::new(), surfaces: &self.surfaces };
+        compiler.robot_links(geometry, self.padding)?;
         compiler.scene(&self.scene, self.padding)?;
         let Compiler { objects, groups, .. } = compiler;
         // Links without geometry are legal names too (nothing to allow, but not a typo).
@@ -152,9 +174,9 @@ impl CollisionModelBuilder {
             }
         }
         let is_excluded = |a: &Group, b: &Group| {
-            let listed = |list: &[(String, String)]| {
-                list.iter().any(|(x, y)| (*x == a.name && *y == b.name) || (*x == b.name && *y == a.name))
-            };
+            let is = |g: &Group, n: &String| *n == g.name || *n == g.owner;
+            let listed =
+                |list: &[(String, String)]| list.iter().any(|(x, y)| (is(a, x) && is(b, y)) || (is(b, x) && is(a, y)));
             match (a.body, b.body) {
                 (None, None) => true,
                 (Some(ba), Some(bb)) => {
@@ -183,6 +205,29 @@ impl CollisionModelBuilder {
         };
         model.set_fast_path(true);
         Ok(model)
+    }
+
+    /// Every surface name is some robot collision element's, and no link's,
+    /// obstacle's or object's.
+    fn check_surfaces(&self, geometry: &RobotDescription) -> Result<(), CollisionError> {
+        let links = self.robot.description().links();
+        let element_names =
+            || geometry.links().iter().flat_map(|l| l.collisions.iter().filter_map(|c| c.name.as_deref()));
+        for name in &self.surfaces {
+            let taken = links.iter().any(|l| l.name == *name)
+                || self.scene.obstacle(name).is_some()
+                || self.scene.object(name).is_some();
+            if taken {
+                return Err(CollisionError::SurfaceNameTaken { name: name.clone() });
+            }
+            if !element_names().any(|e| e == name) {
+                return Err(CollisionError::UnknownSurface {
+                    name: name.clone(),
+                    suggestions: crate::robot::suggest_names(name, element_names()),
+                });
+            }
+        }
+        Ok(())
     }
 }
 
@@ -217,6 +262,8 @@ struct Compiler<'a> {
     robot: &'a RobotModel,
     objects: Vec<CollisionObject>,
     groups: Vec<Group>,
+    /// Element names that form groups of their own.
+    surfaces: &'a [String],
 }
 
 impl Compiler<'_> {
@@ -232,14 +279,25 @@ impl Compiler<'_> {
         for (li, link) in own.links().iter().enumerate() {
             let Some(source) = geometry.link(&link.name) else { continue };
             let (body, in_body) = self.robot.frame_in_body(self.robot.link_frame(li));
-            let start = self.objects.len();
-            for (k, element) in source.collisions.iter().enumerate() {
-                let shape = Shape::from_geometry(&element.geometry)?
-                    .ok_or_else(|| CollisionError::UnreadableMesh { link: link.name.clone() })?;
-                let source = ObjectSource::RobotLink { link: li, element: k };
-                self.push_object(shape, in_body * element.origin, padding, source, false);
+            // The link's own group, then one group per surface name on it.
+            let mut parts: Vec<Option<&String>> = vec![None];
+            for element in &source.collisions {
+                if let Some(name) = surface_of(element, self.surfaces).filter(|n| !parts.contains(&Some(n))) {
+                    parts.push(Some(name));
+                }
             }
-            self.push_group(&link.name, Some(body), start);
+            for part in parts {
+                let start = self.objects.len();
+                for (k, element) in
+                    source.collisions.iter().enumerate().filter(|(_, e)| surface_of(e, self.surfaces) == part)
+                {
+                    let shape = Shape::from_geometry(&element.geometry)?
+                        .ok_or_else(|| CollisionError::UnreadableMesh { link: link.name.clone() })?;
+                    let source = ObjectSource::RobotLink { link: li, element: k };
+                    self.push_object(shape, in_body * element.origin, padding, source, false);
+                }
+                self.push_group(part.unwrap_or(&link.name), &link.name, Some(body), start);
+            }
         }
         Ok(())
     }
@@ -248,7 +306,7 @@ impl Compiler<'_> {
         for (i, o) in scene.obstacles().iter().enumerate() {
             let start = self.objects.len();
             self.push_object(o.shape.clone(), o.pose, 0.0, ObjectSource::Obstacle(i), true);
-            self.push_group(&o.name, None, start);
+            self.push_group(&o.name, &o.name, None, start);
         }
         for (i, o) in scene.objects().iter().enumerate() {
             let start = self.objects.len();
@@ -257,11 +315,11 @@ impl Compiler<'_> {
                     let frame = self.robot.frame_id(&att.frame)?;
                     let (body, in_body) = self.robot.frame_in_body(frame);
                     self.push_object(o.shape.clone(), in_body * att.pose, padding, ObjectSource::Object(i), false);
-                    self.push_group(&o.name, Some(body), start);
+                    self.push_group(&o.name, &o.name, Some(body), start);
                 }
                 None => {
                     self.push_object(o.shape.clone(), o.pose, 0.0, ObjectSource::Object(i), true);
-                    self.push_group(&o.name, None, start);
+                    self.push_group(&o.name, &o.name, None, start);
                 }
             }
         }
@@ -284,7 +342,7 @@ impl Compiler<'_> {
     }
 
     /// Closes a group over the objects pushed since `start` (none: no group).
-    fn push_group(&mut self, name: &str, body: Option<usize>, start: usize) {
+    fn push_group(&mut self, name: &str, owner: &str, body: Option<usize>, start: usize) {
         let objects = &self.objects[start..];
         if objects.is_empty() {
             return;
@@ -300,8 +358,14 @@ impl Compiler<'_> {
             )
         });
         let objects = start..self.objects.len();
-        self.groups.push(Group { name: name.to_string(), body, objects, center, radius, aabb });
+        let (name, owner) = (name.to_string(), owner.to_string());
+        self.groups.push(Group { name, owner, body, objects, center, radius, aabb });
     }
+}
+
+/// The surface group `element` belongs to: its name, if one of `surfaces`.
+fn surface_of<'e>(element: &'e crate::robot::CollisionElement, surfaces: &[String]) -> Option<&'e String> {
+    element.name.as_ref().filter(|n| surfaces.contains(n))
 }
 
 /// For each body, the largest distance from its joint origin to a point of
@@ -388,7 +452,14 @@ impl CollisionModel {
     /// no padding and the default self-collision pairs: every pair of links
     /// on different bodies that are not parent and child.
     pub fn builder(robot: Arc<RobotModel>) -> CollisionModelBuilder {
-        CollisionModelBuilder { robot, scene: Scene::new(), disabled: Vec::new(), padding: 0.0, geometry: None }
+        CollisionModelBuilder {
+            robot,
+            scene: Scene::new(),
+            disabled: Vec::new(),
+            padding: 0.0,
+            geometry: None,
+            surfaces: Vec::new(),
+        }
     }
 
     /// The robot model the configurations refer to.

@@ -134,6 +134,26 @@ impl Shape {
         }
     }
 
+    /// Support value in `direction` (shape frame; need not be unit): the
+    /// largest `p · direction` over the points `p` of the shape (m when
+    /// `direction` is a unit vector). E.g. a box's height above its centre
+    /// is its support in `z`.
+    pub fn support(&self, direction: &Vector3<f64>) -> f64 {
+        let d = direction;
+        match self {
+            Shape::Sphere { radius } => radius * d.norm(),
+            Shape::Capsule { radius, half_length } => half_length * d.z.abs() + radius * d.norm(),
+            Shape::Box { half_extents } => half_extents.dot(&d.abs()),
+            Shape::Cylinder { radius, half_length } => half_length * d.z.abs() + radius * d.x.hypot(d.y),
+            Shape::Convex(hull) => hull
+                .polyhedron
+                .points()
+                .iter()
+                .map(|p| p.x * d.x + p.y * d.y + p.z * d.z)
+                .fold(f64::NEG_INFINITY, f64::max),
+        }
+    }
+
     /// Edge lengths of the shape's bounding box in its own frame (m): the
     /// box itself, `2r × 2r × 2r` for a sphere, `2r × 2r × length` for a
     /// cylinder (length + 2r for a capsule); a convex hull reports the cube

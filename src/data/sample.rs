@@ -6,7 +6,7 @@ use crate::collision::Shape;
 use crate::komo::{KomoError, ProblemSolution, SolveOptions, solve_problem};
 use crate::plan::{IkError, PlanError, path_length};
 use crate::robot::KinematicsWorkspace;
-use crate::scene::{Goal, Problem, ProblemFamily, sample_seed};
+use crate::scene::{Goal, GraspCriteria, GraspError, GraspJudge, GraspReport, Problem, ProblemFamily, sample_seed};
 use nalgebra::{IsometryMatrix3, UnitQuaternion, Vector3};
 use std::borrow::Cow;
 use std::time::{Duration, Instant};
@@ -86,6 +86,8 @@ pub struct TrajectoryRecord {
     /// Gripper frame poses at slices 1 … T, when the problem names a gripper.
     pub ee_pose: Option<Vec<PoseArray>>,
     pub report: RecordReport,
+    /// The grasp at q_T, for grasp goals ([`GraspJudge`]).
+    pub grasp: Option<GraspReport>,
 }
 
 /// A sample that produced no trajectory, and why.
@@ -94,7 +96,7 @@ pub struct Rejection {
     pub id: u64,
     /// Stable snake_case reason: `sample_failed`, `ik_unreachable`,
     /// `ik_in_collision`, `plan_failed`, `in_collision`, `outside_limits`,
-    /// `goal_missed`, a solver termination (`infeasible`,
+    /// `goal_missed`, `grasp_failed` (see [`GraspReport::failure`]), a solver termination (`infeasible`,
     /// `iteration_limit`, …) or `error`.
     pub reason: String,
     /// A human-readable explanation.
@@ -247,6 +249,20 @@ fn accept(
         let detail = format!("q_T misses the goal by {:.2e} m, {:.2e} rad", miss.distance, miss.angle);
         return Ok(SampleOutcome::Rejected(Rejection { id, reason: "goal_missed".into(), detail }));
     }
+    let grasp = match judge_grasp(problem, last, settings.goal_angle_tolerance) {
+        Ok(Some((report, criteria))) => match report.failure(&criteria) {
+            Some(why) => {
+                let detail = format!("attempt {}: at q_T {why}", attempt + 1);
+                return Ok(SampleOutcome::Rejected(Rejection { id, reason: "grasp_failed".into(), detail }));
+            }
+            None => Some(report),
+        },
+        Ok(None) => None,
+        Err(e) => {
+            let detail = format!("attempt {}: cannot judge the grasp: {e}", attempt + 1);
+            return Ok(SampleOutcome::Rejected(Rejection { id, reason: "error".into(), detail }));
+        }
+    };
     let mut full = Vec::with_capacity(s.trajectory.len() + 1);
     full.push(problem.start.clone());
     full.extend(s.trajectory.iter().cloned());
@@ -280,7 +296,35 @@ fn accept(
         ee_pose: gripper_poses(problem, &s.trajectory)?,
         q: s.trajectory.clone(),
         report,
+        grasp,
     })))
+}
+
+/// What generated grasps may miss the margin of the problem's collision
+/// inequalities by (m): ten times the optimizer's constraint tolerance.
+const GRASP_CLEARANCE_TOLERANCE: f64 = 1e-4;
+
+/// The grasp at `q` and the criteria it is held to, for a grasp goal whose
+/// gripper has finger pads (`None` otherwise): the object between the pads,
+/// the fingertip centre within its footprint, the gripper within
+/// `max_tilt` of the grasp frame's approach axis, palm and fingers at
+/// least the final collision margin from it.
+fn judge_grasp(
+    problem: &Problem,
+    q: &[f64],
+    max_tilt: f64,
+) -> Result<Option<(GraspReport, GraspCriteria)>, GraspError> {
+    let (Goal::Grasp { object, .. }, false) = (&problem.goal, problem.robot_spec.finger_pads.is_empty()) else {
+        return Ok(None);
+    };
+    let (Some(criteria), Some(target)) =
+        (GraspCriteria::for_goal(problem, max_tilt, GRASP_CLEARANCE_TOLERANCE), problem.scene.object(object))
+    else {
+        return Ok(None);
+    };
+    let judge = GraspJudge::new(problem)?;
+    let mut ws = KinematicsWorkspace::new(&problem.robot);
+    Ok(Some((judge.judge(&mut ws, q, target, &criteria)?, criteria)))
 }
 
 fn saturate(n: usize) -> u32 {

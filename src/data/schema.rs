@@ -43,6 +43,15 @@
 //! | `min_distance` | f64 | smallest signed distance over the slices (m) |
 //! | `path_length` | f64 | joint-space length of q_0 … q_T (rad) |
 //! | `goal_distance`, `goal_angle` | f64 | how far q_T is from the goal (m, rad) |
+//! | `palm_clearance`, `finger_clearance` | f64 or null | grasp goals: smallest distance (m) at q_T between the target object and the palm, and the fingers' shapes other than their pads |
+//! | `pad_distance` | f64 or null | grasp goals: the same for the finger pads (they may touch it) |
+//! | `grasp_tilt` | f64 or null | grasp goals: angle (rad) at q_T between the gripper's approach axis and the grasp frame's |
+//!
+//! Version 2 (grasps a gripper can make): a grasp goal lets only the finger
+//! pads near its target, the palm and the fingers' other shapes keep the
+//! collision margin, and an accepted grasp has the object between the pads
+//! and the fingertip centre within its footprint (`tandem::scene::grasp`);
+//! the four grasp columns are new.
 //!
 //! ```python
 //! import pyarrow.parquet as pq, numpy as np
@@ -51,13 +60,14 @@
 //! ```
 
 use super::sample::{PlacedShape, TrajectoryRecord};
+use crate::scene::GraspReport;
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, ListBuilder, StringBuilder};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, UInt32Array, UInt64Array};
 use arrow_schema::{ArrowError, Field, Schema};
 use std::sync::Arc;
 
 /// Version of the layout above; bumped on any change to columns or metadata.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// The rows of `records` (all with `joints` joints and `horizon` slices) as
 /// one Arrow record batch.
@@ -183,5 +193,14 @@ fn report_columns(records: &[&TrajectoryRecord]) -> Vec<(&'static str, ArrayRef,
         ("path_length", f64_column(records, |r| r.report.path_length), false),
         ("goal_distance", f64_column(records, |r| r.report.goal_miss.distance), false),
         ("goal_angle", f64_column(records, |r| r.report.goal_miss.angle), false),
+        ("palm_clearance", grasp_column(records, |g| g.palm_clearance), true),
+        ("finger_clearance", grasp_column(records, |g| g.finger_clearance), true),
+        ("pad_distance", grasp_column(records, |g| g.pad_distance), true),
+        ("grasp_tilt", grasp_column(records, |g| g.tilt), true),
     ]
+}
+
+/// A value of each record's grasp report; null without one.
+fn grasp_column(records: &[&TrajectoryRecord], get: impl Fn(&GraspReport) -> f64) -> ArrayRef {
+    Arc::new(records.iter().map(|r| r.grasp.as_ref().map(&get)).collect::<Float64Array>())
 }

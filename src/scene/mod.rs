@@ -1,7 +1,9 @@
 //! The robot's surroundings: static obstacles, a table, and graspable
 //! objects with named grasp frames, each with a pose in the world (the URDF
 //! root frame). Objects can be attached to a robot frame (grasped) and
-//! detached again; problem files ([`Problem`]) describe a scene and a task.
+//! detached again; problem files ([`Problem`]) describe a scene and a task;
+//! [`grasp`] says which parts of a gripper may touch what it grasps, how
+//! deep a grasp frame may lie, and judges a grasp.
 //!
 //! ```
 //! use tandem::collision::Shape;
@@ -17,12 +19,14 @@
 //! ```
 
 mod family;
+pub mod grasp;
 mod moveit;
 mod problem;
 mod problem_file;
 mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
+pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
 pub use moveit::{MoveItRequest, read_moveit_request, read_moveit_scene};
 pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,

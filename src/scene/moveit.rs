@@ -289,6 +289,8 @@ impl Problem {
                 selection,
                 hold,
                 gripper: None,
+                finger_pads: Vec::new(),
+                max_grasp_depth: None,
                 padding: 0.0,
             },
             robot,

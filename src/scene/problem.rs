@@ -2,6 +2,7 @@
 //! the planner and optimizer, in TOML (format in `problems/README.md`).
 
 use super::Scene;
+use super::grasp::GraspError;
 use super::problem_file::RawProblem;
 use super::toml_source::{KeyPath, line_of, line_of_path, path_at};
 use crate::collision::{CollisionError, CollisionModel};
@@ -26,6 +27,16 @@ pub enum ProblemError {
     /// or an out-of-range value, or names something that does not exist.
     #[error("{file}{}: {}{message}", line.map(|l| format!(":{l}")).unwrap_or_default(), key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default())]
     Invalid { file: String, line: Option<u32>, key: Option<String>, message: String },
+    /// A grasp the gripper cannot make, e.g. a grasp frame deeper in its
+    /// object than the fingers reach ([`GraspError::TooDeep`]).
+    #[error("{file}{}: {}{source}", line.map(|l| format!(":{l}")).unwrap_or_default(), key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default())]
+    Grasp {
+        file: String,
+        line: Option<u32>,
+        key: Option<String>,
+        #[source]
+        source: Box<GraspError>,
+    },
 }
 
 /// What the motion must achieve.
@@ -151,6 +162,13 @@ pub struct RobotSpec {
     pub hold: Vec<(String, f64)>,
     /// The gripper (end-effector) frame.
     pub gripper: Option<String>,
+    /// Names of the collision elements that are the fingers' inner contact
+    /// surfaces: the only robot geometry a grasp goal lets come close to
+    /// its target (see [`grasp`](super::grasp)).
+    pub finger_pads: Vec<String>,
+    /// How deep the gripper frame may lie in an object (m); `None`: from
+    /// the palm's geometry (see [`GripperGeometry`](super::GripperGeometry)).
+    pub max_grasp_depth: Option<f64>,
     /// Collision padding of the robot shapes (m).
     pub padding: f64,
 }
@@ -302,8 +320,10 @@ impl Problem {
     }
 
     /// The collision model of the robot in this scene, with the SRDF's
-    /// disabled pairs, the padding, and — for a grasp goal — contact between
-    /// the target object and the links rigidly attached to the gripper allowed.
+    /// disabled pairs, the padding, the finger pads as groups of their own
+    /// (named like their collision elements) and — for a grasp goal —
+    /// contact between the pads and the target object allowed: every other
+    /// robot shape, palm and fingers included, is checked against it.
     ///
     /// # Errors
     /// See [`CollisionModelBuilder::build`](crate::collision::CollisionModelBuilder::build).
@@ -324,24 +344,24 @@ impl Problem {
         self.collision_model_grasping(&targets, extra)
     }
 
-    /// The collision model with contact allowed between the gripper's rigid
-    /// body and each of `objects` (the grasp targets; e.g. every object an
-    /// operator may be reaching for), padded by `extra` (m).
+    /// The collision model with contact allowed between the finger pads and
+    /// each of `objects` (the grasp targets; e.g. every object an operator
+    /// may be reaching for), padded by `extra` (m).
     ///
     /// # Errors
     /// As [`collision_model`](Self::collision_model).
     pub fn collision_model_grasping(&self, objects: &[&str], extra: f64) -> Result<CollisionModel, CollisionError> {
         let mut scene = self.scene.clone();
-        if let Some(gripper) = &self.robot_spec.gripper {
-            let links = self.links_moving_with(gripper)?;
-            for object in objects {
-                for link in &links {
-                    scene.allow_contact(link.clone(), object.to_string());
-                }
+        let pads = &self.robot_spec.finger_pads;
+        for object in objects {
+            for pad in pads {
+                scene.allow_contact(pad.clone(), object.to_string());
             }
         }
-        let mut builder =
-            CollisionModel::builder(self.robot.clone()).scene(&scene).padding(self.robot_spec.padding + extra);
+        let mut builder = CollisionModel::builder(self.robot.clone())
+            .scene(&scene)
+            .padding(self.robot_spec.padding + extra)
+            .surface_groups(pads.iter().cloned());
         if let Some(srdf) = &self.srdf {
             builder = builder.srdf(srdf);
         }
@@ -388,16 +408,5 @@ impl Problem {
         }
         problem.name = format!("{}@{object}", self.name);
         Ok(problem)
-    }
-
-    /// Names of the links on the same rigid body as `frame`.
-    fn links_moving_with(&self, frame: &str) -> Result<Vec<String>, CollisionError> {
-        let robot = &self.robot;
-        let (body, _) = robot.frame_in_body(robot.frame_id(frame)?);
-        let links = robot.description().links();
-        Ok((0..links.len())
-            .filter(|&l| robot.frame_in_body(robot.link_frame(l)).0 == body)
-            .map(|l| links[l].name.clone())
-            .collect())
     }
 }

@@ -1,6 +1,7 @@
 //! The TOML layout of problem files (serde), and its validation into a
 //! [`Problem`]. Every check names the key it rejects.
 
+use super::grasp::{GraspError, GripperGeometry};
 use super::problem::{
     Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec, Source,
     TimeRange,
@@ -45,6 +46,9 @@ struct RawRobot {
     #[serde(default)]
     hold: BTreeMap<String, f64>,
     gripper: Option<String>,
+    #[serde(default)]
+    finger_pads: Vec<String>,
+    max_grasp_depth: Option<f64>,
     #[serde(default)]
     padding: f64,
 }
@@ -301,6 +305,12 @@ impl RawProblem {
         let root = KeyPath::root();
         let (robot_spec, robot, srdf, collision_geometry) = self.robot.load(&check, &root.key("robot"))?;
         let scene = self.scene.build(&check, &robot)?;
+        let clash =
+            robot_spec.finger_pads.iter().position(|p| scene.obstacle(p).is_some() || scene.object(p).is_some());
+        if let Some(i) = clash {
+            let at = root.key("robot").key("finger_pads").index(i);
+            return Err(src.error(&at, "a finger pad needs a name apart from the scene's obstacles and objects"));
+        }
         let start_path = root.key("start").key("q");
         check_configuration(&check, &robot, &start_path, &self.start.q)?;
         let goal = self.goal.build(&check, &root.key("goal"), &robot, &scene)?;
@@ -310,7 +320,7 @@ impl RawProblem {
         }
         let planner = self.planner.build(&check, &root.key("planner"))?;
         let optimizer = self.optimizer.build(&check, &root.key("optimizer"), &robot, &scene)?;
-        Ok(Problem {
+        let problem = Problem {
             name: self.name,
             description: self.description,
             origin: src.origin.to_string(),
@@ -323,8 +333,33 @@ impl RawProblem {
             goal,
             planner,
             optimizer,
-        })
+        };
+        check_grasp_depths(src, &problem)?;
+        Ok(problem)
     }
+}
+
+/// Every grasp frame within the gripper's reach (see [`GripperGeometry`](super::GripperGeometry)).
+fn check_grasp_depths(src: &Source, problem: &Problem) -> Result<(), ProblemError> {
+    let spec = &problem.robot_spec;
+    if spec.gripper.is_none() || (spec.finger_pads.is_empty() && spec.max_grasp_depth.is_none()) {
+        return Ok(()); // no reach to check against
+    }
+    let at = |key: KeyPath, source: GraspError| {
+        let line = super::toml_source::line_of_path(src.text, &key);
+        ProblemError::Grasp { file: src.origin.to_string(), line, key: Some(key.to_string()), source: Box::new(source) }
+    };
+    let gripper = GripperGeometry::new(problem).map_err(|e| at(KeyPath::root().key("robot"), e))?;
+    gripper.check_depths(problem).map_err(|e| {
+        let (object, grasp) = match &e {
+            GraspError::TooDeep { object, grasp, .. } => (object.as_str(), grasp.as_str()),
+            _ => ("", ""),
+        };
+        let objects = problem.scene.objects();
+        let i = objects.iter().position(|o| o.name == object).unwrap_or(0);
+        let k = objects.get(i).and_then(|o| o.grasps.iter().position(|g| g.name == grasp)).unwrap_or(0);
+        at(KeyPath::root().key("scene").key("objects").index(i).key("grasps").index(k), e)
+    })
 }
 
 fn check_configuration(check: &Check, robot: &RobotModel, path: &KeyPath, q: &[f64]) -> Result<(), ProblemError> {
@@ -413,6 +448,7 @@ impl RawRobot {
             Some(file) => Some(description("collision_urdf", file)?),
             None => None,
         };
+        self.check_grasping(check, path, collision_geometry.as_deref().unwrap_or(&desc))?;
         let spec = RobotSpec {
             urdf: src.resolve(&self.urdf),
             srdf: self.srdf.as_deref().map(|f| src.resolve(f)),
@@ -420,9 +456,39 @@ impl RawRobot {
             selection,
             hold: self.hold.into_iter().collect(),
             gripper: self.gripper,
+            finger_pads: self.finger_pads,
+            max_grasp_depth: self.max_grasp_depth,
             padding,
         };
         Ok((spec, robot, srdf, collision_geometry))
+    }
+
+    /// Finger pads name collision elements of `geometry` (not links) and
+    /// need a gripper; a stated grasp depth is positive.
+    fn check_grasping(&self, check: &Check, path: &KeyPath, geometry: &RobotDescription) -> Result<(), ProblemError> {
+        let src = check.src;
+        let elements = || geometry.links().iter().flat_map(|l| l.collisions.iter().filter_map(|c| c.name.as_deref()));
+        for (i, pad) in self.finger_pads.iter().enumerate() {
+            let at = path.key("finger_pads").index(i);
+            if self.gripper.is_none() {
+                return Err(src.error(&at, "finger pads need `robot.gripper`, the frame that grasps"));
+            }
+            if geometry.link(pad).is_some() {
+                let msg = format!("'{pad}' is a link: name the pad's collision elements (<collision name=\"…\">)");
+                return Err(src.error(&at, msg));
+            }
+            if !elements().any(|e| e == pad) {
+                let hint = crate::robot::did_you_mean(&crate::robot::suggest_names(pad, elements()));
+                return Err(src.error(&at, format!("no collision element of the robot is named '{pad}'{hint}")));
+            }
+        }
+        if let Some(depth) = self.max_grasp_depth {
+            check.positive(&path.key("max_grasp_depth"), depth)?;
+            if self.gripper.is_none() {
+                return Err(src.error(&path.key("max_grasp_depth"), "a grasp depth needs `robot.gripper`"));
+            }
+        }
+        Ok(())
     }
 }
 
