@@ -238,7 +238,7 @@ fn draw_panel(panel: &Panel, area: &DrawingArea<SVGBackend<'_>, Shift>) -> Resul
     if labelled {
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(emptiest_corner(panel, (x0, x1), (y0, y1)))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
             .label_font(("sans-serif", 12))
@@ -246,6 +246,23 @@ fn draw_panel(panel: &Panel, area: &DrawingArea<SVGBackend<'_>, Shift>) -> Resul
             .map_err(err)?;
     }
     Ok(())
+}
+
+/// The legend corner whose quarter of the panel holds the fewest points.
+fn emptiest_corner(panel: &Panel, (x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> SeriesLabelPosition {
+    let (xm, ym) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    let mut counts = [0usize; 4]; // upper right, upper left, lower right, lower left
+    for s in &panel.series {
+        for &(x, y) in &s.points {
+            counts[usize::from(x < xm) + 2 * usize::from(y < ym)] += 1;
+        }
+    }
+    match (0..4).min_by_key(|&k| counts[k]).unwrap_or(0) {
+        0 => SeriesLabelPosition::UpperRight,
+        1 => SeriesLabelPosition::UpperLeft,
+        2 => SeriesLabelPosition::LowerRight,
+        _ => SeriesLabelPosition::LowerLeft,
+    }
 }
 
 fn closed(mut points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
