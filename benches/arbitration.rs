@@ -73,7 +73,7 @@ fn arbiter(s: &Setup, mode: ArbitrationMode, backend: SolverBackend, closed_form
 /// Runs tick `k` of the recorded episode (resetting at its start).
 fn tick(a: &Arbiter, ws: &mut tandem::arbitration::ArbiterWorkspace, s: &Setup, k: usize) -> usize {
     let r = &s.ticks[k % s.ticks.len()];
-    if k % s.ticks.len() == 0 {
+    if k.is_multiple_of(s.ticks.len()) {
         a.reset(ws);
     }
     let input =
