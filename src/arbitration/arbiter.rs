@@ -374,7 +374,7 @@ impl Arbiter {
             if solved || ws.diagnostics.active_rows > 0 { TickStatus::Constrained } else { TickStatus::Nominal };
         if in_collision {
             status = TickStatus::InCollision;
-        } else if s.certify {
+        } else if s.certify && s.collisions {
             status = self.certify(ws, input.q, status)?;
         }
         if policy_failed {

@@ -133,10 +133,9 @@ fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
 /// 15 Hz; the robot's LQR policy tracks the optimized reference.
 fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, problem_goals};
-    use crate::sim::{Approach, EpisodeSettings, percentiles, run_episode};
+    use crate::sim::{Approach, Episode, EpisodeSettings, TaskJudge, percentiles};
     let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
     let goals = problem_goals(&problem, &GoalOptions::default())?;
-    let goal = goals[0].final_gripper_pose()?;
     println!(
         "\nshared control: an operator who only gives the gripper's linear velocity (Approach, 10 cm/s),\n\
          blended with the tracking policy at 15 Hz under hard limits, distances and certified steps:"
@@ -149,8 +148,15 @@ fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error
     for mode in ArbitrationMode::ALL {
         let arbiter = Arbiter::for_problem(&problem, &goals, ArbiterSettings { mode, ..ArbiterSettings::default() })?;
         let mut ws = arbiter.workspace();
-        let settings = EpisodeSettings::default();
-        let record = run_episode(&arbiter, &mut ws, &problem.start, &goal, &mut Approach::default(), &settings)?;
+        let mut judge = TaskJudge::new(&goals[0]).map_err(|e| e.to_string())?;
+        let episode = Episode {
+            arbiter: &arbiter,
+            start: &problem.start,
+            target: goals[0].position,
+            true_goal: 0,
+            settings: EpisodeSettings::default(),
+        };
+        let record = episode.run(&mut ws, &mut Approach::default(), &mut |q| judge.succeeded(q))?;
         let (median, p99, _) = percentiles(&record.tick_us);
         println!(
             "  {:<24} {:>9} {:>6} {median:>11.1} {p99:>9.1} {:>11} {:>9.1} mm",
