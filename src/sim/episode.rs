@@ -170,10 +170,9 @@ impl Episode<'_> {
         }
         for step in 0..steps_max {
             if let (Some(policy), Some(state), false) = (&true_policy, policy_state.as_mut(), policy_action.is_empty())
+                && policy.act(state, &q, &velocity, &mut policy_action).is_err()
             {
-                if policy.act(state, &q, &velocity, &mut policy_action).is_err() {
-                    policy_action.fill(0.0);
-                }
+                policy_action.fill(0.0);
             }
             let seen = Observation {
                 q: &q,

@@ -346,9 +346,11 @@ mod tests {
         let OperatorAction::Move(v) = op.act(&seen(&[0.0; 3], &JAC, [0.5, 0.0, 0.5])) else { panic!() };
         assert!(v[2] < 0.0 && v[0].abs() < 1e-12);
         // At the pre-grasp point it turns down, and stops only at the goal.
-        assert_eq!(op.act(&seen(&[0.0; 3], &JAC, [0.5, 0.0, 0.2])), OperatorAction::Move([0.0; 3]));
+        let OperatorAction::Move(v) = op.act(&seen(&[0.0; 3], &JAC, [0.5, 0.0, 0.2])) else { panic!() };
+        assert!(v[2] < -0.05 && v[0].abs() < 1e-12);
         let OperatorAction::Move(v) = op.act(&seen(&[0.0; 3], &JAC, [0.5, 0.0, 0.15])) else { panic!() };
         assert!(v[2] < -0.05);
+        assert_eq!(op.act(&seen(&[0.0; 3], &JAC, [0.5, 0.0, 0.105])), OperatorAction::Done);
     }
 
     #[test]
