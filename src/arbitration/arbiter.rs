@@ -206,6 +206,22 @@ impl Arbiter {
         Ok(Arbiter { robot, collision, gripper, goals, settings })
     }
 
+    /// The same robot, collision model and goals with other settings
+    /// (cheap: shares them).
+    ///
+    /// # Errors
+    /// Invalid settings.
+    pub fn with_settings(&self, settings: ArbiterSettings) -> Result<Arbiter, ArbitrationError> {
+        validate_settings(&settings)?;
+        Ok(Arbiter {
+            robot: self.robot.clone(),
+            collision: self.collision.clone(),
+            gripper: self.gripper,
+            goals: self.goals.clone(),
+            settings,
+        })
+    }
+
     /// The settings.
     pub fn settings(&self) -> &ArbiterSettings {
         &self.settings

@@ -108,4 +108,6 @@ pub enum ArbitrationError {
     Collision(#[from] crate::collision::CollisionError),
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
 }

@@ -72,7 +72,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
         "straightline" => Box::new(Straightline { pace: Pace { speed: args.speed, ..Pace::default() } }),
         _ => Box::new(Approach::at_speed(args.speed)),
     };
-    let mut judge = TaskJudge::new(&goals[target]).map_err(|e| e.to_string())?;
+    let mut judge = TaskJudge::new(&goals[target]);
     let episode = Episode {
         arbiter: &arbiter,
         start: &problem.start,

@@ -148,7 +148,7 @@ fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error
     for mode in ArbitrationMode::ALL {
         let arbiter = Arbiter::for_problem(&problem, &goals, ArbiterSettings { mode, ..ArbiterSettings::default() })?;
         let mut ws = arbiter.workspace();
-        let mut judge = TaskJudge::new(&goals[0]).map_err(|e| e.to_string())?;
+        let mut judge = TaskJudge::new(&goals[0]);
         let episode = Episode {
             arbiter: &arbiter,
             start: &problem.start,

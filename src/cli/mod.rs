@@ -13,6 +13,7 @@
 mod arbitrate;
 mod check;
 mod demo;
+mod experiment;
 mod generate;
 mod inspect;
 mod kinematics;
@@ -173,6 +174,9 @@ pub enum Command {
     ///   tandem arbitrate builtin:panda_grasp_box --mode sos --json
     #[command(verbatim_doc_comment)]
     Arbitrate(arbitrate::ArbitrateArgs),
+    /// Run the seed's shared-control experiments with simulated operators:
+    /// reach-grasp (Table 5.1). See `tandem experiment <name> --help`.
+    Experiment(experiment::ExperimentArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -190,6 +194,7 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Solve(args) => solve::run(&args),
         Command::Generate(args) => generate::run(&args),
         Command::Arbitrate(args) => arbitrate::run(&args),
+        Command::Experiment(args) => experiment::run(&args),
     }
 }
 

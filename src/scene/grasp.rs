@@ -175,6 +175,11 @@ impl GripperGeometry {
         Ok(geometry_out)
     }
 
+    /// The gripper frame (its z axis is the approach direction).
+    pub fn gripper_frame(&self) -> FrameId {
+        self.gripper
+    }
+
     /// How deep the gripper frame may lie in an object (m): stated, or
     /// from the palm (when the gripper has pads); `None` when unknown.
     pub fn max_depth(&self) -> Option<f64> {
@@ -344,6 +349,11 @@ impl GraspJudge {
     /// The gripper's geometry.
     pub fn geometry(&self) -> &GripperGeometry {
         &self.geometry
+    }
+
+    /// The robot whose gripper this judges.
+    pub fn robot(&self) -> &std::sync::Arc<RobotModel> {
+        &self.robot
     }
 
     /// Measures the grasp of `object` (free, or attached to the robot) at

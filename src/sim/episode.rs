@@ -1,8 +1,11 @@
 //! A shared-control episode in the kinematic simulator: a velocity-
 //! controlled arm stepped at the arbiter's period (`q ← q + q̇·dt`), a
-//! simulated operator, a collision check of every step (the arbiter's
-//! collision model, exact geometry), and termination by the operator saying
-//! it has arrived (then the task judges success), a collision, or timeout.
+//! simulated operator, and after every step a collision check (the
+//! arbiter's collision model, exact geometry) and the task's judge. It ends
+//! in success as soon as the judge agrees (seed §5.5.3: "a success when the
+//! object lies between the gripper's fingers"), in a collision when the arm
+//! touches anything first, as failed when the operator stops where the task
+//! is not done (it believes it has arrived), or in a timeout.
 
 use super::operator::{Observation, Operator, OperatorAction};
 use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand, TickInput, TickStatus};
@@ -31,10 +34,11 @@ impl Default for EpisodeSettings {
 /// How an episode ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Outcome {
-    /// The operator said it had arrived and the task's judge agreed.
+    /// The task's judge agreed (checked after every step).
     Success,
-    /// The operator said it had arrived; the judge did not agree (e.g. the
-    /// box not between the fingers, the gripper not pointing down).
+    /// The operator stopped, believing it had arrived, where the judge did
+    /// not agree (e.g. the box not between the fingers, the gripper not
+    /// pointing down).
     Failed,
     /// The arm touched something.
     Collision,
@@ -120,8 +124,8 @@ pub struct Episode<'a> {
 }
 
 impl Episode<'_> {
-    /// Runs the episode with `operator`; when it says it has arrived,
-    /// `judge(q)` decides between success and failure.
+    /// Runs the episode with `operator`; `judge(q)` says whether the task
+    /// is done, at the start and after every step.
     ///
     /// # Errors
     /// A bad start configuration.
@@ -169,6 +173,10 @@ impl Episode<'_> {
             record.q.push(q.clone());
         }
         for step in 0..steps_max {
+            if judge(&q) {
+                record.outcome = Outcome::Success;
+                break;
+            }
             if let (Some(policy), Some(state), false) = (&true_policy, policy_state.as_mut(), policy_action.is_empty())
                 && policy.act(state, &q, &velocity, &mut policy_action).is_err()
             {
@@ -184,7 +192,7 @@ impl Episode<'_> {
             };
             let v = match operator.act(&seen) {
                 OperatorAction::Done => {
-                    record.outcome = if judge(&q) { Outcome::Success } else { Outcome::Failed };
+                    record.outcome = Outcome::Failed;
                     break;
                 }
                 OperatorAction::Move(v) => v,
@@ -235,6 +243,9 @@ impl Episode<'_> {
                 record.outcome = Outcome::Collision;
                 break;
             }
+        }
+        if record.outcome == Outcome::Timeout && judge(&q) {
+            record.outcome = Outcome::Success;
         }
         record.duration = record.steps as f64 * dt;
         record.final_q = q;

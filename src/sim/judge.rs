@@ -29,29 +29,38 @@ enum Kind {
 }
 
 impl TaskJudge {
-    /// The judge of `goal` (prepared from `problem`, see the module docs).
-    ///
-    /// # Errors
-    /// A grasp goal whose object is missing.
-    pub fn new(goal: &ProblemGoal) -> Result<TaskJudge, Box<dyn std::error::Error + Send + Sync>> {
+    /// The judge of `goal` (see the module docs): a grasp judge when its
+    /// problem grasps an object with a two-finger gripper with pads, else a
+    /// reach judge.
+    pub fn new(goal: &ProblemGoal) -> TaskJudge {
         let problem = &goal.problem;
         let kin = KinematicsWorkspace::new(&problem.robot);
-        let kind = match (&problem.goal, GraspJudge::new(problem)) {
-            (Goal::Grasp { object, .. }, Ok(judge)) => {
-                let object = problem.scene.object(object).ok_or("the grasp target is not in the scene")?.clone();
-                let approach = problem.grasp_target().ok_or("no grasp target")?.rotation * nalgebra::Vector3::z();
+        let grasp = match (&problem.goal, GraspJudge::new(problem), problem.grasp_target()) {
+            (Goal::Grasp { object, .. }, Ok(judge), Some(target)) => problem.scene.object(object).map(|object| {
+                let approach = target.rotation * nalgebra::Vector3::z();
                 let criteria = GraspCriteria { approach, max_tilt: GRASP_MAX_TILT, margin: 0.0 };
-                Kind::Grasp { judge: Box::new(judge), object: Box::new(object), criteria }
-            }
-            _ => Kind::Reach { problem: Box::new(problem.clone()), target: goal.position },
+                Kind::Grasp { judge: Box::new(judge), object: Box::new(object.clone()), criteria }
+            }),
+            _ => None,
         };
-        Ok(TaskJudge { kind, kin })
+        let kind = grasp.unwrap_or_else(|| Kind::Reach { problem: Box::new(problem.clone()), target: goal.position });
+        TaskJudge { kind, kin }
     }
 
     /// Whether the task is done at `q`.
     pub fn succeeded(&mut self, q: &[f64]) -> bool {
         match &self.kind {
             Kind::Grasp { judge, object, criteria } => {
+                // Far from the object no grasp can hold: skip the distances.
+                let robot = &judge.robot();
+                if robot.forward_kinematics(&mut self.kin, q).is_err() {
+                    return false;
+                }
+                let tcp = robot.frame_pose(&self.kin, judge.geometry().gripper_frame()).translation.vector;
+                let reach = object.shape.bounding_radius() + 0.05;
+                if (tcp - object.pose.translation.vector).norm() > reach && object.attachment.is_none() {
+                    return false;
+                }
                 judge.judge(&mut self.kin, q, object, criteria).is_ok_and(|r| r.success(criteria))
             }
             Kind::Reach { problem, target } => {

@@ -9,7 +9,7 @@
 //! let problem = Problem::builtin("panda_grasp_box")?;
 //! let goals = problem_goals(&problem, &GoalOptions::default())?;
 //! let arbiter = Arbiter::for_problem(&problem, &goals, ArbiterSettings::default())?;
-//! let mut judge = TaskJudge::new(&goals[0]).map_err(|e| e.to_string())?;
+//! let mut judge = TaskJudge::new(&goals[0]);
 //! let episode = Episode { arbiter: &arbiter, start: &problem.start, target: goals[0].position, true_goal: 0, settings: EpisodeSettings::default() };
 //! let record = episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut |q| judge.succeeded(q))?;
 //! println!("{} after {} ticks", record.outcome.as_str(), record.steps);
@@ -19,9 +19,14 @@
 mod episode;
 mod judge;
 mod operator;
+mod reach_grasp;
 
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, Pace, PolicyFollower, Straightline,
+};
+pub use reach_grasp::{
+    Arm, Cell, EpisodeSummary, Method, OperatorKind, ReachGraspResults, ReachGraspSettings, Task, run_reach_grasp,
+    sample_task,
 };

@@ -1,0 +1,215 @@
+//! `tandem experiment`: the seed's shared-control experiments in one
+//! command each.
+
+use crate::data::Progress;
+use crate::figures::{Panel, Series, render_panels};
+use crate::sim::{Arm, Method, OperatorKind, ReachGraspResults, ReachGraspSettings, percentiles, run_reach_grasp};
+use std::path::PathBuf;
+
+/// Arguments of `tandem experiment`.
+#[derive(Debug, clap::Args)]
+pub struct ExperimentArgs {
+    #[command(subcommand)]
+    pub experiment: Experiment,
+}
+
+/// The experiments.
+#[derive(Debug, clap::Subcommand)]
+pub enum Experiment {
+    /// Table 5.1: reach-and-grasp with simulated operators. Two Pandas side
+    /// by side, a 6 × 6 × 12 cm box at a random pose on the table, a random
+    /// start; every operator (straightline, approach, noisy-0.1, noisy-0.2,
+    /// biased, laggy-5, laggy-10; 10 cm/s, linear velocity only) with every
+    /// method (noassist, constrained, sos, natural-gradient-joint,
+    /// blend-timid, avoid) on the same tasks. Success: the operator stops at
+    /// the grasp point with the box between the finger pads, the fingertip
+    /// centre over it, the gripper within 0.2 rad of pointing down, and
+    /// neither palm nor fingers touching it; collision: anything touched
+    /// before; timeout: 20 s. Deterministic per seed whatever the threads.
+    ///
+    /// Examples:
+    ///   tandem experiment reach-grasp
+    ///   tandem experiment reach-grasp --tasks 20 --arm right --json --out results/
+    #[command(verbatim_doc_comment)]
+    ReachGrasp(ReachGraspArgs),
+}
+
+/// Arguments of `tandem experiment reach-grasp`.
+#[derive(Debug, clap::Args)]
+pub struct ReachGraspArgs {
+    /// Tasks per arm (1 … 100000).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub tasks: u32,
+    /// Which arm does the tasks.
+    #[arg(long, default_value = "both", value_parser = ["right", "left", "both"])]
+    pub arm: String,
+    /// Seed of the tasks and of the operators' randomness.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores); results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object: {"tasks", "results": [{"arm", "operator",
+    /// "method", "success", "collision", "timeout", "failed", "cos_sim":
+    /// [x, y, z]}], ...}.
+    #[arg(long)]
+    pub json: bool,
+    /// Folder for the Fig. 5.4-style figure (reach_grasp.svg) and the results (reach_grasp.json).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
+    match &args.experiment {
+        Experiment::ReachGrasp(a) => reach_grasp(a),
+    }
+}
+
+fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let arms = match args.arm.as_str() {
+        "right" => vec![Arm::Right],
+        "left" => vec![Arm::Left],
+        _ => vec![Arm::Right, Arm::Left],
+    };
+    let settings =
+        ReachGraspSettings { tasks: args.tasks as usize, seed: args.seed, arms, ..ReachGraspSettings::default() };
+    let total = (settings.tasks * settings.arms.len()) as u64;
+    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(total);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
+    let results = pool.install(|| run_reach_grasp(&settings, &|| progress.sample_done(true)))?;
+    progress.finish();
+    let json = results_json(&results);
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let write = |name: &str, text: String| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+        };
+        write("reach_grasp.json", serde_json::to_string_pretty(&json)?)?;
+        write("reach_grasp.svg", figure(&results)?)?;
+    }
+    if args.json {
+        println!("{json}");
+    } else {
+        print_table(&results);
+        if let Some(dir) = &args.out {
+            println!("wrote reach_grasp.json and reach_grasp.svg to {}", dir.display());
+        }
+    }
+    Ok(())
+}
+
+fn results_json(r: &ReachGraspResults) -> serde_json::Value {
+    let s = &r.settings;
+    let mut rows = vec![];
+    for &arm in &s.arms {
+        for (o, op) in s.operators.iter().enumerate() {
+            for (m, method) in s.methods.iter().enumerate() {
+                let c = r.cell(arm, o, m);
+                rows.push(serde_json::json!({
+                    "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
+                    "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
+                    "cos_sim": c.cos, "hard_violations": c.hard_violations,
+                }));
+            }
+        }
+    }
+    let ticks: Vec<f64> = r.episodes.iter().flat_map(|e| e.tick_us.iter().copied()).collect();
+    let (median, p99, max) = percentiles(&ticks);
+    serde_json::json!({
+        "tasks": s.tasks,
+        "seed": s.seed,
+        "results": rows,
+        "resampled_tasks": r.tasks.iter().map(|t| t.resampled).sum::<usize>(),
+        "seconds": {"wall": r.wall_seconds, "prepare_cpu": r.prepare_seconds, "episodes_cpu": r.episode_seconds},
+        "tick_us": {"median": median, "p99": p99, "max": max},
+    })
+}
+
+/// Table 5.1's layout: per arm, a row per method, collision / timeout /
+/// failed / success per operator, and the average cosine similarities.
+fn print_table(r: &ReachGraspResults) {
+    let s = &r.settings;
+    for &arm in &s.arms {
+        print!("\n{:<24}", arm.as_str().to_uppercase());
+        for op in &s.operators {
+            print!("{:^18}", op.name());
+        }
+        println!("   avg. cos sim");
+        print!("{:<24}", "");
+        for _ in &s.operators {
+            print!("{:^18}", "col  to fail succ");
+        }
+        println!("   x     y     z");
+        for (m, method) in s.methods.iter().enumerate() {
+            print!("{:<24}", method.name());
+            for o in 0..s.operators.len() {
+                let c = r.cell(arm, o, m);
+                print!(" {:>3} {:>3} {:>3} {:>4}  ", c.collision, c.timeout, c.failed, c.success);
+            }
+            let cos = r.method_cos(arm, m);
+            println!("  {:.2}  {:.2}  {:.2}", cos[0], cos[1], cos[2]);
+        }
+    }
+    let resampled: usize = r.tasks.iter().map(|t| t.resampled).sum();
+    println!(
+        "\n{} tasks per arm ({} resampled: reference not converged), {} episodes in {:.1} s \
+         (task preparation {:.1} s and episodes {:.1} s of CPU)",
+        s.tasks,
+        resampled,
+        r.episodes.len(),
+        r.wall_seconds,
+        r.prepare_seconds,
+        r.episode_seconds
+    );
+    let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
+    println!("hard-constraint violations: {violations}");
+}
+
+/// Fig. 5.4: the first task's gripper paths (top views) per operator, for
+/// NoAssist and the seed's two methods, with the robot's reference.
+fn figure(r: &ReachGraspResults) -> Result<String, Box<dyn std::error::Error>> {
+    let s = &r.settings;
+    let arm = s.arms[0];
+    let task = r.tasks.iter().find(|t| t.arm == arm && t.index == 0).ok_or("no first task")?;
+    let robot = &task.goal.problem.robot;
+    let gripper = robot.frame_id(task.goal.problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
+    let mut kin = crate::robot::KinematicsWorkspace::new(robot);
+    let reference = task.goal.policy.reference();
+    let mut planned = vec![];
+    for i in 0..reference.len() {
+        robot.forward_kinematics(&mut kin, reference.position(i))?;
+        let p = robot.frame_pose(&kin, gripper).translation.vector;
+        planned.push((p.x, p.y));
+    }
+    let shown = [
+        Method::NoAssist,
+        s.methods.get(1).copied().unwrap_or(Method::NoAssist),
+        s.methods.get(2).copied().unwrap_or(Method::NoAssist),
+    ];
+    let operators: Vec<(usize, &OperatorKind)> = s.operators.iter().enumerate().take(4).collect();
+    let panels: Vec<Panel> = operators
+        .iter()
+        .map(|&(o, op)| {
+            let mut panel =
+                Panel::new(&op.name(), "x (m)", "y (m)").with(Series::dashed("reference", &planned, 7)).equal();
+            for (k, method) in shown.iter().enumerate() {
+                let Some(m) = s.methods.iter().position(|x| x == method) else { continue };
+                if let Some(e) =
+                    r.episodes.iter().find(|e| e.arm == arm && e.task == 0 && e.operator == o && e.method == m)
+                {
+                    let path: Vec<(f64, f64)> = e.path.iter().map(|p| (p[0], p[1])).collect();
+                    panel = panel.with(Series::line(&format!("{} ({})", method.name(), e.outcome.as_str()), &path, k));
+                }
+            }
+            let goal = task.goal.position;
+            panel.with(Series::points("grasp point", &[(goal[0], goal[1])], 3))
+        })
+        .collect();
+    Ok(render_panels(
+        &format!("reach-and-grasp, {} arm, task 0: gripper paths (top view)", arm.as_str()),
+        &panels,
+        380,
+        420,
+    )?)
+}
