@@ -3,22 +3,25 @@
 //! dtypes, strided views), and results written straight into new arrays.
 
 use nalgebra::IsometryMatrix3;
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 
-/// A 1-D float argument: a contiguous float64 array borrowed in place, or
+/// A 1-D float argument: a contiguous float64 array read in place, or
 /// anything else convertible to floats, copied.
 pub(crate) enum Vector<'py> {
-    Borrowed(PyReadonlyArray1<'py, f64>),
+    Borrowed(Bound<'py, PyArray1<f64>>),
     Owned(Vec<f64>),
 }
 
 impl Vector<'_> {
     pub(crate) fn as_slice(&self) -> &[f64] {
         match self {
-            // Contiguity was checked on extraction.
-            Vector::Borrowed(a) => a.as_slice().unwrap_or(&[]),
+            // SAFETY: contiguity was checked on extraction. The array is read
+            // while this call holds the GIL and runs no Python code, as a C
+            // extension reads its arguments; rust-numpy's borrow tracking
+            // (`readonly()`) would cost about as much as the FK it guards.
+            Vector::Borrowed(a) => unsafe { a.as_slice() }.unwrap_or(&[]),
             Vector::Owned(v) => v,
         }
     }
@@ -29,11 +32,10 @@ impl<'a, 'py> FromPyObject<'a, 'py> for Vector<'py> {
 
     fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
         if let Ok(array) = obj.cast::<PyArray1<f64>>() {
-            let array = array.try_readonly()?;
-            if array.as_slice().is_ok() {
-                return Ok(Vector::Borrowed(array));
+            if array.is_contiguous() {
+                return Ok(Vector::Borrowed(array.to_owned()));
             }
-            return Ok(Vector::Owned(array.as_array().to_vec()));
+            return Ok(Vector::Owned(array.try_readonly()?.as_array().to_vec()));
         }
         if let Ok(array) = obj.cast::<numpy::PyUntypedArray>()
             && array.ndim() != 1

@@ -194,8 +194,8 @@ impl PyTrackingPolicy {
     /// visited configurations, ``start`` first ((steps + 1) × n). Releases
     /// the GIL.
     fn rollout<'py>(&self, py: Python<'py>, start: Vector<'_>, steps: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let start = start.as_slice();
-        let path = py.detach(|| self.policy.rollout(start, steps)).py()?;
+        let start = start.as_slice().to_vec(); // read while the GIL is held
+        let path = py.detach(|| self.policy.rollout(&start, steps)).py()?;
         Ok(rows_matrix(py, &path, self.dof()))
     }
 

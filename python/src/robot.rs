@@ -23,10 +23,26 @@ use tandem::robot::{
 type Array2<'py> = Bound<'py, PyArray2<f64>>;
 
 /// A frame named by its URDF name or by its index in `frame_names`.
-#[derive(FromPyObject)]
 pub(crate) enum FrameArg<'py> {
     Name(Bound<'py, PyString>),
     Index(usize),
+}
+
+// By hand rather than derived: a derived extraction tries the string first
+// and builds a Python exception for every index, which tripled the cost of
+// a call with a frame index.
+impl<'a, 'py> FromPyObject<'a, 'py> for FrameArg<'py> {
+    type Error = PyErr;
+
+    fn extract(obj: Borrowed<'a, 'py, PyAny>) -> PyResult<Self> {
+        match obj.cast::<PyString>() {
+            Ok(name) => Ok(FrameArg::Name(name.to_owned())),
+            Err(_) => obj.extract::<usize>().map(FrameArg::Index).map_err(|_| {
+                let kind = obj.get_type().name().map(|n| n.to_string()).unwrap_or_default();
+                pyo3::exceptions::PyTypeError::new_err(format!("a frame is a name (str) or an index (int), got {kind}"))
+            }),
+        }
+    }
 }
 
 /// The frame `frame` names in `model` (by name, or index in `frames()`).
@@ -115,6 +131,10 @@ fn output<'py>(
     };
     if out.shape() != shape {
         return Err(PyValueError::new_err(format!("out has shape {:?}, expected {shape:?}", out.shape())));
+    }
+    // numpy's F-contiguous arrays pass as slices too: the row-major fill needs C order.
+    if !out.is_c_contiguous() {
+        return Err(PyValueError::new_err("out must be C-contiguous"));
     }
     {
         let mut view = out.try_readwrite()?;

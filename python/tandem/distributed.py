@@ -184,14 +184,23 @@ def _run_parts(
             expected = f.read()
         count, chunk_size = settings["count"], settings["chunk_size"]
         parts = _native.part_count(count=count, chunk_size=chunk_size)
-        sizes = {k: (lambda r: r[1] - r[0])(_native.part_ids(k, count=count, chunk_size=chunk_size)) for k in missing}
+        samples = 0
+        for k in missing:
+            first, end = _native.part_ids(k, count=count, chunk_size=chunk_size)
+            samples += end - first
         slots = max(1, int(ray.cluster_resources().get("CPU", 1)) // cpus_per_task)
         window = max_in_flight or 2 * slots
         task = ray.remote(num_cpus=cpus_per_task)(_generate_part)
         queue = list(missing)
         running: dict[Any, int] = {}
-        progress = {"parts_done": 0, "parts_total": len(missing), "samples_done": 0,
-                    "samples_total": sum(sizes.values()), "accepted": 0, "elapsed_s": 0.0}
+        progress = {
+            "parts_done": 0,
+            "parts_total": len(missing),
+            "samples_done": 0,
+            "samples_total": samples,
+            "accepted": 0,
+            "elapsed_s": 0.0,
+        }
         try:
             while queue or running:
                 while queue and len(running) < window:
