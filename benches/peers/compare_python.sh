@@ -16,7 +16,7 @@ set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
 die() { echo "${0##*/}: error: $*" >&2; exit 1; }
-count=400 cpus=2 ray=true
+count=2000 cpus=2 ray=true
 while (( $# )); do
   case "$1" in
     --count) count="${2:?--count needs a value}"; shift 2 ;;

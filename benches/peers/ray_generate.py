@@ -4,7 +4,7 @@ on a local Ray cluster of C CPUs (one part per task, one thread each), the
 same family, count, seed and horizon. Run by compare_python.sh (release
 builds of both).
 
-    python ray_generate.py --tandem target/release/tandem [--count N] [--cpus C] [-T T] [--json out.json]
+    python ray_generate.py --tandem target/release/tandem [--count N] [--cpus C] [-T T] [--chunk-size K] [--json out.json]
 
 Reports samples/s of each, the engine's overhead in % (Ray's wall time over
 the CLI's, minus 1) with and without starting the cluster, and checks that
@@ -33,10 +33,10 @@ def files(folder):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tandem", type=Path, required=True, help="the tandem binary (release)")
-    parser.add_argument("--count", type=int, default=400)
+    parser.add_argument("--count", type=int, default=2000)
     parser.add_argument("--cpus", type=int, default=2)
     parser.add_argument("-T", "--horizon", type=int, default=50)
-    parser.add_argument("--chunk-size", type=int, default=25, help="ids per part (one Ray task each)")
+    parser.add_argument("--chunk-size", type=int, default=100, help="ids per part (one Ray task each)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", type=Path)
     args = parser.parse_args()
@@ -50,6 +50,7 @@ def main():
              "--seed", str(args.seed), "-T", str(args.horizon), "--chunk-size", str(args.chunk_size),
              "--threads", str(args.cpus), "--quiet"],
             check=True,
+            stdout=subprocess.DEVNULL,
         )
         cli_s = time.monotonic() - began
 

@@ -116,6 +116,31 @@ pub(crate) fn check_columns(what: &str, m: &Matrix<'_>, cols: usize) -> PyResult
     Ok(())
 }
 
+/// Runs `fill` on the values of `out`, a caller's array to overwrite
+/// (row-major), once checked to be a writeable, C-contiguous float64 array
+/// of `shape`.
+pub(crate) fn fill_out<D: numpy::ndarray::Dimension, R>(
+    out: &Bound<'_, numpy::PyArray<f64, D>>,
+    shape: &[usize],
+    fill: impl FnOnce(&mut [f64]) -> PyResult<R>,
+) -> PyResult<R> {
+    if out.shape() != shape {
+        return Err(PyValueError::new_err(format!("out has shape {:?}, expected {shape:?}", out.shape())));
+    }
+    // numpy's F-contiguous arrays pass as slices too: the row-major fill needs C order.
+    if !out.is_c_contiguous() {
+        return Err(PyValueError::new_err("out must be C-contiguous"));
+    }
+    // SAFETY: reading the flags of a live array object.
+    if unsafe { (*out.as_array_ptr()).fields.flags } & numpy::npyffi::NPY_ARRAY_WRITEABLE == 0 {
+        return Err(PyValueError::new_err("out is read-only"));
+    }
+    // SAFETY: as for `Vector`: written while this call holds the GIL and
+    // runs no Python code; rust-numpy's borrow tracking would cost more than
+    // the kinematics it guards.
+    fill(unsafe { out.as_slice_mut() }.map_err(|_| PyValueError::new_err("out must be C-contiguous"))?)
+}
+
 /// A new 1-D array holding `values`.
 pub(crate) fn vector<'py>(py: Python<'py>, values: &[f64]) -> Bound<'py, PyArray1<f64>> {
     PyArray1::from_slice(py, values)

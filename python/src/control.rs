@@ -1,9 +1,9 @@
 //! `tandem.TrackingPolicy`: LQR tracking policies (the seed's Algorithm 1)
 //! built from a reference trajectory and queried from Python.
 
-use crate::arrays::{Matrix, Vector, matrix_with, rows_matrix};
+use crate::arrays::{Matrix, Vector, fill_out, matrix_with, rows_matrix};
 use crate::errors::PyResultExt;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::sync::Mutex;
@@ -158,14 +158,7 @@ impl PyTrackingPolicy {
             self.query_into(q.as_slice(), velocity, &mut command)?;
             return Ok(PyArray1::from_vec(py, command));
         };
-        if out.shape() != [n] {
-            return Err(PyValueError::new_err(format!("out has shape {:?}, expected [{n}]", out.shape())));
-        }
-        {
-            let mut view = out.try_readwrite()?;
-            let command = view.as_slice_mut().map_err(|_| PyValueError::new_err("out must be contiguous"))?;
-            self.query_into(q.as_slice(), velocity, command)?;
-        }
+        fill_out(&out, &[n], |command| self.query_into(q.as_slice(), velocity, command))?;
         Ok(out)
     }
 

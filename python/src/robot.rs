@@ -5,10 +5,10 @@
 //! the GIL over would cost more) and reuse one kinematics workspace per
 //! model; the batch queries (`frame_poses`, `frame_jacobians`) release it.
 
-use crate::arrays::{Matrix, Vector, check_columns, matrix_with, stack_with, write_pose};
+use crate::arrays::{Matrix, Vector, check_columns, fill_out, matrix_with, stack_with, write_pose};
 use crate::errors::PyResultExt;
 use nalgebra::{Matrix3xX, Matrix6xX, Point3};
-use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::exceptions::{PyIndexError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyString;
@@ -129,17 +129,7 @@ fn output<'py>(
         let array = matrix_with(py, shape[0], shape[1], |o| result = fill(o));
         return result.map(|()| array);
     };
-    if out.shape() != shape {
-        return Err(PyValueError::new_err(format!("out has shape {:?}, expected {shape:?}", out.shape())));
-    }
-    // numpy's F-contiguous arrays pass as slices too: the row-major fill needs C order.
-    if !out.is_c_contiguous() {
-        return Err(PyValueError::new_err("out must be C-contiguous"));
-    }
-    {
-        let mut view = out.try_readwrite()?;
-        fill(view.as_slice_mut().map_err(|_| PyValueError::new_err("out must be C-contiguous"))?)?;
-    }
+    fill_out(&out, &shape, fill)?;
     Ok(out)
 }
 
@@ -387,21 +377,18 @@ impl PyRobotModel {
 
     /// World poses of every frame at ``q``, in ``frame_names`` order: F × 4 × 4.
     fn frame_placements<'py>(&self, py: Python<'py>, q: Vector<'_>) -> PyResult<Bound<'py, PyArray3<f64>>> {
-        let count = self.model.frames().len();
-        let out = PyArray3::<f64>::zeros(py, [count, 4, 4], false);
-        {
-            let mut view = out.try_readwrite()?;
-            let data = view.as_slice_mut().map_err(|_| PyValueError::new_err("new array not contiguous"))?;
-            self.with_scratch(|s| {
+        let mut result = Ok(());
+        let out = stack_with(py, [self.model.frames().len(), 4, 4], |data| {
+            result = self.with_scratch(|s| {
                 self.model.forward_kinematics(&mut s.kinematics, q.as_slice())?;
                 self.model.update_frame_placements(&mut s.kinematics);
                 for (pose, chunk) in s.kinematics.frame_poses().iter().zip(data.chunks_exact_mut(16)) {
                     write_pose(pose, chunk);
                 }
                 Ok(())
-            })?;
-        }
-        Ok(out)
+            });
+        });
+        result.map(|()| out)
     }
 
     /// World poses of ``frame`` at each row of ``qs`` (N × nq): N × 4 × 4.

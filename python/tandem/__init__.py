@@ -12,9 +12,9 @@ library, with numpy arrays in and out.
 >>> pose = panda.frame_pose(q, "panda_hand_tcp")           # 4 x 4, world frame
 >>> jac = panda.frame_jacobian(q, "panda_hand_tcp")        # 6 x 7, linear rows first
 >>> problem = tandem.Problem.builtin("panda_reach")
->>> solution = tandem.solve(problem, seed=1)
->>> solution.status, solution.trajectory.shape
-('converged', (50, 7))
+>>> solution = tandem.solve(problem, seed=1)               # RRT-Connect + optimizer
+>>> solution.status
+'converged'
 
 Every error is a :class:`TandemError` subclass carrying the Rust message
 (file, line, key, joint or value at fault). Long calls (loading, planning,

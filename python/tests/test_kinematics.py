@@ -185,6 +185,11 @@ def test_inputs_and_outputs():
         robot.frame_jacobian(q, "panda_hand_tcp", out=np.empty((7, 6)))
     with pytest.raises(ValueError, match="contiguous"):
         robot.frame_jacobian(q, "panda_hand_tcp", out=np.empty((6, 7), order="F"))
+    frozen = np.zeros((4, 4))
+    frozen.setflags(write=False)
+    with pytest.raises(ValueError, match="read-only"):
+        robot.frame_pose(q, "panda_hand_tcp", out=frozen)
+    assert not frozen.any()
     # A point on the hand: its Jacobian is the frame's linear rows shifted by ω × r.
     point = [0.01, -0.02, 0.03]
     world, jp = robot.point_jacobian(q, "panda_hand_tcp", point)
