@@ -2,7 +2,8 @@
 # Runs every test of tandem, setting up what they need first:
 #   1. the Python reference environment python_ref/.venv (Pinocchio, casadi,
 #      scipy, example-robot-data, pyarrow from PyPI), rebuilt when
-#      python_ref/requirements.txt changes;
+#      python_ref/requirements.txt changes, and the Python package's test
+#      environment python/.venv (pytest, ray; python/requirements-test.txt);
 #   2. formatting and lint checks (cargo fmt, cargo clippy -D warnings);
 #   3. all Rust tests, including the live cross-checks against python_ref/;
 #   4. the Python package: `pip install .` (maturin) into python/.venv, then
@@ -32,18 +33,6 @@ fi
 "$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
 
-disk "Python environment ready"
-echo "== cargo fmt --check"
-cargo fmt --all -- --check
-echo "== cargo clippy"
-cargo clippy --workspace --all-targets --quiet -- -D warnings
-echo "== cargo test"
-cargo test --workspace --all-targets --no-run --quiet
-disk "tests built"
-cargo test --workspace --all-targets --no-fail-fast
-cargo test --workspace --doc --no-fail-fast
-disk "Rust tests done"
-
 # The Python package's environment: pytest and ray in python/.venv, which
 # sees python_ref/.venv's packages (Pinocchio, scipy, numpy, pyarrow)
 # through a .pth file instead of installing them twice.
@@ -59,6 +48,22 @@ if [ ! -x "$pyvenv/bin/python" ] || [ "$(cat "$pystamp" 2>/dev/null)" != "$pywan
   "$pyvenv/bin/pip" install --quiet --disable-pip-version-check -r python/requirements-test.txt
   echo "$pywant" > "$pystamp"
 fi
+# Build the bindings for that interpreter, as maturin does (no link to
+# libpython): cargo and `pip install .` then share pyo3's build.
+export PYO3_PYTHON="$PWD/$pyvenv/bin/python" PYO3_BUILD_EXTENSION_MODULE=1
+
+disk "Python environment ready"
+echo "== cargo fmt --check"
+cargo fmt --all -- --check
+echo "== cargo clippy"
+cargo clippy --workspace --all-targets --quiet -- -D warnings
+echo "== cargo test"
+cargo test --workspace --all-targets --no-run --quiet
+disk "tests built"
+cargo test --workspace --all-targets --no-fail-fast
+cargo test --workspace --doc --no-fail-fast
+disk "Rust tests done"
+
 # `pip install .` as a user runs it (maturin from PyPI in an isolated build
 # environment), but with the dev profile: it reuses the test build above
 # (only pyo3, numpy and the bindings compile) instead of a release build.
