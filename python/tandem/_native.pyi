@@ -1,6 +1,6 @@
 """Type stubs of tandem's native module (python/src/, built by maturin).
 
-Arrays are numpy float64 arrays; ``ArrayLike`` arguments also accept lists
+Arrays are numpy float64 arrays; ``_ArrayLike`` arguments also accept lists
 and tuples (a C-contiguous float64 array is read in place, anything else is
 copied). Units are SI: m, rad, s. Poses are 4 × 4 homogeneous matrices in
 the frame of the URDF's root link.
@@ -8,20 +8,50 @@ the frame of the URDF's root link.
 
 import os
 from collections.abc import Mapping, Sequence
-from typing import Any, Literal, Optional, Union
+from typing import Any, Literal, Optional, Union, final
 
 import numpy as np
 import numpy.typing as npt
 
-Vector = npt.NDArray[np.float64]
-Matrix = npt.NDArray[np.float64]
-ArrayLike = Union[npt.NDArray[Any], Sequence[float]]
-MatrixLike = Union[npt.NDArray[Any], Sequence[Sequence[float]]]
-Frame = Union[str, int]
-Reference = Literal["world", "world_aligned", "local_world_aligned", "local"]
-PathLike = Union[str, os.PathLike[str]]
+_Vector = npt.NDArray[np.float64]
+_Matrix = npt.NDArray[np.float64]
+_ArrayLike = Union[npt.NDArray[Any], Sequence[float]]
+_MatrixLike = Union[npt.NDArray[Any], Sequence[Sequence[float]]]
+_Frame = Union[str, int]
+_Reference = Literal["world", "world_aligned", "local_world_aligned", "local"]
+_PathLike = Union[str, os.PathLike[str]]
 
 __version__: str
+__all__ = [
+    "TandemError",
+    "RobotError",
+    "UrdfError",
+    "ConfigurationError",
+    "CollisionError",
+    "ProblemError",
+    "PlanningError",
+    "IkError",
+    "OptimizationError",
+    "ControlError",
+    "DatasetError",
+    "RobotModel",
+    "CollisionModel",
+    "Distance",
+    "Problem",
+    "ProblemFamily",
+    "PlanResult",
+    "Solution",
+    "TrackingPolicy",
+    "plan",
+    "solve",
+    "goal_configurations",
+    "solve_ik",
+    "generate",
+    "missing_parts",
+    "part_count",
+    "part_ids",
+    "__version__",
+]
 
 class TandemError(Exception):
     """Base class of every error tandem raises; the message is the Rust error's."""
@@ -56,6 +86,7 @@ class ControlError(TandemError):
 class DatasetError(TandemError):
     """Bulk generation and dataset files."""
 
+@final
 class RobotModel:
     """A robot's kinematic model: a URDF with a choice of active joints.
 
@@ -68,12 +99,12 @@ class RobotModel:
         """The embedded Franka Panda: 7 arm joints, fingers held open, gripper frame ``panda_hand_tcp``."""
     @staticmethod
     def from_urdf(
-        path: PathLike,
+        path: _PathLike,
         *,
-        package_dirs: Sequence[PathLike] = (),
+        package_dirs: Sequence[_PathLike] = ...,
         chain: Optional[tuple[str, str]] = None,
         joints: Optional[Sequence[str]] = None,
-        hold: Mapping[str, float] = {},
+        hold: Mapping[str, float] = ...,
         ros_package_path: bool = True,
     ) -> RobotModel:
         """Loads a URDF; active joints from ``chain=(root_link, tip_frame)`` or ``joints``
@@ -82,10 +113,10 @@ class RobotModel:
     def from_urdf_string(
         text: str,
         *,
-        package_dirs: Sequence[PathLike] = (),
+        package_dirs: Sequence[_PathLike] = ...,
         chain: Optional[tuple[str, str]] = None,
         joints: Optional[Sequence[str]] = None,
-        hold: Mapping[str, float] = {},
+        hold: Mapping[str, float] = ...,
     ) -> RobotModel:
         """Parses URDF text; arguments as :meth:`from_urdf`."""
     @property
@@ -96,55 +127,57 @@ class RobotModel:
     @property
     def joint_names(self) -> list[str]: ...
     @property
-    def lower_limits(self) -> Vector: ...
+    def lower_limits(self) -> _Vector: ...
     @property
-    def upper_limits(self) -> Vector: ...
+    def upper_limits(self) -> _Vector: ...
     @property
-    def velocity_limits(self) -> Vector: ...
+    def velocity_limits(self) -> _Vector: ...
     @property
-    def effort_limits(self) -> Vector: ...
+    def effort_limits(self) -> _Vector: ...
     @property
     def frame_names(self) -> list[str]:
         """One frame per link, then one per joint, in URDF order."""
     @property
     def root_link(self) -> str: ...
     def frame_index(self, name: str) -> int: ...
-    def neutral_configuration(self) -> Vector: ...
-    def within_limits(self, q: ArrayLike) -> bool: ...
-    def check_configuration(self, q: ArrayLike) -> None:
+    def neutral_configuration(self) -> _Vector: ...
+    def within_limits(self, q: _ArrayLike) -> bool: ...
+    def check_configuration(self, q: _ArrayLike) -> None:
         """Raises ConfigurationError unless ``q`` has one finite value per joint."""
-    def frame_pose(self, q: ArrayLike, frame: Frame, *, out: Optional[Matrix] = None) -> Matrix:
+    def frame_pose(self, q: _ArrayLike, frame: _Frame, *, out: Optional[_Matrix] = None) -> _Matrix:
         """World pose of ``frame`` at ``q`` (4 × 4)."""
     def frame_jacobian(
-        self, q: ArrayLike, frame: Frame, reference: Reference = "world", *, out: Optional[Matrix] = None
-    ) -> Matrix:
+        self, q: _ArrayLike, frame: _Frame, reference: _Reference = "world", *, out: Optional[_Matrix] = None
+    ) -> _Matrix:
         """Geometric Jacobian (6 × nq): linear rows, then angular; world-aligned or local axes."""
-    def frame_pose_jacobian(self, q: ArrayLike, frame: Frame, reference: Reference = "world") -> tuple[Matrix, Matrix]:
+    def frame_pose_jacobian(self, q: _ArrayLike, frame: _Frame, reference: _Reference = "world") -> tuple[_Matrix, _Matrix]:
         """``(frame_pose, frame_jacobian)`` from one forward kinematics pass."""
-    def point_jacobian(self, q: ArrayLike, frame: Frame, point: Sequence[float]) -> tuple[Vector, Matrix]:
+    def point_jacobian(self, q: _ArrayLike, frame: _Frame, point: Sequence[float]) -> tuple[_Vector, _Matrix]:
         """World position and Jacobian (3 × nq) of a point fixed on ``frame`` (frame coordinates, m)."""
-    def frame_placements(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+    def frame_placements(self, q: _ArrayLike) -> npt.NDArray[np.float64]:
         """World poses of all frames (F × 4 × 4), in ``frame_names`` order."""
-    def frame_poses(self, qs: MatrixLike, frame: Frame) -> npt.NDArray[np.float64]:
+    def frame_poses(self, qs: _MatrixLike, frame: _Frame) -> npt.NDArray[np.float64]:
         """Poses of ``frame`` at each row of ``qs`` (N × 4 × 4); releases the GIL."""
-    def frame_jacobians(self, qs: MatrixLike, frame: Frame, reference: Reference = "world") -> npt.NDArray[np.float64]:
+    def frame_jacobians(self, qs: _MatrixLike, frame: _Frame, reference: _Reference = "world") -> npt.NDArray[np.float64]:
         """Jacobians of ``frame`` at each row of ``qs`` (N × 6 × nq); releases the GIL."""
 
+@final
 class Distance:
     """Signed distance of one pair (robot side first); world frame, m."""
 
     pair: int
     bodies: tuple[str, str]
     distance: float
-    point_a: Vector
-    point_b: Vector
-    normal: Vector
-    gradient: Optional[Vector]
+    point_a: _Vector
+    point_b: _Vector
+    normal: _Vector
+    gradient: Optional[_Vector]
 
+@final
 class CollisionModel:
     """The robot (and a problem's scene) as collision geometry, with the pairs to check."""
 
-    def __init__(self, robot: RobotModel, *, srdf: Optional[PathLike] = None, padding: float = 0.0) -> None:
+    def __new__(cls, robot: RobotModel, *, srdf: Optional[_PathLike] = None, padding: float = 0.0) -> CollisionModel:
         """Self-collision model from the robot's URDF collision geometry (SRDF pairs disabled)."""
     @property
     def robot(self) -> RobotModel: ...
@@ -152,29 +185,30 @@ class CollisionModel:
     def padding(self) -> float: ...
     @property
     def pairs(self) -> list[tuple[str, str]]: ...
-    def collision_free(self, q: ArrayLike) -> bool: ...
-    def min_distance(self, q: ArrayLike, *, gradient: bool = False) -> Optional[Distance]: ...
-    def distances(self, q: ArrayLike, cutoff: float = ..., *, gradients: bool = False) -> list[Distance]: ...
-    def motion_free(self, q0: ArrayLike, q1: ArrayLike, resolution: float = 0.005) -> bool: ...
-    def motion_free_certified(self, q0: ArrayLike, q1: ArrayLike, clearance: float) -> bool: ...
-    def path_free(self, path: MatrixLike, resolution: float = 0.005) -> bool: ...
-    def collision_free_many(self, qs: MatrixLike) -> npt.NDArray[np.bool_]: ...
-    def min_distances(self, qs: MatrixLike) -> Vector: ...
+    def collision_free(self, q: _ArrayLike) -> bool: ...
+    def min_distance(self, q: _ArrayLike, *, gradient: bool = False) -> Optional[Distance]: ...
+    def distances(self, q: _ArrayLike, cutoff: float = ..., *, gradients: bool = False) -> list[Distance]: ...
+    def motion_free(self, q0: _ArrayLike, q1: _ArrayLike, resolution: float = 0.005) -> bool: ...
+    def motion_free_certified(self, q0: _ArrayLike, q1: _ArrayLike, clearance: float) -> bool: ...
+    def path_free(self, path: _MatrixLike, resolution: float = 0.005) -> bool: ...
+    def collision_free_many(self, qs: _MatrixLike) -> npt.NDArray[np.bool_]: ...
+    def min_distances(self, qs: _MatrixLike) -> _Vector: ...
 
+@final
 class Problem:
     """A motion problem: robot, scene, start, goal, planner and optimizer settings."""
 
     @staticmethod
-    def from_file(path: PathLike) -> Problem: ...
+    def from_file(path: _PathLike) -> Problem: ...
     @staticmethod
     def builtin(name: str) -> Problem: ...
     @staticmethod
     def builtin_names() -> list[str]: ...
     @staticmethod
-    def from_toml(text: str, *, origin: str = "<string>", base_dir: Optional[PathLike] = None) -> Problem: ...
+    def from_toml(text: str, *, origin: str = "<string>", base_dir: Optional[_PathLike] = None) -> Problem: ...
     @staticmethod
-    def from_moveit(urdf: PathLike, srdf: PathLike, scene: PathLike, request: PathLike) -> Problem: ...
-    def with_start(self, q: ArrayLike) -> Problem: ...
+    def from_moveit(urdf: _PathLike, srdf: _PathLike, scene: _PathLike, request: _PathLike) -> Problem: ...
+    def with_start(self, q: _ArrayLike) -> Problem: ...
     @property
     def name(self) -> str: ...
     @property
@@ -188,7 +222,7 @@ class Problem:
     @property
     def gripper(self) -> Optional[str]: ...
     @property
-    def start(self) -> Vector: ...
+    def start(self) -> _Vector: ...
     @property
     def goal(self) -> dict[str, Any]:
         """``{"kind": "joints" | "pose" | "grasp", ...}``."""
@@ -204,11 +238,12 @@ class Problem:
     def objects(self) -> list[dict[str, Any]]: ...
     def collision_model(self, padding: float = 0.0) -> CollisionModel: ...
 
+@final
 class ProblemFamily:
     """Problems sampled around a base problem; member i of seed s depends on (s, i) only."""
 
     @staticmethod
-    def from_file(path: PathLike) -> ProblemFamily: ...
+    def from_file(path: _PathLike) -> ProblemFamily: ...
     @property
     def name(self) -> str: ...
     @property
@@ -217,6 +252,7 @@ class ProblemFamily:
     def base(self) -> Problem: ...
     def sample(self, i: int, seed: int = 0) -> Problem: ...
 
+@final
 class PlanResult:
     """RRT-Connect + shortcutting outcome."""
 
@@ -225,11 +261,11 @@ class PlanResult:
     @property
     def solved(self) -> bool: ...
     @property
-    def path(self) -> Matrix: ...
+    def path(self) -> _Matrix: ...
     @property
-    def raw_path(self) -> Matrix: ...
+    def raw_path(self) -> _Matrix: ...
     @property
-    def goals(self) -> Matrix: ...
+    def goals(self) -> _Matrix: ...
     @property
     def certified(self) -> bool: ...
     @property
@@ -243,6 +279,7 @@ class PlanResult:
     @property
     def simplify_time(self) -> float: ...
 
+@final
 class Solution:
     """An optimized trajectory and its report."""
 
@@ -251,7 +288,7 @@ class Solution:
     @property
     def converged(self) -> bool: ...
     @property
-    def trajectory(self) -> Matrix: ...
+    def trajectory(self) -> _Matrix: ...
     @property
     def joint_names(self) -> list[str]: ...
     @property
@@ -278,12 +315,13 @@ class Solution:
     def plan(self) -> PlanResult: ...
     def report(self) -> dict[str, Any]: ...
 
+@final
 class TrackingPolicy:
     """LQR tracking policy of a joint-space reference (velocity commands)."""
 
-    def __init__(
-        self,
-        reference: MatrixLike,
+    def __new__(
+        cls,
+        reference: _MatrixLike,
         dt: float,
         *,
         joints: Optional[Sequence[str]] = None,
@@ -293,7 +331,7 @@ class TrackingPolicy:
         schedule: Literal["constant", "time_varying"] = "constant",
         feedforward: Literal["velocity", "acceleration"] = "velocity",
         lookahead: int = 1,
-    ) -> None: ...
+    ) -> TrackingPolicy: ...
     @property
     def dof(self) -> int: ...
     @property
@@ -301,13 +339,13 @@ class TrackingPolicy:
     @property
     def joint_names(self) -> list[str]: ...
     @property
-    def reference(self) -> Matrix: ...
-    def gain(self, index: int = 0) -> Matrix: ...
-    def query(self, q: ArrayLike, velocity: Optional[ArrayLike] = None, *, out: Optional[Vector] = None) -> Vector: ...
-    def query_with_info(self, q: ArrayLike, velocity: Optional[ArrayLike] = None) -> tuple[Vector, int, float, int]:
+    def reference(self) -> _Matrix: ...
+    def gain(self, index: int = 0) -> _Matrix: ...
+    def query(self, q: _ArrayLike, velocity: Optional[_ArrayLike] = None, *, out: Optional[_Vector] = None) -> _Vector: ...
+    def query_with_info(self, q: _ArrayLike, velocity: Optional[_ArrayLike] = None) -> tuple[_Vector, int, float, int]:
         """``(command, closest index, distance to it (rad), tracked index)``."""
     def reset(self) -> None: ...
-    def rollout(self, start: ArrayLike, steps: int) -> Matrix: ...
+    def rollout(self, start: _ArrayLike, steps: int) -> _Matrix: ...
 
 def plan(problem: Problem, seed: Optional[int] = None) -> PlanResult:
     """RRT-Connect + shortcutting, as ``tandem plan``; releases the GIL."""
@@ -317,18 +355,18 @@ def solve(
 ) -> Solution:
     """Plan, optimize and validate, as ``tandem solve``; releases the GIL."""
 
-def goal_configurations(problem: Problem, seed: Optional[int] = None) -> Matrix:
+def goal_configurations(problem: Problem, seed: Optional[int] = None) -> _Matrix:
     """The goal configurations the planner aims at (K × nq)."""
 
 def solve_ik(
     model: CollisionModel,
-    frame: Frame,
+    frame: _Frame,
     position: Sequence[float],
     *,
     orientation: Optional[Sequence[Sequence[float]]] = None,
     axis: Optional[int] = None,
     direction: Optional[Sequence[float]] = None,
-    seed_q: Optional[ArrayLike] = None,
+    seed_q: Optional[_ArrayLike] = None,
     count: int = 1,
     seed: int = 0,
     restarts: int = 50,
@@ -336,12 +374,12 @@ def solve_ik(
     position_tolerance: float = 1e-5,
     angle_tolerance: float = 1e-4,
     damping: float = 1e-3,
-) -> Matrix:
+) -> _Matrix:
     """Up to ``count`` collision-free IK solutions (K × nq); raises IkError when none."""
 
 def generate(
-    family: PathLike,
-    out: PathLike,
+    family: _PathLike,
+    out: _PathLike,
     *,
     count: int,
     seed: int = 0,
@@ -356,8 +394,8 @@ def generate(
     """Bulk generation in this process, as ``tandem generate``; releases the GIL."""
 
 def missing_parts(
-    family: PathLike,
-    out: PathLike,
+    family: _PathLike,
+    out: _PathLike,
     *,
     count: int,
     seed: int = 0,

@@ -130,7 +130,7 @@ def generate(
     began = time.monotonic()
     family = os.path.abspath(os.fspath(family_path))
     folder = os.path.abspath(os.fspath(out))
-    settings = dict(
+    settings: dict[str, Any] = dict(
         count=count,
         seed=seed,
         horizon=horizon,
@@ -193,7 +193,7 @@ def _run_parts(
         task = ray.remote(num_cpus=cpus_per_task)(_generate_part)
         queue = list(missing)
         running: dict[Any, int] = {}
-        progress = {
+        progress: dict[str, Any] = {
             "parts_done": 0,
             "parts_total": len(missing),
             "samples_done": 0,
@@ -228,7 +228,7 @@ def _run_parts(
         finally:
             for ref in running:
                 ray.cancel(ref)
-        return progress["samples_done"]
+        return int(progress["samples_done"])
     finally:
         if started:
             ray.shutdown()
