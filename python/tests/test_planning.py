@@ -167,3 +167,77 @@ def test_solve_ik_reaches_targets(pin_panda):
     pose = pin_panda.tcp_pose(q)
     assert np.linalg.norm(pose[:3, 3] - [0.5, 0.0, 0.4]) < 1e-5
     assert angle_between(pose[:3, 2], [0, 0, -1]) < 1e-4
+
+
+SRDF = """<?xml version="1.0"?>
+<robot name="panda">
+  <group name="panda_arm">
+    <chain base_link="panda_link0" tip_link="panda_link8"/>
+  </group>
+  <disable_collisions link1="panda_link0" link2="panda_link2" reason="Never"/>
+</robot>
+"""
+
+SCENE = """world:
+  collision_objects:
+    - id: shelf
+      primitives:
+        - type: box
+          dimensions: [0.3, 0.6, 0.04]
+      primitive_poses:
+        - position: [0.55, 0.0, 0.45]
+          orientation: [0, 0, 0, 1]
+allowed_collision_matrix:
+  entry_names: [panda_link0, shelf]
+  entry_values:
+    - [false, false]
+    - [false, false]
+"""
+
+REQUEST = """group_name: panda_arm
+start_state:
+  joint_state:
+    name: [panda_joint1, panda_joint2, panda_joint3, panda_joint4, panda_joint5, panda_joint6, panda_joint7, panda_finger_joint1]
+    position: [-1.2, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785, 0.03]
+goal_constraints:
+  - joint_constraints:
+{goal}
+"""
+
+
+def test_moveit_inputs(tmp_path, pin_panda):
+    """A MoveIt planning scene and motion plan request become a problem:
+    the box primitive as an obstacle, start and joint goal as given, the
+    finger held where the request starts it; the planned path is collision-free."""
+    goal = [1.2, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]
+    files = {"panda.srdf": SRDF, "scene.yaml": SCENE}
+    files["request.yaml"] = REQUEST.format(
+        goal="\n".join(f"      - joint_name: panda_joint{i + 1}\n        position: {v}" for i, v in enumerate(goal))
+    )
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    srdf, scene, request = (tmp_path / n for n in ["panda.srdf", "scene.yaml", "request.yaml"])
+    problem = tandem.Problem.from_moveit(PANDA_URDF, srdf, scene, request)
+    assert problem.name == "request" and problem.joint_names == [f"panda_joint{i}" for i in range(1, 8)]
+    np.testing.assert_array_equal(problem.start, [-1.2, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785])
+    np.testing.assert_array_equal(problem.goal["q"], goal)
+    [shelf] = problem.obstacles
+    assert shelf["name"] == "shelf" and shelf["shape"] == "box"
+    np.testing.assert_allclose(shelf["size"], [0.3, 0.6, 0.04])
+    np.testing.assert_allclose(shelf["pose"][:3, 3], [0.55, 0.0, 0.45])
+    # The finger is held at the request's 0.03 m: Pinocchio places the left finger there.
+    pin_q = pin.neutral(pin_panda.model)
+    pin_q[:7], pin_q[7:9] = problem.start, 0.03
+    pin.framesForwardKinematics(pin_panda.model, pin_panda.data, pin_q)
+    finger = pin_panda.data.oMf[pin_panda.model.getFrameId("panda_leftfinger")].homogeneous
+    np.testing.assert_allclose(problem.robot.frame_pose(problem.start, "panda_leftfinger"), finger, atol=1e-12)
+    model = problem.collision_model()
+    assert ("panda_link0", "panda_link2") not in model.pairs
+    result = tandem.plan(problem, seed=0)
+    assert result.solved
+    np.testing.assert_array_equal(result.path[-1], goal)
+    assert model.path_free(result.path, resolution=0.002)
+    # A request without a goal is an error naming the file.
+    (tmp_path / "bad.yaml").write_text(files["request.yaml"].split("goal_constraints")[0])
+    with pytest.raises(tandem.ProblemError, match="bad.yaml"):
+        tandem.Problem.from_moveit(PANDA_URDF, srdf, scene, tmp_path / "bad.yaml")
