@@ -138,21 +138,8 @@ pub fn generate(
     settings: &GenerateSettings,
     progress: &Progress,
 ) -> Result<GenerateSummary, GenerateError> {
-    validate(settings)?;
     let began = Instant::now();
-    let family = ProblemFamily::from_file(family_path)?;
-    let parameters = parameters(family_path, &family, settings)?;
-    std::fs::create_dir_all(out.join("_timings")).map_err(|e| DataError::Io { path: out.into(), source: e })?;
-    check_parameters(out, &parameters)?;
-    let chunks = shard_chunks(settings);
-    let mut found = Vec::new();
-    let mut pending = Vec::new();
-    for &k in &chunks {
-        match existing_part(out, k, settings)? {
-            Some(summary) => found.push((k, summary)),
-            None => pending.push(k),
-        }
-    }
+    let OpenedDataset { family, parameters, mut found, pending } = open_dataset(family_path, out, settings)?;
     let joints = family.base.robot.joint_names().to_vec();
     let ee_frame = family.base.robot_spec.gripper.clone().unwrap_or_default();
     let samples_run: u64 = pending.iter().map(|&k| chunk_ids(k, settings)).map(|[a, b]| b - a).sum();
@@ -184,6 +171,59 @@ pub fn generate(
         elapsed: began.elapsed(),
         sample_ms,
     })
+}
+
+/// A dataset folder checked for a run: the family, the run parameters
+/// (written to, or checked against, `_dataset.json`), the part files of
+/// the run's shard found complete and the chunks still missing.
+struct OpenedDataset {
+    family: ProblemFamily,
+    parameters: DatasetParameters,
+    found: Vec<(u64, PartSummary)>,
+    pending: Vec<u64>,
+}
+
+fn open_dataset(family_path: &Path, out: &Path, settings: &GenerateSettings) -> Result<OpenedDataset, GenerateError> {
+    validate(settings)?;
+    let family = ProblemFamily::from_file(family_path)?;
+    let parameters = parameters(family_path, &family, settings)?;
+    std::fs::create_dir_all(out.join("_timings")).map_err(|e| DataError::Io { path: out.into(), source: e })?;
+    check_parameters(out, &parameters)?;
+    let (mut found, mut pending) = (Vec::new(), Vec::new());
+    for k in shard_chunks(settings) {
+        match existing_part(out, k, settings)? {
+            Some(summary) => found.push((k, summary)),
+            None => pending.push(k),
+        }
+    }
+    Ok(OpenedDataset { family, parameters, found, pending })
+}
+
+/// The part files of this run (of its shard, when sharded) still missing
+/// from `out`, as part numbers `k` (file `part-{k:05}.parquet`, ids
+/// [`part_ids`]). Checks everything [`generate`] checks before it
+/// computes — settings, family, a folder holding another dataset (refused)
+/// — writes `_dataset.json` when absent and moves damaged parts aside, but
+/// generates nothing. Another scheduler can then compute each missing part
+/// as shard `k/K` with `K = `[`part_count`] (exactly part `k`), anywhere,
+/// and a final unsharded [`generate`] over the complete folder writes the
+/// manifest: the dataset of one run (this is what the Python package's
+/// `tandem.distributed` does over Ray).
+///
+/// # Errors
+/// As [`generate`].
+pub fn pending_parts(family_path: &Path, out: &Path, settings: &GenerateSettings) -> Result<Vec<u64>, GenerateError> {
+    Ok(open_dataset(family_path, out, settings)?.pending)
+}
+
+/// Number of part files of a run, `⌈count / chunk_size⌉` (0 for a chunk size of 0).
+pub fn part_count(settings: &GenerateSettings) -> u64 {
+    if settings.chunk_size == 0 { 0 } else { chunk_count(settings) }
+}
+
+/// Ids `first .. end` of part `k` of a run.
+pub fn part_ids(k: u64, settings: &GenerateSettings) -> [u64; 2] {
+    chunk_ids(k, settings)
 }
 
 fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
@@ -355,4 +395,24 @@ fn write_timings(out: &Path, k: u64, outcomes: &[SampleOutcome], timings: &[Samp
         csv.push_str(&format!("{},{outcome},{:.3},{:.3},{:.3}\n", o.id(), t.plan_ms, t.optimize_ms, t.total_ms));
     }
     write_atomically(&out.join("_timings").join(format!("part-{k:05}.csv")), csv.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shard_k_of_part_count_is_part_k() {
+        for (count, chunk_size) in [(12, 3), (10, 3), (1, 100), (250, 100)] {
+            let settings = GenerateSettings { count, chunk_size, ..GenerateSettings::default() };
+            let parts = part_count(&settings);
+            assert_eq!(parts, count.div_ceil(chunk_size));
+            for k in 0..parts {
+                let shard = Some(ShardSpec { index: k, count: parts });
+                assert_eq!(shard_chunks(&GenerateSettings { shard, ..settings.clone() }), vec![k]);
+            }
+            assert_eq!(part_ids(parts - 1, &settings)[1], count);
+        }
+        assert_eq!(part_count(&GenerateSettings { chunk_size: 0, ..GenerateSettings::default() }), 0);
+    }
 }

@@ -26,7 +26,9 @@ pub mod schema;
 mod shard;
 mod trajectory;
 
-pub use generate::{GenerateError, GenerateSettings, GenerateSummary, ShardSpec, generate};
+pub use generate::{
+    GenerateError, GenerateSettings, GenerateSummary, ShardSpec, generate, part_count, part_ids, pending_parts,
+};
 pub use manifest::{DatasetParameters, Manifest, PartEntry};
 pub use progress::Progress;
 pub use sample::{GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_sample};
