@@ -324,7 +324,8 @@ pub fn run_reach_grasp(
     let base = Problem::builtin("panda_grasp_box")?;
     let units: Vec<(Arm, usize)> =
         settings.arms.iter().flat_map(|&arm| (0..settings.tasks).map(move |i| (arm, i))).collect();
-    let per_task: Vec<Result<(Task, Vec<EpisodeSummary>, f64, f64), ArbitrationError>> = units
+    type TaskRun = (Task, Vec<EpisodeSummary>, f64, f64);
+    let per_task: Vec<Result<TaskRun, ArbitrationError>> = units
         .par_iter()
         .map(|&(arm, index)| {
             let t0 = std::time::Instant::now();
