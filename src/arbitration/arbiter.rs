@@ -693,6 +693,9 @@ fn validate_settings(s: &ArbiterSettings) -> Result<(), ArbitrationError> {
     if !positive(s.modes.sum_of_squares_epsilon) {
         return bad("modes.sum_of_squares_epsilon", s.modes.sum_of_squares_epsilon);
     }
+    if !s.modes.sum_of_squares_center.is_finite() {
+        return bad("modes.sum_of_squares_center", s.modes.sum_of_squares_center);
+    }
     if !s.modes.constrained_center.is_finite() {
         return bad("modes.constrained_center", s.modes.constrained_center);
     }

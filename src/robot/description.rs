@@ -306,6 +306,15 @@ impl RobotDescription {
         super::urdf::parse_urdf(PANDA_URDF, "<embedded panda.urdf>", &super::MeshSearchPath::default())
             .expect("embedded Panda URDF is valid")
     }
+
+    /// The embedded planar gripper of the seed's planar task: prismatic `x`
+    /// and `y` (m, over a 50 × 50 cm table) and a `yaw` joint, gripper frame
+    /// `gripper_tcp` 10 cm above the table.
+    pub fn planar_gripper() -> RobotDescription {
+        const URDF: &str = include_str!("../../problems/robots/planar/planar_gripper.urdf");
+        super::urdf::parse_urdf(URDF, "<embedded planar_gripper.urdf>", &super::MeshSearchPath::default())
+            .expect("embedded planar gripper URDF is valid")
+    }
 }
 
 /// Checks that a parsed description is a single tree and fills `parent_joint`.

@@ -192,10 +192,11 @@ pub struct Problem {
 }
 
 /// The problem files shipped with tandem, by name, embedded in the binary.
-pub const BUILTIN_PROBLEMS: [(&str, &str); 3] = [
+pub const BUILTIN_PROBLEMS: [(&str, &str); 4] = [
     ("panda_reach", include_str!("../../problems/panda_reach.toml")),
     ("panda_reach_obstacle", include_str!("../../problems/panda_reach_obstacle.toml")),
     ("panda_grasp_box", include_str!("../../problems/panda_grasp_box.toml")),
+    ("planar_pick", include_str!("../../problems/planar_pick.toml")),
 ];
 
 /// Context for building errors: the file and its text.

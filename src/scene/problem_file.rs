@@ -389,6 +389,9 @@ impl RawRobot {
             if src.base.is_none() && file == "robots/panda/panda.urdf" {
                 return Ok(Arc::new(RobotDescription::panda()));
             }
+            if src.base.is_none() && file == "robots/planar/planar_gripper.urdf" {
+                return Ok(Arc::new(RobotDescription::planar_gripper()));
+            }
             RobotDescription::from_urdf_file(src.resolve(file), &search)
                 .map(Arc::new)
                 .map_err(|e| src.error(&path.key(key), e.to_string()))
