@@ -3,7 +3,10 @@
 
 use crate::data::Progress;
 use crate::figures::{Panel, Series, render_panels};
-use crate::sim::{Arm, Method, OperatorKind, ReachGraspResults, ReachGraspSettings, percentiles, run_reach_grasp};
+use crate::sim::{
+    Arm, Method, OperatorKind, Outcome, PlanarResults, PlanarSettings, ReachGraspResults, ReachGraspSettings, mean_std,
+    percentiles, run_planar, run_reach_grasp,
+};
 use std::path::PathBuf;
 
 /// Arguments of `tandem experiment`.
@@ -32,6 +35,42 @@ pub enum Experiment {
     ///   tandem experiment reach-grasp --tasks 20 --arm right --json --out results/
     #[command(verbatim_doc_comment)]
     ReachGrasp(ReachGraspArgs),
+    /// Table 4.1: planar pick-and-place (the seed's chapter 4 task) with the
+    /// simulated users of §6.5. A gripper over a 50 × 50 cm table picks one
+    /// of two cylinders past a pole and brings it to a place position;
+    /// users straight, noisy-0.5, noisy-1.0, biased (5 cm/s) with methods
+    /// direct (no collision avoidance), natural-gradient-joint, blend-timid,
+    /// avoid, at 30 Hz. Reports duration, travel distance, smallest distance
+    /// to the pole and the cosine distance between the user's and the
+    /// executed command (mean ± std), success and collisions.
+    ///
+    /// Examples:
+    ///   tandem experiment planar
+    ///   tandem experiment planar --tasks 10 --json --out results/
+    #[command(verbatim_doc_comment)]
+    Planar(PlanarArgs),
+}
+
+/// Arguments of `tandem experiment planar`.
+#[derive(Debug, clap::Args)]
+pub struct PlanarArgs {
+    /// Tasks (1 … 100000).
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub tasks: u32,
+    /// Seed of the tasks and of the users' randomness.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores); results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object: {"tasks", "results": [{"operator", "method",
+    /// "success", "collision", "duration_s": [mean, std], "travel_cm",
+    /// "proximity_cm", "cosine_distance"}, ...]}.
+    #[arg(long)]
+    pub json: bool,
+    /// Folder for the Fig. 4.5-style figure (planar.svg) and the results (planar.json).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
 }
 
 /// Arguments of `tandem experiment reach-grasp`.
@@ -62,6 +101,7 @@ pub struct ReachGraspArgs {
 pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
     match &args.experiment {
         Experiment::ReachGrasp(a) => reach_grasp(a),
+        Experiment::Planar(a) => planar(a),
     }
 }
 
@@ -212,4 +252,115 @@ fn figure(r: &ReachGraspResults) -> Result<String, Box<dyn std::error::Error>> {
         380,
         420,
     )?)
+}
+
+fn planar(args: &PlanarArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let settings = PlanarSettings { tasks: args.tasks as usize, seed: args.seed, ..PlanarSettings::default() };
+    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(settings.tasks as u64);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
+    let results = pool.install(|| run_planar(&settings, &|| progress.sample_done(true)))?;
+    progress.finish();
+    let json = planar_json(&results);
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let write = |name: &str, text: String| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+        };
+        write("planar.json", serde_json::to_string_pretty(&json)?)?;
+        write("planar.svg", planar_figure(&results)?)?;
+    }
+    if args.json {
+        println!("{json}");
+        return Ok(());
+    }
+    println!(
+        "\n{:<12} {:<24} {:>8} {:>9} {:>14} {:>15} {:>15} {:>17}",
+        "user", "method", "success", "collision", "duration (s)", "travel (cm)", "proximity (cm)", "cos dist (1e-2)"
+    );
+    for row in json["results"].as_array().into_iter().flatten() {
+        let pm = |key: &str, scale: f64| {
+            let v = &row[key];
+            format!(
+                "{:.1} ± {:.1}",
+                v[0].as_f64().unwrap_or(f64::NAN) * scale,
+                v[1].as_f64().unwrap_or(f64::NAN) * scale
+            )
+        };
+        println!(
+            "{:<12} {:<24} {:>8} {:>9} {:>14} {:>15} {:>15} {:>17}",
+            row["operator"].as_str().unwrap_or_default(),
+            row["method"].as_str().unwrap_or_default(),
+            format!("{}/{}", row["success"], settings.tasks),
+            row["collision"],
+            pm("duration_s", 1.0),
+            pm("travel_cm", 1.0),
+            pm("proximity_cm", 1.0),
+            pm("cosine_distance", 100.0),
+        );
+    }
+    let violations: usize = results.episodes.iter().map(|e| e.hard_violations).sum();
+    println!(
+        "\n{} episodes in {:.1} s; hard-constraint violations: {violations}",
+        results.episodes.len(),
+        results.wall_seconds
+    );
+    if let Some(dir) = &args.out {
+        println!("wrote planar.json and planar.svg to {}", dir.display());
+    }
+    Ok(())
+}
+
+fn planar_json(r: &PlanarResults) -> serde_json::Value {
+    let s = &r.settings;
+    let mut rows = vec![];
+    for (u, user) in s.users.iter().enumerate() {
+        for (m, method) in s.methods.iter().enumerate() {
+            let cell: Vec<_> = r.episodes.iter().filter(|e| e.user == u && e.method == m).collect();
+            let count = |o: Outcome| cell.iter().filter(|e| e.outcome == o).count();
+            rows.push(serde_json::json!({
+                "operator": user.name(),
+                "method": method.as_str(),
+                "success": count(Outcome::Success),
+                "collision": count(Outcome::Collision),
+                "timeout": count(Outcome::Timeout),
+                "failed": count(Outcome::Failed),
+                "duration_s": mean_std(cell.iter().map(|e| e.duration)),
+                "travel_cm": mean_std(cell.iter().map(|e| e.travel_cm)),
+                "proximity_cm": mean_std(cell.iter().map(|e| e.proximity_cm)),
+                "cosine_distance": mean_std(cell.iter().map(|e| e.cosine_distance)),
+                "hard_violations": cell.iter().map(|e| e.hard_violations).sum::<usize>(),
+            }));
+        }
+    }
+    serde_json::json!({"tasks": s.tasks, "seed": s.seed, "results": rows, "seconds": r.wall_seconds})
+}
+
+/// Fig. 4.5: the first task's gripper paths, one panel per method, every user.
+fn planar_figure(r: &PlanarResults) -> Result<String, Box<dyn std::error::Error>> {
+    use crate::figures::SeriesKind;
+    let s = &r.settings;
+    let task = r.tasks.first().ok_or("no task")?;
+    let problem = &task.reach[task.target].problem;
+    let pole = problem.scene.obstacle("pole").map(|o| (o.pose.translation.x, o.pose.translation.y)).unwrap_or_default();
+    let objects: Vec<(f64, f64)> = task.reach.iter().map(|g| (g.position[0], g.position[1])).collect();
+    let place = (task.place.position[0], task.place.position[1]);
+    let panels: Vec<Panel> = s
+        .methods
+        .iter()
+        .enumerate()
+        .map(|(m, method)| {
+            let mut panel = Panel::new(method.as_str(), "x (m)", "y (m)").ranges((0.0, 0.5), (0.0, 0.5)).equal();
+            for (u, user) in s.users.iter().enumerate() {
+                if let Some(e) = r.episodes.iter().find(|e| e.task == task.index && e.user == u && e.method == m) {
+                    panel = panel.with(Series::line(&format!("{} ({})", user.name(), e.outcome.as_str()), &e.path, u));
+                }
+            }
+            panel
+                .with(Series { label: None, points: vec![pole], color: 7, kind: SeriesKind::Circles(0.03) })
+                .with(Series::points("cylinders", &objects, 3))
+                .with(Series::points("place", &[place], 2))
+        })
+        .collect();
+    Ok(render_panels("planar pick-and-place, task 0: gripper paths by method (top view)", &panels, 360, 400)?)
 }

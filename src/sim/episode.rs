@@ -102,7 +102,7 @@ impl EpisodeRecord {
             .zip(&self.executed)
             .filter_map(|(h, e)| {
                 let (nh, ne) = (super::operator::norm3(*h), super::operator::norm3(*e));
-                (nh > 1e-6 && ne > 1e-6).then(|| 1.0 - (h[0] * e[0] + h[1] * e[1] + h[2] * e[2]) / (nh * ne))
+                (nh > 1e-6 && ne > 1e-6).then(|| (1.0 - (h[0] * e[0] + h[1] * e[1] + h[2] * e[2]) / (nh * ne)).max(0.0))
             })
             .collect();
         if values.is_empty() { f64::NAN } else { values.iter().sum::<f64>() / values.len() as f64 }

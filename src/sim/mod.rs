@@ -19,12 +19,17 @@
 mod episode;
 mod judge;
 mod operator;
+mod planar;
 mod reach_grasp;
 
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, Pace, PolicyFollower, Straightline,
+};
+pub use planar::{
+    PLANAR_METHODS, PlanarEpisode, PlanarResults, PlanarSettings, PlanarTask, PlanarUser, mean_std, run_planar,
+    sample_planar_task,
 };
 pub use reach_grasp::{
     Arm, Cell, EpisodeSummary, Method, OperatorKind, ReachGraspResults, ReachGraspSettings, Task, run_reach_grasp,
