@@ -6,12 +6,10 @@
 
 mod common;
 
-use common::{random_configurations, repo};
+use common::random_configurations;
 use nalgebra::IsometryMatrix3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::path::Path;
-use std::process::Command;
 use std::sync::Arc;
 use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
 use tandem::robot::RobotModel;
@@ -139,19 +137,11 @@ fn fast_path_matches_at_contact() {
     assert!(boundary > 100, "{boundary}");
 }
 
-fn unpack(dir: &Path) -> std::path::PathBuf {
-    let mbm = repo().join("../shared/benchmarks/mbm");
-    let status =
-        Command::new("tar").arg("xjf").arg(mbm.join("panda_problems.tar.bz2")).arg("-C").arg(dir).status().unwrap();
-    assert!(status.success());
-    dir.join("problems")
-}
-
 #[test]
 fn fast_path_matches_on_motionbenchmaker_scenes() {
-    let mbm = repo().join("../shared/benchmarks/mbm");
+    let mbm = common::mbm();
     let dir = tempfile::tempdir().unwrap();
-    let problems = unpack(dir.path());
+    let problems = common::unpack_mbm(dir.path());
     let (urdf, srdf) = (mbm.join("panda_spherized.urdf"), mbm.join("panda.srdf"));
     let (mut free, mut colliding) = (0, 0);
     for family in

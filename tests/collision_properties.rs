@@ -158,7 +158,7 @@ fn padding_shifts_distances_by_the_padded_sides() {
 
 #[test]
 fn srdf_disabled_pairs_and_spherized_geometry() {
-    let mbm = repo().join("../shared/benchmarks/mbm");
+    let mbm = common::mbm();
     let desc = Arc::new(
         RobotDescription::from_urdf_file(mbm.join("panda_spherized.urdf"), &MeshSearchPath::default()).unwrap(),
     );

@@ -5,27 +5,10 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
 use tandem::collision::CollisionWorkspace;
 use tandem::scene::{Goal, Problem, read_moveit_request, read_moveit_scene};
 
-fn mbm() -> PathBuf {
-    common::repo().join("../shared/benchmarks/mbm")
-}
-
-/// Unpacks the benchmark's problems into `dir`; returns the problems folder.
-fn unpack(dir: &Path) -> PathBuf {
-    let status = Command::new("tar")
-        .arg("xjf")
-        .arg(mbm().join("panda_problems.tar.bz2"))
-        .arg("-C")
-        .arg(dir)
-        .status()
-        .expect("run tar");
-    assert!(status.success(), "tar failed");
-    dir.join("problems")
-}
+use common::{mbm, unpack_mbm as unpack};
 
 #[test]
 fn all_motionbenchmaker_problems_load_with_free_starts_and_goals() {

@@ -48,6 +48,26 @@ pub fn run_python(script: &str, args: &[&str], stdin: &str) -> String {
     String::from_utf8(out.stdout).expect("utf-8 output")
 }
 
+/// The vendored MotionBenchMaker files (`problems/motionbenchmaker/`,
+/// provenance in its README).
+pub fn mbm() -> PathBuf {
+    repo().join("problems/motionbenchmaker")
+}
+
+/// Unpacks the MotionBenchMaker problems into `dir`; returns the
+/// `problems` folder (one `<family>_panda` folder per family).
+pub fn unpack_mbm(dir: &Path) -> PathBuf {
+    let status = Command::new("tar")
+        .arg("xjf")
+        .arg(mbm().join("panda_problems.tar.bz2"))
+        .arg("-C")
+        .arg(dir)
+        .status()
+        .expect("run tar");
+    assert!(status.success(), "tar failed to unpack the MotionBenchMaker problems");
+    dir.join("problems")
+}
+
 /// Example-robot-data locations reported by the reference environment.
 pub struct ErdRobots {
     pub package_dir: PathBuf,
