@@ -259,8 +259,11 @@ fn bad_inputs_get_typed_errors() {
     let collide = Objective::new("c", Feature::Collision { margin: 0.0 }, ObjectiveKind::Inequality);
     let err = TrajectoryProblem::new(robot.clone(), None, vec![collide], 10, 2, 1.0, start.clone()).unwrap_err();
     assert!(err.to_string().contains("no collision model"), "{err}");
-    let err = TrajectoryProblem::new(robot, None, vec![], 1, 2, 1.0, start).unwrap_err();
-    assert!(err.to_string().contains("horizon ≥ 2"), "{err}");
+    let err = TrajectoryProblem::new(robot.clone(), None, vec![], 1, 2, 1.0, start.clone()).unwrap_err();
+    assert!(err.to_string().contains("a horizon T from 2 to 100000"), "{err}");
+    // `solve -T 1000000` ran, bypassing the limit of problem files.
+    let err = TrajectoryProblem::new(robot, None, vec![], 100_001, 2, 1.0, start).unwrap_err();
+    assert!(err.to_string().contains("got T = 100001"), "{err}");
 }
 
 #[test]

@@ -737,7 +737,7 @@ fn unknown_objective_kind() {
     let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
     expect_problem_error(
         &text,
-        "hard",
+        "kind = \"hard\"",
         "optimizer.objectives[0].kind",
         "unknown kind 'hard' (expected sos, eq or ineq)",
     );

@@ -38,6 +38,7 @@ mod spheres;
 
 pub use distance::{SignedDistance, closer_than, signed_distance};
 pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
+pub use motion::{MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
 pub use query::{CollisionWorkspace, PairDistance};
 pub use shape::{ConvexHull, Shape};
 pub use spheres::LANES;
@@ -57,6 +58,20 @@ pub enum CollisionError {
     /// A link whose collision mesh tandem cannot read.
     #[error("link '{link}' has a collision mesh in a format tandem cannot read (use STL, OBJ or COLLADA)")]
     UnreadableMesh { link: String },
+    /// A link's collision element that cannot become a collision shape
+    /// (e.g. a flat mesh, whose convex hull has no volume).
+    #[error("{urdf}: link '{link}', collision element {element}{}: {source}", mesh.as_ref().map(|p| format!(" (mesh {})", p.display())).unwrap_or_default())]
+    LinkGeometry {
+        /// The URDF (path or `<string>`) the element comes from.
+        urdf: String,
+        link: String,
+        /// Index of the `<collision>` element in the link (URDF order, from 0).
+        element: usize,
+        /// The mesh file, for mesh elements.
+        mesh: Option<std::path::PathBuf>,
+        #[source]
+        source: Box<CollisionError>,
+    },
     /// A name (link, obstacle, object) that matches nothing.
     #[error("no link, obstacle or object named '{name}'{}", crate::robot::did_you_mean(suggestions))]
     UnknownName { name: String, suggestions: Vec<String> },

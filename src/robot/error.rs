@@ -117,9 +117,27 @@ pub enum RobotError {
     /// A configuration containing NaN or an infinity.
     #[error("joint '{joint}' (index {index}) has non-finite value {value}")]
     NonFinite { joint: String, index: usize, value: f64 },
+    /// A configuration value outside its joint's position limits.
+    #[error("joint '{joint}' (index {index}) = {value} is outside its limits [{lower}, {upper}]")]
+    OutsideLimits { joint: String, index: usize, value: f64, lower: f64, upper: f64 },
+    /// A setting of a query (a motion check's resolution or clearance)
+    /// outside its documented range, or one that would make the query
+    /// unbounded.
+    #[error("{name} = {value} is not valid: {expected}")]
+    InvalidSetting { name: &'static str, value: f64, expected: String },
     /// An output buffer of the wrong shape (a programming error of the caller).
     #[error("output has {got} columns, the model has {expected} active joints")]
     OutputShape { expected: usize, got: usize },
+}
+
+/// `value` in plain notation when that is short, else in scientific
+/// notation: error messages quoting 1e-300 would print 300 zeros.
+pub(crate) fn readable(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() || (1e-5..1e7).contains(&value.abs()) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
 }
 
 pub(crate) fn did_you_mean(suggestions: &[String]) -> String {

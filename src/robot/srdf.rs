@@ -145,7 +145,8 @@ fn parse(text: &str, source: &str) -> Result<Srdf, RobotError> {
     let at = |line: u32| SourceLocation { source: source.to_string(), line: Some(line) };
     let doc = roxmltree::Document::parse(text)
         .map_err(|e| RobotError::MalformedXml { at: at(e.pos().row), message: e.to_string() })?;
-    let line = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row;
+    let index = super::xml_checks::LineIndex::new(text);
+    let line = |n: &roxmltree::Node| index.line(n);
     let attr = |n: &roxmltree::Node, key: &str| -> Result<String, RobotError> {
         n.attribute(key).map(str::to_string).ok_or_else(|| RobotError::InvalidSrdf {
             at: at(line(n)),

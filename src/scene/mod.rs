@@ -28,6 +28,7 @@ pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
     RobotSpec, TimeRange,
 };
+pub use problem_file::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};
 
 use crate::collision::{CollisionError, Shape};
 use crate::robot::suggest_names;

@@ -343,16 +343,17 @@ impl SphereModel {
         let (mut statics, mut static_index) = (Vec::new(), vec![u32::MAX; model.objects.len()]);
         let mut env_lists = vec![Vec::new(); groups.len()];
         let (mut self_pairs, mut common_depth, mut fixed_collision) = (Vec::new(), Vec::new(), false);
+        // Depth of each body below the root (parents come before children).
+        let mut depth = vec![0usize; robot.bodies.len()];
+        for b in 1..depth.len() {
+            depth[b] = depth[robot.bodies[b].parent] + 1;
+        }
         for gp in &model.group_pairs {
             let (a, b): (&Group, &Group) = (&model.groups[gp.a], &model.groups[gp.b]);
-            if let (Some(body_a), Some(body_b)) = (a.body, b.body) {
+            if a.body.is_some() && b.body.is_some() {
                 self_pairs.push([index[gp.a], index[gp.b]]);
-                let chain = |body| {
-                    let mut c: Vec<usize> = lever_chain(robot, body, 0.0).map(|(b, _)| b).collect();
-                    c.reverse();
-                    c
-                };
-                common_depth.push(chain(body_a).iter().zip(chain(body_b)).take_while(|(x, y)| **x == *y).count());
+                // The joints moving both sides: those above their meeting body, and its own.
+                common_depth.push(depth[gp.meet as usize]);
                 continue;
             }
             if a.body == Some(0) {
