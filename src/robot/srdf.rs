@@ -51,6 +51,19 @@ pub struct DisabledPair {
     pub line: Option<u32>,
 }
 
+/// A joint between a frame outside the robot and one of its links (MoveIt
+/// places the robot's root in the planning frame with one).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VirtualJoint {
+    pub name: String,
+    /// `fixed`, `floating` or `planar`.
+    pub kind: String,
+    /// The frame outside the robot (e.g. `world`): MoveIt's planning frame.
+    pub parent_frame: String,
+    pub child_link: String,
+    pub line: Option<u32>,
+}
+
 /// The parsed SRDF.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Srdf {
@@ -59,6 +72,7 @@ pub struct Srdf {
     pub groups: Vec<Group>,
     pub group_states: Vec<GroupState>,
     pub disabled_pairs: Vec<DisabledPair>,
+    pub virtual_joints: Vec<VirtualJoint>,
 }
 
 impl Srdf {
@@ -129,6 +143,9 @@ impl Srdf {
             link(&p.link1, p.line)?;
             link(&p.link2, p.line)?;
         }
+        for v in &self.virtual_joints {
+            link(&v.child_link, v.line)?;
+        }
         Ok(())
     }
 
@@ -193,6 +210,13 @@ fn parse(text: &str, source: &str) -> Result<Srdf, RobotError> {
                     line: Some(line(&node)),
                 });
             }
+            "virtual_joint" => srdf.virtual_joints.push(VirtualJoint {
+                name: attr(&node, "name")?,
+                kind: attr(&node, "type")?,
+                parent_frame: attr(&node, "parent_frame")?,
+                child_link: attr(&node, "child_link")?,
+                line: Some(line(&node)),
+            }),
             "disable_collisions" => srdf.disabled_pairs.push(DisabledPair {
                 link1: attr(&node, "link1")?,
                 link2: attr(&node, "link2")?,

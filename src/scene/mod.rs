@@ -18,12 +18,15 @@
 
 mod family;
 mod moveit;
+mod moveit_scene;
+mod moveit_yaml;
 mod problem;
 mod problem_file;
 mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
-pub use moveit::{MoveItRequest, read_moveit_request, read_moveit_scene};
+pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, read_moveit_request};
+pub use moveit_scene::{PLANE_EXTENT, read_moveit_scene};
 pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
     RobotSpec, TimeRange,
