@@ -13,6 +13,7 @@
 //! panda.forward_kinematics(&mut ws, &panda.neutral_configuration()).unwrap();
 //! ```
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod collision;
 pub mod control;
