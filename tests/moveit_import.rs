@@ -404,3 +404,20 @@ goal_constraints:
         assert!(e.contains("req.yaml") && e.contains(message), "expected '{message}' in: {e}");
     }
 }
+
+#[test]
+fn vendored_benchmark_files_match_their_recorded_checksums() {
+    use sha2::{Digest, Sha256};
+    // The tests read ../shared/benchmarks/mbm, outside the repository.
+    let readme = std::fs::read_to_string(mbm().join("README.md")).unwrap();
+    let mut checked = 0;
+    for line in readme.lines().filter(|l| l.starts_with("| `")) {
+        let file = line.split('`').nth(1).unwrap();
+        let recorded = line.rsplit('`').nth(1).unwrap();
+        let bytes = std::fs::read(mbm().join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let hex: String = Sha256::digest(&bytes).iter().map(|b| format!("{b:02x}")).collect();
+        assert_eq!(hex, recorded, "{file}");
+        checked += 1;
+    }
+    assert_eq!(checked, 4);
+}
