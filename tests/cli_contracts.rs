@@ -222,3 +222,26 @@ fn moveit_inputs_that_are_wrong_are_errors() {
         expect(&args, 1, "start_state: joint 'panda_joint2' (index 1) = -1.9 is outside its limits");
     }
 }
+
+#[test]
+fn tandem_simd_chooses_the_fast_path_variant() {
+    let run = |simd: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_tandem"))
+            .args(["check", "builtin:panda_reach", "--json"])
+            .env("TANDEM_SIMD", simd)
+            .current_dir(common::repo())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+        (v["fast_path"].as_str().unwrap().to_string(), stderr(&o))
+    };
+    assert_eq!(run("baseline").0, "baseline");
+    let best = tandem::collision::SimdLevel::best_up_to(None).name();
+    assert_eq!(run("").0, best);
+    let (level, warning) = run("sse9");
+    assert!(level == best && warning.contains("TANDEM_SIMD=sse9"), "{warning}");
+    if tandem::collision::SimdLevel::Avx2.is_available() {
+        assert_eq!(run("avx2").0, "avx2");
+    }
+}

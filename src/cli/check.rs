@@ -28,7 +28,8 @@ pub struct CheckArgs {
     /// "min_distance" (m, negative when penetrating), "closest_pair"
     /// [body, body], "problem", "q", "pairs_checked", "colliding_pairs"
     /// [[body, body, distance], ...], "goal_collision_free" (joint goals,
-    /// else null)}; for a family file {"valid", "family", "base",
+    /// else null), "fast_path" (the sphere fast path's variant: baseline,
+    /// avx2 or avx512, from TANDEM_SIMD or the CPU; null off it)}; for a family file {"valid", "family", "base",
     /// "samples": [that object plus "id", "seed", "skipped_obstacles"]}.
     /// An invalid file or --q prints {"valid": false, "error": message}
     /// and exits with status 1.
@@ -45,6 +46,8 @@ struct Report {
     closest: Option<(String, String, f64)>,
     colliding: Vec<(String, String, f64)>,
     goal_free: Option<bool>,
+    /// The sphere fast path's variant, when it applies.
+    fast_path: Option<crate::collision::SimdLevel>,
 }
 
 fn check(args: &CheckArgs) -> Result<Report, Box<dyn std::error::Error>> {
@@ -87,7 +90,8 @@ fn check_problem(problem: Problem, q: Vec<f64>, with_goal: bool) -> Result<Repor
         Goal::Joints(g) if with_goal => Some(model.collision_free(&mut ws, g)?),
         _ => None,
     };
-    Ok(Report { pairs_checked: model.pair_count(), problem, q, collision_free, closest, colliding, goal_free })
+    let (pairs_checked, fast_path) = (model.pair_count(), model.simd());
+    Ok(Report { pairs_checked, problem, q, collision_free, closest, colliding, goal_free, fast_path })
 }
 
 pub(super) fn run(args: &CheckArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
@@ -196,6 +200,7 @@ fn report_json(r: &Report) -> serde_json::Value {
         "pairs_checked": r.pairs_checked,
         "colliding_pairs": colliding,
         "goal_collision_free": r.goal_free,
+        "fast_path": r.fast_path.map(|l| l.name()),
     })
 }
 
@@ -211,7 +216,12 @@ fn print_text(r: &Report) {
     println!("scene: obstacles [{}], objects [{}]", obstacles.join(", "), objects.join(", "));
     let q: Vec<String> = r.q.iter().map(|v| format!("{v:.4}")).collect();
     println!("q = [{}]", q.join(", "));
-    println!("{} object pairs checked (padding {} m)", r.pairs_checked, p.robot_spec.padding);
+    let fast =
+        r.fast_path.map_or("general path (not all spheres)".to_string(), |l| format!("sphere fast path, {}", l.name()));
+    println!(
+        "{} object pairs checked (padding {} m; boolean checks on the {fast})",
+        r.pairs_checked, p.robot_spec.padding
+    );
     println!("collision-free: {}", if r.collision_free { "yes" } else { "NO" });
     if let Some((a, b, d)) = &r.closest {
         println!("minimum signed distance: {d:.4} m, between {a} and {b}");

@@ -3,7 +3,7 @@
 
 use super::CollisionError;
 use super::shape::Shape;
-use super::spheres::SphereModel;
+use super::spheres::{SimdLevel, SphereModel};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::Scene;
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
@@ -463,6 +463,22 @@ impl CollisionModel {
     /// cross-check the two). Workspaces made before keep working.
     pub fn set_fast_path(&mut self, enabled: bool) {
         self.spheres = if enabled { SphereModel::compile(self) } else { None };
+    }
+
+    /// Runs the sphere fast path's checks compiled for `wanted` (the best
+    /// available level not above it; `None`: the best of all, ignoring
+    /// `TANDEM_SIMD`) and returns the level that runs, `None` without a
+    /// fast path. Answers do not change; speed does.
+    pub fn set_simd(&mut self, wanted: Option<SimdLevel>) -> Option<SimdLevel> {
+        let spheres = self.spheres.as_mut()?;
+        spheres.isa = SimdLevel::best_up_to(wanted);
+        Some(spheres.isa)
+    }
+
+    /// The level of the fast path's checks (see [`SimdLevel`]), `None`
+    /// without a fast path.
+    pub fn simd(&self) -> Option<SimdLevel> {
+        self.spheres.as_ref().map(|s| s.isa)
     }
 
     /// Number of object pairs checked.
