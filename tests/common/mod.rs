@@ -48,6 +48,18 @@ pub fn run_python(script: &str, args: &[&str], stdin: &str) -> String {
     String::from_utf8(out.stdout).expect("utf-8 output")
 }
 
+/// The larger of two errors, NaN when either is: `f64::max` returns the
+/// other operand for a NaN, so a NaN error folded with it vanished and a
+/// NaN result passed every tolerance check.
+pub fn worst(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) }
+}
+
+/// The largest absolute value, NaN when any is NaN (see [`worst`]).
+pub fn max_abs(values: impl IntoIterator<Item = f64>) -> f64 {
+    values.into_iter().map(f64::abs).fold(0.0, worst)
+}
+
 /// The vendored MotionBenchMaker files (`problems/motionbenchmaker/`,
 /// provenance in its README).
 pub fn mbm() -> PathBuf {
