@@ -2,9 +2,24 @@
 //!
 //! The pipeline (see `DESIGN.md`): robot models from URDF → collision-free
 //! seeds → KOMO-style trajectory optimization → LQR tracking policies →
-//! per-tick arbitration between a human operator and the policy. This
-//! release provides the first box: [`robot`], URDF models with exact,
-//! allocation-free kinematics cross-checked against Pinocchio.
+//! per-tick arbitration between a human operator and the policy. The boxes
+//! that work today, each a module:
+//!
+//! - [`robot`]: URDF (and SRDF) models with exact, allocation-free
+//!   kinematics, cross-checked against Pinocchio;
+//! - [`collision`]: collision models of the robot and its scene, signed
+//!   distances (cross-checked against coal), motion checks;
+//! - [`scene`]: scenes, problem files and families, MoveIt inputs;
+//! - [`plan`]: inverse kinematics and RRT-Connect;
+//! - [`komo`]: trajectory optimization with objectives as data;
+//! - [`control`]: LQR tracking policies;
+//! - [`data`]: trajectory files and, with the `data` feature, bulk
+//!   datasets in Parquet;
+//! - `cli` (with the `cli` feature): the `tandem` command.
+//!
+//! Both features are on by default; a control loop that embeds tandem can
+//! turn them off (`default-features = false`) and builds without clap,
+//! indicatif, parquet, arrow, rayon or sha2.
 //!
 //! ```
 //! use tandem::robot::{KinematicsWorkspace, RobotModel};
@@ -12,6 +27,8 @@
 //! let mut ws = KinematicsWorkspace::new(&panda);
 //! panda.forward_kinematics(&mut ws, &panda.neutral_configuration()).unwrap();
 //! ```
+
+#![warn(missing_docs)]
 
 #[cfg(feature = "cli")]
 pub mod cli;

@@ -70,6 +70,7 @@ pub const EXIT_UNSUCCESSFUL: u8 = 3;
 #[command(name = "tandem", version, propagate_version = true)]
 pub struct Cli {
     #[command(subcommand)]
+    /// The subcommand to run.
     pub command: Command,
 }
 

@@ -15,7 +15,12 @@ use std::sync::Arc;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ObjectSource {
     /// Collision element `element` (URDF order) of link `link` (description index).
-    RobotLink { link: usize, element: usize },
+    RobotLink {
+        /// Description index of the link.
+        link: usize,
+        /// Index of the `<collision>` element in the link.
+        element: usize,
+    },
     /// Obstacle `index` of the scene.
     Obstacle(usize),
     /// Object `index` of the scene (free or attached).

@@ -48,27 +48,61 @@ pub const WEIGHT_RANGE: std::ops::RangeInclusive<f64> = 1e-4..=1e4;
 pub enum ControlError {
     /// A time step outside [`MIN_TIME_STEP`] ..= [`MAX_TIME_STEP`].
     #[error("time step {dt} s is outside [{MIN_TIME_STEP}, {MAX_TIME_STEP}] s")]
-    InvalidTimeStep { dt: f64 },
+    InvalidTimeStep {
+        /// Time step (s).
+        dt: f64,
+    },
     /// A duration that is not positive and finite.
     #[error("duration {duration} s is not positive and finite")]
-    InvalidDuration { duration: f64 },
+    InvalidDuration {
+        /// The duration (s).
+        duration: f64,
+    },
     /// A reference with no waypoint or no joint.
     #[error("the reference has no waypoint or no joint")]
     EmptyReference,
     /// A reference with more than [`MAX_WAYPOINTS`] waypoints.
     #[error("the reference would have {count} waypoints, more than {MAX_WAYPOINTS}")]
-    TooManyWaypoints { count: f64 },
+    TooManyWaypoints {
+        /// How many waypoints it would have.
+        count: f64,
+    },
     /// A waypoint with the wrong number of values.
     #[error("waypoint {index} has {got} values, expected {expected}")]
-    WaypointLength { index: usize, expected: usize, got: usize },
+    WaypointLength {
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The length it should have.
+        expected: usize,
+        /// The length it has.
+        got: usize,
+    },
     /// A waypoint holding NaN or an infinity.
     #[error("waypoint {index}: joint '{joint}' has non-finite value {value}")]
-    NonFiniteWaypoint { index: usize, joint: String, value: f64 },
+    NonFiniteWaypoint {
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The joint's name.
+        joint: String,
+        /// The offending value.
+        value: f64,
+    },
     /// Waypoints so far apart that a velocity or acceleration overflows.
     #[error(
         "waypoint {index}: joint '{joint}' moves from {from} to {to} in {dt} s, a velocity or acceleration too large to represent"
     )]
-    Overflow { index: usize, joint: String, from: f64, to: f64, dt: f64 },
+    Overflow {
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The joint's name.
+        joint: String,
+        /// Value at the waypoint before (rad or m).
+        from: f64,
+        /// Value at the waypoint (rad or m).
+        to: f64,
+        /// Time step (s).
+        dt: f64,
+    },
     /// A reference file that could not be read or parsed.
     #[error(transparent)]
     File(#[from] crate::data::DataError),
@@ -79,14 +113,33 @@ pub enum ControlError {
         WEIGHT_RANGE.start(),
         WEIGHT_RANGE.end()
     )]
-    InvalidWeight { name: &'static str, value: f64 },
+    InvalidWeight {
+        /// Which weight: `position`, `velocity` or `control`.
+        name: &'static str,
+        /// The offending value.
+        value: f64,
+    },
     /// The Riccati solve failed.
     #[error("Riccati solve failed: {0}")]
     Riccati(#[from] RiccatiError),
     /// A query vector of the wrong length.
     #[error("{what} has {got} values, expected {expected}")]
-    WrongLength { what: &'static str, expected: usize, got: usize },
+    WrongLength {
+        /// Which vector (`q`, `v`, …).
+        what: &'static str,
+        /// The length it should have.
+        expected: usize,
+        /// The length it has.
+        got: usize,
+    },
     /// A query vector holding NaN or an infinity.
     #[error("{what}[{index}] = {value} is not finite")]
-    NonFinite { what: &'static str, index: usize, value: f64 },
+    NonFinite {
+        /// Which vector (`q`, `v`, …).
+        what: &'static str,
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The offending value.
+        value: f64,
+    },
 }

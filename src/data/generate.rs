@@ -24,7 +24,9 @@ use thiserror::Error;
 /// `i/M`: the i-th of M equal shares of the chunks (0 ≤ i < M).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ShardSpec {
+    /// The share, from 0.
     pub index: u64,
+    /// How many shares.
     pub count: u64,
 }
 
@@ -50,6 +52,7 @@ pub struct GenerateSettings {
     pub horizon: Option<usize>,
     /// Worker threads (default: all cores).
     pub threads: Option<usize>,
+    /// Generate only this share of the part files (default: all).
     pub shard: Option<ShardSpec>,
     /// Ids per part file.
     pub chunk_size: u64,
@@ -64,6 +67,7 @@ pub struct GenerateSettings {
     pub validation_resolution: f64,
     /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
     pub goal_tolerance: f64,
+    /// Acceptance: angle (rad) of q_T from the goal orientation.
     pub goal_angle_tolerance: f64,
 }
 
@@ -89,32 +93,55 @@ impl Default for GenerateSettings {
 #[derive(Debug, Error)]
 pub enum GenerateError {
     #[error(transparent)]
+    /// The family (or its base problem) cannot be loaded.
     Family(#[from] ProblemError),
     #[error(transparent)]
+    /// A file cannot be written.
     Data(#[from] DataError),
     #[error("generate settings: {0}")]
+    /// A setting outside its bounds.
     Settings(String),
     /// The output folder holds a dataset made with other parameters.
     #[error(
         "{path} was generated with {key} = {existing}, this run asks {requested}: use another --out folder, or the same parameters to resume"
     )]
-    Mismatch { path: PathBuf, key: String, existing: String, requested: String },
+    Mismatch {
+        /// The folder's `_dataset.json`.
+        path: PathBuf,
+        /// The differing parameter.
+        key: String,
+        /// The value the folder's dataset was made with.
+        existing: String,
+        /// The value this run asks for.
+        requested: String,
+    },
+    /// A file of an earlier run in the folder cannot be read.
     #[error("cannot read {path}: {message}")]
-    Read { path: PathBuf, message: String },
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     #[error("cannot start {0} worker threads: {1}")]
+    /// The worker threads cannot be started (count, reason).
     Threads(usize, String),
 }
 
 /// The outcome of a run.
 #[derive(Debug, Clone)]
 pub struct GenerateSummary {
+    /// The manifest written.
     pub manifest: Manifest,
+    /// Where it was written.
     pub manifest_path: PathBuf,
     /// Part files written by this run, and found complete from earlier runs.
     pub parts_written: usize,
+    /// Part files found complete from earlier runs.
     pub parts_kept: usize,
     /// Samples this run computed, and its wall-clock time.
     pub samples_run: u64,
+    /// Wall-clock time of this run.
     pub elapsed: Duration,
     /// Per-sample times of this run (ms), sorted.
     pub sample_ms: Vec<f64>,

@@ -57,7 +57,9 @@ pub struct RecordReport {
 /// (rad, or m for prismatic joints).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GoalMiss {
+    /// Position error of the gripper at q_T (m).
     pub distance: f64,
+    /// Angle between its axis and the goal's (rad).
     pub angle: f64,
 }
 
@@ -78,6 +80,7 @@ pub struct TrajectoryRecord {
     pub goal_joints: Option<Vec<f64>>,
     /// Scene objects (graspable) and obstacles, table included.
     pub objects: Vec<PlacedShape>,
+    /// Obstacles, the table included.
     pub obstacles: Vec<PlacedShape>,
     /// q_1 … q_T.
     pub q: Vec<Vec<f64>>,
@@ -85,12 +88,14 @@ pub struct TrajectoryRecord {
     pub qd: Vec<Vec<f64>>,
     /// Gripper frame poses at slices 1 … T, when the problem names a gripper.
     pub ee_pose: Option<Vec<PoseArray>>,
+    /// Solver and planner counts.
     pub report: RecordReport,
 }
 
 /// A sample that produced no trajectory, and why.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Rejection {
+    /// Sample id within the run.
     pub id: u64,
     /// Stable snake_case reason: `sample_failed`, `ik_unreachable`,
     /// `ik_in_collision`, `plan_failed`, `in_collision`, `outside_limits`,
@@ -108,17 +113,21 @@ pub struct SampleTiming {
     pub plan_ms: f64,
     /// Everything else: sampling, optimization, re-solves, validation (ms).
     pub optimize_ms: f64,
+    /// Whole sample, every attempt (ms).
     pub total_ms: f64,
 }
 
 /// What one sample produced.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SampleOutcome {
+    /// The sample passed every check.
     Accepted(Box<TrajectoryRecord>),
+    /// It was rejected, with the reason.
     Rejected(Rejection),
 }
 
 impl SampleOutcome {
+    /// The sample id.
     pub fn id(&self) -> u64 {
         match self {
             SampleOutcome::Accepted(r) => r.id,

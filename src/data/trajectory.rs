@@ -37,25 +37,50 @@ pub enum DataError {
     /// A file that could not be read or written.
     #[error("cannot access {path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
     /// An encoding error writing a file.
     #[error("cannot write {path}: {message}")]
-    Format { path: PathBuf, message: String },
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// Configurations whose length differs from the joint count.
     #[error("configuration {index} has {got} values for {expected} joints")]
-    Shape { index: usize, expected: usize, got: usize },
+    Shape {
+        /// Index of the configuration.
+        index: usize,
+        /// The joint count.
+        expected: usize,
+        /// Its length.
+        got: usize,
+    },
     /// A malformed trajectory CSV: the file (or `<string>`), its 1-based
     /// line, and what is wrong there.
     #[error("{origin}:{line}: {message}")]
-    Csv { origin: String, line: usize, message: String },
+    Csv {
+        /// The file, or `<string>`.
+        origin: String,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 /// A joint trajectory sampled every `time_step` seconds: row `k` is the
-/// configuration at time `k · time_step`, row 0 the start. See the
-/// [module documentation](self) for the file formats.
+/// configuration at time `k · time_step`, row 0 the start.
+///
+/// Its files: CSV with a header `time,<joint>,…` and one row per
+/// configuration (its time, then the joint values; times start at 0 and
+/// are evenly spaced), and Parquet with columns `time` and one per joint
+/// (see [`write_csv`], `write_parquet`, [`read_csv`](Self::read_csv)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrajectoryTable {
     /// Active joint names, one column each.
@@ -78,7 +103,7 @@ impl TrajectoryTable {
         }
     }
 
-    /// The CSV text of the table (see the [module documentation](self)).
+    /// The CSV text of the table (format: [`TrajectoryTable`]).
     pub fn to_csv(&self) -> String {
         let mut out = String::from("time");
         for name in &self.joints {
@@ -209,7 +234,7 @@ fn io(path: &Path) -> impl FnOnce(std::io::Error) -> DataError + '_ {
     move |source| DataError::Io { path: path.into(), source }
 }
 
-/// Writes the table as CSV (see the [module documentation](self)).
+/// Writes the table as CSV (format: [`TrajectoryTable`]).
 ///
 /// # Errors
 /// I/O errors, or configurations of the wrong length.

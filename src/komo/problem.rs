@@ -124,18 +124,22 @@ impl TrajectoryProblem {
         self.robot.nq()
     }
 
+    /// The robot model.
     pub fn robot(&self) -> &Arc<RobotModel> {
         &self.robot
     }
 
+    /// The collision model, if the problem has one.
     pub fn collision_model(&self) -> Option<&CollisionModel> {
         self.collision.as_ref()
     }
 
+    /// The objectives.
     pub fn objectives(&self) -> &[Objective] {
         &self.objectives
     }
 
+    /// The start configuration q_0 (rad or m).
     pub fn start(&self) -> &[f64] {
         &self.start
     }

@@ -45,6 +45,7 @@ pub struct Validation {
 pub struct TrajectoryResult {
     /// `q_1 … q_T`.
     pub trajectory: Vec<Vec<f64>>,
+    /// How the solve went.
     pub report: SolveReport,
 }
 
@@ -79,6 +80,7 @@ impl TrajectoryOptimizer {
         TrajectoryOptimizer { problem, workspace, solver, x: vec![0.0; dimension] }
     }
 
+    /// The trajectory problem it solves.
     pub fn problem(&self) -> &TrajectoryProblem {
         &self.problem
     }
@@ -255,10 +257,13 @@ pub struct ProblemSolution {
     pub plan: PlanReport,
     /// `q_1 … q_T`.
     pub trajectory: Vec<Vec<f64>>,
+    /// Active joint names, the order of each configuration.
     pub joints: Vec<String>,
     /// Seconds between slices.
     pub time_step: f64,
+    /// How the solve went.
     pub report: SolveReport,
+    /// Checks of the result between slices.
     pub validation: Validation,
     /// Preparation, planning, optimization and validation.
     pub total_time: Duration,

@@ -18,7 +18,10 @@ pub enum EdgeCheck {
     /// Every configuration of the motion keeps at least `clearance / 2`
     /// (m) between all pairs, and none sampled is closer than `clearance`
     /// ([`CollisionModel::motion_free_certified`]).
-    Certified { clearance: f64 },
+    Certified {
+        /// Clearance (m): every configuration keeps half of it.
+        clearance: f64,
+    },
 }
 
 impl EdgeCheck {
@@ -143,12 +146,15 @@ impl PlanStatus {
 /// What [`rrt_connect`] found.
 #[derive(Debug, Clone)]
 pub struct PlanResult {
+    /// Why the planner stopped.
     pub status: PlanStatus,
     /// Start to goal, each edge collision-free at the resolution; empty unless solved.
     pub path: Vec<Vec<f64>>,
+    /// Extension rounds run.
     pub iterations: usize,
     /// Nodes in both trees.
     pub nodes: usize,
+    /// Wall-clock time of the search.
     pub time: Duration,
 }
 

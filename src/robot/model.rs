@@ -105,7 +105,9 @@ pub enum FrameKind {
 /// A named frame rigidly attached to a body.
 #[derive(Debug, Clone)]
 pub struct Frame {
+    /// Name of the link or joint.
     pub name: String,
+    /// Link or joint frame.
     pub kind: FrameKind,
     /// Index of the link (or joint) in the description.
     pub element: usize,
@@ -134,7 +136,12 @@ pub enum JointSelection {
     Names(Vec<String>),
     /// The independent movable joints on the path from `root` (a link) to
     /// `tip` (a link or joint frame), root first.
-    Chain { root: String, tip: String },
+    Chain {
+        /// The link the chain starts at.
+        root: String,
+        /// The link or joint frame it ends at.
+        tip: String,
+    },
 }
 
 /// Builds a [`RobotModel`]; see the module example.

@@ -23,31 +23,43 @@ use std::path::Path;
 /// A planning group: chains, joints, links and subgroups, as written.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Group {
+    /// Name, as in the SRDF.
     pub name: String,
     /// `(base_link, tip_link)` of each `<chain>`.
     pub chains: Vec<(String, String)>,
+    /// Joints listed by `<joint>`.
     pub joints: Vec<String>,
+    /// Links listed by `<link>`.
     pub links: Vec<String>,
+    /// Groups listed by `<group>`.
     pub subgroups: Vec<String>,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
 /// A named configuration of a group (rad or m per joint).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GroupState {
+    /// Name, as in the SRDF.
     pub name: String,
+    /// The group it configures.
     pub group: String,
+    /// Joint values (rad or m) by joint name.
     pub values: Vec<(String, f64)>,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
 /// A pair of links never checked against each other.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisabledPair {
+    /// One link.
     pub link1: String,
+    /// The other link.
     pub link2: String,
     /// MoveIt's reason (`Adjacent`, `Never`, `Default`, …).
     pub reason: String,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
@@ -55,23 +67,32 @@ pub struct DisabledPair {
 /// places the robot's root in the planning frame with one).
 #[derive(Debug, Clone, PartialEq)]
 pub struct VirtualJoint {
+    /// Name, as in the SRDF.
     pub name: String,
     /// `fixed`, `floating` or `planar`.
     pub kind: String,
     /// The frame outside the robot (e.g. `world`): MoveIt's planning frame.
     pub parent_frame: String,
+    /// The robot link it places (the URDF root).
     pub child_link: String,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
 /// The parsed SRDF.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Srdf {
+    /// Name, as in the SRDF.
     pub name: String,
+    /// The file it was read from (or `<string>`).
     pub source: String,
+    /// Planning groups.
     pub groups: Vec<Group>,
+    /// Named group configurations.
     pub group_states: Vec<GroupState>,
+    /// Link pairs never checked for collisions.
     pub disabled_pairs: Vec<DisabledPair>,
+    /// Joints placing the robot in an outer frame.
     pub virtual_joints: Vec<VirtualJoint>,
 }
 

@@ -83,8 +83,11 @@ struct ObstacleDistribution {
 /// `problems/README.md`.
 #[derive(Debug, Clone)]
 pub struct ProblemFamily {
+    /// The family's name.
     pub name: String,
+    /// One line for humans.
     pub description: String,
+    /// The base problem every member varies.
     pub base: Problem,
     start_jitter: f64,
     objects: Vec<ObjectDistribution>,
@@ -94,9 +97,11 @@ pub struct ProblemFamily {
 /// One sampled problem and how its sampling went.
 #[derive(Debug, Clone)]
 pub struct FamilySample {
+    /// Sample id.
     pub id: u64,
     /// The seed this sample's random stream was drawn from.
     pub seed: u64,
+    /// The sampled problem.
     pub problem: Problem,
     /// Obstacles that could not be placed clear of the robot and objects
     /// within the attempt budget (and were left out).
