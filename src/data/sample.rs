@@ -82,11 +82,13 @@ pub struct TrajectoryRecord {
     pub objects: Vec<PlacedShape>,
     /// Obstacles, the table included.
     pub obstacles: Vec<PlacedShape>,
-    /// q_1 … q_T.
+    /// q_0 … q_T: the start, then the optimized configurations (the
+    /// convention of every trajectory tandem writes).
     pub q: Vec<Vec<f64>>,
-    /// Backward differences (q_t − q_{t−1}) / Δt, q_0 = start.
+    /// Velocities at slices 0 … T: 0 at the start (at rest), then the
+    /// backward differences (q_t − q_{t−1}) / Δt.
     pub qd: Vec<Vec<f64>>,
-    /// Gripper frame poses at slices 1 … T, when the problem names a gripper.
+    /// Gripper frame poses at slices 0 … T, when the problem names a gripper.
     pub ee_pose: Option<Vec<PoseArray>>,
     /// Solver and planner counts.
     pub report: RecordReport,
@@ -259,7 +261,8 @@ fn accept(
     let mut full = Vec::with_capacity(s.trajectory.len() + 1);
     full.push(problem.start.clone());
     full.extend(s.trajectory.iter().cloned());
-    let qd = full.windows(2).map(|w| w[1].iter().zip(&w[0]).map(|(b, a)| (b - a) / s.time_step).collect()).collect();
+    let mut qd = vec![vec![0.0; problem.start.len()]];
+    qd.extend(full.windows(2).map(|w| w[1].iter().zip(&w[0]).map(|(b, a)| (b - a) / s.time_step).collect()));
     let report = RecordReport {
         outer_iterations: saturate(s.report.outer_iterations),
         inner_steps: saturate(s.report.inner_steps),
@@ -286,8 +289,8 @@ fn accept(
         objects: problem.scene.objects().iter().map(|o| placed(&o.name, &o.shape, &o.pose)).collect(),
         obstacles: problem.scene.obstacles().iter().map(|o| placed(&o.name, &o.shape, &o.pose)).collect(),
         qd,
-        ee_pose: gripper_poses(problem, &s.trajectory)?,
-        q: s.trajectory.clone(),
+        ee_pose: gripper_poses(problem, &full)?,
+        q: full,
         report,
     })))
 }
