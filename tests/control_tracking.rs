@@ -214,3 +214,10 @@ fn a_workspace_from_another_policy_still_works() {
     let found = short.query(&mut ws, &[0.05, 0.05], None, &mut small).unwrap();
     assert!(found.index < short.reference().len());
 }
+
+#[test]
+fn references_bound_their_joints() {
+    let joints: Vec<String> = (0..65).map(|k| format!("j{k}")).collect();
+    let e = JointTrajectory::new(joints, 0.01, &[vec![0.0; 65]]).unwrap_err();
+    assert_eq!(e.to_string(), "the reference has 65 joints, more than 64");
+}

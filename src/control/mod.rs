@@ -38,6 +38,9 @@ pub const MIN_TIME_STEP: f64 = 1e-4;
 pub const MAX_TIME_STEP: f64 = 1.0;
 /// Most waypoints of a reference (`T + 1` for the largest horizon T).
 pub const MAX_WAYPOINTS: usize = crate::scene::MAX_HORIZON + 1;
+/// Most joints of a reference: the policy solves Riccati equations of
+/// twice that size (cubic cost); a humanoid has about 40.
+pub const MAX_REFERENCE_JOINTS: usize = 64;
 /// Range of each tracking weight ([`TrackingWeights`]): within it, and
 /// with a time step in [`MIN_TIME_STEP`] ..= [`MAX_TIME_STEP`], the
 /// Riccati equations are solved for every combination (tested at the corners).
@@ -61,6 +64,12 @@ pub enum ControlError {
     /// A reference with no waypoint or no joint.
     #[error("the reference has no waypoint or no joint")]
     EmptyReference,
+    /// A reference with more than [`MAX_REFERENCE_JOINTS`] joints.
+    #[error("the reference has {count} joints, more than {MAX_REFERENCE_JOINTS}")]
+    TooManyJoints {
+        /// How many joints it has.
+        count: usize,
+    },
     /// A reference with more than [`MAX_WAYPOINTS`] waypoints.
     #[error("the reference would have {count} waypoints, more than {MAX_WAYPOINTS}")]
     TooManyWaypoints {

@@ -22,7 +22,8 @@ impl JointTrajectory {
     /// Builds a reference from waypoints (one slice of `joints.len()` values each).
     ///
     /// # Errors
-    /// No waypoint or joint, more than [`MAX_WAYPOINTS`](super::MAX_WAYPOINTS),
+    /// No waypoint or joint, more than [`MAX_WAYPOINTS`](super::MAX_WAYPOINTS)
+    /// or [`MAX_REFERENCE_JOINTS`](super::MAX_REFERENCE_JOINTS),
     /// a waypoint of the wrong length, a non-finite value, values so far
     /// apart that a velocity or acceleration overflows, or `dt` outside
     /// [`MIN_TIME_STEP`](super::MIN_TIME_STEP) ..= [`MAX_TIME_STEP`](super::MAX_TIME_STEP).
@@ -31,6 +32,9 @@ impl JointTrajectory {
         check_time_step(dt)?;
         if waypoints.is_empty() || n == 0 {
             return Err(ControlError::EmptyReference);
+        }
+        if n > super::MAX_REFERENCE_JOINTS {
+            return Err(ControlError::TooManyJoints { count: n });
         }
         if waypoints.len() > super::MAX_WAYPOINTS {
             return Err(ControlError::TooManyWaypoints { count: waypoints.len() as f64 });

@@ -285,6 +285,13 @@ fn validate_part_size(chunk_size: u64, horizon: usize) -> Result<(), GenerateErr
 
 fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Result<DatasetParameters, GenerateError> {
     let hash = |p: &Path| {
+        // A builtin base problem is hashed as its embedded text.
+        let builtin = p.to_str().and_then(|s| s.strip_prefix("<builtin:")).and_then(|s| s.strip_suffix('>'));
+        if let Some((_, text)) =
+            builtin.and_then(|name| crate::scene::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == name))
+        {
+            return Ok(sha256_hex(text.as_bytes()));
+        }
         std::fs::read(p)
             .map(|b| sha256_hex(&b))
             .map_err(|e| GenerateError::Read { path: p.into(), message: e.to_string() })

@@ -25,8 +25,8 @@ mod problem_file;
 mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
-pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, read_moveit_request};
-pub use moveit_scene::{PLANE_EXTENT, read_moveit_scene};
+pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, moveit_request_from_str, read_moveit_request};
+pub use moveit_scene::{PLANE_EXTENT, moveit_scene_from_str, read_moveit_scene};
 pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
     RobotSpec, TimeRange,

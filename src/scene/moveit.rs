@@ -7,7 +7,7 @@
 //! refused with an error naming the file and key: nothing is dropped in silence.
 
 use super::moveit_scene::read_moveit_scene;
-use super::moveit_yaml::{Node, load};
+use super::moveit_yaml::{Node, load, parse};
 use super::problem::{Goal, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec};
 use crate::robot::{MeshSearchPath, RobotDescription, RobotModel, Srdf};
 use std::path::Path;
@@ -64,7 +64,19 @@ const CONSTRAINT_LISTS: [&str; 4] =
 /// goal, names and positions of different lengths, anything refused above.
 pub fn read_moveit_request(path: impl AsRef<Path>) -> Result<MoveItRequest, ProblemError> {
     let (file, doc) = load(path.as_ref())?;
-    let root = Node::root(&file, &doc);
+    request_from_yaml(&file, &doc)
+}
+
+/// [`read_moveit_request`] of YAML text read from `origin` (a name for errors).
+///
+/// # Errors
+/// As [`read_moveit_request`].
+pub fn moveit_request_from_str(text: &str, origin: &str) -> Result<MoveItRequest, ProblemError> {
+    request_from_yaml(origin, &parse(text, origin)?)
+}
+
+fn request_from_yaml(file: &str, doc: &yaml_rust2::Yaml) -> Result<MoveItRequest, ProblemError> {
+    let root = Node::root(file, doc);
     if !matches!(doc, yaml_rust2::Yaml::Hash(_)) {
         return Err(root.error("a motion plan request must be a mapping (moveit_msgs/MotionPlanRequest)"));
     }

@@ -29,7 +29,7 @@
 //!   Ignored: `name`, `robot_model_name`, `object_colors`, `is_diff`,
 //!   object `type` and subframes.
 
-use super::moveit_yaml::{Node, load};
+use super::moveit_yaml::{Node, load, parse};
 use super::problem::ProblemError;
 use super::{Obstacle, Scene, SceneObject};
 use crate::collision::Shape;
@@ -114,7 +114,29 @@ pub fn read_moveit_scene(
     srdf: Option<&Srdf>,
 ) -> Result<Scene, ProblemError> {
     let (file, doc) = load(path.as_ref())?;
-    let root = Node::root(&file, &doc);
+    scene_from_yaml(&file, &doc, robot, srdf)
+}
+
+/// [`read_moveit_scene`] of YAML text read from `origin` (a name for errors).
+///
+/// # Errors
+/// As [`read_moveit_scene`].
+pub fn moveit_scene_from_str(
+    text: &str,
+    origin: &str,
+    robot: &RobotDescription,
+    srdf: Option<&Srdf>,
+) -> Result<Scene, ProblemError> {
+    scene_from_yaml(origin, &parse(text, origin)?, robot, srdf)
+}
+
+fn scene_from_yaml(
+    file: &str,
+    doc: &yaml_rust2::Yaml,
+    robot: &RobotDescription,
+    srdf: Option<&Srdf>,
+) -> Result<Scene, ProblemError> {
+    let root = Node::root(file, doc);
     if !matches!(doc, yaml_rust2::Yaml::Hash(_)) {
         return Err(root.error("a planning scene must be a mapping (moveit_msgs/PlanningScene)"));
     }
