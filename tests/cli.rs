@@ -251,4 +251,7 @@ fn demo_runs_the_reach_and_grasp_end_to_end() {
     assert!(text.contains("panda_grasp_box (<builtin:panda_grasp_box>): converged"), "{text}");
     assert!(text.contains("collision-free between slices (every 0.002 rad): yes"), "{text}");
     assert!(out.join("path.svg").exists() && out.join("trajectory.parquet").exists());
+    // It ends with what it wrote, not with features to come.
+    assert!(text.trim_end().lines().last().unwrap().starts_with("wrote trajectory.csv"), "{text}");
+    assert!(!text.contains("join this command as they land"), "{text}");
 }

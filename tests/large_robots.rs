@@ -6,40 +6,19 @@
 //! time and O(n³) memory: 700 MB for 1,000 links).
 
 mod common;
+#[path = "../benches/support/large_robots.rs"]
+mod large;
+
+use large::{chain_urdf, humanoid_urdf};
 
 use common::alloc::{CountingAllocator, allocated_bytes};
 use nalgebra::Vector3;
-use std::fmt::Write;
 use std::sync::Arc;
 use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::robot::{KinematicsWorkspace, MeshSearchPath, RobotDescription, RobotModel};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
-
-/// A chain of `links` links, each 0.1 m along z from its parent through a
-/// revolute joint about y, with a 3 cm sphere at its origin; joint k mimics
-/// joint k − 1 when `mimics` (a mimic chain as long as the robot).
-fn chain_urdf(links: usize, mimics: bool) -> String {
-    let mut s = String::from("<robot name=\"chain\">\n");
-    for k in 0..links {
-        let _ = writeln!(
-            s,
-            "<link name=\"l{k}\"><collision><geometry><sphere radius=\"0.03\"/></geometry></collision></link>"
-        );
-        if k > 0 {
-            let mimic = if mimics && k > 1 { format!("<mimic joint=\"j{}\"/>", k - 1) } else { String::new() };
-            let _ = writeln!(
-                s,
-                "<joint name=\"j{k}\" type=\"revolute\"><parent link=\"l{}\"/><child link=\"l{k}\"/>\
-                 <origin xyz=\"0 0 0.1\"/><axis xyz=\"0 1 0\"/><limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/>{mimic}</joint>",
-                k - 1
-            );
-        }
-    }
-    s.push_str("</robot>\n");
-    s
-}
 
 fn load(text: &str) -> Arc<RobotDescription> {
     Arc::new(RobotDescription::from_urdf_str(text, &MeshSearchPath::default()).unwrap())
@@ -123,55 +102,6 @@ fn collision_models_of_long_chains_use_memory_linear_in_their_pairs() {
         assert!(model.motion_free_certified(&mut ws, &q0, &q0, 0.001).unwrap());
         assert!(!model.motion_free_certified(&mut ws, &q0, &q1, 0.001).unwrap(), "folding the chain collides");
     }
-}
-
-/// A humanoid-like tree: a 3-link torso with a 2-link head, two 7-link
-/// arms with five 3-link fingers each, two 6-link legs; four spheres per link.
-fn humanoid_urdf() -> String {
-    let mut s = String::from("<robot name=\"humanoid\">\n");
-    let link = |s: &mut String, name: &str| {
-        let spheres: String = (0..4)
-            .map(|i| {
-                format!(
-                    "<collision><origin xyz=\"0 0 {}\"/><geometry><sphere radius=\"0.02\"/></geometry></collision>",
-                    0.02 * i as f64
-                )
-            })
-            .collect();
-        let _ = writeln!(s, "<link name=\"{name}\">{spheres}</link>");
-    };
-    let joint = |s: &mut String, parent: &str, child: &str, xyz: [f64; 3], axis: &str| {
-        let _ = writeln!(
-            s,
-            "<joint name=\"{child}_joint\" type=\"revolute\"><parent link=\"{parent}\"/><child link=\"{child}\"/>\
-             <origin xyz=\"{} {} {}\"/><axis xyz=\"{axis}\"/><limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/></joint>",
-            xyz[0], xyz[1], xyz[2]
-        );
-    };
-    link(&mut s, "pelvis");
-    let chain = |s: &mut String, parent: &str, prefix: &str, count: usize, offset: [f64; 3]| -> String {
-        let mut at = parent.to_string();
-        for k in 0..count {
-            let name = format!("{prefix}{k}");
-            link(s, &name);
-            let axis = ["1 0 0", "0 1 0", "0 0 1"][k % 3];
-            joint(s, &at, &name, if k == 0 { offset } else { [0.0, 0.0, 0.1] }, axis);
-            at = name;
-        }
-        at
-    };
-    let neck = chain(&mut s, "pelvis", "torso", 3, [0.0, 0.0, 0.1]);
-    chain(&mut s, &neck, "head", 2, [0.0, 0.0, 0.15]);
-    for side in ["l", "r"] {
-        let y = if side == "l" { 0.2 } else { -0.2 };
-        let wrist = chain(&mut s, &neck, &format!("{side}_arm"), 7, [0.0, y, 0.0]);
-        for f in 0..5 {
-            chain(&mut s, &wrist, &format!("{side}_finger{f}_"), 3, [0.02 * f as f64, 0.0, 0.05]);
-        }
-        chain(&mut s, "pelvis", &format!("{side}_leg"), 6, [0.0, y / 2.0, -0.1]);
-    }
-    s.push_str("</robot>\n");
-    s
 }
 
 #[test]
