@@ -388,12 +388,7 @@ fn mesh(node: &Node) -> Result<Shape, ProblemError> {
         node.required("vertices")?.items()?.iter().map(|v| v.vector3().map(Point3::from)).collect::<Result<_, _>>()?;
     let mut triangles = Vec::new();
     for t in node.get("triangles").items()? {
-        let indices = if matches!(t.value, yaml_rust2::Yaml::Hash(_)) {
-            t.fields("a mesh triangle", &["vertex_indices"])?;
-            t.required("vertex_indices")?
-        } else {
-            Node { file: t.file, path: t.path.clone(), value: t.value }
-        };
+        let indices = t.one_field("a mesh triangle", "vertex_indices")?;
         let ids = indices.numbers()?;
         let valid =
             ids.len() == 3 && ids.iter().all(|&i| i >= 0.0 && i.fract() == 0.0 && (i as usize) < vertices.len());
@@ -413,12 +408,7 @@ fn half_space() -> Shape {
 
 /// The unit normal and offset of a plane message.
 fn plane_coefficients(node: &Node) -> Result<(Vector3<f64>, f64), ProblemError> {
-    let coef = if matches!(node.value, yaml_rust2::Yaml::Hash(_)) {
-        node.fields("a plane", &["coef"])?;
-        node.required("coef")?
-    } else {
-        Node { file: node.file, path: node.path.clone(), value: node.value }
-    };
+    let coef = node.one_field("a plane", "coef")?;
     let c = coef.numbers()?;
     let normal = match c.as_slice() {
         [a, b, c, _] => Vector3::new(*a, *b, *c),
@@ -502,13 +492,7 @@ fn allowed_collisions(acm: &Node, scene: &mut Scene) -> Result<(), ProblemError>
         return Err(acm.get("entry_values").error(format!("{} rows for {} entry_names", rows.len(), names.len())));
     }
     for (i, row) in rows.iter().enumerate() {
-        let cells = match row.value {
-            yaml_rust2::Yaml::Hash(_) => {
-                row.fields("a matrix row", &["enabled"])?;
-                row.required("enabled")?.items()?
-            }
-            _ => row.items()?,
-        };
+        let cells = row.one_field("a matrix row", "enabled")?.items()?;
         if cells.len() != names.len() {
             return Err(row.error(format!("{} values for {} entry_names", cells.len(), names.len())));
         }

@@ -118,6 +118,18 @@ impl<'a> Node<'a> {
             .map_err(|v: Vec<f64>| self.error(format!("must hold {N} numbers [{}], has {}", names.join(", "), v.len())))
     }
 
+    /// A one-field message in its message form (`{key: value}`: the node at
+    /// `key`) or its short form (the value itself: this node).
+    pub(super) fn one_field(&self, what: &str, key: &str) -> Result<Node<'a>, ProblemError> {
+        match self.value {
+            Yaml::Hash(_) => {
+                self.fields(what, &[key])?;
+                self.required(key)
+            }
+            _ => Ok(Node { file: self.file, path: self.path.clone(), value: self.value }),
+        }
+    }
+
     /// A point or vector: `[x, y, z]` or `{x, y, z}`.
     pub(super) fn vector3(&self) -> Result<Vector3<f64>, ProblemError> {
         Ok(Vector3::from(self.components(["x", "y", "z"])?))
