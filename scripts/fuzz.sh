@@ -15,7 +15,8 @@
 # a crash, panic, timeout (> 10 s) or out-of-memory (> 2 GB) input is
 # written to fuzz/artifacts/TARGET/ and the script exits non-zero.
 # Prints the executions done per target. FUZZ_JOBS=N runs N targets of
-# `all` at once.
+# `all` at once; FUZZ_PROFILE=smoke builds at opt-level 1 (quicker to
+# build, slower to run: for the few seconds of scripts/test.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -36,8 +37,9 @@ export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4
 -Cllvm-args=-sanitizer-coverage-inline-8bit-counters -Cllvm-args=-sanitizer-coverage-pc-table \
 -Cllvm-args=-sanitizer-coverage-trace-compares --cfg fuzzing -Cdebug-assertions -Coverflow-checks"
 # --target keeps the flags off build scripts and proc macros.
-cargo build --quiet --manifest-path fuzz/Cargo.toml --release --bins --target "$host" --target-dir fuzz/target
-bin=fuzz/target/$host/release
+profile=${FUZZ_PROFILE:-release}
+cargo build --quiet --manifest-path fuzz/Cargo.toml --profile "$profile" --bins --target "$host" --target-dir fuzz/target
+bin=fuzz/target/$host/$profile
 
 run_one() {
   local t=$1
@@ -50,14 +52,15 @@ run_one() {
   local status=0
   "$bin/$t" "fuzz/corpus-found/$t" "fuzz/corpus/$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
     -max_len=32768 -print_final_stats=1 -artifact_prefix="fuzz/artifacts/$t/" "$@" >"$log" 2>&1 || status=$?
-  local runs
+  local runs took
   runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  took=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$log" | tail -1)
   if [ $status -ne 0 ]; then
     grep -E "ERROR|panicked|Test unit written|SUMMARY" "$log" | head -20 >&2 || true
     echo "fuzz $t: FAILED after ${runs:-?} executions (log: $log)" >&2
     return 1
   fi
-  echo "fuzz $t: ${runs:-?} executions in ${seconds} s, no crash"
+  echo "fuzz $t: ${runs:-?} executions in ${took:-$seconds} s, no crash, no hang"
   rm -f "$log"
 }
 

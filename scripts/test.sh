@@ -4,7 +4,8 @@
 #      scipy, example-robot-data, pyarrow from PyPI), rebuilt when
 #      python_ref/requirements.txt changes;
 #   2. formatting and lint checks (cargo fmt, cargo clippy -D warnings);
-#   3. all Rust tests, including the live cross-checks against python_ref/.
+#   3. all Rust tests, including the live cross-checks against python_ref/;
+#   4. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh).
 # A missing or broken Python environment is an error, never a skip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,4 +40,8 @@ cargo test --workspace --all-targets --no-run --quiet
 disk "tests built"
 cargo test --workspace --all-targets --no-fail-fast
 cargo test --workspace --doc --no-fail-fast
+# Every fuzz target for a few seconds (a fresh build of fuzz/ is part of
+# the cost; scripts/fuzz.sh TARGET SECONDS fuzzes for real).
+echo "== fuzz smoke: every target for ${FUZZ_SMOKE_SECONDS:=3} s"
+FUZZ_PROFILE=smoke scripts/fuzz.sh all "$FUZZ_SMOKE_SECONDS"
 disk "end"
