@@ -9,6 +9,11 @@
 #   4. the Python package: `pip install .` (maturin) into python/.venv, then
 #      its pytest suite (python/tests: Pinocchio cross-checks, planning,
 #      errors, Ray generation equal to the CLI's).
+#   5. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh);
+#   6. one million random arbitration ticks in a release build
+#      (tests/arbitration_stress.rs).
+# The OSQP cross-check backend (feature `osqp`) is built with the cmake of
+# python_ref/.venv (PyPI's cmake).
 # A missing or broken Python environment is an error, never a skip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -30,7 +35,7 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   "$venv/bin/pip" install --quiet --disable-pip-version-check -r python_ref/requirements.txt
   echo "$want" > "$stamp"
 fi
-"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow" \
+"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
 
 # The Python package's environment: pytest and ray in python/.venv, which
@@ -52,16 +57,19 @@ fi
 # libpython): cargo and `pip install .` then share pyo3's build.
 export PYO3_PYTHON="$PWD/$pyvenv/bin/python" PYO3_BUILD_EXTENSION_MODULE=1
 
+# cmake for the OSQP backend's C sources (CMake 4 needs the policy floor).
+export PATH="$PWD/$venv/bin:$PATH" CMAKE_POLICY_VERSION_MINIMUM=3.5
+
 disk "Python environment ready"
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
-cargo clippy --workspace --all-targets --quiet -- -D warnings
+cargo clippy --workspace --all-targets --features osqp --quiet -- -D warnings
 echo "== cargo test"
-cargo test --workspace --all-targets --no-run --quiet
+cargo test --workspace --all-targets --features osqp --no-run --quiet
 disk "tests built"
-cargo test --workspace --all-targets --no-fail-fast
-cargo test --workspace --doc --no-fail-fast
+cargo test --workspace --all-targets --features osqp --no-fail-fast
+cargo test --workspace --doc --features osqp --no-fail-fast
 disk "Rust tests done"
 
 # `pip install .` as a user runs it (maturin from PyPI in an isolated build
@@ -72,4 +80,14 @@ MATURIN_PEP517_ARGS="--profile dev" "$pyvenv/bin/pip" install --quiet --disable-
   --force-reinstall --no-deps .
 echo "== pytest python/tests"
 TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:cacheprovider python/tests
+
+# Every fuzz target for a few seconds (a fresh build of fuzz/ is part of
+# the cost; scripts/fuzz.sh TARGET SECONDS fuzzes for real).
+echo "== fuzz smoke: every target for ${FUZZ_SMOKE_SECONDS:=3} s"
+FUZZ_PROFILE=smoke scripts/fuzz.sh all "$FUZZ_SMOKE_SECONDS"
+disk "fuzz smoke done"
+
+# The stress test in release: 1,000,000 random ticks (20,000 in the debug run above).
+echo "== arbitration stress test (release, 1,000,000 ticks)"
+cargo test --release --features osqp --test arbitration_stress -- --nocapture
 disk "end"

@@ -718,7 +718,7 @@ fn unknown_objective_kind() {
     let text = problem(&[ROBOT, START, JOINT_GOAL, o]);
     expect_problem_error(
         &text,
-        "hard",
+        "kind = \"hard\"",
         "optimizer.objectives[0].kind",
         "unknown kind 'hard' (expected sos, eq or ineq)",
     );
@@ -1039,4 +1039,20 @@ fn flipped_grasp_keeps_position_and_approach_axis() {
     let err = problem.scene.flip_grasp("box", "grasps").unwrap_err().to_string();
     assert!(err.contains("grasp frame named 'grasps' (did you mean grasp?)"), "{err}");
     assert!(problem.scene.flip_grasp("crate", "grasp").is_err());
+}
+
+#[test]
+fn family_with_a_builtin_base_parses_from_text() {
+    let text = std::fs::read_to_string(shipped("panda_grasp_family.toml"))
+        .unwrap()
+        .replace("base = \"panda_grasp_box.toml\"", "base = \"builtin:panda_grasp_box\"");
+    let family = ProblemFamily::from_str_with(&text, "<text>", None).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(family.base.origin, "<builtin:panda_grasp_box>");
+    let from_file = ProblemFamily::from_file(shipped("panda_grasp_family.toml")).unwrap();
+    let (a, b) = (family.sample(3, 7).unwrap(), from_file.sample(3, 7).unwrap());
+    assert_eq!(a.problem.start, b.problem.start, "the builtin base is the shipped file");
+    let e = ProblemFamily::from_str_with(&text.replace("builtin:panda_grasp_box", "builtin:nope"), "<text>", None)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("<text>:5: base: ") && e.contains("no builtin problem named 'nope'"), "{e}");
 }

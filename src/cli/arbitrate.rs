@@ -52,7 +52,8 @@ pub struct ArbitrateArgs {
     pub json: bool,
 }
 
-pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>> {
+/// Runs the episode; [`Outcome::Unsuccessful`](super::Outcome) (exit 3) unless it succeeds.
+pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::error::Error>> {
     if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 10_000.0) {
         return Err(format!("--rate {} Hz: give a rate in (0, 10000]", args.rate).into());
     }
@@ -105,7 +106,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
             "fallbacks": record.fallbacks,
         });
         println!("{json}");
-        return Ok(());
+        return Ok(outcome(&record));
     }
     println!(
         "{}: {} goal reference(s) planned and optimized in {:.1} ms ({})",
@@ -131,7 +132,11 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
     for path in args.plot.iter().chain(&args.field) {
         println!("wrote {}", path.display());
     }
-    Ok(())
+    Ok(outcome(&record))
+}
+
+fn outcome(record: &EpisodeRecord) -> super::Outcome {
+    if record.outcome == crate::sim::Outcome::Success { super::Outcome::Success } else { super::Outcome::Unsuccessful }
 }
 
 pub(super) fn load(path: &std::path::Path) -> Result<Problem, Box<dyn std::error::Error>> {

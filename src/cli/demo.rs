@@ -7,8 +7,9 @@ use std::time::Instant;
 /// Arguments of `tandem demo`.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
-    /// Number of configurations in the elbow sweep (at least 2).
-    #[arg(long, default_value_t = 7)]
+    /// Number of configurations in the forward lean (panda_joint2 from the
+    /// start to 1.9 rad further), 2 to 1000.
+    #[arg(long, default_value_t = 7, value_parser = |s: &str| super::number_in(s, 2usize..=1000))]
     pub steps: usize,
     /// Folder for the optimized trajectory (CSV, Parquet) and its plots
     /// (joints.svg, path.svg).
@@ -28,7 +29,7 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
         panda.frames().len()
     );
     kinematics_timing(&panda)?;
-    collision_sweep(args.steps.max(2))?;
+    collision_sweep(args.steps)?;
     reach_and_grasp(&args.out)?;
     shared_control(&args.out)?;
     Ok(())
