@@ -23,8 +23,11 @@ use tandem_solvers::small::add_scaled;
 /// policy that reaches it.
 #[derive(Debug, Clone)]
 pub struct ArbiterGoal {
+    /// Its name.
     pub name: String,
+    /// A world point (m).
     pub position: [f64; 3],
+    /// The robot policy that reaches it.
     pub policy: Arc<dyn RobotPolicy>,
 }
 
@@ -73,12 +76,19 @@ pub struct ArbiterSettings {
     pub mode: ArbitrationMode,
     /// Control period `dt` (s; default 1/15, the seed's 15 Hz).
     pub period: f64,
+    /// The metrics' settings.
     pub metric: MetricSettings,
+    /// The goal posterior's settings.
     pub intent: IntentSettings,
+    /// The modes' settings.
     pub modes: ModeSettings,
+    /// The hard constraints' settings.
     pub safety: SafetySettings,
+    /// Damped least squares of task commands.
     pub damping: DampingSettings,
+    /// Tolerance and iteration limit of the solver.
     pub solver: ConicSettings,
+    /// Which solver solves the QP modes.
     pub backend: SolverBackend,
     /// Skip the solver when the mode's closed form meets every constraint
     /// (it is then the optimum of the convex problem; default true).
@@ -650,11 +660,15 @@ impl ArbiterWorkspace {
 pub struct SolvedProblem<'w> {
     /// `P` (n × n, column-major) and `q`.
     pub p: &'w [f64],
+    /// `q` of the objective.
     pub q: &'w [f64],
     /// `G` (m × n, row-major) and `h`.
     pub g: &'w [f64],
+    /// `h` of the rows.
     pub h: &'w [f64],
+    /// The solver's multipliers of the rows (≥ 0).
     pub z: &'w [f64],
+    /// Whether the trust-region cone was part of it.
     pub conic: bool,
 }
 

@@ -61,6 +61,7 @@ impl Outcome {
 /// What happened in an episode.
 #[derive(Debug, Clone)]
 pub struct EpisodeRecord {
+    /// How it ended.
     pub outcome: Outcome,
     /// Control ticks run.
     pub steps: usize,
@@ -84,8 +85,11 @@ pub struct EpisodeRecord {
     /// Per tick (when recorded): the operator's command and the executed
     /// gripper velocity `J q̇` (m/s), the beliefs, the status.
     pub human: Vec<[f64; 3]>,
+    /// Executed gripper velocities (m/s).
     pub executed: Vec<[f64; 3]>,
+    /// Beliefs over the goals.
     pub beliefs: Vec<Vec<f64>>,
+    /// Tick statuses.
     pub statuses: Vec<TickStatus>,
     /// The final configuration.
     pub final_q: Vec<f64>,
@@ -114,12 +118,15 @@ impl EpisodeRecord {
 /// the robot's policy).
 #[derive(Clone, Copy)]
 pub struct Episode<'a> {
+    /// The arbiter blending the operator's commands.
     pub arbiter: &'a Arbiter,
+    /// The start configuration.
     pub start: &'a [f64],
     /// The true goal's grasp point (m, world).
     pub target: [f64; 3],
     /// The true goal among the arbiter's goals.
     pub true_goal: usize,
+    /// Timeout and recording.
     pub settings: EpisodeSettings,
 }
 

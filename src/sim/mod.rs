@@ -19,7 +19,9 @@
 mod episode;
 mod judge;
 mod operator;
+#[cfg(feature = "experiments")]
 mod planar;
+#[cfg(feature = "experiments")]
 mod reach_grasp;
 
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, Outcome, percentiles};
@@ -27,10 +29,12 @@ pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, Pace, PolicyFollower, Straightline,
 };
+#[cfg(feature = "experiments")]
 pub use planar::{
     PLANAR_METHODS, PlanarEpisode, PlanarResults, PlanarSettings, PlanarTask, PlanarUser, mean_std, run_planar,
     sample_planar_task,
 };
+#[cfg(feature = "experiments")]
 pub use reach_grasp::{
     Arm, Cell, EpisodeSummary, Method, OperatorKind, ReachGraspResults, ReachGraspSettings, Task, run_reach_grasp,
     sample_task,

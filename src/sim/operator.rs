@@ -76,6 +76,7 @@ impl Default for Pace {
 /// the object").
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Straightline {
+    /// Speed and arrival.
     pub pace: Pace,
 }
 
@@ -94,6 +95,7 @@ impl Operator for Straightline {
 /// grab the object").
 #[derive(Debug, Clone, Copy)]
 pub struct Approach {
+    /// Speed and arrival.
     pub pace: Pace,
     /// Height of the pre-grasp point above the goal (m; default 0.1).
     pub height: f64,
@@ -139,6 +141,7 @@ impl Operator for Approach {
 /// `slow_down` metres: the seed's planar users, who knew the way (§6.5).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PolicyFollower {
+    /// Speed and arrival.
     pub pace: Pace,
 }
 
@@ -172,7 +175,9 @@ impl Operator for PolicyFollower {
 /// Adds uniform noise of size `k` on the joints each tick (rad/s, mapped to
 /// the gripper through the Jacobian): the seed's Noisy-k, k = 0.1, 0.2.
 pub struct Noisy<O> {
+    /// The disturbed behaviour.
     pub inner: O,
+    /// Noise size (rad/s per joint).
     pub k: f64,
     rng: ChaCha8Rng,
     noise: Vec<f64>,
@@ -216,7 +221,9 @@ impl<O: Operator> Operator for Noisy<O> {
 /// of radius `radius` (seed: "reaching the incorrect object location with
 /// max. 5 cm error radius").
 pub struct Biased<O> {
+    /// The disturbed behaviour.
     pub inner: O,
+    /// The offset of the aimed point (m, world).
     pub offset: [f64; 3],
 }
 
@@ -259,7 +266,9 @@ struct Seen {
 
 /// Acts on the state it observed `m` ticks ago (seed: Laggy-m, m = 5, 10).
 pub struct Laggy<O> {
+    /// The disturbed behaviour.
     pub inner: O,
+    /// Lag in ticks.
     pub m: usize,
     history: VecDeque<Seen>,
 }

@@ -41,9 +41,11 @@ use rayon::prelude::*;
 /// A simulated user of the planar task.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PlanarUser {
+    /// Straight at the goal.
     Straight,
     /// The optimal policy plus uniform noise of this many times the speed.
     Noisy(f64),
+    /// Aims up to 5 cm off.
     Biased,
 }
 
@@ -83,14 +85,19 @@ pub const PLANAR_METHODS: [ArbitrationMode; 4] = [
 /// Settings of the planar experiment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanarSettings {
+    /// Tasks (per arm where there are two).
     pub tasks: usize,
+    /// Seed of tasks and operators.
     pub seed: u64,
+    /// The simulated users.
     pub users: Vec<PlanarUser>,
+    /// The arbitration modes compared.
     pub methods: Vec<ArbitrationMode>,
     /// User speed (m/s; default 0.05).
     pub speed: f64,
     /// Timeout of the whole task (s; default 60).
     pub max_time: f64,
+    /// The arbiters' settings (the method sets the mode).
     pub arbiter: ArbiterSettings,
 }
 
@@ -111,15 +118,23 @@ impl Default for PlanarSettings {
 /// One planar episode (both phases).
 #[derive(Debug, Clone)]
 pub struct PlanarEpisode {
+    /// Task index.
     pub task: usize,
+    /// Index of the user in the settings.
     pub user: usize,
+    /// Index of the method in the settings.
     pub method: usize,
+    /// How it ended.
     pub outcome: Outcome,
     /// Seconds, centimetres, centimetres, and the mean cosine distance.
     pub duration: f64,
+    /// Gripper path length (cm).
     pub travel_cm: f64,
+    /// Smallest distance to the pole (cm).
     pub proximity_cm: f64,
+    /// Mean cosine distance between the user's and the executed command.
     pub cosine_distance: f64,
+    /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
     /// Gripper path (x, y), both phases.
     pub path: Vec<(f64, f64)>,
@@ -128,21 +143,28 @@ pub struct PlanarEpisode {
 /// A sampled planar task: the two phases' prepared goals.
 #[derive(Debug, Clone)]
 pub struct PlanarTask {
+    /// Task index.
     pub index: usize,
     /// Phase 1: one goal per cylinder; `target` is the user's.
     pub reach: Vec<ProblemGoal>,
+    /// Which of the goals the user means.
     pub target: usize,
     /// Phase 2: the place goal, the cylinder attached.
     pub place: ProblemGoal,
+    /// The pole's position (m).
     pub pole: [f64; 2],
 }
 
 /// Results of the planar experiment.
 #[derive(Debug, Clone)]
 pub struct PlanarResults {
+    /// The settings run.
     pub settings: PlanarSettings,
+    /// Every episode, by task, method, user.
     pub episodes: Vec<PlanarEpisode>,
+    /// The sampled tasks.
     pub tasks: Vec<PlanarTask>,
+    /// Wall-clock time of the run (s).
     pub wall_seconds: f64,
 }
 

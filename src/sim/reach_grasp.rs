@@ -72,7 +72,9 @@ impl Arm {
 /// A simulated operator of the experiment.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OperatorKind {
+    /// Straight at the grasp point.
     Straightline,
+    /// Via a point 10 cm above the grasp point.
     Approach,
     /// Approach with joint noise of this size (rad/s).
     Noisy(f64),
@@ -163,10 +165,15 @@ impl Method {
 /// Settings of the experiment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReachGraspSettings {
+    /// Tasks (per arm where there are two).
     pub tasks: usize,
+    /// Seed of tasks and operators.
     pub seed: u64,
+    /// Which arms do the tasks.
     pub arms: Vec<Arm>,
+    /// The simulated operators.
     pub operators: Vec<OperatorKind>,
+    /// The methods compared.
     pub methods: Vec<Method>,
     /// Operator speed (m/s; default 0.1).
     pub speed: f64,
@@ -197,8 +204,11 @@ impl Default for ReachGraspSettings {
 /// One sampled task with its reference.
 #[derive(Debug, Clone)]
 pub struct Task {
+    /// The arm.
     pub arm: Arm,
+    /// Task index.
     pub index: usize,
+    /// The prepared goal: problem, reference, policy.
     pub goal: ProblemGoal,
     /// Samples rejected before this one (reference did not converge).
     pub resampled: usize,
@@ -207,17 +217,26 @@ pub struct Task {
 /// One episode's summary.
 #[derive(Debug, Clone)]
 pub struct EpisodeSummary {
+    /// The arm.
     pub arm: Arm,
+    /// Task index.
     pub task: usize,
+    /// Index of the operator in the settings.
     pub operator: usize,
+    /// Index of the method in the settings.
     pub method: usize,
+    /// How it ended.
     pub outcome: Outcome,
     /// |cos| between the gripper's x, y axes and the box's, and cos between
     /// the gripper's z and the box's −z, at the end.
     pub cos: [f64; 3],
+    /// Simulated duration (s).
     pub duration: f64,
+    /// Tick times (µs).
     pub tick_us: Vec<f64>,
+    /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
+    /// Smallest signed distance over the episode (m).
     pub min_clearance: f64,
     /// The gripper path (first task of each arm, when kept).
     pub path: Vec<[f64; 3]>,
@@ -226,13 +245,18 @@ pub struct EpisodeSummary {
 /// Every episode, in (arm, task, operator, method) order, and the tasks.
 #[derive(Debug, Clone)]
 pub struct ReachGraspResults {
+    /// The settings run.
     pub settings: ReachGraspSettings,
+    /// Every episode, by arm, task, method, operator.
     pub episodes: Vec<EpisodeSummary>,
+    /// The sampled tasks.
     pub tasks: Vec<Task>,
     /// Seconds spent preparing tasks (sampling, planning, optimizing) and
     /// running episodes, summed over threads, and the wall-clock total.
     pub prepare_seconds: f64,
+    /// CPU seconds in episodes.
     pub episode_seconds: f64,
+    /// Wall-clock time of the run (s).
     pub wall_seconds: f64,
 }
 
@@ -409,11 +433,17 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
 /// Counts of one (arm, operator, method) cell.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Cell {
+    /// Episodes that succeeded.
     pub success: usize,
+    /// Episodes the operator ended where the task was not done.
     pub failed: usize,
+    /// Episodes that ended in a collision.
     pub collision: usize,
+    /// Episodes that timed out.
     pub timeout: usize,
+    /// Mean |cos| of the gripper's x and y axes with the box's, and cos of z with −z.
     pub cos: [f64; 3],
+    /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
 }
 
