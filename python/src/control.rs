@@ -163,18 +163,20 @@ impl PyTrackingPolicy {
     }
 
     /// Like :meth:`query`, also returning what the query found: the
-    /// closest waypoint's index, the joint-space distance to it (rad) and
-    /// the index of the waypoint tracked.
+    /// closest point of the reference as a waypoint coordinate (waypoint
+    /// ``floor(s)`` plus the fraction ``s - floor(s)`` of the segment to the
+    /// next), the joint-space distance to it (rad) and the coordinate of the
+    /// point tracked.
     #[pyo3(signature = (q, velocity=None))]
     fn query_with_info<'py>(
         &self,
         py: Python<'py>,
         q: Vector<'_>,
         velocity: Option<Vector<'_>>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, usize, f64, usize)> {
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64, f64, f64)> {
         let mut command = vec![0.0; self.dof()];
         let found = self.query_into(q.as_slice(), velocity.as_ref().map(Vector::as_slice), &mut command)?;
-        Ok((PyArray1::from_vec(py, command), found.index, found.distance, found.target))
+        Ok((PyArray1::from_vec(py, command), found.progress, found.distance, found.target))
     }
 
     /// Forgets the closest waypoint remembered from earlier queries.

@@ -51,9 +51,28 @@ def test_time_varying_gains_stay_at_the_dare_gain():
         assert np.abs(policy.gain(i) - expected).max() < 3e-12 * np.abs(expected).max()  # seen 3.1e-14
 
 
+def closest_point(ref, q):
+    """The closest point of the polyline through ``ref`` (earliest of ties),
+    as a waypoint coordinate s, and its distance."""
+    best = (0.0, np.inf)
+    for i in range(len(ref) - 1):
+        a, b = ref[i], ref[i + 1]
+        t = float(np.clip((q - a) @ (b - a) / ((b - a) @ (b - a)), 0.0, 1.0))
+        d = float(np.linalg.norm(q - a - t * (b - a)))
+        if d < best[1] * (1 - 1e-9):
+            best = (i + t, d)
+    return best
+
+
+def at(table, s):
+    i = min(int(np.floor(s)), len(table) - 1)
+    return table[i] if i == len(table) - 1 else table[i] + (s - i) * (table[i + 1] - table[i])
+
+
 def test_query_follows_the_policy_law():
-    """command = v + (−K e)·dt, e = [q − q_d, v − v_d] at the waypoint after
-    the closest one (velocity feedforward only, the default)."""
+    """command = v + (−K e)·dt, e = [q − q_d, v − v_d] at the point one
+    waypoint past the closest point of the reference polyline, interpolated
+    (velocity feedforward only, the default)."""
     ref, dt = reference()
     policy = tandem.TrackingPolicy(ref, dt, joints=["a", "b", "c"])
     assert policy.joint_names == ["a", "b", "c"] and policy.dof == 3 and policy.dt == dt
@@ -65,13 +84,14 @@ def test_query_follows_the_policy_law():
         q = ref[i] + 0.01 * rng.standard_normal(3)
         v = 0.1 * rng.standard_normal(3)
         policy.reset()
-        command, index, distance, target = policy.query_with_info(q, v)
-        closest = int(np.argmin(np.linalg.norm(ref - q, axis=1)))
-        assert index == closest and target == min(closest + 1, len(ref) - 1)
-        assert distance == pytest.approx(np.linalg.norm(ref[closest] - q), rel=1e-12)
-        vd = (ref[target] - ref[target - 1]) / dt if 0 < target < len(ref) - 1 else np.zeros(3)
-        error = np.concatenate([q - ref[target], v - vd])
-        np.testing.assert_allclose(command, v - (k @ error) * dt, rtol=0, atol=1e-13)  # seen: equal
+        command, progress, distance, target = policy.query_with_info(q, v)
+        s, d = closest_point(ref, q)
+        assert progress == pytest.approx(s, abs=1e-12) and target == pytest.approx(min(s + 1, len(ref) - 1), abs=1e-12)
+        assert distance == pytest.approx(d, rel=1e-12)
+        velocities = np.vstack([np.zeros(3), np.diff(ref, axis=0) / dt])
+        vd = at(velocities, target) if target < len(ref) - 1 else np.zeros(3)
+        error = np.concatenate([q - at(ref, target), v - vd])
+        np.testing.assert_allclose(command, v - (k @ error) * dt, rtol=0, atol=1e-12)
         out = np.empty(3)
         policy.reset()
         assert policy.query(q, v, out=out) is out
