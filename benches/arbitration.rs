@@ -23,7 +23,7 @@ use tandem::arbitration::{
     Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, TickInput, problem_goals,
 };
 use tandem::scene::Problem;
-use tandem::sim::{Approach, Episode, EpisodeSettings};
+use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
 
 /// One recorded tick: state, velocity, operator command.
 struct Recorded {
@@ -50,7 +50,10 @@ fn setup() -> Setup {
         true_goal: 0,
         settings: EpisodeSettings::default(),
     };
-    let record = episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut |_| true).expect("episode");
+    let mut judge = TaskJudge::new(&goals[0]);
+    let record =
+        episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut |q| judge.succeeded(q)).expect("episode");
+    assert!(record.steps > 0, "the recorded episode has no ticks ({})", record.outcome.as_str());
     let dt = arbiter.settings().period;
     let ticks = (0..record.steps)
         .map(|t| Recorded {

@@ -251,7 +251,15 @@ fn demo_runs_the_reach_and_grasp_end_to_end() {
     assert!(text.contains("panda_grasp_box (<builtin:panda_grasp_box>): converged"), "{text}");
     assert!(text.contains("collision-free between slices (every 0.002 rad): yes"), "{text}");
     assert!(out.join("path.svg").exists() && out.join("trajectory.parquet").exists());
-    // It ends with what it wrote, not with features to come.
-    assert!(text.trim_end().lines().last().unwrap().starts_with("wrote trajectory.csv"), "{text}");
+    // It ends with the shared-control episodes and where their figure is,
+    // not with features to come.
+    assert!(text.contains("wrote trajectory.csv"), "{text}");
+    assert!(text.trim_end().lines().last().unwrap().contains("shared_control.svg"), "{text}");
+    assert!(out.join("shared_control.svg").exists());
+    for mode in ["sos", "constrained", "natural-gradient-joint"] {
+        let row = text.lines().find(|l| l.trim_start().starts_with(&format!("{mode} "))).expect("mode row");
+        let cols: Vec<&str> = row.split_whitespace().collect();
+        assert_eq!((cols[1], cols[5]), ("success", "0"), "{mode} must grasp without violations: {row}");
+    }
     assert!(!text.contains("join this command as they land"), "{text}");
 }

@@ -132,6 +132,9 @@ pub enum ArbitrationError {
     /// A tracking policy could not be built.
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),
+    /// Writing results failed.
+    #[error("{0}")]
+    Io(String),
     /// A scene edit failed.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),

@@ -93,7 +93,9 @@ pub struct ReachGraspArgs {
     /// [x, y, z]}], ...}.
     #[arg(long)]
     pub json: bool,
-    /// Folder for the Fig. 5.4-style figure (reach_grasp.svg) and the results (reach_grasp.json).
+    /// Folder for the Fig. 5.4-style figure (reach_grasp.svg), the results
+    /// (reach_grasp.json) and every episode tick by tick
+    /// (episodes/<arm>-<task>.parquet).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
 }
@@ -111,8 +113,17 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         "left" => vec![Arm::Left],
         _ => vec![Arm::Right, Arm::Left],
     };
-    let settings =
-        ReachGraspSettings { tasks: args.tasks as usize, seed: args.seed, arms, ..ReachGraspSettings::default() };
+    let record_dir = args.out.as_ref().map(|d| d.join("episodes"));
+    if let Some(dir) = &record_dir {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
+    let settings = ReachGraspSettings {
+        tasks: args.tasks as usize,
+        seed: args.seed,
+        arms,
+        record_dir,
+        ..ReachGraspSettings::default()
+    };
     let total = (settings.tasks * settings.arms.len()) as u64;
     let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(total);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
@@ -133,7 +144,10 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
     } else {
         print_table(&results);
         if let Some(dir) = &args.out {
-            println!("wrote reach_grasp.json and reach_grasp.svg to {}", dir.display());
+            println!(
+                "wrote reach_grasp.json, reach_grasp.svg and episodes/<arm>-<task>.parquet (every tick) to {}",
+                dir.display()
+            );
         }
     }
     Ok(())

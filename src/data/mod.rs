@@ -10,7 +10,8 @@
 //! (the dataset depends on the seed and ids only, not on the thread count),
 //! resumable (parts are written atomically and skipped when present) and
 //! described by a JSON manifest. The dataset layout and schema are in
-//! [`schema`].
+//! [`schema`]. Shared-control episodes go to Parquet too (`write_episodes`,
+//! one row per control tick).
 //!
 //! ```no_run
 //! # #[cfg(feature = "data")] {
@@ -22,6 +23,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+#[cfg(feature = "data")]
+mod episodes;
 #[cfg(feature = "data")]
 mod generate;
 #[cfg(feature = "data")]
@@ -36,6 +39,8 @@ pub mod schema;
 mod shard;
 mod trajectory;
 
+#[cfg(feature = "data")]
+pub use episodes::write_episodes;
 #[cfg(feature = "data")]
 pub use generate::{
     GenerateError, GenerateSettings, GenerateSummary, MAX_ATTEMPTS, MAX_CHUNK_SIZE, MAX_COUNT, MAX_EVALUATIONS,

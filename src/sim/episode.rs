@@ -87,6 +87,10 @@ pub struct EpisodeRecord {
     pub human: Vec<[f64; 3]>,
     /// Executed gripper velocities (m/s).
     pub executed: Vec<[f64; 3]>,
+    /// Executed joint velocities (rad/s or m/s).
+    pub qdot: Vec<Vec<f64>>,
+    /// The most likely goal's robot action (rad/s or m/s).
+    pub robot: Vec<Vec<f64>>,
     /// Beliefs over the goals.
     pub beliefs: Vec<Vec<f64>>,
     /// Tick statuses.
@@ -170,6 +174,8 @@ impl Episode<'_> {
             gripper: vec![],
             human: vec![],
             executed: vec![],
+            qdot: vec![],
+            robot: vec![],
             beliefs: vec![],
             statuses: vec![],
             final_q: vec![],
@@ -210,7 +216,7 @@ impl Episode<'_> {
             let command = arbiter.tick(ws, &input);
             record.tick_us.push(began.elapsed().as_secs_f64() * 1e6);
             record.steps += 1;
-            let status = command.status;
+            let (status, goal) = (command.status, command.diagnostics.goal);
             if !matches!(status, TickStatus::Nominal | TickStatus::Constrained | TickStatus::StepShortened) {
                 record.fallbacks += 1;
             }
@@ -222,6 +228,8 @@ impl Episode<'_> {
                 let executed = [0, 1, 2].map(|r| (0..n).map(|c| linear[r * n + c] * velocity[c]).sum::<f64>());
                 record.human.push(v);
                 record.executed.push(executed);
+                record.qdot.push(velocity.clone());
+                record.robot.push(goal.map_or_else(Vec::new, |g| ws.robot_action(g).to_vec()));
                 record.beliefs.push(ws.beliefs().to_vec());
                 record.statuses.push(status);
             }

@@ -183,6 +183,9 @@ pub struct ReachGraspSettings {
     pub arbiter: ArbiterSettings,
     /// Keep the gripper paths of the first task per arm (for the figure).
     pub keep_paths: bool,
+    /// Write every episode, tick by tick, to `DIR/<arm>-<task>.parquet`
+    /// (see [`write_episodes`](crate::data::write_episodes)).
+    pub record_dir: Option<std::path::PathBuf>,
 }
 
 impl Default for ReachGraspSettings {
@@ -197,6 +200,7 @@ impl Default for ReachGraspSettings {
             max_time: 20.0,
             arbiter: ArbiterSettings::default(),
             keep_paths: true,
+            record_dir: None,
         }
     }
 }
@@ -388,6 +392,8 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
     let box_pose = problem.scene.object("box").map(|o| o.pose).unwrap_or_else(IsometryMatrix3::identity);
     let gripper = problem.robot.frame_id(problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
     let mut out = vec![];
+    let record = settings.record_dir.is_some();
+    let mut records = vec![];
     for (m, method) in settings.methods.iter().enumerate() {
         let arbiter = base.with_settings(method.settings(&settings.arbiter))?;
         let mut ws = arbiter.workspace();
@@ -400,9 +406,9 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 start: &problem.start,
                 target: task.goal.position,
                 true_goal: 0,
-                settings: EpisodeSettings { max_time: settings.max_time, record: false },
+                settings: EpisodeSettings { max_time: settings.max_time, record },
             };
-            let record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
+            let mut record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
             problem.robot.forward_kinematics(&mut kin, &record.final_q)?;
             let g = problem.robot.frame_pose(&kin, gripper).rotation;
             let b = box_pose.rotation;
@@ -420,12 +426,22 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 outcome: record.outcome,
                 cos,
                 duration: record.duration,
-                tick_us: record.tick_us,
+                tick_us: std::mem::take(&mut record.tick_us),
                 hard_violations: record.hard_violations,
                 min_clearance: record.min_clearance,
-                path: if keep { record.gripper } else { vec![] },
+                path: if keep { std::mem::take(&mut record.gripper) } else { vec![] },
             });
+            if settings.record_dir.is_some() {
+                let label = format!("{}/{}/{}/{}", task.arm.as_str(), kind.name(), method.name(), task.index);
+                records.push((label, record));
+            }
         }
+    }
+    if let Some(dir) = &settings.record_dir {
+        let rows: Vec<(String, &super::EpisodeRecord, f64)> =
+            records.iter().map(|(label, r)| (label.clone(), r, settings.arbiter.period)).collect();
+        let path = dir.join(format!("{}-{:05}.parquet", task.arm.as_str(), task.index));
+        crate::data::write_episodes(&path, &rows).map_err(|e| ArbitrationError::Io(e.to_string()))?;
     }
     Ok(out)
 }
