@@ -19,7 +19,8 @@ fn dependencies(features: &[&str]) -> Vec<String> {
         .collect()
 }
 
-const CLI_AND_DATA: [&str; 7] = ["clap", "indicatif", "parquet", "arrow-array", "arrow-schema", "rayon", "sha2"];
+const CLI_AND_DATA: [&str; 8] =
+    ["clap", "indicatif", "parquet", "arrow-array", "arrow-schema", "rayon", "sha2", "plotters"];
 
 #[test]
 fn the_library_without_default_features_leaves_out_cli_and_data_crates() {
@@ -30,7 +31,7 @@ fn the_library_without_default_features_leaves_out_cli_and_data_crates() {
     }
     // The defaults keep the command line and datasets.
     let full = dependencies(&[]);
-    for name in ["clap", "parquet", "rayon"] {
+    for name in ["clap", "parquet", "rayon", "plotters"] {
         assert!(full.iter().any(|p| p == name), "{name} missing from the default build");
     }
 }

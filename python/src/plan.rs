@@ -100,6 +100,8 @@ impl PyPlanResult {
 #[pyclass(module = "tandem", name = "Solution", frozen)]
 pub struct PySolution {
     solution: ProblemSolution,
+    /// The problem's start configuration: row 0 of ``trajectory``.
+    start: Vec<f64>,
 }
 
 #[pymethods]
@@ -117,11 +119,14 @@ impl PySolution {
         self.solution.converged()
     }
 
-    /// The optimized configurations, one row per slice (T × nq), as the
-    /// Rust optimizer returns them (see ``joint_names`` for the columns).
+    /// The trajectory ((T + 1) × nq): the start configuration, then the
+    /// optimized slices q_1 … q_T, as ``tandem solve`` writes it (see
+    /// ``joint_names`` for the columns, ``time_step`` for the spacing).
     #[getter]
     fn trajectory<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        rows_matrix(py, &self.solution.trajectory, self.solution.joints.len())
+        let rows: Vec<Vec<f64>> =
+            std::iter::once(self.start.clone()).chain(self.solution.trajectory.iter().cloned()).collect();
+        rows_matrix(py, &rows, self.solution.joints.len())
     }
 
     #[getter]
@@ -252,7 +257,7 @@ pub(crate) fn solve(
     let options = SolveOptions { seed, horizon, validation_resolution };
     let p = &problem.problem;
     let solution = py.detach(|| solve_problem(p, &options)).py()?;
-    Ok(PySolution { solution })
+    Ok(PySolution { solution, start: p.start.clone() })
 }
 
 /// The configurations ``problem``'s goal asks for: its joint goal, or up

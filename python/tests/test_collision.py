@@ -16,7 +16,9 @@ def configurations(robot, rng, count):
 def test_boolean_minimum_and_all_pairs_agree():
     problem = tandem.Problem.builtin("panda_grasp_box")
     model = problem.collision_model()
-    assert len(model.pairs) > 100 and ("panda_hand", "box") not in model.pairs
+    # A grasp lets only the finger pads touch the box: the hand is checked.
+    assert len(model.pairs) > 100 and ("panda_hand", "box") in model.pairs
+    assert ("panda_link0", "table") not in model.pairs
     qs = configurations(problem.robot, np.random.default_rng(7), CONFIGURATIONS)
     free = model.collision_free_many(qs)
     minima = model.min_distances(qs)

@@ -102,10 +102,7 @@ def test_policy_from_a_solved_trajectory_tracks_it_to_the_goal():
     problem = tandem.Problem.builtin("panda_reach")
     solution = tandem.solve(problem, seed=1)
     assert solution.converged
-    trajectory = solution.trajectory
-    # The reference starts at the start configuration (once).
-    if not np.array_equal(trajectory[0], problem.start):
-        trajectory = np.vstack([problem.start, trajectory])
+    trajectory = solution.trajectory  # the start first, as a reference wants it
     policy = tandem.TrackingPolicy(trajectory, solution.time_step, joints=solution.joint_names)
     rng = np.random.default_rng(6)
     for _ in range(5):

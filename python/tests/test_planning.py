@@ -91,10 +91,11 @@ def test_solve_reaches_a_pose_goal(pin_panda):
     solution = tandem.solve(problem, seed=1)
     assert solution.converged and solution.status == "converged", solution.report()
     trajectory = solution.trajectory
-    assert trajectory.shape == (problem.horizon, 7)
+    assert trajectory.shape == (problem.horizon + 1, 7)
+    np.testing.assert_array_equal(trajectory[0], problem.start)
     assert solution.time_step == pytest.approx(problem.duration / problem.horizon)
     model = problem.collision_model()
-    assert model.path_free(np.vstack([problem.start, trajectory]), resolution=0.002)
+    assert model.path_free(trajectory, resolution=0.002)
     robot = problem.robot
     assert all(robot.within_limits(q) for q in trajectory)
     final = pin_panda.tcp_pose(trajectory[-1])
