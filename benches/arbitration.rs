@@ -7,12 +7,14 @@
 //! The ticks replay an Approach-operator episode recorded under
 //! SumOfSquares, so the policies' progress, the distances and the
 //! constraints are those of a real run. Groups:
-//! * `arbitration/tick/<mode>`: the default settings (Clarabel, closed form first);
+//! * `arbitration/tick/<mode>`: the default settings (closed form first,
+//!   then the active-set QP solver; Clarabel for `Constrained`'s cone);
 //! * `arbitration/solver/<mode>/<backend>`: the solver forced on every tick
-//!   (`closed_form_first = false`), Clarabel and, with `--features osqp`, OSQP.
+//!   (`closed_form_first = false`) on every row: the active set, Clarabel
+//!   and, with `--features osqp`, OSQP.
 //!
-//! After criterion, a percentile table (median, p99, max over 20 passes of
-//! the episode) is printed for every mode. With `TANDEM_EXPORT_QP=FILE` the
+//! After criterion, percentile tables (median, p99, max over 20 passes of
+//! the episode) are printed for every mode and backend. With `TANDEM_EXPORT_QP=FILE` the
 //! forced-solve DirectControl problems (objective, every constraint row)
 //! are written as JSON for `benches/peers/compare_arbitration.sh`.
 
@@ -86,7 +88,7 @@ fn tick(a: &Arbiter, ws: &mut tandem::arbitration::ArbiterWorkspace, s: &Setup, 
 
 fn backends() -> Vec<(SolverBackend, &'static str)> {
     #[allow(unused_mut)]
-    let mut b = vec![(SolverBackend::Clarabel, "clarabel")];
+    let mut b = vec![(SolverBackend::ActiveSet, "active-set"), (SolverBackend::Clarabel, "clarabel")];
     #[cfg(feature = "osqp")]
     b.push((SolverBackend::Osqp, "osqp"));
     b
@@ -95,7 +97,7 @@ fn backends() -> Vec<(SolverBackend, &'static str)> {
 fn criterion_groups(c: &mut Criterion, s: &Setup) {
     let mut group = c.benchmark_group("arbitration/tick");
     for mode in ArbitrationMode::ALL {
-        let a = arbiter(s, mode, SolverBackend::Clarabel, true);
+        let a = arbiter(s, mode, SolverBackend::default(), true);
         let mut ws = a.workspace();
         let mut k = 0;
         group.bench_function(mode.as_str(), |b| {
@@ -109,7 +111,7 @@ fn criterion_groups(c: &mut Criterion, s: &Setup) {
     let mut group = c.benchmark_group("arbitration/solver");
     for mode in ArbitrationMode::ALL {
         for (backend, name) in backends() {
-            if mode.is_conic() && name != "clarabel" {
+            if mode.is_conic() && backend != SolverBackend::Clarabel {
                 continue;
             }
             let a = arbiter(s, mode, backend, false);
@@ -128,23 +130,36 @@ fn criterion_groups(c: &mut Criterion, s: &Setup) {
 
 /// Median, p99 and max tick times over 20 passes of the episode.
 fn percentile_table(s: &Setup) {
-    println!("\n{:<24} {:>10} {:>10} {:>10} {:>10}", "mode (Clarabel)", "median µs", "p99 µs", "max µs", "solves");
-    for mode in ArbitrationMode::ALL {
-        let a = arbiter(s, mode, SolverBackend::Clarabel, true);
-        let mut ws = a.workspace();
-        for k in 0..s.ticks.len() {
-            tick(&a, &mut ws, s, k);
+    for (backend, name) in backends() {
+        println!(
+            "\n{:<32} {:>10} {:>10} {:>10} {:>10}",
+            format!("mode ({name})"),
+            "median µs",
+            "p99 µs",
+            "max µs",
+            "solves"
+        );
+        for mode in ArbitrationMode::ALL {
+            percentile_row(s, mode, backend);
         }
-        let mut times = Vec::with_capacity(20 * s.ticks.len());
-        let mut solves = 0;
-        for k in 0..20 * s.ticks.len() {
-            let began = Instant::now();
-            solves += tick(&a, &mut ws, s, k);
-            times.push(began.elapsed().as_secs_f64() * 1e6);
-        }
-        let (median, p99, max) = tandem::sim::percentiles(&times);
-        println!("{:<24} {median:>10.1} {p99:>10.1} {max:>10.1} {solves:>10}", mode.as_str());
     }
+}
+
+fn percentile_row(s: &Setup, mode: ArbitrationMode, backend: SolverBackend) {
+    let a = arbiter(s, mode, backend, true);
+    let mut ws = a.workspace();
+    for k in 0..s.ticks.len() {
+        tick(&a, &mut ws, s, k);
+    }
+    let mut times = Vec::with_capacity(20 * s.ticks.len());
+    let mut solves = 0;
+    for k in 0..20 * s.ticks.len() {
+        let began = Instant::now();
+        solves += tick(&a, &mut ws, s, k);
+        times.push(began.elapsed().as_secs_f64() * 1e6);
+    }
+    let (median, p99, max) = tandem::sim::percentiles(&times);
+    println!("{:<32} {median:>10.1} {p99:>10.1} {max:>10.1} {solves:>10}", mode.as_str());
 }
 
 /// The forced-solve DirectControl problems (every row) as JSON.

@@ -41,8 +41,9 @@ def median(group):
     return json.loads(est.read_text())["median"]["point_estimate"] / 1000.0
 rows = []
 print(f"{'tandem':<44} {'µs':>8}   peer (Python, solve only)          µs    peer/tandem")
-for name, group in [("full tick, direct (closed form first)", "arbitration/tick/direct"),
-                    ("full tick, direct, solver forced", "arbitration/solver/direct/clarabel")]:
+for name, group in [("full tick, direct (closed form first)", "arbitration_tick/direct"),
+                    ("full tick, direct, active set forced", "arbitration_solver/direct_active-set"),
+                    ("full tick, direct, Clarabel forced", "arbitration_solver/direct_clarabel")]:
     t = median(group)
     for peer_name in ("clarabel", "osqp"):
         p = peer[peer_name]["median_us"]

@@ -19,6 +19,7 @@ and the largest difference between the peer's u and tandem's (rad/s). One
 JSON object on stdout.
 """
 import json
+import os
 import statistics
 import sys
 import time
@@ -107,11 +108,16 @@ def run(peer, items):
 
 
 def main():
+    # OSQP's C code prints ("Polishing not needed ...") to stdout whatever
+    # `verbose` says: keep file descriptor 1 for the JSON result only.
+    result = os.fdopen(os.dup(1), "w")
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 1)
     items = list(problems(sys.argv[1]))
     out = {"problems": len(items), "rows": [len(i[3]) for i in items][:1],
            "clarabel": run(ClarabelPeer(), items), "osqp": run(OsqpPeer(), items),
            "versions": {"clarabel": clarabel.__version__, "osqp": osqp.__version__}}
-    json.dump(out, sys.stdout)
+    json.dump(out, result)
+    result.close()
 
 
 if __name__ == "__main__":

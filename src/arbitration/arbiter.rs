@@ -15,7 +15,7 @@ use crate::control::{PolicyState, RobotPolicy};
 use crate::robot::{FrameId, KinematicsWorkspace, ReferenceFrame, RobotModel};
 use nalgebra::Matrix6xX;
 use std::sync::Arc;
-use tandem_solvers::conic::{ConicData, ConicError, ConicSettings, ConicSolverPool, SecondOrderCone};
+use tandem_solvers::conic::{ActiveSetSolver, ConicData, ConicError, ConicSettings, ConicSolverPool, SecondOrderCone};
 use tandem_solvers::small::add_scaled;
 
 /// One goal the operator may be heading for: a name, a point in the world
@@ -60,8 +60,13 @@ impl Default for DampingSettings {
 /// Which solver handles the QP modes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SolverBackend {
-    /// Clarabel's interior point method (every mode).
+    /// A dense Goldfarb–Idnani dual active-set method for the QP modes
+    /// (exact up to rounding, allocation-free), Clarabel for `Constrained`'s
+    /// cone and whenever the active set cannot finish (dependent active
+    /// rows, a step limit).
     #[default]
+    ActiveSet,
+    /// Clarabel's interior point method (every mode).
     Clarabel,
     /// OSQP (QP modes; `Constrained` still uses Clarabel). Needs the `osqp`
     /// cargo feature.
@@ -173,6 +178,7 @@ pub struct ArbiterWorkspace {
     /// Rows of the last solve (0 when the closed form was feasible).
     solved_rows: usize,
     qp: ConicSolverPool,
+    dense: ActiveSetSolver,
     socp: ConicSolverPool,
     #[cfg(feature = "osqp")]
     osqp: tandem_solvers::conic::OsqpSolver,
@@ -305,6 +311,7 @@ impl Arbiter {
             qp_z: vec![0.0; max_rows],
             solved_rows: 0,
             qp: ConicSolverPool::new(n, max_rows, None, solver),
+            dense: ActiveSetSolver::new(n, max_rows, solver),
             socp: ConicSolverPool::new(n, max_rows, Some(n), solver),
             #[cfg(feature = "osqp")]
             osqp: tandem_solvers::conic::OsqpSolver::new(n, max_rows, solver),
@@ -539,6 +546,10 @@ impl Arbiter {
         let data = ConicData { p: &ws.p, q: &ws.q, g: &ws.qp_g[..m * n], h: &ws.qp_h[..m], cone };
         let result = match (cone.is_some(), self.settings.backend) {
             (true, _) => ws.socp.solve(&data),
+            (false, SolverBackend::ActiveSet) => match ws.dense.solve(&data) {
+                Ok(solution) => Ok(solution),
+                Err(_) => ws.qp.solve(&data),
+            },
             #[cfg(feature = "osqp")]
             (false, SolverBackend::Osqp) => ws.osqp.solve(&data),
             (false, _) => ws.qp.solve(&data),

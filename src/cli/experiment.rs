@@ -125,7 +125,7 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         ..ReachGraspSettings::default()
     };
     let total = (settings.tasks * settings.arms.len()) as u64;
-    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(total);
+    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start_counting(total, "tasks", false);
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
     let results = pool.install(|| run_reach_grasp(&settings, &|| progress.sample_done(true)))?;
     progress.finish();
@@ -270,7 +270,11 @@ fn figure(r: &ReachGraspResults) -> Result<String, Box<dyn std::error::Error>> {
 
 fn planar(args: &PlanarArgs) -> Result<(), Box<dyn std::error::Error>> {
     let settings = PlanarSettings { tasks: args.tasks as usize, seed: args.seed, ..PlanarSettings::default() };
-    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(settings.tasks as u64);
+    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start_counting(
+        settings.tasks as u64,
+        "tasks",
+        false,
+    );
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
     let results = pool.install(|| run_planar(&settings, &|| progress.sample_done(true)))?;
     progress.finish();

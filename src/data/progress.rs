@@ -32,15 +32,22 @@ impl Progress {
         Progress::Quiet
     }
 
-    /// Starts reporting `total` samples.
+    /// Starts reporting `total` samples, each accepted or rejected.
     pub(crate) fn start(self, total: u64) -> ProgressRun {
+        self.start_counting(total, "samples", true)
+    }
+
+    /// Starts reporting `total` items called `unit` ("tasks"), counting
+    /// accepted ones when `acceptance`.
+    pub(crate) fn start_counting(self, total: u64, unit: &'static str, acceptance: bool) -> ProgressRun {
         let bar = (self == Progress::Bar).then(|| {
             let bar = ProgressBar::new(total);
-            let style = ProgressStyle::with_template(
-                "{elapsed_precise} [{wide_bar}] {pos}/{len} samples · {per_sec} · ETA {eta} · {msg}",
-            )
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> ");
+            let template = format!(
+                "{{elapsed_precise}} [{{wide_bar}}] {{pos}}/{{len}} {unit} · {{per_sec}} · ETA {{eta}} · {{msg}}"
+            );
+            let style = ProgressStyle::with_template(&template)
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> ");
             bar.set_style(style);
             bar
         });
@@ -52,6 +59,8 @@ impl Progress {
             bar,
             every,
             total,
+            unit,
+            acceptance,
             began: Instant::now(),
             last_line: Mutex::new(Instant::now()),
             done: AtomicU64::new(0),
@@ -66,6 +75,8 @@ pub(crate) struct ProgressRun {
     bar: Option<ProgressBar>,
     every: Option<Duration>,
     total: u64,
+    unit: &'static str,
+    acceptance: bool,
     began: Instant,
     last_line: Mutex<Instant>,
     done: AtomicU64,
@@ -78,7 +89,9 @@ impl ProgressRun {
         let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
         let accepted = self.accepted.fetch_add(u64::from(accepted), Ordering::Relaxed) + u64::from(accepted);
         if let Some(bar) = &self.bar {
-            bar.set_message(format!("{accepted} accepted, {} rejected", done - accepted));
+            if self.acceptance {
+                bar.set_message(format!("{accepted} accepted, {} rejected", done - accepted));
+            }
             bar.inc(1);
         }
         if let Some(every) = self.every {
@@ -94,7 +107,9 @@ impl ProgressRun {
         let seconds = self.began.elapsed().as_secs_f64();
         let rate = done as f64 / seconds.max(1e-9);
         let eta = (self.total - done.min(self.total)) as f64 / rate.max(1e-9);
-        format!("{done}/{} samples ({accepted} accepted) in {seconds:.0} s · {rate:.1}/s · ETA {eta:.0} s", self.total)
+        let (total, unit) = (self.total, self.unit);
+        let accepted = if self.acceptance { format!(" ({accepted} accepted)") } else { String::new() };
+        format!("{done}/{total} {unit}{accepted} in {seconds:.0} s · {rate:.1}/s · ETA {eta:.0} s")
     }
 
     pub(crate) fn finish(&self) {

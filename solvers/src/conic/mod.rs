@@ -27,12 +27,14 @@
 //! assert!((u[0] - 0.5).abs() < 1e-7 && (u[1] - 0.5).abs() < 1e-7);
 //! ```
 
+mod active_set;
 mod clarabel_backend;
 #[cfg(feature = "osqp")]
 mod osqp_backend;
 #[cfg(test)]
 mod tests;
 
+pub use active_set::ActiveSetSolver;
 pub use clarabel_backend::ConicSolver;
 #[cfg(feature = "osqp")]
 pub use osqp_backend::OsqpSolver;
