@@ -13,6 +13,7 @@
 //! │   └── IkError           no (collision-free) configuration reaches the target
 //! ├── OptimizationError     trajectory optimization setup
 //! ├── ControlError          tracking policies
+//! ├── ArbitrationError      arbiter setup: goals, settings, modes
 //! └── DatasetError          bulk generation and dataset files
 //! ```
 
@@ -58,6 +59,12 @@ create_exception!(tandem, IkError, PlanningError, "No configuration (or no colli
 create_exception!(tandem, OptimizationError, TandemError, "Trajectory optimization that cannot be set up.");
 create_exception!(tandem, ControlError, TandemError, "Tracking policies: bad references, weights or query inputs.");
 create_exception!(tandem, DatasetError, TandemError, "Bulk generation and dataset files.");
+create_exception!(
+    tandem,
+    ArbitrationError,
+    TandemError,
+    "Arbiter setup: goal references that cannot be prepared, settings out of range, unknown modes."
+);
 
 /// Registers the exception classes in the module.
 pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -73,6 +80,7 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OptimizationError", py.get_type::<OptimizationError>())?;
     m.add("ControlError", py.get_type::<ControlError>())?;
     m.add("DatasetError", py.get_type::<DatasetError>())?;
+    m.add("ArbitrationError", py.get_type::<ArbitrationError>())?;
     Ok(())
 }
 
@@ -179,5 +187,15 @@ impl ToPyErr for GenerateError {
 impl ToPyErr for DataError {
     fn to_py(self) -> PyErr {
         DatasetError::new_err(self.to_string())
+    }
+}
+
+impl ToPyErr for tandem::arbitration::ArbitrationError {
+    fn to_py(self) -> PyErr {
+        use tandem::arbitration::ArbitrationError as E;
+        match self {
+            E::Robot(e) => e.to_py(),
+            e => ArbitrationError::new_err(e.to_string()),
+        }
     }
 }

@@ -4,10 +4,12 @@
 //! One Rust module per box of the pipeline, mirroring the library:
 //! [`robot`] (models, kinematics), [`collision`], [`problem`] (problems,
 //! families), [`plan`] (IK, planning, optimization), [`control`] (tracking
-//! policies), [`data`] (bulk generation); [`errors`] maps every Rust error
+//! policies), [`arbitration`] (the per-tick arbiter), [`data`] (bulk
+//! generation); [`errors`] maps every Rust error
 //! to an exception class, [`arrays`] moves numpy data in and out. Long
 //! calls release the GIL; sub-microsecond queries keep it.
 
+mod arbitration;
 mod arrays;
 mod collision;
 mod control;
@@ -31,6 +33,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<plan::PyPlanResult>()?;
     m.add_class::<plan::PySolution>()?;
     m.add_class::<control::PyTrackingPolicy>()?;
+    m.add_class::<arbitration::PyArbiter>()?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(plan::solve, m)?)?;
     m.add_function(wrap_pyfunction!(plan::goal_configurations, m)?)?;

@@ -3,8 +3,9 @@
 Robot models from URDF with forward kinematics and frame Jacobians,
 collision checking and signed distances, problem files and families,
 inverse kinematics, RRT-Connect planning, KOMO-style trajectory
-optimization, LQR tracking policies and bulk dataset generation — the Rust
-library, with numpy arrays in and out.
+optimization, LQR tracking policies, the per-tick shared-control arbiter
+and bulk dataset generation — the Rust library, with numpy arrays in and
+out.
 
 >>> import tandem
 >>> panda = tandem.RobotModel.panda()
@@ -15,6 +16,8 @@ library, with numpy arrays in and out.
 >>> solution = tandem.solve(problem, seed=1)               # RRT-Connect + optimizer
 >>> solution.status
 'converged'
+>>> arbiter = tandem.Arbiter(tandem.Problem.builtin("panda_grasp_box"), mode="sos")
+>>> qdot, status, info = arbiter.tick(problem.start, [0.1, 0.0, 0.0])  # gripper velocity, m/s
 
 Every error is a :class:`TandemError` subclass carrying the Rust message
 (file, line, key, joint or value at fault). Long calls (loading, planning,
@@ -23,6 +26,8 @@ Ray cluster: :mod:`tandem.distributed`.
 """
 
 from ._native import (
+    Arbiter,
+    ArbitrationError,
     CollisionError,
     CollisionModel,
     ConfigurationError,
@@ -54,6 +59,8 @@ from ._native import (
 )
 
 __all__ = [
+    "Arbiter",
+    "ArbitrationError",
     "CollisionError",
     "CollisionModel",
     "ConfigurationError",

@@ -34,6 +34,7 @@ __all__ = [
     "OptimizationError",
     "ControlError",
     "DatasetError",
+    "ArbitrationError",
     "RobotModel",
     "CollisionModel",
     "Distance",
@@ -42,6 +43,7 @@ __all__ = [
     "PlanResult",
     "Solution",
     "TrackingPolicy",
+    "Arbiter",
     "plan",
     "solve",
     "goal_configurations",
@@ -85,6 +87,9 @@ class ControlError(TandemError):
 
 class DatasetError(TandemError):
     """Bulk generation and dataset files."""
+
+class ArbitrationError(TandemError):
+    """Arbiter setup: goal references that cannot be prepared, settings out of range, unknown modes."""
 
 @final
 class RobotModel:
@@ -347,6 +352,43 @@ class TrackingPolicy:
         reference polyline as waypoint coordinates (waypoint ``floor(s)`` plus a fraction of the next segment)."""
     def reset(self) -> None: ...
     def rollout(self, start: _ArrayLike, steps: int) -> _Matrix: ...
+
+_Mode = Literal[
+    "direct", "blend-timid", "blend-aggressive", "avoid", "natural-gradient", "natural-gradient-joint",
+    "constrained", "sos",
+]
+
+@final
+class Arbiter:
+    """Shared control of a problem's goals: every tick, the operator's command blended with the
+    robot policies under joint limits and distances (seed chapters 4–5)."""
+
+    def __new__(
+        cls, problem: Problem, *, mode: _Mode = "sos", period: float = 1.0 / 15.0, margin: float = 0.005,
+        seed: Optional[int] = None,
+    ) -> Arbiter: ...
+    def tick(
+        self,
+        q: _ArrayLike,
+        command: _ArrayLike,
+        *,
+        kind: Literal["linear", "twist", "joint"] = "linear",
+        velocity: Optional[_ArrayLike] = None,
+        beliefs: Optional[_ArrayLike] = None,
+        out: Optional[_Vector] = None,
+    ) -> tuple[_Vector, str, dict[str, Any]]:
+        """``(joint velocity for one period, status, diagnostics)``; bad numbers give zero velocity
+        and a status such as ``"invalid_command"``, never an exception."""
+    def reset(self) -> None: ...
+    mode: _Mode
+    @property
+    def goals(self) -> list[str]: ...
+    @property
+    def goal_positions(self) -> list[tuple[float, float, float]]: ...
+    @property
+    def period(self) -> float: ...
+    @property
+    def nq(self) -> int: ...
 
 def plan(problem: Problem, seed: Optional[int] = None) -> PlanResult:
     """RRT-Connect + shortcutting, as ``tandem plan``; releases the GIL."""
