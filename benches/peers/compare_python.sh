@@ -3,7 +3,9 @@
 #   1. per-call cost of FK + frame pose (+ 6x7 Jacobian) from Python, tandem's
 #      package against Pinocchio's Python bindings on the same Panda URDF
 #      (python_kinematics.py; target: tandem no slower than pin);
-#   2. bulk generation over a local Ray cluster against `tandem generate` with
+#   2. one arbitration tick from Python per mode (python_arbitration.py), to
+#      set beside the Rust tick of `cargo bench --bench arbitration`;
+#   3. bulk generation over a local Ray cluster against `tandem generate` with
 #      the same CPUs: samples/s, the engine's overhead in %, byte identity
 #      (ray_generate.py).
 # Release builds of both: `pip install .` (release) into python/.venv, which
@@ -33,6 +35,8 @@ echo "== pip install . (release build)" >&2
 "$py" -m pip install --quiet --disable-pip-version-check --force-reinstall --no-deps . >&2
 echo "== FK + Jacobian from Python: tandem vs pin" >&2
 "$py" "$here/python_kinematics.py" --json target/peers/python_kinematics.json
+echo "== one arbitration tick from Python, every mode" >&2
+"$py" "$here/python_arbitration.py" --json target/peers/python_arbitration.json
 if $ray; then
   echo "== bulk generation: Ray vs the CLI ($cpus CPUs)" >&2
   cargo build --release --quiet --bin tandem
