@@ -39,6 +39,8 @@ pub enum SeriesKind {
     /// Ellipses: each point carries a 2 × 2 symmetric matrix (column-major)
     /// whose eigenvectors scaled by the eigenvalues are the half-axes.
     Ellipses(Vec<[f64; 4]>),
+    /// Arrows from each point by the vector (data units) at its index.
+    Arrows(Vec<(f64, f64)>),
 }
 
 /// One labelled series of points in data coordinates.
@@ -63,6 +65,11 @@ impl Series {
     /// A dashed polyline.
     pub fn dashed(label: &str, points: &[(f64, f64)], color: usize) -> Series {
         Series { label: Some(label.into()), points: points.to_vec(), color, kind: SeriesKind::Dashed }
+    }
+
+    /// Arrows from `points` by `vectors` (data units), unlabelled.
+    pub fn arrows(points: &[(f64, f64)], vectors: &[(f64, f64)], color: usize) -> Series {
+        Series { label: None, points: points.to_vec(), color, kind: SeriesKind::Arrows(vectors.to_vec()) }
     }
 
     /// Markers.
@@ -141,6 +148,7 @@ impl Panel {
             for (k, &(x, y)) in s.points.iter().enumerate() {
                 let r = match &s.kind {
                     SeriesKind::Ellipses(m) => m.get(k).map_or(0.0, |m| m[0].abs().max(m[3].abs()) + m[1].abs()),
+                    SeriesKind::Arrows(v) => v.get(k).map_or(0.0, |v| v.0.abs().max(v.1.abs())),
                     _ => reach,
                 };
                 if x.is_finite() && y.is_finite() {
@@ -241,6 +249,9 @@ fn draw_panel(panel: &Panel, area: &DrawingArea<SVGBackend<'_>, Shift>) -> Resul
                     PathElement::new(closed(circle_points(x, y, a, b, angle)), style)
                 }))
                 .map_err(err)?,
+            SeriesKind::Arrows(vectors) => chart
+                .draw_series(s.points.iter().zip(vectors).map(|(&p, &v)| PathElement::new(arrow(p, v), style)))
+                .map_err(err)?,
         };
         if let Some(label) = &s.label {
             labelled = true;
@@ -275,6 +286,17 @@ fn emptiest_corner(panel: &Panel, (x0, x1): (f64, f64), (y0, y1): (f64, f64)) ->
         2 => SeriesLabelPosition::LowerRight,
         _ => SeriesLabelPosition::LowerLeft,
     }
+}
+
+/// An arrow from `p` by `v` as one path: shaft, then a head of two barbs
+/// a quarter of its length at ±25°.
+fn arrow(p: (f64, f64), v: (f64, f64)) -> Vec<(f64, f64)> {
+    let tip = (p.0 + v.0, p.1 + v.1);
+    let barb = |angle: f64| {
+        let (s, c) = (std::f64::consts::PI + angle).sin_cos();
+        (tip.0 + 0.25 * (c * v.0 - s * v.1), tip.1 + 0.25 * (s * v.0 + c * v.1))
+    };
+    vec![p, tip, barb(0.44), tip, barb(-0.44)]
 }
 
 fn closed(mut points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {

@@ -46,7 +46,6 @@ pub mod data;
 pub mod figures;
 pub mod komo;
 pub mod plan;
-pub mod plot;
 pub mod robot;
 pub mod scene;
 pub mod sim;

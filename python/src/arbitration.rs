@@ -29,6 +29,9 @@ pub struct PyArbiter {
     workspace: Mutex<ArbiterWorkspace>,
 }
 
+/// What a tick returns to Python: the joint velocity, the status, the diagnostics.
+type TickResult<'py> = (Bound<'py, PyArray1<f64>>, &'static str, Bound<'py, PyDict>);
+
 fn mode(name: &str) -> PyResult<ArbitrationMode> {
     name.parse::<ArbitrationMode>().map_err(|e| ArbitrationError::new_err(e.to_string()))
 }
@@ -79,7 +82,7 @@ impl PyArbiter {
         velocity: Option<Vector<'_>>,
         beliefs: Option<Vector<'_>>,
         out: Option<Bound<'py, PyArray1<f64>>>,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, &'static str, Bound<'py, PyDict>)> {
+    ) -> PyResult<TickResult<'py>> {
         let values = command.as_slice();
         let human = match kind {
             "linear" => HumanCommand::Linear(values),

@@ -2,8 +2,8 @@
 
 use super::{Outcome, ProblemArgs};
 use crate::collision::CollisionWorkspace;
+use crate::figures::{Panel, Series, render_panels};
 use crate::plan::{PlanStatus, path_length, plan_problem};
-use crate::plot::SvgPlot;
 use crate::robot::KinematicsWorkspace;
 use crate::scene::Problem;
 use std::path::PathBuf;
@@ -140,21 +140,25 @@ pub(super) fn gripper_path_svg(
         points.push(robot.frame_pose(&ws, frame).translation.vector);
     }
     let title = format!("{}: {} {what}", problem.name, robot.frame_name(frame));
-    let mut plot = SvgPlot::new(&title, "x (m)", "y or z (m)");
-    let top: Vec<(f64, f64)> = points.iter().map(|p| (p.x, p.y)).collect();
-    let side: Vec<(f64, f64)> = points.iter().map(|p| (p.x, p.z)).collect();
-    plot.line(&top, "#1f77b4", 2.0, Some("top view (x, y)"));
-    plot.dashed_line(&side, "#d62728", 2.0, Some("side view (x, z)"));
-    for (view, color) in [(&top, "#1f77b4"), (&side, "#d62728")] {
-        if let (Some(a), Some(b)) = (view.first(), view.last()) {
-            plot.marker(*a, color, 5.0);
-            plot.marker(*b, "#2ca02c", 5.0);
+    let view = |label: &str, axis: fn(&nalgebra::Vector3<f64>) -> f64| {
+        let path: Vec<(f64, f64)> = points.iter().map(|p| (p.x, axis(p))).collect();
+        let ends: Vec<(f64, f64)> = path.first().into_iter().chain(path.last()).copied().collect();
+        let obstacles: Vec<(f64, f64)> = problem
+            .scene
+            .obstacles()
+            .iter()
+            .filter(|o| o.name != "table")
+            .map(|o| (o.pose.translation.vector.x, axis(&o.pose.translation.vector)))
+            .collect();
+        let mut panel = Panel::new(label, "x (m)", if label.starts_with("top") { "y (m)" } else { "z (m)" })
+            .with(Series::line(&format!("{} path", robot.frame_name(frame)), &path, 0))
+            .with(Series::points("start and end", &ends, 2))
+            .equal();
+        if !obstacles.is_empty() {
+            panel = panel.with(Series::points("obstacle centres", &obstacles, 7));
         }
-    }
-    for o in problem.scene.obstacles().iter().filter(|o| o.name != "table") {
-        let c = o.pose.translation.vector;
-        plot.marker((c.x, c.y), "#7f7f7f", 8.0);
-        plot.marker((c.x, c.z), "#7f7f7f", 8.0);
-    }
-    Ok(plot.render(720.0, 540.0))
+        panel
+    };
+    let panels = [view("top view (x, y)", |p| p.y), view("side view (x, z)", |p| p.z)];
+    Ok(render_panels(&title, &panels, 480, 440)?)
 }

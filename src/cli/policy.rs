@@ -7,7 +7,7 @@ use crate::control::{
     WEIGHT_RANGE,
 };
 use crate::data::TrajectoryTable;
-use crate::plot::SvgPlot;
+use crate::figures::{Panel, Series, render_panels};
 use crate::robot::{MeshSearchPath, RobotDescription, RobotModel};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -206,24 +206,32 @@ fn parse_slice(text: &str, dof: usize) -> Result<(usize, usize), String> {
 }
 
 /// Reference (dashed), rollouts (colours) and policy arrows around the path.
-fn field_plot(policy: &TrackingPolicy, rollouts: &[Vec<Vec<f64>>], a: usize, b: usize) -> Result<String, ControlError> {
+fn field_plot(
+    policy: &TrackingPolicy,
+    rollouts: &[Vec<Vec<f64>>],
+    a: usize,
+    b: usize,
+) -> Result<String, Box<dyn std::error::Error>> {
     let r = policy.reference();
     let names = r.joints();
-    let mut plot = SvgPlot::new(
-        "LQR tracking policy: reference, rollouts from nearby starts, velocity field",
+    let mut panel = Panel::new(
+        "reference, rollouts, velocity field",
         &format!("{} (rad)", names[a]),
         &format!("{} (rad)", names[b]),
     );
     let project = |q: &[f64]| (q[a], q[b]);
-    let colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22"];
+    let mut starts = vec![];
     for (i, path) in rollouts.iter().enumerate() {
         let pts: Vec<(f64, f64)> = path.iter().map(|q| project(q)).collect();
-        plot.line(&pts, colors[i % colors.len()], 1.5, (i == 0).then_some("rollouts from nearby starts"));
-        plot.marker(pts[0], colors[i % colors.len()], 3.0);
+        starts.extend(pts.first().copied());
+        let rollout = Series::line("rollouts from nearby starts", &pts, 1 + i % 6);
+        panel = panel.with(if i == 0 { rollout } else { rollout.unlabelled() });
     }
     let reference: Vec<(f64, f64)> = (0..r.len()).map(|i| project(r.position(i))).collect();
-    plot.dashed_line(&reference, "#333", 2.0, Some("reference"));
-    plot.marker(project(r.goal()), "#000", 5.0);
+    panel = panel
+        .with(Series::dashed("reference", &reference, 7))
+        .with(Series::points("starts", &starts, 0))
+        .with(Series::points("goal", &[project(r.goal())], 7));
     // Policy commands on a lattice around the reference, arrows scaled so the
     // longest spans 6% of the reference's extent.
     let mut command = vec![0.0; r.dof()];
@@ -241,8 +249,7 @@ fn field_plot(policy: &TrackingPolicy, rollouts: &[Vec<Vec<f64>>], a: usize, b: 
     let extent = reference.iter().fold(0.0f64, |m, p| m.max(distance(&[p.0, p.1], &[reference[0].0, reference[0].1])));
     let longest = arrows.iter().fold(0.0f64, |m, (_, v)| m.max(v.0.hypot(v.1))).max(1e-12);
     let scale = 0.06 * extent.max(0.1) / longest;
-    for (from, v) in arrows {
-        plot.arrow(from, (from.0 + scale * v.0, from.1 + scale * v.1), "#d62728");
-    }
-    Ok(plot.render(800.0, 600.0))
+    let (from, by): (Vec<_>, Vec<_>) = arrows.into_iter().map(|(p, v)| (p, (scale * v.0, scale * v.1))).unzip();
+    panel = panel.with(Series::arrows(&from, &by, 3));
+    Ok(render_panels("LQR tracking policy", &[panel], 800, 600)?)
 }

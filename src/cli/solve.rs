@@ -4,8 +4,8 @@
 use super::plan::gripper_path_svg;
 use super::{Outcome, ProblemArgs};
 use crate::data::{TrajectoryTable, write_csv, write_parquet};
+use crate::figures::{Panel, Series, render_panels};
 use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
-use crate::plot::SvgPlot;
 use crate::scene::{MAX_HORIZON, MIN_HORIZON, Problem};
 use std::path::{Path, PathBuf};
 
@@ -133,21 +133,20 @@ pub(super) fn write_outputs(
         let path = dir.join(name);
         std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     };
-    write("joints.svg", joints_svg(problem, s))?;
+    write("joints.svg", joints_svg(problem, s)?)?;
     let path = crate::plan::resample(&table.configurations, 200);
     write("path.svg", gripper_path_svg(problem, &path, "optimized path")?)?;
     Ok(())
 }
 
 /// Every joint's value over time, the start at t = 0.
-fn joints_svg(problem: &Problem, s: &ProblemSolution) -> String {
-    const COLORS: [&str; 8] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
-    let mut plot = SvgPlot::new(&format!("{}: joint trajectories", problem.name), "time (s)", "joint value (rad)");
+fn joints_svg(problem: &Problem, s: &ProblemSolution) -> Result<String, crate::figures::FigureError> {
     let table = trajectory_table(problem, s);
+    let mut panel = Panel::new("joint values", "time (s)", "joint value (rad or m)");
     for (k, name) in s.joints.iter().enumerate() {
         let points: Vec<(f64, f64)> =
             table.configurations.iter().enumerate().map(|(t, q)| (t as f64 * s.time_step, q[k])).collect();
-        plot.line(&points, COLORS[k % COLORS.len()], 1.5, Some(name));
+        panel = panel.with(Series::line(name, &points, k));
     }
-    plot.render(720.0, 480.0)
+    render_panels(&format!("{}: joint trajectories", problem.name), &[panel], 760, 480)
 }
