@@ -20,6 +20,7 @@ pub mod control;
 pub mod data;
 pub mod figures;
 pub mod komo;
+pub mod learn;
 pub mod plan;
 pub mod plot;
 pub mod robot;

@@ -13,9 +13,13 @@
 mod arbitrate;
 mod check;
 mod demo;
+#[cfg(feature = "train")]
+mod experiment;
 mod generate;
 mod inspect;
 mod kinematics;
+#[cfg(feature = "train")]
+mod learn;
 mod plan;
 mod policy;
 mod problem_args;
@@ -173,6 +177,14 @@ pub enum Command {
     ///   tandem arbitrate builtin:panda_grasp_box --mode sos --json
     #[command(verbatim_doc_comment)]
     Arbitrate(arbitrate::ArbitrateArgs),
+    /// Train networks on tandem's datasets: `tandem learn policy --data DIR
+    /// --out policy.safetensors` fits the robot policy network (seed §3.3.3).
+    #[cfg(feature = "train")]
+    Learn(learn::LearnArgs),
+    /// Experiments: `tandem experiment policy` follows a learned policy
+    /// alone and under shared control, beside the LQR tracking policy.
+    #[cfg(feature = "train")]
+    Experiment(experiment::ExperimentArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -190,6 +202,10 @@ pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
         Command::Solve(args) => solve::run(&args),
         Command::Generate(args) => generate::run(&args),
         Command::Arbitrate(args) => arbitrate::run(&args),
+        #[cfg(feature = "train")]
+        Command::Learn(args) => learn::run(&args),
+        #[cfg(feature = "train")]
+        Command::Experiment(args) => experiment::run(&args),
     }
 }
 

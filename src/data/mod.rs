@@ -29,6 +29,8 @@ mod trajectory;
 pub use generate::{GenerateError, GenerateSettings, GenerateSummary, ShardSpec, generate};
 pub use manifest::{DatasetParameters, Manifest, PartEntry};
 pub use progress::Progress;
-pub use sample::{GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_sample};
+pub use sample::{
+    GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_problem, run_sample,
+};
 pub use shard::{PartSummary, read_part_summary, write_part};
 pub use trajectory::{DataError, TrajectoryTable, write_csv, write_parquet};

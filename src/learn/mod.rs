@@ -1,0 +1,99 @@
+//! Learned robot policies (the seed's §3.3.1 and §3.3.3): a network
+//! trained on tandem's own datasets that answers at any configuration,
+//! for any goal it was trained on — including states no reference passes
+//! through, where an LQR tracking policy only knows its one reference.
+//!
+//! - [`Demonstrations`] reads a dataset folder (`tandem generate`) and
+//!   turns it into state-action [`Pairs`]: the input of [`features`] (gripper
+//!   position, goal relative to it, goal rotation in the continuous 6-D form,
+//!   `q`, obstacle slots) and the joint velocity as a unit direction and a norm.
+//! - [`train`] fits an MLP with candle (CPU, deterministic per seed) on the
+//!   weighted sum of the two mean squared errors (§3.3.3).
+//! - [`PolicyNetwork`] is the trained network at query time (hand-written
+//!   `f32` layers, nothing allocated), saved as safetensors.
+//! - [`LearnedPolicy`] conditions it on one goal and implements
+//!   [`RobotPolicy`](crate::control::RobotPolicy), so an
+//!   [`ArbiterGoal`](crate::arbitration::ArbiterGoal) can use it in every
+//!   arbitration mode; its metric comes from its own queries.
+//! - [`evaluate`] follows a policy alone from a task's start (kinematic
+//!   steps, a collision check each step, the grasp judged by
+//!   [`GraspJudge`](crate::scene::GraspJudge)), and [`dagger`] adds expert
+//!   trajectories where the learned policy fails.
+//!
+//! This is the only module that knows the network crate.
+//!
+//! ```no_run
+//! use std::sync::Arc;
+//! use tandem::learn::{LearnedPolicy, PolicyNetwork};
+//! use tandem::control::RobotPolicy;
+//! use tandem::scene::Problem;
+//! let network = Arc::new(PolicyNetwork::load("policy.safetensors".as_ref())?);
+//! let problem = Problem::builtin("panda_grasp_box")?;
+//! let policy = LearnedPolicy::for_problem(network, &problem)?;
+//! let mut state = policy.new_state();
+//! let mut qdot = vec![0.0; policy.dof()];
+//! policy.act(&mut state, &problem.start, &vec![0.0; policy.dof()], &mut qdot)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod dagger;
+mod dataset;
+pub mod evaluate;
+pub mod experiment;
+pub mod features;
+pub mod figures;
+mod network;
+mod policy;
+#[cfg(feature = "train")]
+mod train;
+
+pub use dataset::{Demonstration, Demonstrations, Pairs, in_validation};
+pub use network::{FORMAT, FORMAT_VERSION, NetworkScratch, PolicyMeta, PolicyNetwork};
+pub use policy::{LearnedPolicy, LearnedState, problem_goal};
+#[cfg(feature = "train")]
+pub use train::{EpochLoss, LearnOptions, TrainReport, TrainSettings, normalisation, speed_scale, train, train_on};
+
+use std::path::PathBuf;
+
+/// Errors reading data or policy files, training, or building a policy.
+#[derive(Debug, thiserror::Error)]
+pub enum LearnError {
+    #[error("cannot read or write {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file that is not safetensors.
+    #[error("{path} is not a safetensors file: {message}")]
+    NotSafetensors { path: PathBuf, message: String },
+    /// A policy file's metadata is missing, malformed or of another format.
+    #[error("{path}: {message}")]
+    Metadata { path: PathBuf, message: String },
+    #[error("{path}: tensor `{name}` is missing")]
+    MissingTensor { path: PathBuf, name: String },
+    #[error("{path}: tensor `{name}` has type {got}, expected F32")]
+    TensorType { path: PathBuf, name: String, got: String },
+    #[error("{path}: tensor `{name}` has shape {got:?}, expected {expected:?}")]
+    TensorShape { path: PathBuf, name: String, expected: Vec<usize>, got: Vec<usize> },
+    #[error("{path}: tensor `{name}` holds non-finite values (or a non-positive scale)")]
+    NonFinite { path: PathBuf, name: String },
+    /// A policy used with another robot, goal or dataset than it fits.
+    #[error("{what}: expected {expected}, got {got}")]
+    Mismatch { what: String, expected: String, got: String },
+    /// A dataset folder or part file that cannot be used.
+    #[error("dataset {path}: {message}")]
+    Dataset { path: PathBuf, message: String },
+    #[error("training settings: {0}")]
+    Settings(String),
+    #[error("training failed: {0}")]
+    Training(String),
+    #[error(transparent)]
+    Robot(#[from] crate::robot::RobotError),
+    #[error(transparent)]
+    Collision(#[from] crate::collision::CollisionError),
+    #[error(transparent)]
+    Grasp(#[from] crate::scene::GraspError),
+    #[error(transparent)]
+    Control(#[from] crate::control::ControlError),
+}
