@@ -16,7 +16,9 @@ use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode
 use tandem::control::RobotPolicy;
 use tandem::data::{GenerateSettings, Progress, generate};
 use tandem::learn::evaluate::{RolloutSettings, Task};
-use tandem::learn::{Demonstrations, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainSettings, train_on};
+use tandem::learn::{
+    Demonstrations, FORMAT_VERSION, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainSettings, train_on,
+};
 use tandem::scene::ProblemFamily;
 
 fn family_path() -> PathBuf {
@@ -64,7 +66,9 @@ fn training_is_deterministic_per_seed_and_learns() {
     assert_eq!(a.to_bytes().unwrap(), b.to_bytes().unwrap(), "same seed, same bytes");
     assert_ne!(a.to_bytes().unwrap(), c.to_bytes().unwrap(), "another seed, other weights");
     // The split is by sample id: every pair of a trajectory on one side.
-    assert_eq!(report.train_pairs, 51 * report.train_trajectories);
+    // One perturbed state per demonstrated state in the training split
+    // (the default augmentation), none in validation.
+    assert_eq!(report.train_pairs, 2 * 51 * report.train_trajectories);
     assert_eq!(report.validation_pairs, 51 * report.validation_trajectories);
     assert!(report.validation_trajectories > 0 && report.train_trajectories > report.validation_trajectories);
     let (first, last) = (report.losses[0], report.losses[report.losses.len() - 1]);
@@ -143,7 +147,7 @@ fn files_round_trip_and_bad_files_are_named() {
         &text,
     ));
     assert!(matches!(&e, LearnError::NonFinite { name, .. } if name == "layers.0.weight"), "{e}");
-    let e = bad(&rebuild(&keep, &text.replace("\"version\":1", "\"version\":99")));
+    let e = bad(&rebuild(&keep, &text.replace(&format!("\"version\":{FORMAT_VERSION}"), "\"version\":99")));
     assert!(matches!(&e, LearnError::Metadata { message, .. } if message.contains("version 99")), "{e}");
     let e = bad(&rebuild(&keep, &text.replace("\"hidden\":[24,24]", "\"hidden\":[24,25]")));
     assert!(matches!(&e, LearnError::TensorShape { name, .. } if name.starts_with("layers.1")), "{e}");
@@ -251,7 +255,7 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
     }
     assert_eq!(
         json["training"]["samples"].as_u64().unwrap() as usize,
-        json["training"]["pairs"].as_u64().unwrap() as usize / 51
+        json["training"]["pairs"].as_u64().unwrap() as usize / (2 * 51)
     );
     assert!(json["training"]["seconds"].as_f64().unwrap() > 0.0);
     assert_eq!(json["arbitration"].as_array().unwrap().len(), 4);

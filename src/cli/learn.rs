@@ -57,6 +57,14 @@ pub struct LearnPolicyArgs {
     /// Share of sample ids held out for validation.
     #[arg(long, default_value_t = 0.1)]
     pub validation: f64,
+    /// Perturbed states per demonstrated state, labelled by the
+    /// demonstration's LQR tracking policy (0: the seed's data alone).
+    #[arg(long, default_value_t = 1)]
+    pub augment: usize,
+    /// Range of the perturbations' standard deviation per joint (rad),
+    /// drawn log-uniformly.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = [0.005, 0.05])]
+    pub noise: Vec<f64>,
     /// The network file to write (safetensors); the report goes to FILE
     /// with extension .json, the loss curves to .svg.
     #[arg(long, value_name = "FILE")]
@@ -145,6 +153,11 @@ fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> 
             ..TrainSettings::default()
         },
         validation: args.validation,
+        augment: crate::learn::Augmentation {
+            per_state: args.augment,
+            noise: (args.noise[0], args.noise[1]),
+            ..crate::learn::Augmentation::default()
+        },
         ..LearnOptions::default()
     };
     let (_, report) = train_and_save(&args.data, &family, &options, &args.out)?;

@@ -4,12 +4,16 @@
 
 use super::LearnError;
 use super::features::{GoalFeatures, ObstacleFeature, encode, input_width};
+use crate::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use crate::data::TrajectoryRecord;
 use crate::robot::{FrameId, KinematicsWorkspace, RobotModel};
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, UInt64Type};
 use arrow_array::{Array, RecordBatch};
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// One optimized trajectory: the task's goal and obstacles, and its
@@ -101,17 +105,20 @@ impl Demonstrations {
 
     /// State-action pairs for `robot`, conditioned as a network with
     /// `static_obstacles` and `slots` sees them, of the demonstrations
-    /// `keep` selects (by id).
+    /// `keep` selects (by id), with `augment` perturbed states per state.
+    /// Built in parallel, concatenated in demonstration order.
     ///
     /// # Errors
-    /// Joints other than the robot's; an unknown gripper frame.
+    /// Joints other than the robot's; an unknown gripper frame; a
+    /// demonstration the tracking policy rejects.
     pub fn pairs(
         &self,
         robot: &RobotModel,
         gripper: &str,
         static_obstacles: &[String],
         slots: usize,
-        keep: impl Fn(u64) -> bool,
+        augment: &Augmentation,
+        keep: impl Fn(u64) -> bool + Sync,
     ) -> Result<Pairs, LearnError> {
         if robot.joint_names() != self.joints.as_slice() {
             return Err(LearnError::Mismatch {
@@ -125,12 +132,48 @@ impl Demonstrations {
             expected: gripper.into(),
             got: "a robot without it".into(),
         })?;
-        let mut pairs = Pairs::new(robot.nq(), slots);
-        let mut ws = KinematicsWorkspace::new(robot);
-        for d in self.items.iter().filter(|d| keep(d.id)) {
-            pairs.add(robot, frame, &mut ws, d, &d.goal(static_obstacles, slots))?;
+        let parts: Vec<Pairs> = self
+            .items
+            .par_iter()
+            .filter(|d| keep(d.id))
+            .map(|d| {
+                let mut pairs = Pairs::new(robot.nq(), slots);
+                let mut ws = KinematicsWorkspace::new(robot);
+                let goal = d.goal(static_obstacles, slots);
+                pairs.add(robot, frame, &mut ws, d, &goal)?;
+                if augment.per_state > 0 {
+                    pairs.add_perturbed(robot, frame, &mut ws, d, &goal, augment, &self.joints)?;
+                }
+                Ok(pairs)
+            })
+            .collect::<Result<_, LearnError>>()?;
+        let mut all = Pairs::new(robot.nq(), slots);
+        for p in &parts {
+            all.extend(p);
         }
-        Ok(pairs)
+        Ok(all)
+    }
+}
+
+/// Perturbed states around the demonstrations, labelled by the LQR
+/// tracking policy of the demonstration (the seed's §3.3.4, with the
+/// demonstration's velocity as the arm's): the network learns how to get
+/// back to a motion, not only the motion (DART-style noise injection with
+/// a local expert, no optimizer solve).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Augmentation {
+    /// Perturbed states per demonstrated state (0: none).
+    pub per_state: usize,
+    /// Standard deviation of the perturbation per joint, drawn log-uniformly
+    /// in `[noise.0, noise.1]` for each perturbed state (rad).
+    pub noise: (f64, f64),
+    /// Seed of the perturbations (mixed with the demonstration's id).
+    pub seed: u64,
+}
+
+impl Default for Augmentation {
+    fn default() -> Self {
+        Augmentation { per_state: 0, noise: (0.005, 0.05), seed: 0 }
     }
 }
 
@@ -173,26 +216,76 @@ impl Pairs {
         d: &Demonstration,
         goal: &GoalFeatures,
     ) -> Result<(), LearnError> {
-        let slots = (self.input_width - 12 - self.dof) / super::features::OBSTACLE_FEATURES;
-        let mut row = vec![0.0f32; self.input_width];
         for (t, q) in d.states.iter().enumerate() {
-            robot.forward_kinematics(ws, q).map_err(|e| LearnError::Dataset {
-                path: PathBuf::from(format!("demonstration {}", d.id)),
-                message: e.to_string(),
-            })?;
-            let p: [f64; 3] = robot.frame_pose(ws, gripper).translation.vector.into();
-            encode(&mut row, &p, goal, q, slots);
-            self.inputs.extend_from_slice(&row);
             let velocity: Vec<f64> = match d.states.get(t + 1) {
                 Some(next) => next.iter().zip(q).map(|(b, a)| (b - a) / d.time_step).collect(),
                 None => vec![0.0; self.dof],
             };
-            let speed = velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
-            let inverse = if speed > 0.0 { 1.0 / speed } else { 0.0 };
-            self.directions.extend(velocity.iter().map(|v| (v * inverse) as f32));
-            self.speeds.push(speed as f32);
+            self.push(robot, gripper, ws, d.id, goal, q, &velocity)?;
         }
         self.trajectories += 1;
+        Ok(())
+    }
+
+    /// One pair: the input at `q` and the target `velocity`.
+    #[allow(clippy::too_many_arguments)]
+    fn push(
+        &mut self,
+        robot: &RobotModel,
+        gripper: FrameId,
+        ws: &mut KinematicsWorkspace,
+        id: u64,
+        goal: &GoalFeatures,
+        q: &[f64],
+        velocity: &[f64],
+    ) -> Result<(), LearnError> {
+        let slots = (self.input_width - input_width(self.dof, 0)) / super::features::OBSTACLE_FEATURES;
+        robot.forward_kinematics(ws, q).map_err(|e| LearnError::Dataset {
+            path: PathBuf::from(format!("demonstration {id}")),
+            message: e.to_string(),
+        })?;
+        let start = self.inputs.len();
+        self.inputs.resize(start + self.input_width, 0.0);
+        encode(&mut self.inputs[start..], &robot.frame_pose(ws, gripper), goal, q, slots);
+        let speed = velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let inverse = if speed > 0.0 { 1.0 / speed } else { 0.0 };
+        self.directions.extend(velocity.iter().map(|v| (v * inverse) as f32));
+        self.speeds.push(speed as f32);
+        Ok(())
+    }
+
+    /// `augment.per_state` perturbed copies of every state of `d`,
+    /// labelled by `d`'s LQR tracking policy.
+    #[allow(clippy::too_many_arguments)]
+    fn add_perturbed(
+        &mut self,
+        robot: &RobotModel,
+        gripper: FrameId,
+        ws: &mut KinematicsWorkspace,
+        d: &Demonstration,
+        goal: &GoalFeatures,
+        augment: &Augmentation,
+        joints: &[String],
+    ) -> Result<(), LearnError> {
+        let reference = JointTrajectory::new(joints.to_vec(), d.time_step, &d.states)?;
+        let policy = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant)?;
+        let mut tracking = policy.workspace();
+        let mut rng = ChaCha8Rng::seed_from_u64(crate::scene::sample_seed(augment.seed, d.id));
+        let (lo, hi) = (augment.noise.0.max(1e-9).ln(), augment.noise.1.max(augment.noise.0).max(1e-9).ln());
+        let n = self.dof;
+        let (mut perturbed, mut label) = (vec![0.0; n], vec![0.0; n]);
+        for (t, q) in d.states.iter().enumerate() {
+            let velocity = policy.reference().velocity(t).to_vec();
+            policy.query(&mut tracking, q, Some(&velocity), &mut label)?;
+            for _ in 0..augment.per_state {
+                let sigma = rng.random_range(lo..=hi).exp();
+                for ((x, q0), l) in perturbed.iter_mut().zip(q).zip(robot.limits()) {
+                    *x = (q0 + sigma * gaussian(&mut rng)).clamp(l.lower, l.upper);
+                }
+                policy.probe(&mut tracking, &perturbed, Some(&velocity), &mut label)?;
+                self.push(robot, gripper, ws, d.id, goal, &perturbed, &label)?;
+            }
+        }
         Ok(())
     }
 
@@ -203,6 +296,13 @@ impl Pairs {
         self.speeds.extend_from_slice(&other.speeds);
         self.trajectories += other.trajectories;
     }
+}
+
+/// A standard normal draw (Box-Muller).
+fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+    let u: f64 = rng.random_range(f64::EPSILON..1.0);
+    let v: f64 = rng.random_range(0.0..1.0);
+    (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
 }
 
 /// Whether sample `id` belongs to the validation share `fraction` (a hash

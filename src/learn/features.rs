@@ -7,7 +7,14 @@
 //! | 3 | goal position relative to the gripper, `g − p` (m, world axes) |
 //! | 6 | goal rotation, the first two columns of its matrix (continuous 6-D form) |
 //! | n | the configuration `q` (rad or m) |
+//! | 6 | gripper rotation `R`, 6-D form (beyond the seed) |
+//! | 3 | `g − p` in the gripper frame, `Rᵀ(g − p)` (m; beyond the seed) |
 //! | 7 per obstacle slot | obstacle centre relative to the gripper (3, m), its bounding-box edge lengths (3, m), 1 when the slot is used (0 and zeros otherwise) |
+//!
+//! The last two rows are not in the seed's input: they are functions of
+//! `q` the network could learn, but given directly they make the final
+//! approach (millimetres between the fingers and the object) a simple
+//! function of the input.
 //!
 //! Obstacle slots hold the scene's obstacles that are not static (the
 //! static ones, such as the table, never move between tasks and the
@@ -21,8 +28,11 @@ pub const OBSTACLE_FEATURES: usize = 7;
 
 /// Input width for `dof` joints and `slots` obstacle slots.
 pub fn input_width(dof: usize, slots: usize) -> usize {
-    12 + dof + OBSTACLE_FEATURES * slots
+    GRIPPER_FEATURES + dof + OBSTACLE_FEATURES * slots
 }
+
+/// Values besides `q` and the obstacle slots.
+const GRIPPER_FEATURES: usize = 21;
 
 /// An obstacle as the network sees it: centre (m, world) and bounding-box
 /// edge lengths in its shape frame (m).
@@ -65,28 +75,42 @@ impl GoalFeatures {
     }
 }
 
-/// Writes the input of a query at configuration `q` with the gripper at
-/// `gripper` (m, world) into `out` (length [`input_width`]`(q.len(), slots)`).
-/// Allocates nothing.
-pub fn encode(out: &mut [f32], gripper: &[f64; 3], goal: &GoalFeatures, q: &[f64], slots: usize) {
+/// Writes the input of a query at configuration `q` with the gripper
+/// frame at `gripper` (world) into `out` (length
+/// [`input_width`]`(q.len(), slots)`). Allocates nothing.
+pub fn encode(out: &mut [f32], gripper: &IsometryMatrix3<f64>, goal: &GoalFeatures, q: &[f64], slots: usize) {
     debug_assert_eq!(out.len(), input_width(q.len(), slots));
+    let p = gripper.translation.vector;
+    let r = gripper.rotation.matrix();
+    let to_goal = Vector3::new(goal.position[0] - p.x, goal.position[1] - p.y, goal.position[2] - p.z);
+    let local = gripper.rotation.inverse() * to_goal;
     for i in 0..3 {
-        out[i] = gripper[i] as f32;
-        out[3 + i] = (goal.position[i] - gripper[i]) as f32;
+        out[i] = p[i] as f32;
+        out[3 + i] = to_goal[i] as f32;
     }
-    for (o, r) in out[6..12].iter_mut().zip(&goal.rotation6) {
-        *o = *r as f32;
+    for (o, v) in out[6..12].iter_mut().zip(&goal.rotation6) {
+        *o = *v as f32;
     }
     let n = q.len();
     for (o, v) in out[12..12 + n].iter_mut().zip(q) {
         *o = *v as f32;
     }
+    let g = 12 + n;
+    for c in 0..2 {
+        for i in 0..3 {
+            out[g + 3 * c + i] = r[(i, c)] as f32;
+        }
+    }
+    for i in 0..3 {
+        out[g + 6 + i] = local[i] as f32;
+    }
+    let first = GRIPPER_FEATURES + n;
     for k in 0..slots {
-        let slot = &mut out[12 + n + OBSTACLE_FEATURES * k..12 + n + OBSTACLE_FEATURES * (k + 1)];
+        let slot = &mut out[first + OBSTACLE_FEATURES * k..first + OBSTACLE_FEATURES * (k + 1)];
         match goal.obstacles.get(k) {
             Some(o) => {
                 for i in 0..3 {
-                    slot[i] = (o.center[i] - gripper[i]) as f32;
+                    slot[i] = (o.center[i] - p[i]) as f32;
                     slot[3 + i] = o.size[i] as f32;
                 }
                 slot[6] = 1.0;
@@ -108,8 +132,14 @@ mod tests {
         );
         let goal = GoalFeatures::new(&pose, vec![ObstacleFeature { center: [0.4, 0.0, 0.5], size: [0.1, 0.1, 0.2] }]);
         let mut out = vec![f32::NAN; input_width(2, 2)];
-        encode(&mut out, &[0.3, 0.0, 0.6], &goal, &[0.1, -0.2], 2);
+        let gripper = IsometryMatrix3::from_parts(
+            Vector3::new(0.3, 0.0, 0.6).into(),
+            nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2),
+        );
+        encode(&mut out, &gripper, &goal, &[0.1, -0.2], 2);
         let r = pose.rotation.matrix();
+        // The gripper turned a quarter about z: its x is world y, its y world −x;
+        // g − p = (0.2, 0.1, −0.4) in the world is (0.1, −0.2, −0.4) in its frame.
         let expected = [
             0.3,
             0.0,
@@ -125,6 +155,15 @@ mod tests {
             r[(2, 1)],
             0.1,
             -0.2,
+            0.0,
+            1.0,
+            0.0,
+            -1.0,
+            0.0,
+            0.0,
+            0.1,
+            -0.2,
+            -0.4,
             0.1,
             0.0,
             -0.1,
@@ -136,7 +175,7 @@ mod tests {
         for (i, e) in expected.iter().enumerate() {
             assert!((f64::from(out[i]) - e).abs() < 1e-6, "value {i}: {} vs {e}", out[i]);
         }
-        assert!(out[21..].iter().all(|v| *v == 0.0), "an unused slot is zero");
+        assert!(out[30..].iter().all(|v| *v == 0.0), "an unused slot is zero");
         let quaternion = nalgebra::UnitQuaternion::from_rotation_matrix(&pose.rotation);
         let t = pose.translation.vector;
         let same = GoalFeatures::from_pose_array(

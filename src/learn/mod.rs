@@ -47,7 +47,7 @@ mod policy;
 #[cfg(feature = "train")]
 mod train;
 
-pub use dataset::{Demonstration, Demonstrations, Pairs, in_validation};
+pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkScratch, PolicyMeta, PolicyNetwork};
 pub use policy::{LearnedPolicy, LearnedState, problem_goal};
 #[cfg(feature = "train")]

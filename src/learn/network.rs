@@ -19,7 +19,7 @@ use std::path::Path;
 /// Value of [`PolicyMeta::format`].
 pub const FORMAT: &str = "tandem.learned_policy";
 /// Value of [`PolicyMeta::version`] this build writes and reads.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// What a policy file says about itself (the safetensors metadata key
 /// `tandem`, as JSON). Everything here is deterministic: training time

@@ -118,8 +118,8 @@ impl LearnedPolicy {
             expected: n,
             got: q.len(),
         })?;
-        let p: [f64; 3] = self.robot.frame_pose(&state.kin, self.gripper).translation.vector.into();
-        encode(&mut state.input, &p, &self.goal, q, self.network.meta().obstacle_slots);
+        let pose = self.robot.frame_pose(&state.kin, self.gripper);
+        encode(&mut state.input, &pose, &self.goal, q, self.network.meta().obstacle_slots);
         self.network.forward(&state.input, &mut state.scratch, &mut state.raw);
         self.network.velocity_from_outputs(&state.raw, velocity);
         Ok(())

@@ -387,11 +387,20 @@ pub struct LearnOptions {
     pub validation: f64,
     /// Obstacle slots of the input (default 2, the grasp family's most).
     pub obstacle_slots: usize,
+    /// Perturbed states labelled by the LQR tracking policy, training
+    /// split only (default: one per state; `per_state: 0` is the seed's
+    /// data alone).
+    pub augment: super::Augmentation,
 }
 
 impl Default for LearnOptions {
     fn default() -> Self {
-        LearnOptions { train: TrainSettings::default(), validation: 0.1, obstacle_slots: 2 }
+        LearnOptions {
+            train: TrainSettings::default(),
+            validation: 0.1,
+            obstacle_slots: 2,
+            augment: super::Augmentation { per_state: 1, ..super::Augmentation::default() },
+        }
     }
 }
 
@@ -407,6 +416,10 @@ pub fn train_on(
     options: &LearnOptions,
     initial: Option<&PolicyNetwork>,
 ) -> Result<(PolicyNetwork, TrainReport), LearnError> {
+    let (lo, hi) = options.augment.noise;
+    if options.augment.per_state > 0 && !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+        return Err(LearnError::Settings(format!("perturbation range [{lo}, {hi}] rad is not positive and ordered")));
+    }
     if !(0.0..1.0).contains(&options.validation) {
         return Err(LearnError::Settings(format!("validation share {} is not in [0, 1)", options.validation)));
     }
@@ -420,8 +433,12 @@ pub fn train_on(
     let slots = options.obstacle_slots;
     let robot = &base.robot;
     let v = options.validation;
-    let train_pairs = demos.pairs(robot, &gripper, &static_obstacles, slots, |id| !super::in_validation(id, v))?;
-    let validation_pairs = demos.pairs(robot, &gripper, &static_obstacles, slots, |id| super::in_validation(id, v))?;
+    let augment = super::Augmentation { seed: options.train.seed, ..options.augment };
+    let train_pairs =
+        demos.pairs(robot, &gripper, &static_obstacles, slots, &augment, |id| !super::in_validation(id, v))?;
+    let none = super::Augmentation { per_state: 0, ..augment };
+    let validation_pairs =
+        demos.pairs(robot, &gripper, &static_obstacles, slots, &none, |id| super::in_validation(id, v))?;
     let meta = PolicyMeta {
         format: super::FORMAT.into(),
         version: super::FORMAT_VERSION,
@@ -439,4 +456,73 @@ pub fn train_on(
         pairs: train_pairs.len(),
     };
     train(meta, &train_pairs, &validation_pairs, initial, &options.train)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn meta(hidden: Vec<usize>) -> PolicyMeta {
+        PolicyMeta {
+            format: super::super::FORMAT.into(),
+            version: super::super::FORMAT_VERSION,
+            joints: (0..7).map(|i| format!("j{i}")).collect(),
+            gripper: "tcp".into(),
+            static_obstacles: vec![],
+            obstacle_slots: 2,
+            hidden,
+            speed_scale: 0.7,
+            time_step: 0.08,
+            family: "test".into(),
+            seed: 0,
+            epochs: 0,
+            trajectories: 0,
+            pairs: 0,
+        }
+    }
+
+    /// The query-time network (hand-written f32 layers) computes what the
+    /// training graph (candle) does, to float rounding.
+    #[test]
+    fn hand_written_forward_matches_the_training_graph() {
+        let meta = meta(vec![20, 12]);
+        let d = meta.input_width();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let layers = Layers::new(&meta, None, &mut rng).unwrap();
+        // Non-zero biases too.
+        for b in &layers.biases {
+            let values: Vec<f32> = (0..b.as_tensor().elem_count()).map(|_| rng.random_range(-0.5..0.5)).collect();
+            b.set(&Tensor::from_vec(values, b.as_tensor().shape(), &Device::Cpu).unwrap()).unwrap();
+        }
+        let mean: Vec<f32> = (0..d).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let std: Vec<f32> = (0..d).map(|_| rng.random_range(0.5..2.0)).collect();
+        let (weights, biases) = layers.values().unwrap();
+        let network = PolicyNetwork::from_parts(meta.clone(), mean.clone(), std.clone(), &weights, &biases).unwrap();
+        let rows = 40;
+        let x: Vec<f32> = (0..rows * d).map(|_| rng.random_range(-3.0..3.0)).collect();
+        let normalised: Vec<f32> = x
+            .chunks_exact(d)
+            .flat_map(|r| r.iter().zip(mean.iter().zip(&std)).map(|(v, (m, s))| (v - m) / s))
+            .collect();
+        let graph = layers.forward(&Tensor::from_vec(normalised, (rows, d), &Device::Cpu).unwrap()).unwrap();
+        let graph: Vec<f32> = graph.flatten_all().unwrap().to_vec1().unwrap();
+        let mut scratch = network.scratch();
+        let mut out = vec![0.0f32; 8];
+        let mut worst = 0.0f32;
+        for (r, row) in x.chunks_exact(d).enumerate() {
+            network.forward(row, &mut scratch, &mut out);
+            for (a, b) in out.iter().zip(&graph[r * 8..(r + 1) * 8]) {
+                worst = worst.max((a - b).abs() / (1.0 + b.abs()));
+            }
+        }
+        assert!(worst < 1e-5, "largest relative difference {worst}");
+        assert!(graph.iter().any(|v| v.abs() > 0.1), "a non-trivial network");
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        let pairs = Pairs { input_width: meta(vec![4]).input_width(), dof: 7, ..Pairs::default() };
+        let e = train(meta(vec![4]), &pairs, &pairs, None, &TrainSettings::default()).unwrap_err();
+        assert!(e.to_string().contains("no training pairs"), "{e}");
+    }
 }
