@@ -23,7 +23,7 @@ use tandem::arbitration::{
     Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, TickInput, problem_goals,
 };
 use tandem::scene::Problem;
-use tandem::sim::{Approach, EpisodeSettings, run_episode};
+use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
 
 /// One recorded tick: state, velocity, operator command.
 struct Recorded {
@@ -43,22 +43,23 @@ fn setup() -> Setup {
     let goals = problem_goals(&problem, &GoalOptions::default()).expect("goal references");
     let settings = ArbiterSettings { mode: ArbitrationMode::SumOfSquares, ..ArbiterSettings::default() };
     let arbiter = Arbiter::for_problem(&problem, &goals, settings).expect("arbiter");
-    let goal = goals[0].final_gripper_pose().expect("gripper pose");
-    let record = run_episode(
-        &arbiter,
-        &mut arbiter.workspace(),
-        &problem.start,
-        &goal,
-        &mut Approach::default(),
-        &EpisodeSettings::default(),
-    )
-    .expect("episode");
+    let episode = Episode {
+        arbiter: &arbiter,
+        start: &problem.start,
+        target: goals[0].position,
+        true_goal: 0,
+        settings: EpisodeSettings::default(),
+    };
+    let mut judge = TaskJudge::new(&goals[0]);
+    let record =
+        episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut |q| judge.succeeded(q)).expect("episode");
+    assert!(record.steps > 0, "the recorded episode has no ticks ({})", record.outcome.as_str());
     let dt = arbiter.settings().period;
     let ticks = (0..record.steps)
         .map(|t| Recorded {
             q: record.q[t].clone(),
             velocity: record.q[t].iter().zip(&record.q[t + 1]).map(|(a, b)| (b - a) / dt).collect(),
-            command: record.commands[t],
+            command: record.human[t],
         })
         .collect::<Vec<_>>();
     eprintln!("recorded {} ticks ({})", ticks.len(), record.outcome.as_str());

@@ -8,6 +8,11 @@
 //! pair, branch and bound). The same geometry, pairs and configurations are
 //! written to target/peers/collision_scene.json for coal
 //! (benches/peers/compare_collision.sh).
+//!
+//! `model_build`: compiling the collision model (pairs, movers, sphere
+//! fast path) of a humanoid-like tree (62 links, 4 spheres each) and of
+//! 250- and 1,000-link chains; listing every pair's movers made this
+//! O(n⁴) (10 s for 1,000 links).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
@@ -15,8 +20,13 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 use std::path::PathBuf;
+use std::sync::Arc;
 use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::robot::{MeshSearchPath, RobotDescription, RobotModel};
 use tandem::scene::{Obstacle, Problem};
+
+#[path = "support/large_robots.rs"]
+mod large;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -118,5 +128,26 @@ fn collision(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, collision);
+fn model_build(c: &mut Criterion) {
+    let robot = |urdf: String| {
+        let desc = RobotDescription::from_urdf_str(&urdf, &MeshSearchPath::default()).expect("generated URDF");
+        Arc::new(RobotModel::builder(Arc::new(desc)).build().expect("model"))
+    };
+    let mut group = c.benchmark_group("model_build");
+    group.sample_size(10);
+    for (name, robot) in [
+        ("humanoid_62_links", robot(large::humanoid_urdf())),
+        ("chain_250_links", robot(large::chain_urdf(250, false))),
+        ("chain_1000_links", robot(large::chain_urdf(1000, false))),
+    ] {
+        let pairs = CollisionModel::builder(robot.clone()).build().expect("model").pair_count();
+        eprintln!("{name}: {pairs} pairs");
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(CollisionModel::builder(robot.clone()).build().expect("model")))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, collision, model_build);
 criterion_main!(benches);

@@ -1,5 +1,5 @@
 //! RRT-Connect on all 700 MotionBenchMaker Panda problems
-//! (../shared/benchmarks/mbm) with the spherized Panda and its SRDF: solved
+//! (problems/motionbenchmaker) with the spherized Panda and its SRDF: solved
 //! count and the median / mean / 95th percentile of planning time and of
 //! planning + simplification (shortcutting and certification), one seed
 //! per problem, in the layout of the reference table of the benchmark's

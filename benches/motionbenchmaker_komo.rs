@@ -1,5 +1,5 @@
 //! RRT-Connect + trajectory optimization end to end on all 700
-//! MotionBenchMaker Panda problems (../shared/benchmarks/mbm) with the
+//! MotionBenchMaker Panda problems (problems/motionbenchmaker) with the
 //! spherized Panda and its SRDF: joint-space goals, minimal acceleration,
 //! joint limits, collision avoidance (default objectives: the problems list
 //! none), T = 50 over 5 s. A problem counts as solved when the optimizer

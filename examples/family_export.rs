@@ -282,7 +282,8 @@ fn measure_dataset(args: &Args, family: &ProblemFamily, dir: &Path) -> Result<Va
             let q = column::<FixedSizeListArray>(&batch, "q")?;
             for row in 0..batch.num_rows() {
                 let id = ids.value(row);
-                let trajectory = nested_rows(q.value(row).as_ref())?;
+                // q holds q_0 (the start) … q_T; the verdict takes q_1 … q_T.
+                let trajectory = nested_rows(q.value(row).as_ref())?.split_off(1);
                 let (problem, _, _) = sample(args, family, id)?;
                 let mut s = verdict(args, &problem, &trajectory)?;
                 let success = s["feasible"] == json!(true) && s["goal_reached"] == json!(true);

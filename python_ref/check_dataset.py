@@ -7,9 +7,10 @@ Checks, for every part file listed in _manifest.json:
 - pyarrow reads the folder as one dataset;
 - the file's SHA-256 and row count match the manifest, and rows + rejections
   cover the part's id range exactly once (ids ascending);
-- shapes: q, qd and ee_pose are (rows, T, n) / (rows, T, 7), start is (rows, n);
+- shapes: q, qd and ee_pose are (rows, T + 1, n) / (rows, T + 1, 7) (the
+  start is slice 0), start is (rows, n) and equals q[:, 0];
 - q stays within the URDF's joint limits (1e-9 rad);
-- qd equals the backward differences of [start, q] / time_step;
+- qd is 0 at slice 0 and the backward differences of q / time_step after;
 - ee_pose equals Pinocchio's placement of the gripper frame at every slice;
 - q_T reaches the goal: the gripper position within the run's goal
   tolerance of goal_pose, its z axis along goal_pose's z axis within the
@@ -21,6 +22,7 @@ message on the first failed check.
 import glob
 import hashlib
 import json
+import math
 import os
 import sys
 
@@ -32,6 +34,11 @@ import pyarrow.parquet as pq
 def fail(message):
     sys.stderr.write(f"check_dataset: {message}\n")
     sys.exit(1)
+
+
+def worse(a, b):
+    """The larger of two errors, NaN when either is (the builtin max drops a NaN)."""
+    return float("nan") if math.isnan(a) or math.isnan(b) else max(a, b)
 
 
 def quat_to_matrix(xyzw):
@@ -83,38 +90,42 @@ def main(folder, urdf):
         goal = np.array(table["goal_pose"].to_pylist())
         dt = table["time_step"].to_numpy()
         rows = table.num_rows
-        if q.shape != (rows, T, n) or qd.shape != (rows, T, n) or ee.shape != (rows, T, 7) or start.shape != (rows, n):
+        slices = T + 1
+        if q.shape != (rows, slices, n) or qd.shape != (rows, slices, n) or ee.shape != (rows, slices, 7) or start.shape != (rows, n):
             fail(f"{part['file']}: shapes q {q.shape}, qd {qd.shape}, ee_pose {ee.shape}, start {start.shape}")
-        worst["limit"] = max(worst["limit"], float(np.max(np.maximum(lower - q, q - upper))))
-        full = np.concatenate([start[:, None, :], q], axis=1)
-        worst["qd"] = max(worst["qd"], float(np.max(np.abs(np.diff(full, axis=1) / dt[:, None, None] - qd))))
+        if not np.array_equal(q[:, 0], start):
+            fail(f"{part['file']}: q[:, 0] is not the start")
+        worst["limit"] = worse(worst["limit"], float(np.max(np.maximum(lower - q, q - upper))))
+        worst["qd"] = worse(worst["qd"], float(np.max(np.abs(qd[:, 0]))))
+        worst["qd"] = worse(worst["qd"], float(np.max(np.abs(np.diff(q, axis=1) / dt[:, None, None] - qd[:, 1:]))))
         for r in range(rows):
-            for t in range(T):
+            for t in range(slices):
                 qq = base_q.copy()
                 qq[index] = q[r, t]
                 pin.framesForwardKinematics(model, data, qq)
                 placement = data.oMf[frame]
                 err_p = np.linalg.norm(placement.translation - ee[r, t, :3])
                 err_r = np.linalg.norm(placement.rotation - quat_to_matrix(ee[r, t, 3:]))
-                worst["ee_pose"] = max(worst["ee_pose"], float(err_p), float(err_r))
+                worst["ee_pose"] = worse(worse(worst["ee_pose"], float(err_p)), float(err_r))
             target_z = quat_to_matrix(goal[r, 3:])[:, 2]
             final_z = placement.rotation[:, 2]
-            worst["goal_distance"] = max(worst["goal_distance"], float(np.linalg.norm(placement.translation - goal[r, :3])))
+            worst["goal_distance"] = worse(worst["goal_distance"], float(np.linalg.norm(placement.translation - goal[r, :3])))
             angle = float(np.arccos(np.clip(final_z @ target_z, -1.0, 1.0)))
-            worst["goal_angle"] = max(worst["goal_angle"], angle)
+            worst["goal_angle"] = worse(worst["goal_angle"], angle)
     # The folder itself is a dataset: the files beside the parts start with "_".
     whole = pq.read_table(folder)
     if whole.num_rows != rows_total:
         fail(f"pq.read_table(folder) reads {whole.num_rows} rows, the parts hold {rows_total}")
     if rows_total != manifest["accepted"] or rejected_total != manifest["rejected"]:
         fail(f"rows {rows_total} / rejections {rejected_total} differ from the manifest")
-    if worst["limit"] > 1e-9:
+    # `not x <= tol`: a NaN error fails.
+    if not worst["limit"] <= 1e-9:
         fail(f"q leaves the joint limits by {worst['limit']:.3e}")
-    if worst["qd"] > 1e-9:
+    if not worst["qd"] <= 1e-9:
         fail(f"qd differs from the differences of q by {worst['qd']:.3e}")
-    if worst["ee_pose"] > 1e-9:
+    if not worst["ee_pose"] <= 1e-9:
         fail(f"ee_pose differs from Pinocchio's by {worst['ee_pose']:.3e}")
-    if worst["goal_distance"] > params["goal_tolerance"] or worst["goal_angle"] > params["goal_angle_tolerance"]:
+    if not (worst["goal_distance"] <= params["goal_tolerance"] and worst["goal_angle"] <= params["goal_angle_tolerance"]):
         fail(f"q_T misses the goal by {worst['goal_distance']:.3e} m, {worst['goal_angle']:.3e} rad")
     print(json.dumps({"rows": rows_total, "rejected": rejected_total, "worst": worst}))
 

@@ -2,9 +2,18 @@
 # Runs every test of tandem, setting up what they need first:
 #   1. the Python reference environment python_ref/.venv (Pinocchio, casadi,
 #      scipy, example-robot-data, pyarrow from PyPI), rebuilt when
-#      python_ref/requirements.txt changes;
+#      python_ref/requirements.txt changes, and the Python package's test
+#      environment python/.venv (pytest, ray; python/requirements-test.txt);
 #   2. formatting and lint checks (cargo fmt, cargo clippy -D warnings);
-#   3. all Rust tests, including the live cross-checks against python_ref/.
+#   3. all Rust tests, including the live cross-checks against python_ref/;
+#   4. the Python package: `pip install .` (maturin) into python/.venv, then
+#      its pytest suite (python/tests: Pinocchio cross-checks, planning,
+#      errors, Ray generation equal to the CLI's).
+#   5. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh);
+#   6. one million random arbitration ticks in a release build
+#      (tests/arbitration_stress.rs).
+# The OSQP cross-check backend (feature `osqp`) is built with the cmake of
+# python_ref/.venv (PyPI's cmake).
 # A missing or broken Python environment is an error, never a skip.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,17 +35,59 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   "$venv/bin/pip" install --quiet --disable-pip-version-check -r python_ref/requirements.txt
   echo "$want" > "$stamp"
 fi
-"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow" \
+"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
+
+# The Python package's environment: pytest and ray in python/.venv, which
+# sees python_ref/.venv's packages (Pinocchio, scipy, numpy, pyarrow)
+# through a .pth file instead of installing them twice.
+pyvenv=python/.venv
+pystamp="$pyvenv/.requirements.sha256"
+pywant=$(cat python/requirements-test.txt "$stamp" | sha256sum | cut -d' ' -f1)
+if [ ! -x "$pyvenv/bin/python" ] || [ "$(cat "$pystamp" 2>/dev/null)" != "$pywant" ]; then
+  echo "== setting up the Python package's test environment in $pyvenv"
+  rm -rf "$pyvenv"
+  python3 -m venv "$pyvenv"
+  purelib() { "$1/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])'; }
+  echo "import site; site.addsitedir('$(purelib "$venv")')" > "$(purelib "$pyvenv")/_tandem_python_ref.pth"
+  "$pyvenv/bin/pip" install --quiet --disable-pip-version-check -r python/requirements-test.txt
+  echo "$pywant" > "$pystamp"
+fi
+# Build the bindings for that interpreter, as maturin does (no link to
+# libpython): cargo and `pip install .` then share pyo3's build.
+export PYO3_PYTHON="$PWD/$pyvenv/bin/python" PYO3_BUILD_EXTENSION_MODULE=1
+
+# cmake for the OSQP backend's C sources (CMake 4 needs the policy floor).
+export PATH="$PWD/$venv/bin:$PATH" CMAKE_POLICY_VERSION_MINIMUM=3.5
 
 disk "Python environment ready"
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
-cargo clippy --workspace --all-targets --quiet -- -D warnings
+cargo clippy --workspace --all-targets --features osqp --quiet -- -D warnings
 echo "== cargo test"
-cargo test --workspace --all-targets --no-run --quiet
+cargo test --workspace --all-targets --features osqp --no-run --quiet
 disk "tests built"
-cargo test --workspace --all-targets --no-fail-fast
-cargo test --workspace --doc --no-fail-fast
+cargo test --workspace --all-targets --features osqp --no-fail-fast
+cargo test --workspace --doc --features osqp --no-fail-fast
+disk "Rust tests done"
+
+# `pip install .` as a user runs it (maturin from PyPI in an isolated build
+# environment), but with the dev profile: it reuses the test build above
+# (only pyo3, numpy and the bindings compile) instead of a release build.
+echo "== pip install . (the Python package)"
+MATURIN_PEP517_ARGS="--profile dev" "$pyvenv/bin/pip" install --quiet --disable-pip-version-check \
+  --force-reinstall --no-deps .
+echo "== pytest python/tests"
+TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:cacheprovider python/tests
+
+# Every fuzz target for a few seconds (a fresh build of fuzz/ is part of
+# the cost; scripts/fuzz.sh TARGET SECONDS fuzzes for real).
+echo "== fuzz smoke: every target for ${FUZZ_SMOKE_SECONDS:=3} s"
+FUZZ_PROFILE=smoke scripts/fuzz.sh all "$FUZZ_SMOKE_SECONDS"
+disk "fuzz smoke done"
+
+# The stress test in release: 1,000,000 random ticks (20,000 in the debug run above).
+echo "== arbitration stress test (release, 1,000,000 ticks)"
+cargo test --release --features osqp --test arbitration_stress -- --nocapture
 disk "end"

@@ -28,8 +28,11 @@ pub const PALETTE: [RGBColor; 8] = [
 /// What a series draws.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SeriesKind {
+    /// A solid polyline.
     Line,
+    /// A dashed polyline.
     Dashed,
+    /// Markers.
     Points,
     /// Circles of the given radius (data units) at the points.
     Circles(f64),
@@ -41,10 +44,13 @@ pub enum SeriesKind {
 /// One labelled series of points in data coordinates.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
+    /// Legend entry (none when `None`).
     pub label: Option<String>,
+    /// Points in data coordinates.
     pub points: Vec<(f64, f64)>,
     /// Index into [`PALETTE`].
     pub color: usize,
+    /// How the points are drawn.
     pub kind: SeriesKind,
 }
 
@@ -75,11 +81,17 @@ impl Series {
 /// and equal axis scales.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Panel {
+    /// Panel title.
     pub title: String,
+    /// Label of the x axis.
     pub x_label: String,
+    /// Label of the y axis.
     pub y_label: String,
+    /// What the panel shows.
     pub series: Vec<Series>,
+    /// Fixed x range (data bounds when `None`).
     pub x_range: Option<(f64, f64)>,
+    /// Fixed y range (data bounds when `None`).
     pub y_range: Option<(f64, f64)>,
     /// Same metres per pixel on both axes (workspace views).
     pub equal_axes: bool,

@@ -148,7 +148,11 @@ fn closed_form(
                 HumanCommand::Joint(_) => h.clone(),
                 _ => DVector::from_column_slice(v),
             };
-            &w_inv * j.transpose() * inner.cholesky().unwrap().solve(&rhs)
+            // With the preferred step c = κ ā_R: c + W⁻¹Jᵀ(JW⁻¹Jᵀ + εI)⁻¹(v − Jc).
+            let mean =
+                (0..2).fold(DVector::zeros(n), |acc, g| acc + DVector::from_column_slice(ws.robot_action(g)) * b[g]);
+            let c = mean * s.modes.sum_of_squares_center;
+            &c + &w_inv * j.transpose() * inner.cholesky().unwrap().solve(&(rhs - &j * &c))
         }
     }
 }
@@ -162,6 +166,7 @@ fn every_mode_reduces_to_its_closed_form() {
         for mode in ArbitrationMode::ALL {
             let mut settings = ArbiterSettings { mode, ..ArbiterSettings::default() };
             settings.modes.constrained_center = centre;
+            settings.modes.sum_of_squares_center = centre;
             let arbiter = free_arbiter(settings);
             let mut ws = arbiter.workspace();
             for (c, command) in commands.iter().enumerate() {

@@ -137,7 +137,7 @@ fn policy_rolls_out_to_the_goal_and_plots() {
     }
     let picture = std::fs::read_to_string(&svg).unwrap();
     assert!(picture.starts_with("<svg") && picture.contains("polyline") && picture.contains("marker-end"));
-    let o = tandem(&["policy", "--slice", "1,9"]);
+    let o = tandem(&["policy", "--slice", "1,9", "--plot", svg.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("--slice"), "{}", stderr(&o));
 }
@@ -155,7 +155,7 @@ fn check_json_reports_the_documented_fields() {
     assert_eq!(v["closest_pair"].as_array().unwrap().len(), 2);
     // A configuration through the wall of panda_reach_obstacle.
     let o = tandem(&["check", "builtin:panda_reach_obstacle", "--q", "0.1,0.5,0,-1.2,0,0.3,0", "--json"]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(3), "a collision: ran, did not succeed; {}", stderr(&o));
     let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
     assert_eq!(v["collision_free"], false);
     assert!(v["min_distance"].as_f64().unwrap() < -0.05);
@@ -215,13 +215,16 @@ fn solve_json_reports_the_documented_fields_and_writes_files() {
     assert_eq!(v["T"], 20);
     assert_eq!(v["collision_free"], true);
     assert!(v["eq_violation"].as_f64().unwrap() <= 1e-4);
+    // The start configuration first (MoveIt-style), then q_1 … q_T.
     let trajectory = v["trajectory"].as_array().unwrap();
-    assert_eq!(trajectory.len(), 20);
+    assert_eq!(trajectory.len(), 21);
     assert!(trajectory.iter().all(|q| q.as_array().unwrap().len() == 7));
+    let start = tandem::scene::Problem::from_file(common::repo().join("problems/panda_grasp_box.toml")).unwrap().start;
+    assert_eq!(trajectory[0], serde_json::json!(start));
     assert_eq!(v["joints"].as_array().unwrap().len(), 7);
     let csv = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 21);
-    assert!(csv.starts_with("slice,time,panda_joint1,"));
+    assert_eq!(csv.lines().count(), 22);
+    assert!(csv.starts_with("time,panda_joint1,"));
     for file in ["trajectory.parquet", "joints.svg", "path.svg"] {
         let bytes = std::fs::read(dir.path().join(file)).unwrap();
         assert!(bytes.len() > 500, "{file} is {} bytes", bytes.len());
@@ -248,4 +251,15 @@ fn demo_runs_the_reach_and_grasp_end_to_end() {
     assert!(text.contains("panda_grasp_box (<builtin:panda_grasp_box>): converged"), "{text}");
     assert!(text.contains("collision-free between slices (every 0.002 rad): yes"), "{text}");
     assert!(out.join("path.svg").exists() && out.join("trajectory.parquet").exists());
+    // It ends with the shared-control episodes and where their figure is,
+    // not with features to come.
+    assert!(text.contains("wrote trajectory.csv"), "{text}");
+    assert!(text.trim_end().lines().last().unwrap().contains("shared_control.svg"), "{text}");
+    assert!(out.join("shared_control.svg").exists());
+    for mode in ["sos", "constrained", "natural-gradient-joint"] {
+        let row = text.lines().find(|l| l.trim_start().starts_with(&format!("{mode} "))).expect("mode row");
+        let cols: Vec<&str> = row.split_whitespace().collect();
+        assert_eq!((cols[1], cols[5]), ("success", "0"), "{mode} must grasp without violations: {row}");
+    }
+    assert!(!text.contains("join this command as they land"), "{text}");
 }

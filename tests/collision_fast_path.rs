@@ -2,18 +2,17 @@
 //! configuration checks and motion checks on thousands of random and
 //! near-contact configurations, in a cluttered scene with every obstacle
 //! shape, with padding and an attached sphere, and in MotionBenchMaker
-//! scenes with the spherized Panda.
+//! scenes with the spherized Panda — for every compiled variant of the
+//! fast path this CPU runs (baseline, AVX2, AVX-512; `SimdLevel`).
 
 mod common;
 
-use common::{random_configurations, repo};
+use common::random_configurations;
 use nalgebra::IsometryMatrix3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::path::Path;
-use std::process::Command;
 use std::sync::Arc;
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::collision::{CollisionModel, CollisionWorkspace, Shape, SimdLevel};
 use tandem::robot::RobotModel;
 use tandem::scene::{Goal, Obstacle, Problem, Scene, SceneObject};
 
@@ -25,7 +24,20 @@ struct Pair {
     general_ws: CollisionWorkspace,
 }
 
+/// The fast path's variants this CPU runs; every test runs on each.
+fn levels() -> Vec<SimdLevel> {
+    let levels = SimdLevel::available();
+    assert_eq!(levels[0], SimdLevel::Baseline);
+    levels
+}
+
 impl Pair {
+    /// The fast path at `level` against the general path.
+    fn at(mut model: CollisionModel, level: SimdLevel) -> Pair {
+        assert_eq!(model.set_simd(Some(level)), Some(level), "{level:?} is available");
+        Pair::new(model)
+    }
+
     fn new(model: CollisionModel) -> Pair {
         assert!(model.has_fast_path(), "the fast path should apply");
         let mut general = model.clone();
@@ -94,20 +106,24 @@ const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 #[test]
 fn fast_path_matches_the_general_path_in_a_cluttered_scene() {
     let (robot, mut scene) = cluttered();
-    for padding in [0.0, 0.001, 0.003] {
-        let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(padding).build().unwrap();
-        let (free, colliding) = Pair::new(model).compare(&robot, &READY, 2000, 7);
-        println!("padding {padding}: {free} free, {colliding} colliding");
-        assert!(free > 500 && colliding > 500);
+    for level in levels() {
+        for padding in [0.0, 0.001, 0.003] {
+            let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(padding).build().unwrap();
+            let (free, colliding) = Pair::at(model, level).compare(&robot, &READY, 2000, 7);
+            println!("{level:?}, padding {padding}: {free} free, {colliding} colliding");
+            assert!(free > 500 && colliding > 500);
+        }
     }
     // A ball held in the hand is one more moving sphere.
     scene
         .add_object(SceneObject::new("orange", Shape::sphere(0.04), IsometryMatrix3::translation(0.5, 0.1, 0.04)))
         .unwrap();
     scene.attach("orange", "panda_hand_tcp", IsometryMatrix3::translation(0.0, 0.0, 0.05)).unwrap();
-    let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(0.001).build().unwrap();
-    let (free, colliding) = Pair::new(model).compare(&robot, &READY, 1000, 8);
-    assert!(free > 200 && colliding > 200);
+    for level in levels() {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(0.001).build().unwrap();
+        let (free, colliding) = Pair::at(model, level).compare(&robot, &READY, 1000, 8);
+        assert!(free > 200 && colliding > 200);
+    }
     // A held box is not a sphere: no fast path, the general one answers.
     scene
         .add_object(SceneObject::new("brick", Shape::cuboid([0.05; 3]), IsometryMatrix3::translation(0.5, 0.3, 0.03)))
@@ -121,37 +137,31 @@ fn fast_path_matches_at_contact() {
     // Configurations bisected onto the boundary between free and colliding:
     // the pairs there sit within nanometres of their thresholds.
     let (robot, scene) = cluttered();
-    let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(0.001).build().unwrap();
-    let mut pair = Pair::new(model);
-    let configs = random_configurations(&robot, 600, 5);
-    let mut boundary = 0;
-    for q in &configs {
-        let (mut free, mut hit) = (READY.to_vec(), q.clone());
-        if !pair.config(&free) || pair.config(&hit) {
-            continue;
+    for level in levels() {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene).padding(0.001).build().unwrap();
+        let mut pair = Pair::at(model, level);
+        let configs = random_configurations(&robot, 600, 5);
+        let mut boundary = 0;
+        for q in &configs {
+            let (mut free, mut hit) = (READY.to_vec(), q.clone());
+            if !pair.config(&free) || pair.config(&hit) {
+                continue;
+            }
+            for _ in 0..60 {
+                let mid: Vec<f64> = free.iter().zip(&hit).map(|(a, b)| 0.5 * (a + b)).collect();
+                if pair.config(&mid) { free = mid } else { hit = mid }
+            }
+            boundary += 1;
         }
-        for _ in 0..60 {
-            let mid: Vec<f64> = free.iter().zip(&hit).map(|(a, b)| 0.5 * (a + b)).collect();
-            if pair.config(&mid) { free = mid } else { hit = mid }
-        }
-        boundary += 1;
+        assert!(boundary > 100, "{level:?}: {boundary}");
     }
-    assert!(boundary > 100, "{boundary}");
-}
-
-fn unpack(dir: &Path) -> std::path::PathBuf {
-    let mbm = repo().join("../shared/benchmarks/mbm");
-    let status =
-        Command::new("tar").arg("xjf").arg(mbm.join("panda_problems.tar.bz2")).arg("-C").arg(dir).status().unwrap();
-    assert!(status.success());
-    dir.join("problems")
 }
 
 #[test]
 fn fast_path_matches_on_motionbenchmaker_scenes() {
-    let mbm = repo().join("../shared/benchmarks/mbm");
+    let mbm = common::mbm();
     let dir = tempfile::tempdir().unwrap();
-    let problems = unpack(dir.path());
+    let problems = common::unpack_mbm(dir.path());
     let (urdf, srdf) = (mbm.join("panda_spherized.urdf"), mbm.join("panda.srdf"));
     let (mut free, mut colliding) = (0, 0);
     for family in
@@ -161,8 +171,10 @@ fn fast_path_matches_on_motionbenchmaker_scenes() {
             let at = |f: &str| problems.join(format!("{family}_panda/{f}{k:04}.yaml"));
             let problem = Problem::from_moveit(&urdf, &srdf, &at("scene"), &at("request")).unwrap();
             let Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
-            for padding in [0.0, problem.planner.clearance] {
-                let mut pair = Pair::new(problem.collision_model_padded(padding).unwrap());
+            for (padding, level) in
+                [0.0, problem.planner.clearance].into_iter().flat_map(|p| levels().into_iter().map(move |l| (p, l)))
+            {
+                let mut pair = Pair::at(problem.collision_model_padded(padding).unwrap(), level);
                 let (f, c) = pair.compare(&problem.robot, goal, 300, k);
                 pair.motion(&problem.start, goal, 0.005);
                 free += f;
@@ -177,17 +189,30 @@ fn fast_path_matches_on_motionbenchmaker_scenes() {
 #[test]
 fn certified_motions_on_the_fast_path_keep_half_the_clearance() {
     let (robot, scene) = cluttered();
-    let model = CollisionModel::builder(robot.clone()).scene(&scene).build().unwrap();
-    let Pair { fast, general, mut fast_ws, mut general_ws } = Pair::new(model);
+    let mut verdicts_by_level = Vec::new();
+    for level in levels() {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene).build().unwrap();
+        verdicts_by_level.push(certified_motions(&robot, Pair::at(model, level)));
+    }
+    // Every variant certifies exactly the same motions.
+    assert!(verdicts_by_level.windows(2).all(|w| w[0] == w[1]));
+}
+
+/// Certifies 400 motions on the fast path, checks each certified one
+/// densely on the general path; returns the verdicts.
+fn certified_motions(robot: &RobotModel, pair: Pair) -> Vec<bool> {
+    let Pair { fast, general, mut fast_ws, mut general_ws } = pair;
+    let mut verdicts = Vec::new();
     let clearance = 0.002;
     let mut rng = ChaCha8Rng::seed_from_u64(3);
     let (mut certified, mut agree, mut total) = (0, 0, 0);
-    for q in random_configurations(&robot, 400, 13) {
+    for q in random_configurations(robot, 400, 13) {
         // Short and long motions around the ready pose, free ones and blocked ones.
         let s = rng.random_range(0.05..0.5);
         let q0: Vec<f64> = q.iter().zip(READY).map(|(v, r)| r + s * (v - r)).collect();
         let q1: Vec<f64> = q0.iter().map(|v| v + rng.random_range(-0.4..0.4)).collect();
         let ok = fast.motion_free_certified(&mut fast_ws, &q0, &q1, clearance).unwrap();
+        verdicts.push(ok);
         let reference = general.motion_free_certified(&mut general_ws, &q0, &q1, clearance).unwrap();
         total += 1;
         agree += usize::from(ok == reference);
@@ -205,4 +230,19 @@ fn certified_motions_on_the_fast_path_keep_half_the_clearance() {
     println!("{certified} of {total} motions certified; the general path agrees on {agree}");
     assert!(certified > 50 && certified < total - 50);
     assert!(agree * 100 >= total * 95);
+    verdicts
+}
+
+#[test]
+fn the_variant_can_be_chosen() {
+    let (robot, scene) = cluttered();
+    let mut model = CollisionModel::builder(robot).scene(&scene).build().unwrap();
+    let best = *levels().last().unwrap();
+    assert_eq!(model.set_simd(None), Some(best));
+    assert_eq!(model.set_simd(Some(SimdLevel::Baseline)), Some(SimdLevel::Baseline));
+    assert_eq!(model.simd(), Some(SimdLevel::Baseline));
+    // Asking for more than the CPU has gives the best it has.
+    assert_eq!(model.set_simd(Some(SimdLevel::Avx512)), Some(best));
+    model.set_fast_path(false);
+    assert_eq!(model.set_simd(Some(SimdLevel::Avx2)), None);
 }

@@ -3,7 +3,10 @@
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use tandem::control::{ControlError, GainSchedule, JointTrajectory, PolicyQuery, TrackingPolicy, TrackingWeights};
+use tandem::control::{
+    ControlError, GainSchedule, JointTrajectory, MAX_TIME_STEP, MIN_TIME_STEP, PolicyQuery, TrackingPolicy,
+    TrackingWeights, WEIGHT_RANGE,
+};
 use tandem::robot::RobotModel;
 
 mod common;
@@ -31,7 +34,7 @@ fn rollout(policy: &TrackingPolicy, start: &[f64], steps: usize) -> (Vec<f64>, f
     for step in 0..steps {
         let found = policy.query(&mut ws, &q, Some(&v), &mut command).unwrap();
         if step as f64 * dt > 1.0 {
-            late_error = late_error.max(found.distance);
+            late_error = common::worst(late_error, found.distance);
         }
         v.copy_from_slice(&command);
         q.iter_mut().zip(&v).for_each(|(q, v)| *q += v * dt);
@@ -48,7 +51,7 @@ fn perturbed_starts_converge_to_the_reference_and_reach_the_goal() {
         for _ in 0..20 {
             let start: Vec<f64> = READY.iter().map(|q| q + rng.random_range(-0.15..0.15)).collect();
             let (end, late_error) = rollout(&policy, &start, steps);
-            let miss = end.iter().zip(GOAL).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+            let miss = common::max_abs(end.iter().zip(GOAL).map(|(a, b)| a - b));
             assert!(miss < 1e-3, "{schedule:?}: ended {miss} rad from the goal");
             assert!(late_error < 0.05, "{schedule:?}: still {late_error} rad off the reference after 1 s");
         }
@@ -76,7 +79,7 @@ fn constant_gain_is_a_decoupled_pd_law() {
     }
     // Time-varying gains tend to the DARE gain far from the end of the horizon.
     let tv = TrackingPolicy::new(panda_reference(), TrackingWeights::default(), GainSchedule::TimeVarying).unwrap();
-    assert!((tv.gain(0) - k).abs().max() < 1e-6);
+    assert!(common::max_abs((tv.gain(0) - k).iter().copied()) < 1e-6);
 }
 
 #[test]
@@ -226,10 +229,9 @@ fn bad_queries_and_references_are_errors() {
     assert_eq!(command, [7.0; 7], "a failed query leaves the command untouched");
     assert!(matches!(policy.query(&mut ws, &READY[..6], None, &mut command), Err(ControlError::WrongLength { .. })));
     let weights = TrackingWeights { control: 0.0, ..TrackingWeights::default() };
-    assert!(matches!(
-        TrackingPolicy::new(panda_reference(), weights, GainSchedule::Constant),
-        Err(ControlError::InvalidWeights { .. })
-    ));
+    let e = TrackingPolicy::new(panda_reference(), weights, GainSchedule::Constant).unwrap_err();
+    // Named, not a raw struct (`TrackingWeights { position: 100.0, … }` before).
+    assert_eq!(e.to_string(), "the control weight is 0, outside [0.0001, 10000]");
     let e = JointTrajectory::new(vec!["a".into()], 0.01, &[vec![0.0], vec![f64::INFINITY]]).unwrap_err();
     assert!(e.to_string().contains("waypoint 1"), "{e}");
     assert!(matches!(
@@ -242,14 +244,65 @@ fn bad_queries_and_references_are_errors() {
 fn references_load_from_csv() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ref.csv");
-    std::fs::write(&path, "j1, j2\n0, 0\n0.1, -0.1\n0.3, -0.2\n").unwrap();
-    let r = JointTrajectory::from_csv(&path, 0.1).unwrap();
+    std::fs::write(&path, "time, j1, j2\n0, 0, 0\n0.1, 0.1, -0.1\n0.2, 0.3, -0.2\n").unwrap();
+    let r = JointTrajectory::from_csv(&path).unwrap();
     assert_eq!((r.len(), r.dof()), (3, 2));
+    assert!((r.dt() - 0.1).abs() < 1e-15, "the time step is the spacing of the time column");
     assert!((r.velocity(1)[0] - 1.0).abs() < 1e-12 && r.velocity(0) == [0.0, 0.0]);
     assert!((r.acceleration(2)[0] - 10.0).abs() < 1e-9);
-    std::fs::write(&path, "j1,j2\n0,0\n0.1,x\n").unwrap();
-    let e = JointTrajectory::from_csv(&path, 0.1).unwrap_err();
+    std::fs::write(&path, "time,j1,j2\n0,0,0\n0.1,0.1,x\n").unwrap();
+    let e = JointTrajectory::from_csv(&path).unwrap_err();
     assert!(e.to_string().contains("ref.csv:3") && e.to_string().contains("'x'"), "{e}");
+    // A header-less file once turned its first row into joint names.
+    std::fs::write(&path, "0,0,0\n0.1,0.1,0.1\n").unwrap();
+    let e = JointTrajectory::from_csv(&path).unwrap_err().to_string();
+    assert!(e.contains("ref.csv:1") && e.contains("is the header missing?"), "{e}");
+    // Duplicate joint names were accepted.
+    std::fs::write(&path, "time,j1,j1\n0,0,0\n0.1,0.1,0.1\n").unwrap();
+    let e = JointTrajectory::from_csv(&path).unwrap_err().to_string();
+    assert!(e.contains("joint 'j1' is named twice"), "{e}");
+}
+
+#[test]
+fn references_refuse_sizes_and_values_they_cannot_hold() {
+    let joints = || vec!["j1".to_string()];
+    // --dt 1e-300 panicked (capacity overflow), 1e-9 aborted allocating 72 GB.
+    for dt in [1e-300, 1e-9, 5e-5, 1.5, 1e6, f64::NAN] {
+        let e = JointTrajectory::minimum_jerk(joints(), &[0.0], &[1.0], 3.0, dt).unwrap_err();
+        assert!(matches!(e, ControlError::InvalidTimeStep { .. }), "{dt}: {e}");
+    }
+    let e = JointTrajectory::minimum_jerk(joints(), &[0.0], &[1.0], 1e6, 1e-4).unwrap_err();
+    assert!(e.to_string().contains("more than 100001"), "{e}");
+    // ±1e308 are finite, but their velocities are not: name the waypoint,
+    // not "-inf is not finite".
+    let e = JointTrajectory::new(joints(), 0.01, &[vec![1e308], vec![-1e308]]).unwrap_err().to_string();
+    assert!(e.contains("waypoint 1: joint 'j1' moves from 100000000") && e.contains("too large"), "{e}");
+}
+
+#[test]
+fn every_corner_of_the_weight_and_time_step_ranges_solves() {
+    // Errors were misleading outside them ("not stabilisable" for dt = 1e6,
+    // "Q is not positive semidefinite" for a position weight of 1e300).
+    let (lo, hi) = (*WEIGHT_RANGE.start(), *WEIGHT_RANGE.end());
+    for dt in [MIN_TIME_STEP, 0.01, MAX_TIME_STEP] {
+        let joints = vec!["a".to_string(), "b".to_string()];
+        let reference = JointTrajectory::minimum_jerk(joints, &[0.0, 0.0], &[0.5, -0.5], 4.0 * dt, dt).unwrap();
+        for position in [lo, hi] {
+            for velocity in [lo, hi] {
+                for control in [lo, hi] {
+                    let w = TrackingWeights { position, velocity, control };
+                    for schedule in [GainSchedule::Constant, GainSchedule::TimeVarying] {
+                        let policy = TrackingPolicy::new(reference.clone(), w, schedule);
+                        let policy = policy.unwrap_or_else(|e| panic!("dt {dt}, {w:?}, {schedule:?}: {e}"));
+                        assert!(policy.gain(0).iter().all(|k| k.is_finite()), "dt {dt}, {w:?}");
+                    }
+                }
+            }
+        }
+    }
+    let outside = TrackingWeights { position: 1e300, ..TrackingWeights::default() };
+    let e = TrackingPolicy::new(panda_reference(), outside, GainSchedule::Constant).unwrap_err().to_string();
+    assert!(e.contains("position weight is 1e300"), "{e}");
 }
 
 #[test]
@@ -264,4 +317,11 @@ fn a_workspace_from_another_policy_still_works() {
     let mut small = [0.0; 2];
     let found = short.query(&mut ws, &[0.05, 0.05], None, &mut small).unwrap();
     assert!(found.index < short.reference().len());
+}
+
+#[test]
+fn references_bound_their_joints() {
+    let joints: Vec<String> = (0..65).map(|k| format!("j{k}")).collect();
+    let e = JointTrajectory::new(joints, 0.01, &[vec![0.0; 65]]).unwrap_err();
+    assert_eq!(e.to_string(), "the reference has 65 joints, more than 64");
 }

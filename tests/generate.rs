@@ -128,13 +128,34 @@ fn bad_arguments_are_named() {
     let tmp = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| {
         let output = Command::new(env!("CARGO_BIN_EXE_tandem")).arg("generate").args(args).output().unwrap();
-        assert_ne!(output.status.code(), Some(0));
-        String::from_utf8_lossy(&output.stderr).into_owned()
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        (output.status.code(), stderr)
     };
     let out = tmp.path().join("x").display().to_string();
     let fam = family();
-    assert!(run(&["--family", &fam, "--count", "0", "--out", &out]).contains("--count must be at least 1"));
-    assert!(run(&["--family", &fam, "--count", "5", "--out", &out, "--shard", "2/2"]).contains("0 ≤ I < M"));
-    assert!(run(&["--family", "missing.toml", "--count", "5", "--out", &out]).contains("missing.toml"));
-    assert!(run(&["--family", &fam, "--count", "5", "--out", &out, "--threads", "0"]).contains("--threads"));
+    // Out-of-range sizes are usage errors (status 2) naming the option and its range.
+    let usage = |args: &[&str], option: &str, range: &str| {
+        let (code, stderr) = run(args);
+        assert_eq!(code, Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(option) && stderr.contains(range), "{args:?}: {stderr}");
+    };
+    usage(&["--family", &fam, "--count", "0", "--out", &out], "--count", "[1, 100000000000]");
+    // u64::MAX aborted out of memory, with --chunk-size too a panic.
+    let huge = "18446744073709551615";
+    usage(&["--family", &fam, "--count", huge, "--out", &out], "--count", "[1, 100000000000]");
+    usage(&["--family", &fam, "--count", "5", "--chunk-size", huge, "--out", &out], "--chunk-size", "[1, 100000]");
+    usage(&["--family", &fam, "--count", "5", "--out", &out, "--threads", "0"], "--threads", "[1, 1024]");
+    // -T 100001 used 2 GB, bypassing the 100,000-slice limit of problem files.
+    usage(&["--family", &fam, "--count", "5", "--out", &out, "-T", "100001"], "--horizon", "[2, 100000]");
+    let (code, stderr) = run(&["--family", &fam, "--count", "5", "--out", &out, "--shard", "2/2"]);
+    assert!(code == Some(2) && stderr.contains("0 ≤ I < M"), "{stderr}");
+    let (code, stderr) = run(&["--family", "missing.toml", "--count", "5", "--out", &out]);
+    assert!(code == Some(1) && stderr.contains("missing.toml"), "{stderr}");
+    // Sizes whose product is out of bounds are errors of the settings (status 1).
+    let (code, stderr) = run(&["--family", &fam, "--count", "100000000000", "--chunk-size", "1", "--out", &out]);
+    assert!(code == Some(1) && stderr.contains("more than 1000000"), "{stderr}");
+    let (code, stderr) =
+        run(&["--family", &fam, "--count", "100000", "--chunk-size", "100000", "-T", "100000", "--out", &out]);
+    assert!(code == Some(1) && stderr.contains("slices per part file"), "{stderr}");
 }

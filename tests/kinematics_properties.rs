@@ -62,7 +62,8 @@ fn max_fd_error(model: &RobotModel, configs: &[Vec<f64>]) -> f64 {
                 let w = nalgebra::Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)])
                     / (4.0 * h);
                 for i in 0..3 {
-                    worst = worst.max((jac[(i, k)] - dp[i]).abs()).max((jac[(i + 3, k)] - w[i]).abs());
+                    worst = common::worst(worst, (jac[(i, k)] - dp[i]).abs());
+                    worst = common::worst(worst, (jac[(i + 3, k)] - w[i]).abs());
                 }
             }
         }
@@ -100,8 +101,8 @@ fn local_jacobian_is_the_rotated_world_aligned_one() {
         let r = panda.frame_pose(&ws, frame).rotation;
         let back_lin = r.matrix() * local.fixed_rows::<3>(0);
         let back_ang = r.matrix() * local.fixed_rows::<3>(3);
-        assert!((back_lin - world.fixed_rows::<3>(0)).abs().max() < 1e-12);
-        assert!((back_ang - world.fixed_rows::<3>(3)).abs().max() < 1e-12);
+        assert!(common::max_abs((back_lin - world.fixed_rows::<3>(0)).iter().copied()) < 1e-12);
+        assert!(common::max_abs((back_ang - world.fixed_rows::<3>(3)).iter().copied()) < 1e-12);
     }
 }
 
@@ -126,7 +127,7 @@ fn point_jacobian_matches_finite_differences() {
             panda.forward_kinematics(&mut ws, &qp).unwrap();
             let minus = panda.frame_pose(&ws, frame) * point;
             let fd = (plus - minus) / (2.0 * h);
-            assert!((jac.column(k) - fd).abs().max() < 1e-8);
+            assert!(common::max_abs((jac.column(k) - fd).iter().copied()) < 1e-8);
         }
     }
 }
@@ -146,7 +147,7 @@ fn held_joints_are_folded_at_their_values() {
         arm.forward_kinematics(&mut ws_arm, &q).unwrap();
         let a = full.frame_pose(&ws_full, full.frame_id("panda_rightfinger").unwrap());
         let b = arm.frame_pose(&ws_arm, finger);
-        assert!((a.to_homogeneous() - b.to_homogeneous()).abs().max() < 1e-14);
+        assert!(common::max_abs((a.to_homogeneous() - b.to_homogeneous()).iter().copied()) < 1e-14);
     }
     let values = arm.all_joint_values(&arm.neutral_configuration()).unwrap();
     let j2 = desc.joints().iter().position(|j| j.name == "panda_finger_joint2").unwrap();
@@ -183,4 +184,14 @@ fn model_is_send_and_sync() {
     shareable::<RobotModel>();
     shareable::<RobotDescription>();
     shareable::<KinematicsWorkspace>();
+}
+
+#[test]
+fn error_folds_keep_nan() {
+    // `f64::max` drops a NaN: errors folded with it passed a NaN kinematics.
+    assert_eq!([1e-16, f64::NAN].into_iter().fold(0.0, f64::max), 1e-16);
+    let folded = common::max_abs([1e-16, f64::NAN, -2e-16]);
+    assert!(folded.is_nan() && folded.partial_cmp(&1e-9).is_none(), "a NaN error fails every tolerance");
+    assert!(common::worst(f64::NAN, 0.0).is_nan() && common::worst(0.0, f64::NAN).is_nan());
+    assert_eq!(common::max_abs([1e-16, -3e-16]), 3e-16);
 }

@@ -56,7 +56,7 @@ fn shipped_problems_converge_collision_free_at_both_horizons() {
                 let pose = gripper_pose(&problem, last);
                 match &problem.goal {
                     Goal::Joints(goal) => {
-                        let err = last.iter().zip(goal).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+                        let err = common::max_abs(last.iter().zip(goal).map(|(a, b)| a - b));
                         assert!(err < 1e-4, "{label}: joint goal missed by {err}");
                     }
                     Goal::Pose { .. } => {
@@ -80,7 +80,7 @@ fn shipped_problems_converge_collision_free_at_both_horizons() {
                 }
                 // At rest at the end.
                 let before = &s.trajectory[horizon - 2];
-                let speed = last.iter().zip(before).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max) / s.time_step;
+                let speed = common::max_abs(last.iter().zip(before).map(|(a, b)| a - b)) / s.time_step;
                 assert!(speed < 1e-3, "{label}: final speed {speed} rad/s");
             }
         }
@@ -259,8 +259,11 @@ fn bad_inputs_get_typed_errors() {
     let collide = Objective::new("c", Feature::Collision { margin: 0.0 }, ObjectiveKind::Inequality);
     let err = TrajectoryProblem::new(robot.clone(), None, vec![collide], 10, 2, 1.0, start.clone()).unwrap_err();
     assert!(err.to_string().contains("no collision model"), "{err}");
-    let err = TrajectoryProblem::new(robot, None, vec![], 1, 2, 1.0, start).unwrap_err();
-    assert!(err.to_string().contains("horizon ≥ 2"), "{err}");
+    let err = TrajectoryProblem::new(robot.clone(), None, vec![], 1, 2, 1.0, start.clone()).unwrap_err();
+    assert!(err.to_string().contains("a horizon T from 2 to 100000"), "{err}");
+    // `solve -T 1000000` ran, bypassing the limit of problem files.
+    let err = TrajectoryProblem::new(robot, None, vec![], 100_001, 2, 1.0, start).unwrap_err();
+    assert!(err.to_string().contains("got T = 100001"), "{err}");
 }
 
 #[test]

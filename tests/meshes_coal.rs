@@ -25,8 +25,8 @@ fn compare(erd: &ErdRobots, robot: &str) -> (usize, f64) {
         let Geometry::Mesh { mesh, .. } = &element.geometry else { panic!("{robot}: {name} is not a mesh here") };
         let (lo, hi) = mesh.aabb();
         for i in 0..3 {
-            worst = worst.max((lo[i] - obj["min"][i].as_f64().unwrap()).abs());
-            worst = worst.max((hi[i] - obj["max"][i].as_f64().unwrap()).abs());
+            worst = common::worst(worst, (lo[i] - obj["min"][i].as_f64().unwrap()).abs());
+            worst = common::worst(worst, (hi[i] - obj["max"][i].as_f64().unwrap()).abs());
         }
     }
     (objects.len(), worst)

@@ -5,10 +5,12 @@
 
 mod common;
 
-use std::process::Command;
-use tandem::collision::CollisionWorkspace;
-use tandem::plan::{IkError, IkSettings, IkTarget, PlanStatus, plan_problem, resample, solve_ik};
-use tandem::robot::KinematicsWorkspace;
+use std::time::{Duration, Instant};
+use tandem::collision::{CollisionWorkspace, MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
+use tandem::plan::{
+    EdgeCheck, IkError, IkSettings, IkTarget, PlanStatus, RrtSettings, plan_problem, resample, rrt_connect, solve_ik,
+};
+use tandem::robot::{KinematicsWorkspace, RobotError};
 use tandem::scene::{Goal, Problem};
 
 /// Checks a solved plan: ends, limits, collisions at resolution/4.
@@ -103,10 +105,9 @@ fn invalid_start_or_goal_is_reported() {
 
 #[test]
 fn motionbenchmaker_problems_are_solved() {
-    let mbm = common::repo().join("../shared/benchmarks/mbm");
+    let mbm = common::mbm();
     let dir = tempfile::tempdir().unwrap();
-    let ok = Command::new("tar").arg("xjf").arg(mbm.join("panda_problems.tar.bz2")).arg("-C").arg(dir.path()).status();
-    assert!(ok.unwrap().success());
+    common::unpack_mbm(dir.path());
     let (urdf, srdf) = (mbm.join("panda_spherized.urdf"), mbm.join("panda.srdf"));
     let mut solved = 0;
     let families =
@@ -125,4 +126,95 @@ fn motionbenchmaker_problems_are_solved() {
         }
     }
     assert_eq!(solved, 35);
+}
+
+/// The wall problem's start and goal: the straight motion between them
+/// goes through the wall.
+fn wall() -> (Problem, Vec<f64>, Vec<f64>) {
+    let problem = Problem::builtin("panda_reach_obstacle").unwrap();
+    let Goal::Joints(goal) = problem.goal.clone() else { unreachable!() };
+    let start = problem.start.clone();
+    (problem, start, goal)
+}
+
+#[test]
+fn edge_checks_have_a_resolution_floor_and_never_skip_the_middle() {
+    let (problem, start, goal) = wall();
+    for fast_path in [true, false] {
+        let mut model = problem.collision_model().unwrap();
+        model.set_fast_path(fast_path);
+        let mut ws = CollisionWorkspace::new(&model);
+        // 1e-300 overflowed the sample count to 0: only the ends were
+        // checked and the motion through the wall passed.
+        for resolution in [1e-300, 1e-9, MIN_RESOLUTION / 2.0, 0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = model.motion_free(&mut ws, &start, &goal, resolution).unwrap_err();
+            assert!(
+                matches!(e, RobotError::InvalidSetting { name: "resolution", .. }) && e.to_string().contains("0.00001"),
+                "{resolution}: {e}"
+            );
+        }
+        assert!(!model.motion_free(&mut ws, &start, &goal, MIN_RESOLUTION).unwrap(), "through the wall");
+        assert!(!model.motion_free(&mut ws, &start, &goal, 0.005).unwrap());
+        // A motion needing more samples than the cap is refused, not run for hours.
+        let robot = &problem.robot;
+        let far: Vec<f64> = robot.limits().iter().map(|l| l.upper).collect();
+        let near: Vec<f64> = robot.limits().iter().map(|l| l.lower).collect();
+        let span = near.iter().zip(&far).map(|(a, b)| b - a).fold(0.0, f64::max);
+        assert!(span / MIN_RESOLUTION < MAX_MOTION_SAMPLES as f64, "the Panda's ranges fit the cap");
+        // Certified checks: a clearance floor too.
+        for clearance in [1e-300, MIN_CLEARANCE / 2.0, 0.0, f64::NAN] {
+            let e = model.motion_free_certified(&mut ws, &start, &goal, clearance).unwrap_err();
+            assert!(matches!(e, RobotError::InvalidSetting { name: "clearance", .. }), "{clearance}: {e}");
+        }
+        // Deadlines are honoured inside one edge check: a passed deadline
+        // stops a long check before its answer.
+        let past = Some(Instant::now());
+        // Turning the wrist at the start: free, and 50,000 samples long.
+        let free = start.clone();
+        let mut other = free.clone();
+        other[6] += 0.5;
+        assert_eq!(model.motion_free_by(&mut ws, &free, &other, MIN_RESOLUTION, past).unwrap(), None);
+        assert_eq!(model.motion_free_by(&mut ws, &free, &other, MIN_RESOLUTION, None).unwrap(), Some(true));
+        assert_eq!(model.motion_free_certified_by(&mut ws, &free, &other, MIN_CLEARANCE, None).unwrap(), Some(true));
+    }
+}
+
+#[test]
+fn the_planner_stops_at_its_time_limit_inside_edge_checks() {
+    let (problem, start, goal) = wall();
+    let model = problem.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    // 0.5 rad edges at the finest resolution: ~50,000 samples each.
+    let settings = RrtSettings {
+        edge: EdgeCheck::Resolution(MIN_RESOLUTION),
+        time_limit: Duration::from_millis(1),
+        ..RrtSettings::default()
+    };
+    let began = Instant::now();
+    let result = rrt_connect(&model, &mut ws, &start, &[goal], &settings).unwrap();
+    assert_eq!(result.status, PlanStatus::TimeLimit);
+    // Generous for a loaded machine: one edge check is ~10 ms, a hang is minutes.
+    assert!(began.elapsed() < Duration::from_secs(2), "{:?}", began.elapsed());
+}
+
+#[test]
+fn problem_files_bound_planner_settings() {
+    let base = std::fs::read_to_string(common::repo().join("problems/panda_reach_obstacle.toml")).unwrap();
+    let urdf = common::repo().join("problems/robots/panda/panda.urdf");
+    let load = |from: &str, to: &str| {
+        assert!(base.contains(from));
+        let text = base.replace(from, to).replace("robots/panda/panda.urdf", urdf.to_str().unwrap());
+        Problem::from_str_with(&text, "wall.toml", None).map(|p| p.planner)
+    };
+    let e = load("resolution = 0.005", "resolution = 1e-300\nclearance = 0.0").unwrap_err().to_string();
+    assert!(e.contains("planner.resolution: must be at least 0.00001 rad, got 1e-300"), "{e}");
+    let e = load("resolution = 0.005", "resolution = 1e-9").unwrap_err().to_string();
+    assert!(e.contains("planner.resolution"), "{e}");
+    let e = load("resolution = 0.005", "resolution = 0.005\nclearance = 1e-9").unwrap_err().to_string();
+    assert!(e.contains("planner.clearance: must be at least 0.00001 m"), "{e}");
+    // Duration::from_secs_f64 panicked beyond u64::MAX seconds.
+    let e = load("time_limit = 1.0", "time_limit = 1e300").unwrap_err().to_string();
+    assert!(e.contains("planner.time_limit: must be at most 86400 s"), "{e}");
+    let p = load("resolution = 0.005", "resolution = 0.00001\nclearance = 0.0").unwrap();
+    assert_eq!((p.resolution, p.clearance), (MIN_RESOLUTION, 0.0));
 }

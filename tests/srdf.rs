@@ -1,11 +1,11 @@
-//! SRDF parsing against the MotionBenchMaker Panda (../shared/benchmarks/mbm)
+//! SRDF parsing against the MotionBenchMaker Panda (problems/motionbenchmaker)
 //! and the embedded Panda, with line-numbered errors.
 
 use std::sync::Arc;
 use tandem::robot::{MeshSearchPath, RobotDescription, RobotError, RobotModel, Srdf};
 
 fn mbm(file: &str) -> std::path::PathBuf {
-    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/benchmarks/mbm").join(file)
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("problems/motionbenchmaker").join(file)
 }
 
 #[test]

@@ -285,3 +285,55 @@ fn structural_mistakes_name_their_line() {
         assert!(line_of(&e).is_some(), "no line in '{e}'");
     }
 }
+
+/// An ASCII STL of one tetrahedron (or of one flat triangle when `flat`).
+fn stl(flat: bool) -> String {
+    let tri = |a: [f64; 3], b: [f64; 3], c: [f64; 3]| {
+        format!(
+            "facet normal 0 0 0\nouter loop\nvertex {} {} {}\nvertex {} {} {}\nvertex {} {} {}\nendloop\nendfacet\n",
+            a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]
+        )
+    };
+    let (o, x, y, z) = ([0.0; 3], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]);
+    let body = if flat { tri(o, x, y) } else { [tri(o, y, x), tri(o, x, z), tri(o, z, y), tri(x, y, z)].concat() };
+    format!("solid t\n{body}endsolid t\n")
+}
+
+#[test]
+fn a_zero_mesh_scale_is_refused_where_it_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("tet.stl"), stl(false)).unwrap();
+    let path = dir.path().join("r.urdf");
+    let urdf = |scale: &str| {
+        robot(&format!(
+            "<link name=\"base\">\n<collision><geometry><mesh filename=\"tet.stl\" scale=\"{scale}\"/></geometry></collision></link>"
+        ))
+    };
+    // Passed `inspect`, then failed later as "cannot build a convex hull
+    // from 4 points" naming neither link nor file.
+    std::fs::write(&path, urdf("0 0 0")).unwrap();
+    let e = RobotDescription::from_urdf_file(&path, &MeshSearchPath::default()).unwrap_err();
+    assert!(matches!(e, RobotError::InvalidValue { field: "mesh scale x", .. }), "{e}");
+    let text = e.to_string();
+    assert!(text.contains("r.urdf:3") && text.contains("link 'base'") && text.contains("non-zero"), "{text}");
+    // Mirroring (a negative factor) stays legal.
+    std::fs::write(&path, urdf("-1 1 1")).unwrap();
+    RobotDescription::from_urdf_file(&path, &MeshSearchPath::default()).unwrap();
+}
+
+#[test]
+fn a_flat_collision_mesh_names_its_link_and_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("flat.stl"), stl(true)).unwrap();
+    let path = dir.path().join("r.urdf");
+    let text = robot(
+        "<link name=\"base\"><collision><geometry><sphere radius=\"0.1\"/></geometry></collision>\n\
+         <collision><geometry><mesh filename=\"flat.stl\"/></geometry></collision></link>",
+    );
+    std::fs::write(&path, text).unwrap();
+    let desc = std::sync::Arc::new(RobotDescription::from_urdf_file(&path, &MeshSearchPath::default()).unwrap());
+    let model = std::sync::Arc::new(RobotModel::builder(desc).build().unwrap());
+    let e = tandem::collision::CollisionModel::builder(model).build().unwrap_err().to_string();
+    assert!(e.contains("r.urdf") && e.contains("link 'base', collision element 1") && e.contains("flat.stl"), "{e}");
+    assert!(e.contains("cannot build a convex hull from 3 points"), "{e}");
+}

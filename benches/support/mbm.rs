@@ -16,9 +16,10 @@ pub struct Benchmark {
 }
 
 impl Benchmark {
-    /// Unpacks `../shared/benchmarks/mbm/panda_problems.tar.bz2` into a temporary folder.
+    /// Unpacks `problems/motionbenchmaker/panda_problems.tar.bz2` (all 700
+    /// problems, vendored) into a temporary folder.
     pub fn unpack() -> Benchmark {
-        let mbm = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/benchmarks/mbm");
+        let mbm = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("problems/motionbenchmaker");
         let dir = std::env::temp_dir().join("tandem_mbm");
         std::fs::create_dir_all(&dir).expect("temp dir");
         let tar = Command::new("tar").arg("xjf").arg(mbm.join("panda_problems.tar.bz2")).arg("-C").arg(&dir).status();

@@ -2,7 +2,8 @@
 //! (python_ref/scipy_reference.py, `scipy.linalg.solve_discrete_are`): 60
 //! seeded random stabilisable systems with n = 1 … 30 and m = 1 … n (eight of
 //! them with a cross term N), plus the Panda's per-joint double integrator
-//! (n = 14, m = 7). P and K agree to 1e-9 in relative Frobenius norm.
+//! (n = 14, m = 7). P and K agree to 2e-10 in relative Frobenius norm
+//! (about 100 times the largest error seen, 2.1e-12; NaN fails).
 //!
 //! The reference Python is `$TANDEM_PYTHON`, else
 //! `<workspace>/python_ref/.venv/bin/python`; when it is missing the test
@@ -16,7 +17,12 @@ use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use tandem_solvers::riccati::{DareProblem, DareSettings, DareWorkspace, double_integrator};
 
-const TOLERANCE: f64 = 1e-9;
+const TOLERANCE: f64 = 2e-10;
+
+/// The larger of two values, NaN when either is (`f64::max` drops a NaN).
+fn worst(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) }
+}
 const RANDOM_SYSTEMS: usize = 60;
 /// Every `CROSS_EVERY`-th random system gets a cross term.
 const CROSS_EVERY: usize = 7;
@@ -152,9 +158,9 @@ fn dare_agrees_with_scipy() {
         let exact = spectral_radius(&(&case.a - &case.b * ws.k()));
         let rho = stats.closed_loop_spectral_radius;
         assert!(rho >= exact * (1.0 - 1e-9) && rho <= exact * 1.1 + 1e-12, "{}: ρ {rho} vs {exact}", case.label);
-        worst_p = worst_p.max(p_err);
-        worst_k = worst_k.max(k_err);
-        worst_residual = worst_residual.max(stats.residual);
+        worst_p = worst(worst_p, p_err);
+        worst_k = worst(worst_k, k_err);
+        worst_residual = worst(worst_residual, stats.residual);
         max_iterations = max_iterations.max(stats.iterations);
     }
     println!(

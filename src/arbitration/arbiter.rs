@@ -23,8 +23,11 @@ use tandem_solvers::small::add_scaled;
 /// policy that reaches it.
 #[derive(Debug, Clone)]
 pub struct ArbiterGoal {
+    /// Its name.
     pub name: String,
+    /// A world point (m).
     pub position: [f64; 3],
+    /// The robot policy that reaches it.
     pub policy: Arc<dyn RobotPolicy>,
 }
 
@@ -73,12 +76,19 @@ pub struct ArbiterSettings {
     pub mode: ArbitrationMode,
     /// Control period `dt` (s; default 1/15, the seed's 15 Hz).
     pub period: f64,
+    /// The metrics' settings.
     pub metric: MetricSettings,
+    /// The goal posterior's settings.
     pub intent: IntentSettings,
+    /// The modes' settings.
     pub modes: ModeSettings,
+    /// The hard constraints' settings.
     pub safety: SafetySettings,
+    /// Damped least squares of task commands.
     pub damping: DampingSettings,
+    /// Tolerance and iteration limit of the solver.
     pub solver: ConicSettings,
+    /// Which solver solves the QP modes.
     pub backend: SolverBackend,
     /// Skip the solver when the mode's closed form meets every constraint
     /// (it is then the optimum of the convex problem; default true).
@@ -204,6 +214,22 @@ impl Arbiter {
         }
         validate_settings(&settings)?;
         Ok(Arbiter { robot, collision, gripper, goals, settings })
+    }
+
+    /// The same robot, collision model and goals with other settings
+    /// (cheap: shares them).
+    ///
+    /// # Errors
+    /// Invalid settings.
+    pub fn with_settings(&self, settings: ArbiterSettings) -> Result<Arbiter, ArbitrationError> {
+        validate_settings(&settings)?;
+        Ok(Arbiter {
+            robot: self.robot.clone(),
+            collision: self.collision.clone(),
+            gripper: self.gripper,
+            goals: self.goals.clone(),
+            settings,
+        })
     }
 
     /// The settings.
@@ -374,7 +400,7 @@ impl Arbiter {
             if solved || ws.diagnostics.active_rows > 0 { TickStatus::Constrained } else { TickStatus::Nominal };
         if in_collision {
             status = TickStatus::InCollision;
-        } else if s.certify {
+        } else if s.certify && s.collisions {
             status = self.certify(ws, input.q, status)?;
         }
         if policy_failed {
@@ -634,11 +660,15 @@ impl ArbiterWorkspace {
 pub struct SolvedProblem<'w> {
     /// `P` (n × n, column-major) and `q`.
     pub p: &'w [f64],
+    /// `q` of the objective.
     pub q: &'w [f64],
     /// `G` (m × n, row-major) and `h`.
     pub g: &'w [f64],
+    /// `h` of the rows.
     pub h: &'w [f64],
+    /// The solver's multipliers of the rows (≥ 0).
     pub z: &'w [f64],
+    /// Whether the trust-region cone was part of it.
     pub conic: bool,
 }
 
@@ -676,6 +706,9 @@ fn validate_settings(s: &ArbiterSettings) -> Result<(), ArbitrationError> {
     }
     if !positive(s.modes.sum_of_squares_epsilon) {
         return bad("modes.sum_of_squares_epsilon", s.modes.sum_of_squares_epsilon);
+    }
+    if !s.modes.sum_of_squares_center.is_finite() {
+        return bad("modes.sum_of_squares_center", s.modes.sum_of_squares_center);
     }
     if !s.modes.constrained_center.is_finite() {
         return bad("modes.constrained_center", s.modes.constrained_center);

@@ -134,6 +134,7 @@ pub struct Diagnostics {
     pub mode: ArbitrationMode,
     /// The most likely goal and its belief.
     pub goal: Option<usize>,
+    /// The belief of the most likely goal.
     pub confidence: f64,
     /// Linear blending's `α` (0 in other modes).
     pub alpha: f64,
@@ -149,6 +150,7 @@ pub struct Diagnostics {
     /// Solver calls this tick (0 when the closed form was feasible) and
     /// their iterations.
     pub solves: u32,
+    /// Their iterations, summed.
     pub solver_iterations: u32,
     /// Fraction of the solved step executed after certification (1 unless shortened).
     pub step_fraction: f64,
@@ -160,7 +162,10 @@ pub struct Diagnostics {
 /// period (rad/s or m/s), why, and how.
 #[derive(Debug, Clone, Copy)]
 pub struct Command<'w> {
+    /// The joint velocity to execute for one period (rad/s or m/s).
     pub qdot: &'w [f64],
+    /// What happened, from a closed set.
     pub status: TickStatus,
+    /// How it happened.
     pub diagnostics: Diagnostics,
 }

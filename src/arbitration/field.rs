@@ -8,7 +8,9 @@ use super::{Arbiter, ArbitrationMode, HumanCommand, MetricSpace, TickInput};
 /// 2 × 2 block of `F⁻¹` (column-major) there.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FieldSample {
+    /// Values of the first two joints (rad or m).
     pub at: [f64; 2],
+    /// The 2 × 2 block of the inverse metric, column-major.
     pub inverse: [f64; 4],
 }
 

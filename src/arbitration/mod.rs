@@ -84,13 +84,28 @@ use crate::robot::RobotError;
 pub enum ArbitrationError {
     /// A goal policy for another number of joints.
     #[error("goal '{goal}': its policy has {got} joints, the robot {expected}")]
-    PolicyDof { goal: String, expected: usize, got: usize },
+    PolicyDof {
+        /// The goal.
+        goal: String,
+        /// The robot's joints.
+        expected: usize,
+        /// The policy's joints.
+        got: usize,
+    },
     /// A goal position with NaN or an infinity.
     #[error("goal '{goal}': its position is not finite")]
-    GoalPosition { goal: String },
+    GoalPosition {
+        /// The goal.
+        goal: String,
+    },
     /// A setting out of its range.
     #[error("arbiter setting {what} = {value} is out of range")]
-    Setting { what: &'static str, value: f64 },
+    Setting {
+        /// The setting's path (`safety.margin`, …).
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
     /// The gripper frame (or another robot-side input) is wrong.
     #[error(transparent)]
     Robot(#[from] RobotError),
@@ -99,13 +114,28 @@ pub enum ArbitrationError {
     NoGripper,
     /// A goal's reference could not be optimized.
     #[error("goal '{goal}': the optimizer ended '{status}', no reference to track")]
-    GoalNotReached { goal: String, status: &'static str },
+    GoalNotReached {
+        /// The goal.
+        goal: String,
+        /// How the optimizer ended.
+        status: &'static str,
+    },
+    /// A problem file or retargeting error.
     #[error(transparent)]
     Problem(#[from] crate::scene::ProblemError),
+    /// The optimizer could not be set up.
     #[error(transparent)]
     Optimizer(#[from] crate::komo::KomoError),
+    /// The collision model could not be built.
     #[error(transparent)]
     Collision(#[from] crate::collision::CollisionError),
+    /// A tracking policy could not be built.
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),
+    /// Writing results failed.
+    #[error("{0}")]
+    Io(String),
+    /// A scene edit failed.
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
 }

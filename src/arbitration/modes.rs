@@ -135,6 +135,9 @@ pub struct ModeSettings {
     /// `ε = C⁻¹` of sum-of-squares (default 0.01: the task velocity is met
     /// to about 1 %, with the metric normalised to mean eigenvalue 1).
     pub sum_of_squares_epsilon: f64,
+    /// `κ` of sum-of-squares' preferred step: `min ‖J u − v‖²_C + ‖u −
+    /// κ ā_R‖²_W` (default 0, the seed's eq. 5.4, which prefers no motion).
+    pub sum_of_squares_center: f64,
     /// `κ` of the constrained trust region's centre `κ ā_R` (`ā_R` the
     /// belief-weighted robot action; default 0, the seed's eq. 5.3).
     pub constrained_center: f64,
@@ -150,6 +153,7 @@ impl Default for ModeSettings {
             timid_max_alpha: 0.8,
             aggressive_threshold: 0.6,
             sum_of_squares_epsilon: 0.01,
+            sum_of_squares_center: 0.0,
             constrained_center: 0.0,
             keep_speed: true,
         }

@@ -82,7 +82,10 @@ impl Arbiter {
                 }
             }
             ArbitrationMode::Constrained => self.constrained_objective(ws, k, n),
-            ArbitrationMode::SumOfSquares => sum_of_squares_objective(ws, k, n, modes.sum_of_squares_epsilon),
+            ArbitrationMode::SumOfSquares => {
+                robot_mean(ws, n, modes.sum_of_squares_center);
+                sum_of_squares_objective(ws, k, n, modes.sum_of_squares_epsilon);
+            }
         }
         ws.command = command_values;
     }
@@ -92,10 +95,7 @@ impl Arbiter {
     fn constrained_objective(&self, ws: &mut ArbiterWorkspace, k: Option<usize>, n: usize) {
         let modes = &self.settings.modes;
         // The trust region's centre: κ times the belief-weighted robot action.
-        for j in 0..n {
-            let mean: f64 = ws.beliefs.iter().enumerate().map(|(g, b)| b * ws.actions[g * n + j]).sum();
-            ws.cone_c[j] = modes.constrained_center * mean;
-        }
+        robot_mean(ws, n, modes.constrained_center);
         mat_vec(ws.metric.inverse(), n, n, &ws.human, &mut ws.target[..n]);
         let s2 = dot(&ws.human, &ws.target[..n]);
         ws.chol.copy_from_slice(ws.metric.matrix());
@@ -314,7 +314,16 @@ fn joint_objective(ws: &mut ArbiterWorkspace, n: usize, fill: impl FnOnce(&Arbit
     }
 }
 
-/// `min ‖J u − v‖²/ε + uᵀWu` (J = I for joint commands).
+/// `ws.cone_c = κ ā_R`, the belief-weighted robot action scaled by `κ`.
+fn robot_mean(ws: &mut ArbiterWorkspace, n: usize, kappa: f64) {
+    for j in 0..n {
+        let mean: f64 = ws.beliefs.iter().enumerate().map(|(g, b)| b * ws.actions[g * n + j]).sum();
+        ws.cone_c[j] = kappa * mean;
+    }
+}
+
+/// `min ‖J u − v‖²/ε + (u − c)ᵀW(u − c)` with `c = ws.cone_c` (from
+/// [`robot_mean`]; J = I for joint commands).
 fn sum_of_squares_objective(ws: &mut ArbiterWorkspace, k: Option<usize>, n: usize, eps: f64) {
     let w = ws.metric.matrix();
     for c in 0..n {
@@ -329,7 +338,8 @@ fn sum_of_squares_objective(ws: &mut ArbiterWorkspace, k: Option<usize>, n: usiz
             Some(k) => (0..k).map(|a| ws.jk[a * n + c] * ws.task[a]).sum::<f64>(),
             None => ws.human[c],
         };
-        ws.q[c] = -2.0 * jtv / eps;
+        let wc: f64 = (0..n).map(|r| w[c + r * n] * ws.cone_c[r]).sum();
+        ws.q[c] = -2.0 * (jtv / eps + wc);
     }
     ws.chol.copy_from_slice(&ws.p);
     for j in 0..n {

@@ -18,6 +18,10 @@ use crate::robot::{KinematicsWorkspace, RobotModel};
 /// Settings of the hard constraints.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SafetySettings {
+    /// Keep away from collisions: distance rows and certified steps
+    /// (default true). Off, only the joint position and velocity limits
+    /// bound the command: the seed's unassisted baseline (`NoAssist`).
+    pub collisions: bool,
     /// Distance every checked pair keeps, linearised (m; default 0.005, the
     /// shipped problems' optimizer margin: a Panda grasp of a 6 cm box
     /// leaves 7 mm between the fingers' outer spheres and the box). It
@@ -45,6 +49,7 @@ pub struct SafetySettings {
 impl Default for SafetySettings {
     fn default() -> Self {
         SafetySettings {
+            collisions: true,
             margin: 0.005,
             avoidance_gain: 2.0,
             default_velocity_limit: 2.0,
@@ -133,14 +138,17 @@ impl SafetyRows {
     ) {
         let n = self.n;
         self.pairs.clear();
+        self.count = 0;
+        self.min_distance = f64::INFINITY;
+        self.min_moving_distance = f64::INFINITY;
+        if !settings.collisions {
+            return;
+        }
         self.pairs.extend_from_slice(model.distances_at(cws, kinematics, cutoff));
         let keep = self.pairs.len().min(settings.max_distance_rows).min(self.h.len());
         if keep < self.pairs.len() {
             self.pairs.select_nth_unstable_by(keep, |a, b| a.signed.distance.total_cmp(&b.signed.distance));
         }
-        self.count = 0;
-        self.min_distance = f64::INFINITY;
-        self.min_moving_distance = f64::INFINITY;
         for pair in &self.pairs[..keep] {
             let distance = pair.signed.distance;
             self.min_distance = self.min_distance.min(distance);

@@ -28,8 +28,11 @@ pub struct GoalOptions {
     pub seed: Option<u64>,
     /// Optimizer horizon (default: the problem's).
     pub horizon: Option<usize>,
+    /// Weights of the tracking policies' cost.
     pub weights: TrackingWeights,
+    /// Constant or time-varying gains.
     pub schedule: GainSchedule,
+    /// Which goals the problem yields.
     pub objects: GoalObjects,
 }
 
@@ -50,10 +53,15 @@ impl Default for GoalOptions {
 /// the reference (m, world), which the intent estimator uses.
 #[derive(Debug, Clone)]
 pub struct ProblemGoal {
+    /// Its name.
     pub name: String,
+    /// The goal's problem (retargeted for other objects).
     pub problem: Problem,
+    /// The optimized reference.
     pub solution: ProblemSolution,
+    /// Its LQR tracking policy.
     pub policy: Arc<TrackingPolicy>,
+    /// A world point (m).
     pub position: [f64; 3],
 }
 

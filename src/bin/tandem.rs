@@ -5,12 +5,14 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     restore_default_sigpipe();
+    // Usage errors exit with clap's status 2 (tandem::cli::EXIT_USAGE).
     let cli = tandem::cli::Cli::parse();
     match tandem::cli::run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(tandem::cli::Outcome::Success) => ExitCode::from(tandem::cli::EXIT_SUCCESS),
+        Ok(tandem::cli::Outcome::Unsuccessful) => ExitCode::from(tandem::cli::EXIT_UNSUCCESSFUL),
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(tandem::cli::EXIT_ERROR)
         }
     }
 }

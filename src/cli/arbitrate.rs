@@ -3,7 +3,9 @@
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, ProblemGoal, problem_goals};
 use crate::figures::{Panel, Series, render_panels};
 use crate::scene::Problem;
-use crate::sim::{Approach, EpisodeRecord, EpisodeSettings, Operator, Straightline, percentiles, run_episode};
+use crate::sim::{
+    Approach, Episode, EpisodeRecord, EpisodeSettings, Operator, Pace, Straightline, TaskJudge, percentiles,
+};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -50,7 +52,8 @@ pub struct ArbitrateArgs {
     pub json: bool,
 }
 
-pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>> {
+/// Runs the episode; [`Outcome::Unsuccessful`](super::Outcome) (exit 3) unless it succeeds.
+pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::error::Error>> {
     if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 10_000.0) {
         return Err(format!("--rate {} Hz: give a rate in (0, 10000]", args.rate).into());
     }
@@ -66,14 +69,20 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
     let settings = ArbiterSettings { mode: args.mode, period: 1.0 / args.rate, ..ArbiterSettings::default() };
     let arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
     let settings = *arbiter.settings();
-    let goal_pose = goals[target].final_gripper_pose()?;
     let mut operator: Box<dyn Operator> = match args.operator.as_str() {
-        "straightline" => Box::new(Straightline { speed: args.speed, ..Straightline::default() }),
+        "straightline" => Box::new(Straightline { pace: Pace { speed: args.speed, ..Pace::default() } }),
         _ => Box::new(Approach::at_speed(args.speed)),
     };
+    let mut judge = TaskJudge::new(&goals[target]);
+    let episode = Episode {
+        arbiter: &arbiter,
+        start: &problem.start,
+        target: goals[target].position,
+        true_goal: target,
+        settings: EpisodeSettings::default(),
+    };
     let mut ws = arbiter.workspace();
-    let record =
-        run_episode(&arbiter, &mut ws, &problem.start, &goal_pose, operator.as_mut(), &EpisodeSettings::default())?;
+    let record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
     if let Some(path) = &args.plot {
         let svg = episode_svg(&problem, &goals[target], &record, args)?;
         std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
@@ -97,7 +106,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
             "fallbacks": record.fallbacks,
         });
         println!("{json}");
-        return Ok(());
+        return Ok(outcome(&record));
     }
     println!(
         "{}: {} goal reference(s) planned and optimized in {:.1} ms ({})",
@@ -123,7 +132,11 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<(), Box<dyn std::error::Error>
     for path in args.plot.iter().chain(&args.field) {
         println!("wrote {}", path.display());
     }
-    Ok(())
+    Ok(outcome(&record))
+}
+
+fn outcome(record: &EpisodeRecord) -> super::Outcome {
+    if record.outcome == crate::sim::Outcome::Success { super::Outcome::Success } else { super::Outcome::Unsuccessful }
 }
 
 pub(super) fn load(path: &std::path::Path) -> Result<Problem, Box<dyn std::error::Error>> {

@@ -7,8 +7,9 @@ use std::time::Instant;
 /// Arguments of `tandem demo`.
 #[derive(Debug, clap::Args)]
 pub struct DemoArgs {
-    /// Number of configurations in the elbow sweep (at least 2).
-    #[arg(long, default_value_t = 7)]
+    /// Number of configurations in the forward lean (panda_joint2 from the
+    /// start to 1.9 rad further), 2 to 1000.
+    #[arg(long, default_value_t = 7, value_parser = |s: &str| super::number_in(s, 2usize..=1000))]
     pub steps: usize,
     /// Folder for the optimized trajectory (CSV, Parquet) and its plots
     /// (joints.svg, path.svg).
@@ -28,7 +29,7 @@ pub(super) fn run(args: &DemoArgs) -> Result<(), Box<dyn std::error::Error>> {
         panda.frames().len()
     );
     kinematics_timing(&panda)?;
-    collision_sweep(args.steps.max(2))?;
+    collision_sweep(args.steps)?;
     reach_and_grasp(&args.out)?;
     shared_control(&args.out)?;
     Ok(())
@@ -133,10 +134,9 @@ fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
 /// 15 Hz; the robot's LQR policy tracks the optimized reference.
 fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, problem_goals};
-    use crate::sim::{Approach, EpisodeSettings, percentiles, run_episode};
+    use crate::sim::{Approach, Episode, EpisodeSettings, TaskJudge, percentiles};
     let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
     let goals = problem_goals(&problem, &GoalOptions::default())?;
-    let goal = goals[0].final_gripper_pose()?;
     println!(
         "\nshared control: an operator who only gives the gripper's linear velocity (Approach, 10 cm/s),\n\
          blended with the tracking policy at 15 Hz under hard limits, distances and certified steps:"
@@ -149,8 +149,15 @@ fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error
     for mode in ArbitrationMode::ALL {
         let arbiter = Arbiter::for_problem(&problem, &goals, ArbiterSettings { mode, ..ArbiterSettings::default() })?;
         let mut ws = arbiter.workspace();
-        let settings = EpisodeSettings::default();
-        let record = run_episode(&arbiter, &mut ws, &problem.start, &goal, &mut Approach::default(), &settings)?;
+        let mut judge = TaskJudge::new(&goals[0]);
+        let episode = Episode {
+            arbiter: &arbiter,
+            start: &problem.start,
+            target: goals[0].position,
+            true_goal: 0,
+            settings: EpisodeSettings::default(),
+        };
+        let record = episode.run(&mut ws, &mut Approach::default(), &mut |q| judge.succeeded(q))?;
         let (median, p99, _) = percentiles(&record.tick_us);
         println!(
             "  {:<24} {:>9} {:>6} {median:>11.1} {p99:>9.1} {:>11} {:>9.1} mm",

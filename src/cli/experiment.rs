@@ -1,30 +1,54 @@
-//! `tandem experiment policy`: the learned policy followed alone (beside
-//! the LQR tracking policy and the seed's 92–97 %), DAgger rounds, and
-//! shared control on top of either policy.
+//! `tandem experiment`: the seed's shared-control experiments in one
+//! command each.
 
-use super::learn::{PolicyReport, train_and_save};
-use crate::arbitration::ArbitrationMode;
-use crate::data::{GenerateSettings, Progress, generate};
-use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
-use crate::learn::evaluate::{OutcomeCounts, Rollout, RolloutSettings, Task, nearest_distances};
-use crate::learn::experiment::{GoalPolicy, follow_learned, follow_lqr, sample_tasks, shared_control};
-use crate::learn::{Demonstrations, LearnOptions, PolicyNetwork, TrainSettings, figures, train_on};
-use crate::scene::ProblemFamily;
-use crate::sim::Outcome;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::time::Instant;
+use crate::data::Progress;
+use crate::figures::{Panel, Series, render_panels};
+use crate::sim::{
+    Arm, Method, OperatorKind, Outcome, PlanarResults, PlanarSettings, ReachGraspResults, ReachGraspSettings, mean_std,
+    percentiles, run_planar, run_reach_grasp,
+};
+use std::path::PathBuf;
 
 /// Arguments of `tandem experiment`.
 #[derive(Debug, clap::Args)]
 pub struct ExperimentArgs {
     #[command(subcommand)]
-    pub what: ExperimentCommand,
+    pub experiment: Experiment,
 }
 
 /// The experiments.
 #[derive(Debug, clap::Subcommand)]
-pub enum ExperimentCommand {
+pub enum Experiment {
+    /// Table 5.1: reach-and-grasp with simulated operators. Two Pandas side
+    /// by side, a 6 × 6 × 12 cm box at a random pose on the table, a random
+    /// start; every operator (straightline, approach, noisy-0.1, noisy-0.2,
+    /// biased, laggy-5, laggy-10; 10 cm/s, linear velocity only) with every
+    /// method (noassist, constrained, sos, natural-gradient-joint,
+    /// blend-timid, avoid) on the same tasks. Success: the operator stops at
+    /// the grasp point with the box between the finger pads, the fingertip
+    /// centre over it, the gripper within 0.2 rad of pointing down, and
+    /// neither palm nor fingers touching it; collision: anything touched
+    /// before; timeout: 20 s. Deterministic per seed whatever the threads.
+    ///
+    /// Examples:
+    ///   tandem experiment reach-grasp
+    ///   tandem experiment reach-grasp --tasks 20 --arm right --json --out results/
+    #[command(verbatim_doc_comment)]
+    ReachGrasp(ReachGraspArgs),
+    /// Table 4.1: planar pick-and-place (the seed's chapter 4 task) with the
+    /// simulated users of §6.5. A gripper over a 50 × 50 cm table picks one
+    /// of two cylinders past a pole and brings it to a place position;
+    /// users straight, noisy-0.5, noisy-1.0, biased (5 cm/s) with methods
+    /// direct (no collision avoidance), natural-gradient-joint, blend-timid,
+    /// avoid, at 30 Hz. Reports duration, travel distance, smallest distance
+    /// to the pole and the cosine distance between the user's and the
+    /// executed command (mean ± std), success and collisions.
+    ///
+    /// Examples:
+    ///   tandem experiment planar
+    ///   tandem experiment planar --tasks 10 --json --out results/
+    #[command(verbatim_doc_comment)]
+    Planar(PlanarArgs),
     /// Follow a learned policy alone from random starts of the family's
     /// reach-and-grasp tasks (kinematic steps at 15 Hz, a collision check
     /// each step, the grasp judged by tandem's grasp judge: object between
@@ -44,326 +68,334 @@ pub enum ExperimentCommand {
     ///   tandem experiment policy --tasks 100
     ///   tandem experiment policy --policy policy.safetensors --data grasps/ --tasks 500 --rounds 3 --json
     #[command(verbatim_doc_comment)]
-    Policy(PolicyExperimentArgs),
+    Policy(super::experiment_policy::PolicyExperimentArgs),
 }
 
-/// Arguments of `tandem experiment policy`.
+/// Arguments of `tandem experiment planar`.
 #[derive(Debug, clap::Args)]
-pub struct PolicyExperimentArgs {
-    /// Evaluation tasks (family samples 0 … N−1 of --seed).
-    #[arg(long, default_value_t = 100)]
-    pub tasks: usize,
-    /// Seed of the evaluation tasks (use another than the training data's).
-    #[arg(long, default_value_t = 1000)]
-    pub seed: u64,
-    /// The problem family of the tasks and the data.
-    #[arg(long, default_value = "problems/panda_grasp_family.toml", value_name = "FAMILY.toml")]
-    pub family: PathBuf,
-    /// A trained policy (default: train one in --out).
-    #[arg(long, value_name = "FILE")]
-    pub policy: Option<PathBuf>,
-    /// Its training data (default: OUT/data, generated when missing).
-    #[arg(long, value_name = "DIR")]
-    pub data: Option<PathBuf>,
-    /// Folder for the dataset, policy and figures.
-    #[arg(long, default_value = "policy-experiment", value_name = "DIR")]
-    pub out: PathBuf,
-    /// Trajectories of the generated dataset (seed 0).
-    #[arg(long, default_value_t = 2000)]
-    pub train_count: u64,
-    /// Epochs of the first training.
-    #[arg(long, default_value_t = 30)]
-    pub epochs: usize,
-    /// DAgger rounds after it.
+pub struct PlanarArgs {
+    /// Tasks (1 … 100000).
+    #[arg(long, default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub tasks: u32,
+    /// Seed of the tasks and of the users' randomness.
     #[arg(long, default_value_t = 0)]
-    pub rounds: usize,
-    /// Fresh tasks followed per DAgger round.
-    #[arg(long, default_value_t = 200)]
-    pub round_tasks: usize,
-    /// Epochs per DAgger round.
-    #[arg(long, default_value_t = 10)]
-    pub round_epochs: usize,
-    /// Tasks of the shared-control comparison (0: none).
-    #[arg(long, default_value_t = 20)]
-    pub arbitration_tasks: usize,
-    /// Skip the LQR policy (it optimizes a reference per task).
+    pub seed: u64,
+    /// Worker threads (default: all cores); results do not depend on it.
     #[arg(long)]
-    pub no_lqr: bool,
-    /// Print one JSON object: {"tasks", "results": [{"policy", "success",
-    /// "collision", "timeout", "no_reference"}], "training": {"samples",
-    /// "pairs", "seconds"}, "rounds": [...], "arbitration": [...],
-    /// "seed_success": [0.92, 0.97]}; rates are shares of the tasks.
+    pub threads: Option<usize>,
+    /// Print one JSON object: {"tasks", "results": [{"operator", "method",
+    /// "success", "collision", "duration_s": [mean, std], "travel_cm",
+    /// "proximity_cm", "cosine_distance"}, ...]}.
     #[arg(long)]
     pub json: bool,
+    /// Folder for the Fig. 4.5-style figure (planar.svg) and the results (planar.json).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
+/// Arguments of `tandem experiment reach-grasp`.
+#[derive(Debug, clap::Args)]
+pub struct ReachGraspArgs {
+    /// Tasks per arm (1 … 100000).
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub tasks: u32,
+    /// Which arm does the tasks.
+    #[arg(long, default_value = "both", value_parser = ["right", "left", "both"])]
+    pub arm: String,
+    /// Seed of the tasks and of the operators' randomness.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Worker threads (default: all cores); results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Print one JSON object: {"tasks", "results": [{"arm", "operator",
+    /// "method", "success", "collision", "timeout", "failed", "cos_sim":
+    /// [x, y, z]}], ...}.
+    #[arg(long)]
+    pub json: bool,
+    /// Folder for the Fig. 5.4-style figure (reach_grasp.svg), the results
+    /// (reach_grasp.json) and every episode tick by tick
+    /// (episodes/<arm>-<task>.parquet).
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
 }
 
 pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
-    match &args.what {
-        ExperimentCommand::Policy(a) => run_policy(a),
+    match &args.experiment {
+        Experiment::ReachGrasp(a) => reach_grasp(a),
+        Experiment::Planar(a) => planar(a),
+        Experiment::Policy(a) => super::experiment_policy::run_policy(a),
     }
 }
 
-fn write(path: &Path, text: &str) -> Result<(), Box<dyn std::error::Error>> {
-    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()).into())
-}
-
-fn rates(policy: &str, c: &OutcomeCounts) -> serde_json::Value {
-    let n = c.total().max(1) as f64;
-    serde_json::json!({
-        "policy": policy,
-        "success": c.success as f64 / n,
-        "collision": c.collision as f64 / n,
-        "timeout": c.timeout as f64 / n,
-        "no_reference": c.no_policy as f64 / n,
-        "episodes": c.total(),
-    })
-}
-
-fn counts(rollouts: &[Rollout]) -> OutcomeCounts {
-    OutcomeCounts::from_outcomes(rollouts.iter().map(|r| r.outcome))
-}
-
-fn run_policy(args: &PolicyExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
-    if args.tasks == 0 {
-        return Err("--tasks must be at least 1".into());
-    }
-    let family = ProblemFamily::from_file(&args.family)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("cannot create {}: {e}", args.out.display()))?;
-    let say = |line: String| {
-        if !args.json {
-            println!("{line}");
-        }
+fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let arms = match args.arm.as_str() {
+        "right" => vec![Arm::Right],
+        "left" => vec![Arm::Left],
+        _ => vec![Arm::Right, Arm::Left],
     };
-    let data = args.data.clone().unwrap_or_else(|| args.out.join("data"));
-    let progress = if args.json { Progress::quiet() } else { Progress::auto() };
-    if args.policy.is_none() && !data.join("_manifest.json").exists() {
-        say(format!("generating {} trajectories into {}", args.train_count, data.display()));
-        let settings = GenerateSettings { count: args.train_count, seed: 0, ..GenerateSettings::default() };
-        generate(&args.family, &data, &settings, &progress)?;
+    let record_dir = args.out.as_ref().map(|d| d.join("episodes"));
+    if let Some(dir) = &record_dir {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     }
-    let options = LearnOptions {
-        train: TrainSettings { epochs: args.epochs, progress: !args.json, ..TrainSettings::default() },
-        ..LearnOptions::default()
+    let settings = ReachGraspSettings {
+        tasks: args.tasks as usize,
+        seed: args.seed,
+        arms,
+        record_dir,
+        ..ReachGraspSettings::default()
     };
-    let (network, report) = match &args.policy {
-        Some(path) => (PolicyNetwork::load(path)?, PolicyReport::read_beside(path)),
-        None => {
-            let path = args.out.join("policy.safetensors");
-            say(format!("training {} epochs on {}", args.epochs, data.display()));
-            let (network, report) = train_and_save(&data, &family, &options, &path)?;
-            say(format!("wrote {} ({:.1} s of training)", path.display(), report.seconds));
-            (network, Some(report))
-        }
-    };
-    let mut network = Arc::new(network);
-    let mut demos = Demonstrations::read(&data)?;
-    let states: Vec<Vec<f64>> = demos.items.iter().flat_map(|d| d.states.iter().cloned()).collect();
-    let robot = &family.base.robot;
-    write(
-        &args.out.join("joint_histograms.svg"),
-        &figures::joint_histograms(&states, robot.joint_names(), robot.limits(), 40)?,
-    )?;
-    let rollout = RolloutSettings::default();
-    let began = Instant::now();
-    let tasks = sample_tasks(&family, args.seed, args.tasks, rollout.max_tilt)?;
-    let learned = follow_learned(&network, &tasks, &rollout)?;
-    let learned_seconds = began.elapsed().as_secs_f64();
-    let lqr = if args.no_lqr { None } else { Some(follow_lqr(&tasks, args.seed, &rollout)?) };
-    let starts: Vec<Vec<f64>> = tasks.iter().map(|t| t.problem.start.clone()).collect();
-    let distances = nearest_distances(&starts, &states);
-    let mut by_distance = vec![("learned".to_string(), paired(&distances, &learned))];
-    if let Some(lqr) = &lqr {
-        by_distance.push(("lqr".to_string(), paired(&distances, lqr)));
+    let total = (settings.tasks * settings.arms.len()) as u64;
+    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(total);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
+    let results = pool.install(|| run_reach_grasp(&settings, &|| progress.sample_done(true)))?;
+    progress.finish();
+    let json = results_json(&results);
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let write = |name: &str, text: String| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+        };
+        write("reach_grasp.json", serde_json::to_string_pretty(&json)?)?;
+        write("reach_grasp.svg", figure(&results)?)?;
     }
-    write(&args.out.join("success_by_distance.svg"), &figures::success_by_distance(&by_distance, 5)?)?;
-    let mut results = vec![rates("learned", &counts(&learned))];
-    if let Some(lqr) = &lqr {
-        results.push(rates("lqr", &counts(lqr)));
-    }
-    say(format!("{} tasks of {} (seed {}), followed alone at 15 Hz:", args.tasks, family.name, args.seed));
-    print_table(args, &results);
-    say(format!("learned rollouts: {learned_seconds:.1} s for {} tasks", args.tasks));
-    let rounds = dagger(args, &family, &options, &mut network, &mut demos, &tasks, &rollout)?;
-    let arbitration = arbitrate(args, &network, &tasks)?;
     if args.json {
-        let training = report.as_ref().map_or(
-            serde_json::Value::Null,
-            |r| serde_json::json!({"samples": r.trajectories, "pairs": r.pairs, "seconds": r.seconds}),
-        );
-        let json = serde_json::json!({
-            "tasks": args.tasks,
-            "results": results,
-            "training": training,
-            "rounds": rounds,
-            "arbitration": arbitration,
-            "seed_success": [0.92, 0.97],
-            "median_start_distance": median(&distances),
-        });
         println!("{json}");
     } else {
-        println!(
-            "figures: {}, {}",
-            args.out.join("joint_histograms.svg").display(),
-            args.out.join("success_by_distance.svg").display()
-        );
+        print_table(&results);
+        if let Some(dir) = &args.out {
+            println!(
+                "wrote reach_grasp.json, reach_grasp.svg and episodes/<arm>-<task>.parquet (every tick) to {}",
+                dir.display()
+            );
+        }
     }
     Ok(())
 }
 
-fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+fn results_json(r: &ReachGraspResults) -> serde_json::Value {
+    let s = &r.settings;
+    let mut rows = vec![];
+    for &arm in &s.arms {
+        for (o, op) in s.operators.iter().enumerate() {
+            for (m, method) in s.methods.iter().enumerate() {
+                let c = r.cell(arm, o, m);
+                rows.push(serde_json::json!({
+                    "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
+                    "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
+                    "cos_sim": c.cos, "hard_violations": c.hard_violations,
+                }));
+            }
+        }
+    }
+    let ticks: Vec<f64> = r.episodes.iter().flat_map(|e| e.tick_us.iter().copied()).collect();
+    let (median, p99, max) = percentiles(&ticks);
+    serde_json::json!({
+        "tasks": s.tasks,
+        "seed": s.seed,
+        "results": rows,
+        "resampled_tasks": r.tasks.iter().map(|t| t.resampled).sum::<usize>(),
+        "seconds": {"wall": r.wall_seconds, "prepare_cpu": r.prepare_seconds, "episodes_cpu": r.episode_seconds},
+        "tick_us": {"median": median, "p99": p99, "max": max},
+    })
 }
 
-fn paired(distances: &[f64], rollouts: &[Rollout]) -> Vec<(f64, bool)> {
-    distances
+/// Table 5.1's layout: per arm, a row per method, collision / timeout /
+/// failed / success per operator, and the average cosine similarities.
+fn print_table(r: &ReachGraspResults) {
+    let s = &r.settings;
+    for &arm in &s.arms {
+        print!("\n{:<24}", arm.as_str().to_uppercase());
+        for op in &s.operators {
+            print!("{:^18}", op.name());
+        }
+        println!("   avg. cos sim");
+        print!("{:<24}", "");
+        for _ in &s.operators {
+            print!("{:^18}", "col  to fail succ");
+        }
+        println!("   x     y     z");
+        for (m, method) in s.methods.iter().enumerate() {
+            print!("{:<24}", method.name());
+            for o in 0..s.operators.len() {
+                let c = r.cell(arm, o, m);
+                print!(" {:>3} {:>3} {:>3} {:>4}  ", c.collision, c.timeout, c.failed, c.success);
+            }
+            let cos = r.method_cos(arm, m);
+            println!("  {:.2}  {:.2}  {:.2}", cos[0], cos[1], cos[2]);
+        }
+    }
+    let resampled: usize = r.tasks.iter().map(|t| t.resampled).sum();
+    println!(
+        "\n{} tasks per arm ({} resampled: reference not converged), {} episodes in {:.1} s \
+         (task preparation {:.1} s and episodes {:.1} s of CPU)",
+        s.tasks,
+        resampled,
+        r.episodes.len(),
+        r.wall_seconds,
+        r.prepare_seconds,
+        r.episode_seconds
+    );
+    let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
+    println!("hard-constraint violations: {violations}");
+}
+
+/// Fig. 5.4: the first task's gripper paths (top views) per operator, for
+/// NoAssist and the seed's two methods, with the robot's reference.
+fn figure(r: &ReachGraspResults) -> Result<String, Box<dyn std::error::Error>> {
+    let s = &r.settings;
+    let arm = s.arms[0];
+    let task = r.tasks.iter().find(|t| t.arm == arm && t.index == 0).ok_or("no first task")?;
+    let robot = &task.goal.problem.robot;
+    let gripper = robot.frame_id(task.goal.problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
+    let mut kin = crate::robot::KinematicsWorkspace::new(robot);
+    let reference = task.goal.policy.reference();
+    let mut planned = vec![];
+    for i in 0..reference.len() {
+        robot.forward_kinematics(&mut kin, reference.position(i))?;
+        let p = robot.frame_pose(&kin, gripper).translation.vector;
+        planned.push((p.x, p.y));
+    }
+    let shown = [
+        Method::NoAssist,
+        s.methods.get(1).copied().unwrap_or(Method::NoAssist),
+        s.methods.get(2).copied().unwrap_or(Method::NoAssist),
+    ];
+    let operators: Vec<(usize, &OperatorKind)> = s.operators.iter().enumerate().take(4).collect();
+    let panels: Vec<Panel> = operators
         .iter()
-        .zip(rollouts)
-        .map(|(d, r)| (*d, r.outcome == crate::learn::evaluate::RolloutOutcome::Success))
-        .collect()
-}
-
-fn print_table(args: &PolicyExperimentArgs, results: &[serde_json::Value]) {
-    if args.json {
-        return;
-    }
-    println!("  {:<10} {:>9} {:>10} {:>9} {:>13}", "policy", "success", "collision", "timeout", "no reference");
-    for r in results {
-        let pct = |k: &str| 100.0 * r[k].as_f64().unwrap_or(f64::NAN);
-        println!(
-            "  {:<10} {:>7.1} % {:>8.1} % {:>7.1} % {:>11.1} %",
-            r["policy"].as_str().unwrap_or(""),
-            pct("success"),
-            pct("collision"),
-            pct("timeout"),
-            pct("no_reference")
-        );
-    }
-    println!("  {:<10} {:>9}   (seed §3.3.3, learned policy in configuration space)", "seed", "92–97 %");
-}
-
-/// DAgger rounds: fresh tasks (seed `args.seed + 1 + round`), expert
-/// trajectories from the states of failed rollouts and from the starts
-/// farthest from the data, training continued on everything; success on
-/// the evaluation tasks after each round.
-fn dagger(
-    args: &PolicyExperimentArgs,
-    family: &ProblemFamily,
-    options: &LearnOptions,
-    network: &mut Arc<PolicyNetwork>,
-    demos: &mut Demonstrations,
-    tasks: &[Task],
-    rollout: &RolloutSettings,
-) -> Result<Vec<serde_json::Value>, Box<dyn std::error::Error>> {
-    let settings = DaggerSettings {
-        rounds: args.rounds,
-        tasks_per_round: args.round_tasks,
-        epochs: args.round_epochs,
-        ..DaggerSettings::default()
-    };
-    let mut rounds = Vec::new();
-    let mut next_id = demos.items.iter().map(|d| d.id + 1).max().unwrap_or(0).max(1 << 40);
-    for round in 1..=settings.rounds {
-        let fresh = sample_tasks(family, args.seed + 1 + round as u64, settings.tasks_per_round, rollout.max_tilt)?;
-        let followed = follow_learned(network, &fresh, rollout)?;
-        let mut problems = Vec::new();
-        for (task, r) in fresh.iter().zip(&followed) {
-            for start in failure_states(r, settings.states_per_failure) {
-                problems.push(restart(&task.problem, &start));
-            }
-        }
-        let failed = problems.len();
-        let states: Vec<Vec<f64>> = demos.items.iter().flat_map(|d| d.states.iter().cloned()).collect();
-        let starts: Vec<Vec<f64>> = fresh.iter().map(|t| t.problem.start.clone()).collect();
-        let distances = nearest_distances(&starts, &states);
-        let mut order: Vec<usize> = (0..fresh.len()).collect();
-        order.sort_by(|a, b| distances[*b].total_cmp(&distances[*a]));
-        problems.extend(order.iter().take(settings.thin_per_round).map(|&k| fresh[k].problem.clone()));
-        let generate = GenerateSettings { seed: args.seed + round as u64, ..GenerateSettings::default() };
-        let (added, rejected) = expert_demonstrations(&problems, next_id, &generate);
-        next_id += problems.len() as u64;
-        let added_count = added.len();
-        demos.items.extend(added);
-        let continued = LearnOptions {
-            train: TrainSettings {
-                epochs: settings.epochs,
-                seed: options.train.seed + round as u64,
-                ..options.train.clone()
-            },
-            ..options.clone()
-        };
-        let (trained, report) = train_on(demos, family, &continued, Some(&**network))?;
-        *network = Arc::new(trained);
-        let path = args.out.join(format!("policy-round{round}.safetensors"));
-        network.save(&path)?;
-        let c = counts(&follow_learned(network, tasks, rollout)?);
-        let fresh_success = counts(&followed).success_rate();
-        if !args.json {
-            println!(
-                "DAgger round {round}: learned policy succeeded on {:.1} % of {} fresh tasks; {failed} failure states + {} thin starts -> {added_count} expert trajectories ({rejected} rejected); {:.1} s training; evaluation: success {:.1} %, collision {:.1} %, timeout {:.1} %",
-                100.0 * fresh_success,
-                fresh.len(),
-                settings.thin_per_round.min(fresh.len()),
-                report.seconds,
-                100.0 * c.success_rate(),
-                100.0 * c.collision as f64 / c.total().max(1) as f64,
-                100.0 * c.timeout as f64 / c.total().max(1) as f64,
-            );
-        }
-        let mut row = rates("learned", &c);
-        row["round"] = round.into();
-        row["added_trajectories"] = added_count.into();
-        row["expert_rejected"] = rejected.into();
-        row["training_seconds"] = report.seconds.into();
-        row["trajectories"] = demos.items.len().into();
-        rounds.push(row);
-    }
-    Ok(rounds)
-}
-
-/// Constrained and sum-of-squares arbitration on top of each policy.
-fn arbitrate(
-    args: &PolicyExperimentArgs,
-    network: &Arc<PolicyNetwork>,
-    tasks: &[Task],
-) -> Result<Vec<serde_json::Value>, Box<dyn std::error::Error>> {
-    let tasks = &tasks[..args.arbitration_tasks.min(tasks.len())];
-    if tasks.is_empty() {
-        return Ok(vec![]);
-    }
-    let mut rows = Vec::new();
-    if !args.json {
-        println!("shared control, Approach operator, {} tasks:", tasks.len());
-    }
-    for mode in [ArbitrationMode::Constrained, ArbitrationMode::SumOfSquares] {
-        for which in [GoalPolicy::Learned, GoalPolicy::Lqr] {
-            if which == GoalPolicy::Lqr && args.no_lqr {
-                continue;
-            }
-            let outcomes = shared_control(network, tasks, mode, which, args.seed)?;
-            let mut c = OutcomeCounts::default();
-            for o in outcomes {
-                match o {
-                    Outcome::Success => c.success += 1,
-                    Outcome::Collision => c.collision += 1,
-                    Outcome::Timeout => c.timeout += 1,
+        .map(|&(o, op)| {
+            let mut panel =
+                Panel::new(&op.name(), "x (m)", "y (m)").with(Series::dashed("reference", &planned, 7)).equal();
+            for (k, method) in shown.iter().enumerate() {
+                let Some(m) = s.methods.iter().position(|x| x == method) else { continue };
+                if let Some(e) =
+                    r.episodes.iter().find(|e| e.arm == arm && e.task == 0 && e.operator == o && e.method == m)
+                {
+                    let path: Vec<(f64, f64)> = e.path.iter().map(|p| (p[0], p[1])).collect();
+                    panel = panel.with(Series::line(&format!("{} ({})", method.name(), e.outcome.as_str()), &path, k));
                 }
             }
-            let mut row = rates(which.as_str(), &c);
-            row["mode"] = mode.as_str().into();
-            if !args.json {
-                println!(
-                    "  {:<12} on {:<8} success {:>5.1} %, collision {:>5.1} %, timeout {:>5.1} %",
-                    mode.as_str(),
-                    which.as_str(),
-                    100.0 * c.success_rate(),
-                    100.0 * c.collision as f64 / c.total() as f64,
-                    100.0 * c.timeout as f64 / c.total() as f64
-                );
-            }
-            rows.push(row);
+            let goal = task.goal.position;
+            panel.with(Series::points("grasp point", &[(goal[0], goal[1])], 3))
+        })
+        .collect();
+    Ok(render_panels(
+        &format!("reach-and-grasp, {} arm, task 0: gripper paths (top view)", arm.as_str()),
+        &panels,
+        380,
+        420,
+    )?)
+}
+
+fn planar(args: &PlanarArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let settings = PlanarSettings { tasks: args.tasks as usize, seed: args.seed, ..PlanarSettings::default() };
+    let progress = if args.json { Progress::quiet() } else { Progress::auto() }.start(settings.tasks as u64);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
+    let results = pool.install(|| run_planar(&settings, &|| progress.sample_done(true)))?;
+    progress.finish();
+    let json = planar_json(&results);
+    if let Some(dir) = &args.out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let write = |name: &str, text: String| {
+            let path = dir.join(name);
+            std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
+        };
+        write("planar.json", serde_json::to_string_pretty(&json)?)?;
+        write("planar.svg", planar_figure(&results)?)?;
+    }
+    if args.json {
+        println!("{json}");
+        return Ok(());
+    }
+    println!(
+        "\n{:<12} {:<24} {:>8} {:>9} {:>14} {:>15} {:>15} {:>17}",
+        "user", "method", "success", "collision", "duration (s)", "travel (cm)", "proximity (cm)", "cos dist (1e-2)"
+    );
+    for row in json["results"].as_array().into_iter().flatten() {
+        let pm = |key: &str, scale: f64| {
+            let v = &row[key];
+            format!(
+                "{:.1} ± {:.1}",
+                v[0].as_f64().unwrap_or(f64::NAN) * scale,
+                v[1].as_f64().unwrap_or(f64::NAN) * scale
+            )
+        };
+        println!(
+            "{:<12} {:<24} {:>8} {:>9} {:>14} {:>15} {:>15} {:>17}",
+            row["operator"].as_str().unwrap_or_default(),
+            row["method"].as_str().unwrap_or_default(),
+            format!("{}/{}", row["success"], settings.tasks),
+            row["collision"],
+            pm("duration_s", 1.0),
+            pm("travel_cm", 1.0),
+            pm("proximity_cm", 1.0),
+            pm("cosine_distance", 100.0),
+        );
+    }
+    let violations: usize = results.episodes.iter().map(|e| e.hard_violations).sum();
+    println!(
+        "\n{} episodes in {:.1} s; hard-constraint violations: {violations}",
+        results.episodes.len(),
+        results.wall_seconds
+    );
+    if let Some(dir) = &args.out {
+        println!("wrote planar.json and planar.svg to {}", dir.display());
+    }
+    Ok(())
+}
+
+fn planar_json(r: &PlanarResults) -> serde_json::Value {
+    let s = &r.settings;
+    let mut rows = vec![];
+    for (u, user) in s.users.iter().enumerate() {
+        for (m, method) in s.methods.iter().enumerate() {
+            let cell: Vec<_> = r.episodes.iter().filter(|e| e.user == u && e.method == m).collect();
+            let count = |o: Outcome| cell.iter().filter(|e| e.outcome == o).count();
+            rows.push(serde_json::json!({
+                "operator": user.name(),
+                "method": method.as_str(),
+                "success": count(Outcome::Success),
+                "collision": count(Outcome::Collision),
+                "timeout": count(Outcome::Timeout),
+                "failed": count(Outcome::Failed),
+                "duration_s": mean_std(cell.iter().map(|e| e.duration)),
+                "travel_cm": mean_std(cell.iter().map(|e| e.travel_cm)),
+                "proximity_cm": mean_std(cell.iter().map(|e| e.proximity_cm)),
+                "cosine_distance": mean_std(cell.iter().map(|e| e.cosine_distance)),
+                "hard_violations": cell.iter().map(|e| e.hard_violations).sum::<usize>(),
+            }));
         }
     }
-    Ok(rows)
+    serde_json::json!({"tasks": s.tasks, "seed": s.seed, "results": rows, "seconds": r.wall_seconds})
+}
+
+/// Fig. 4.5: the first task's gripper paths, one panel per method, every user.
+fn planar_figure(r: &PlanarResults) -> Result<String, Box<dyn std::error::Error>> {
+    use crate::figures::SeriesKind;
+    let s = &r.settings;
+    let task = r.tasks.first().ok_or("no task")?;
+    let problem = &task.reach[task.target].problem;
+    let pole = problem.scene.obstacle("pole").map(|o| (o.pose.translation.x, o.pose.translation.y)).unwrap_or_default();
+    let objects: Vec<(f64, f64)> = task.reach.iter().map(|g| (g.position[0], g.position[1])).collect();
+    let place = (task.place.position[0], task.place.position[1]);
+    let panels: Vec<Panel> = s
+        .methods
+        .iter()
+        .enumerate()
+        .map(|(m, method)| {
+            let mut panel = Panel::new(method.as_str(), "x (m)", "y (m)").ranges((0.0, 0.5), (0.0, 0.5)).equal();
+            for (u, user) in s.users.iter().enumerate() {
+                if let Some(e) = r.episodes.iter().find(|e| e.task == task.index && e.user == u && e.method == m) {
+                    panel = panel.with(Series::line(&format!("{} ({})", user.name(), e.outcome.as_str()), &e.path, u));
+                }
+            }
+            panel
+                .with(Series { label: None, points: vec![pole], color: 7, kind: SeriesKind::Circles(0.03) })
+                .with(Series::points("cylinders", &objects, 3))
+                .with(Series::points("place", &[place], 2))
+        })
+        .collect();
+    Ok(render_panels("planar pick-and-place, task 0: gripper paths by method (top view)", &panels, 360, 400)?)
 }

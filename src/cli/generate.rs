@@ -1,6 +1,10 @@
 //! `tandem generate`: bulk training trajectories from a problem family.
 
-use crate::data::{GenerateSettings, GenerateSummary, Progress, ShardSpec, generate};
+use crate::data::{
+    GenerateSettings, GenerateSummary, MAX_ATTEMPTS, MAX_CHUNK_SIZE, MAX_COUNT, MAX_EVALUATIONS, MAX_THREADS, Progress,
+    ShardSpec, generate,
+};
+use crate::scene::{MAX_HORIZON, MIN_HORIZON};
 use std::path::PathBuf;
 
 /// Arguments of `tandem generate`.
@@ -10,8 +14,8 @@ pub struct GenerateArgs {
     /// problems/panda_grasp_family.toml.
     #[arg(long, value_name = "FAMILY.toml")]
     pub family: PathBuf,
-    /// Number of samples: ids 0 … N−1.
-    #[arg(long, value_name = "N")]
+    /// Number of samples: ids 0 … N−1 (1 to 10^11; at most 10^6 part files).
+    #[arg(long, value_name = "N", value_parser = |s: &str| super::number_in(s, 1..=MAX_COUNT))]
     pub count: u64,
     /// Dataset folder: part-NNNNN.parquet files, _dataset.json, _manifest.json
     /// and _timings/. Re-running the same command completes it.
@@ -20,11 +24,13 @@ pub struct GenerateArgs {
     /// Run seed S: sample i draws from a stream seeded by (S, i) only.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Slices per trajectory T (default: the base problem's optimizer.horizon).
-    #[arg(long, short = 'T')]
+    /// Slices per trajectory T, 2 to 100000 (default: the base problem's
+    /// optimizer.horizon).
+    #[arg(long, short = 'T', value_name = "T",
+          value_parser = |s: &str| super::number_in(s, MIN_HORIZON..=MAX_HORIZON))]
     pub horizon: Option<usize>,
-    /// Worker threads (default: every core). Does not change the output.
-    #[arg(long, value_name = "K")]
+    /// Worker threads, 1 to 1024 (default: every core). Does not change the output.
+    #[arg(long, value_name = "K", value_parser = |s: &str| super::number_in(s, 1..=MAX_THREADS))]
     pub threads: Option<usize>,
     /// Generate only share I of M (0 ≤ I < M) of the part files, e.g. on M
     /// machines; the shards together are the dataset of one run. Writes
@@ -32,16 +38,19 @@ pub struct GenerateArgs {
     /// then only writes _manifest.json.
     #[arg(long, value_name = "I/M")]
     pub shard: Option<ShardSpec>,
-    /// Ids per part file (part of the dataset's identity).
-    #[arg(long, default_value_t = 100, value_name = "IDS")]
+    /// Ids per part file (part of the dataset's identity), 1 to 100000,
+    /// and at most 10^7 slices (IDS × (T + 1)) per part.
+    #[arg(long, default_value_t = 100, value_name = "IDS",
+          value_parser = |s: &str| super::number_in(s, 1..=MAX_CHUNK_SIZE))]
     pub chunk_size: u64,
     /// IK + planning + optimization attempts per sample before it counts
     /// as rejected; each uses another planner seed, and the even-numbered
-    /// ones (2nd, 4th, …) the flipped grasp.
-    #[arg(long, default_value_t = 3)]
+    /// ones (2nd, 4th, …) the flipped grasp; 1 to 100.
+    #[arg(long, default_value_t = 3, value_parser = |s: &str| super::number_in(s, 1..=MAX_ATTEMPTS))]
     pub attempts: u32,
-    /// Evaluation budget of each optimizer solve of an attempt.
-    #[arg(long, default_value_t = 200, value_name = "N")]
+    /// Evaluation budget of each optimizer solve of an attempt, 1 to 10^6.
+    #[arg(long, default_value_t = 200, value_name = "N",
+          value_parser = |s: &str| super::number_in(s, 1..=MAX_EVALUATIONS))]
     pub max_evaluations: usize,
     /// Print the manifest as one JSON object instead of the summary.
     #[arg(long)]

@@ -32,7 +32,7 @@ pub fn report(desc: &RobotDescription) -> String {
         desc.independent_joints().len()
     );
     out.push_str("\nkinematic tree:\n");
-    tree(desc, desc.links().iter().position(|l| l.name == desc.root_link()).unwrap_or(0), 1, &mut out);
+    tree(desc, desc.links().iter().position(|l| l.name == desc.root_link()).unwrap_or(0), &mut out);
     out.push_str("\njoints:\n");
     for j in desc.joints() {
         let _ = write!(out, "  {:<28} {:<10}", j.name, j.kind.name());
@@ -75,12 +75,27 @@ pub fn report(desc: &RobotDescription) -> String {
     out
 }
 
-fn tree(desc: &RobotDescription, link: usize, depth: usize, out: &mut String) {
-    let _ = writeln!(out, "{}{}", "  ".repeat(depth), desc.links()[link].name);
-    for (j, joint) in desc.joints().iter().enumerate() {
-        if joint.parent == link {
-            let _ = writeln!(out, "{}└─ {} ({})", "  ".repeat(depth + 1), desc.joints()[j].name, joint.kind.name());
-            tree(desc, joint.child, depth + 2, out);
+/// Depth beyond which the tree is no longer indented further (its level is
+/// printed instead), so a long chain prints in linear size.
+const MAX_INDENT: usize = 32;
+
+/// The kinematic tree below `root`, depth first (an explicit stack: a
+/// 10,000-link chain would overflow the call stack).
+fn tree(desc: &RobotDescription, root: usize, out: &mut String) {
+    let children = desc.children();
+    let indent = |depth: usize| {
+        if depth <= MAX_INDENT { "  ".repeat(depth) } else { format!("{}[level {depth}] ", "  ".repeat(MAX_INDENT)) }
+    };
+    // (joint leading to the link, the link, the link line's depth)
+    let mut pending = vec![(None, root, 1)];
+    while let Some((joint, link, depth)) = pending.pop() {
+        if let Some(j) = joint {
+            let joint: &crate::robot::Joint = &desc.joints()[j];
+            let _ = writeln!(out, "{}└─ {} ({})", indent(depth - 1), joint.name, joint.kind.name());
+        }
+        let _ = writeln!(out, "{}{}", indent(depth), desc.links()[link].name);
+        for &j in children[link].iter().rev() {
+            pending.push((Some(j), desc.joints()[j].child, depth + 2));
         }
     }
 }

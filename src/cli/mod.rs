@@ -13,12 +13,11 @@
 mod arbitrate;
 mod check;
 mod demo;
-#[cfg(feature = "train")]
 mod experiment;
+mod experiment_policy;
 mod generate;
 mod inspect;
 mod kinematics;
-#[cfg(feature = "train")]
 mod learn;
 mod plan;
 mod policy;
@@ -30,17 +29,52 @@ pub use problem_args::{MoveItArgs, ProblemArgs};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
+/// What a command that ran to its end found, beside the output it printed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    /// It succeeded: exit status [`EXIT_SUCCESS`].
+    Success,
+    /// It ran, but the answer is "no" (a collision, no path, no converged
+    /// trajectory, a rollout that missed the goal): exit status
+    /// [`EXIT_UNSUCCESSFUL`].
+    Unsuccessful,
+}
+
+/// Exit status of a command that succeeded.
+pub const EXIT_SUCCESS: u8 = 0;
+/// Exit status of an error: an input file or argument value that is
+/// invalid (the message names the file, key, line or value), or I/O that failed.
+pub const EXIT_ERROR: u8 = 1;
+/// Exit status of a command line that does not parse: an unknown option,
+/// a missing argument, a value of the wrong type or outside its documented
+/// range (clap's usage errors).
+pub const EXIT_USAGE: u8 = 2;
+/// Exit status of a command that ran but did not succeed: `check` found a
+/// collision (at the configuration, or at a joint goal); `plan` found no
+/// path (start or goal invalid, time or iteration limit); `solve` did not
+/// converge to a collision-free trajectory within limits; `policy` had a
+/// rollout end farther from the goal than its tolerance.
+pub const EXIT_UNSUCCESSFUL: u8 = 3;
+
 /// tandem — motion for human-robot shared control.
 ///
 /// Loads robots from URDF and computes exact kinematics (cross-checked
-/// against Pinocchio to 1e-9), LQR tracking policies, and collision checks
-/// of problem files (signed distances cross-checked against coal). Every command prints human-readable text by
+/// against Pinocchio to 1e-9), LQR tracking policies, collision checks,
+/// plans and optimized trajectories of problem files (signed distances
+/// cross-checked against coal). Every command prints human-readable text by
 /// default and one JSON object with --json where offered. Errors go to
-/// stderr with the file, element, line and value at fault, and exit code 1.
+/// stderr with the file, element, line and value at fault.
+///
+/// Exit status: 0 success; 1 an invalid input file or argument value, or
+/// failed I/O; 2 a command line that does not parse (unknown option,
+/// missing argument, value outside its range); 3 the command ran but did
+/// not succeed (check: a collision; plan: no path; solve: not converged,
+/// colliding or outside limits; policy: a rollout missed the goal).
 #[derive(Debug, Parser)]
 #[command(name = "tandem", version, propagate_version = true)]
 pub struct Cli {
     #[command(subcommand)]
+    /// The subcommand to run.
     pub command: Command,
 }
 
@@ -61,7 +95,10 @@ pub struct UrdfArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the main job on the embedded default robot (the Franka Panda):
-    /// forward kinematics, frame Jacobian and manipulability along a sweep.
+    /// time forward kinematics and the gripper Jacobian, print the
+    /// clearance to the table and the box along a forward lean, then plan
+    /// and optimize a reach-and-grasp of the box and write the trajectory
+    /// (CSV, Parquet) and its plots into --out.
     ///
     /// Example: tandem demo
     Demo(demo::DemoArgs),
@@ -86,21 +123,33 @@ pub enum Command {
     /// optionally plot it (Fig. 3.9 style).
     ///
     /// The reference defaults to a 3 s minimum-jerk motion of the embedded
-    /// Panda; --reference takes a CSV (joint-name header, one row per
-    /// waypoint, --dt apart).
+    /// Panda; --reference takes a trajectory CSV as `tandem solve --out`
+    /// writes it (header `time,<joint>,…`, the start first, evenly spaced
+    /// times), whose joints must be joints of the robot (--urdf, default
+    /// the embedded Panda), within their limits. Exit status 3 when a
+    /// rollout ends farther than --goal-tolerance from the goal.
     ///
-    /// Example: tandem policy --time-varying --plot policy.svg
+    /// Examples:
+    ///   tandem policy --time-varying --plot policy.svg
+    ///   tandem solve builtin:panda_reach_obstacle --out out/ && tandem policy --reference out/trajectory.csv
+    #[command(verbatim_doc_comment)]
     Policy(policy::PolicyArgs),
     /// Validate a problem file and check a configuration for collisions.
     ///
     /// Loads the problem (robot, SRDF, scene, start, goal, settings; any
     /// error names the file, key and line), builds its collision model and
-    /// reports, for the start configuration or --q, whether it is
-    /// collision-free, the minimum signed distance and the closest pair of
-    /// bodies, and every colliding pair.
+    /// reports, for the start configuration or --q (within the joint
+    /// limits), whether it is collision-free, the minimum signed distance
+    /// and the closest pair of bodies, and every colliding pair. Exit
+    /// status 3 when the configuration (or a joint goal) collides.
+    ///
+    /// A family file (a `base` key; format in problems/README.md) is
+    /// validated with its base problem, and its first --samples members
+    /// are drawn and checked the same way.
     ///
     /// Examples:
     ///   tandem check problems/panda_grasp_box.toml
+    ///   tandem check problems/panda_grasp_family.toml --samples 5
     ///   tandem check builtin:panda_reach_obstacle --q 0,0,0,-1.5,0,1.5,0 --json
     ///   tandem check --urdf panda_spherized.urdf --srdf panda.srdf
     ///     --scene scene0001.yaml --request request0001.yaml
@@ -111,7 +160,8 @@ pub enum Command {
     ///
     /// Pose and grasp goals are solved by inverse kinematics first (several
     /// collision-free solutions form the goal set). Settings come from the
-    /// problem's [planner] table; the same seed gives the same path.
+    /// problem's [planner] table; the same seed gives the same path. Exit
+    /// status 3 when no path is found (the reason is printed).
     ///
     /// Examples:
     ///   tandem plan problems/panda_reach_obstacle.toml --seed 3 --svg path.svg
@@ -126,8 +176,9 @@ pub enum Command {
     /// (format: problems/README.md); without any (e.g. MoveIt inputs) the
     /// optimizer minimises acceleration subject to joint limits, collision
     /// avoidance and reaching the goal at rest. The result is validated by
-    /// checking the motion between slices at fine resolution. Exit status 0
-    /// also when it does not converge: read "status".
+    /// checking the motion between slices at fine resolution. Trajectories
+    /// are printed and written with the start configuration first (time 0).
+    /// Exit status 3 unless "status" is "converged".
     ///
     /// Examples:
     ///   tandem solve problems/panda_grasp_box.toml --out results/
@@ -179,33 +230,46 @@ pub enum Command {
     Arbitrate(arbitrate::ArbitrateArgs),
     /// Train networks on tandem's datasets: `tandem learn policy --data DIR
     /// --out policy.safetensors` fits the robot policy network (seed §3.3.3).
-    #[cfg(feature = "train")]
+    /// See `tandem learn policy --help`.
     Learn(learn::LearnArgs),
-    /// Experiments: `tandem experiment policy` follows a learned policy
-    /// alone and under shared control, beside the LQR tracking policy.
-    #[cfg(feature = "train")]
+    /// Run the seed's shared-control experiments with simulated operators:
+    /// reach-grasp (Table 5.1), planar (Table 4.1), and the learned policy
+    /// alone and under shared control (policy). See `tandem experiment
+    /// <name> --help`.
     Experiment(experiment::ExperimentArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
 ///
 /// # Errors
-/// Any error of the command, ready to print.
-pub fn run(cli: Cli) -> Result<(), Box<dyn std::error::Error>> {
+/// Any error of the command, ready to print (exit status [`EXIT_ERROR`]).
+pub fn run(cli: Cli) -> Result<Outcome, Box<dyn std::error::Error>> {
+    let done = |r: Result<(), Box<dyn std::error::Error>>| r.map(|()| Outcome::Success);
     match cli.command {
-        Command::Demo(args) => demo::run(&args),
-        Command::Inspect(args) => inspect::run(&args),
-        Command::Fk(args) => kinematics::run(&args),
+        Command::Demo(args) => done(demo::run(&args)),
+        Command::Inspect(args) => done(inspect::run(&args)),
+        Command::Fk(args) => done(kinematics::run(&args)),
         Command::Policy(args) => policy::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Plan(args) => plan::run(&args),
         Command::Solve(args) => solve::run(&args),
-        Command::Generate(args) => generate::run(&args),
+        Command::Generate(args) => done(generate::run(&args)),
         Command::Arbitrate(args) => arbitrate::run(&args),
-        #[cfg(feature = "train")]
-        Command::Learn(args) => learn::run(&args),
-        #[cfg(feature = "train")]
-        Command::Experiment(args) => experiment::run(&args),
+        Command::Learn(args) => done(learn::run(&args)),
+        Command::Experiment(args) => done(experiment::run(&args)),
+    }
+}
+
+/// Parses a number within `range` for an option, naming the range in the error.
+pub(crate) fn number_in<T>(text: &str, range: std::ops::RangeInclusive<T>) -> Result<T, String>
+where
+    T: std::str::FromStr + PartialOrd + std::fmt::Display,
+{
+    let value: T = text.trim().parse().map_err(|_| format!("'{text}' is not a number"))?;
+    if range.contains(&value) {
+        Ok(value)
+    } else {
+        Err(format!("{value} is outside the allowed range [{}, {}]", range.start(), range.end()))
     }
 }
 

@@ -1,7 +1,8 @@
 //! `tandem plan`: RRT-Connect on a problem file or MoveIt inputs.
 
-use super::ProblemArgs;
-use crate::plan::{path_length, plan_problem};
+use super::{Outcome, ProblemArgs};
+use crate::collision::CollisionWorkspace;
+use crate::plan::{PlanStatus, path_length, plan_problem};
 use crate::plot::SvgPlot;
 use crate::robot::KinematicsWorkspace;
 use crate::scene::Problem;
@@ -18,7 +19,9 @@ pub struct PlanArgs {
     /// Print exactly one JSON object: {"status", "time_ms", "iterations",
     /// "waypoints" [[q], ...] (after shortcutting), "path_length" (rad,
     /// joint space), "simplify_ms", "nodes", "raw_waypoints", "certified"
-    /// (every edge passed the certified clearance check), "attempts"}.
+    /// (every edge passed the certified clearance check), "attempts",
+    /// "reason" (why the start or goal was refused, else null)}. Exit
+    /// status 3 unless "status" is "solved".
     #[arg(long)]
     pub json: bool,
     /// Write an SVG of the gripper (or last link) path seen from above and
@@ -27,9 +30,17 @@ pub struct PlanArgs {
     pub svg: Option<PathBuf>,
 }
 
-pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
+pub(super) fn run(args: &PlanArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
     let report = plan_problem(&problem, args.seed)?;
+    let reason = match report.result.status {
+        PlanStatus::StartInvalid => Some(format!("start: {}", why_invalid(&problem, &problem.start)?)),
+        PlanStatus::GoalInvalid => Some(match report.goals.first() {
+            Some(goal) => format!("goal: {}", why_invalid(&problem, goal)?),
+            None => "no goal configuration".to_string(),
+        }),
+        _ => None,
+    };
     if let Some(file) = &args.svg {
         let dense = crate::plan::resample(&report.path, 200);
         std::fs::write(file, gripper_path_svg(&problem, &dense, "path")?)
@@ -49,11 +60,15 @@ pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
             "raw_waypoints": r.path.len(),
             "certified": report.certified,
             "attempts": report.attempts,
+            "reason": reason,
         });
         println!("{out}");
     } else {
         println!("problem {} ({}): {}", problem.name, problem.origin, r.status.name());
-        if r.status == crate::plan::PlanStatus::Solved {
+        if let Some(reason) = &reason {
+            println!("{reason}");
+        }
+        if r.status == PlanStatus::Solved {
             let clearance = problem.planner.clearance;
             match report.certified {
                 true => println!("every edge certified to keep {:.1} mm of clearance", clearance * 500.0),
@@ -82,7 +97,28 @@ pub(super) fn run(args: &PlanArgs) -> Result<(), Box<dyn std::error::Error>> {
             }
         }
     }
-    Ok(())
+    Ok(if r.status == PlanStatus::Solved { Outcome::Success } else { Outcome::Unsuccessful })
+}
+
+/// Why the planner refused configuration `q` as a start or goal: outside
+/// a limit, in collision, or closer to something than the clearance.
+fn why_invalid(problem: &Problem, q: &[f64]) -> Result<String, Box<dyn std::error::Error>> {
+    if let Err(e) = problem.robot.check_within_limits(q) {
+        return Ok(e.to_string());
+    }
+    let model = problem.collision_model()?;
+    let mut ws = CollisionWorkspace::new(&model);
+    let Some(closest) = model.min_distance(&mut ws, q)? else {
+        return Ok("refused by the planner (no collision pair to blame)".into());
+    };
+    let (a, b) = model.pair_names(closest.pair);
+    let d = closest.signed.distance;
+    let clearance = problem.planner.clearance;
+    Ok(if d < 0.0 {
+        format!("in collision: {a} and {b} penetrate by {:.4} m", -d)
+    } else {
+        format!("{a} and {b} are {d:.5} m apart, closer than the planner clearance of {clearance} m")
+    })
 }
 
 /// Top (x, y) and side (x, z) views of the end-effector path through

@@ -1,10 +1,16 @@
 //! `tandem policy`: an LQR tracking policy for the embedded Panda, its
 //! closed-loop behaviour, and a Fig. 3.9-style picture of it.
 
-use crate::control::{ControlError, GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use super::Outcome;
+use crate::control::{
+    ControlError, GainSchedule, JointTrajectory, MAX_TIME_STEP, MIN_TIME_STEP, TrackingPolicy, TrackingWeights,
+    WEIGHT_RANGE,
+};
+use crate::data::TrajectoryTable;
 use crate::plot::SvgPlot;
-use crate::robot::RobotModel;
+use crate::robot::{MeshSearchPath, RobotDescription, RobotModel};
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use super::demo::PANDA_READY;
@@ -15,27 +21,40 @@ const PANDA_GOAL: [f64; 7] = [0.6, -0.2, -0.3, -1.9, 0.2, 1.8, 0.4];
 /// Arguments of `tandem policy`.
 #[derive(Debug, clap::Args)]
 pub struct PolicyArgs {
-    /// Reference CSV (header of joint names, one row per waypoint). Default:
-    /// a 3 s minimum-jerk motion of the Panda from its ready pose.
+    /// Reference trajectory CSV as `tandem solve --out` writes it: header
+    /// `time,<joint>,…`, one row per waypoint, the start first, evenly
+    /// spaced times (their spacing is the time step). Default: a 3 s
+    /// minimum-jerk motion of the Panda from its ready pose.
     #[arg(long)]
     pub reference: Option<PathBuf>,
-    /// Time step between waypoints and control ticks (s).
-    #[arg(long, default_value_t = 0.01)]
-    pub dt: f64,
-    /// Weight on position error.
-    #[arg(long, default_value_t = 100.0)]
+    /// The robot whose joints the reference names (its joints must exist
+    /// and its values lie within their limits). Default: the embedded Panda.
+    #[arg(long, value_name = "URDF")]
+    pub urdf: Option<PathBuf>,
+    /// Time step between waypoints and control ticks (s), 0.0001 to 1.
+    /// Default: 0.01 for the built-in reference; a --reference file sets
+    /// its own (give --dt only to confirm it).
+    #[arg(long, value_parser = |s: &str| super::number_in(s, MIN_TIME_STEP..=MAX_TIME_STEP))]
+    pub dt: Option<f64>,
+    /// Weight on position error (1/rad²), 1e-4 to 1e4.
+    #[arg(long, default_value_t = 100.0, value_parser = weight)]
     pub q_weight: f64,
-    /// Weight on velocity error.
-    #[arg(long, default_value_t = 1.0)]
+    /// Weight on velocity error (s²/rad²), 1e-4 to 1e4.
+    #[arg(long, default_value_t = 1.0, value_parser = weight)]
     pub v_weight: f64,
-    /// Weight on acceleration (the control).
-    #[arg(long, default_value_t = 0.1)]
+    /// Weight on acceleration, the control (s⁴/rad²), 1e-4 to 1e4.
+    #[arg(long, default_value_t = 0.1, value_parser = weight)]
     pub r_weight: f64,
     /// Use time-varying gains from the finite-horizon Riccati recursion.
     #[arg(long)]
     pub time_varying: bool,
-    /// The two joints (1-based) spanning the plotted slice.
-    #[arg(long, value_name = "A,B", default_value = "1,2")]
+    /// Largest distance (rad, joint space) from the goal at which a
+    /// rollout counts as arrived; any rollout ending farther gives exit
+    /// status 3.
+    #[arg(long, default_value_t = 1e-3, value_parser = |s: &str| super::number_in(s, 1e-12..=10.0))]
+    pub goal_tolerance: f64,
+    /// With --plot: the two joints (1-based) spanning the plotted slice.
+    #[arg(long, value_name = "A,B", default_value = "1,2", requires = "plot")]
     pub slice: String,
     /// Write a Fig. 3.9-style SVG: reference, rollouts from nearby starts,
     /// policy velocity arrows, in the slice of two joints.
@@ -43,17 +62,70 @@ pub struct PolicyArgs {
     pub plot: Option<PathBuf>,
 }
 
-pub(super) fn run(args: &PolicyArgs) -> Result<(), Box<dyn std::error::Error>> {
-    let reference = match &args.reference {
-        Some(path) => JointTrajectory::from_csv(path, args.dt)?,
-        None => {
-            let joints = RobotModel::panda().joint_names().to_vec();
-            JointTrajectory::minimum_jerk(joints, &PANDA_READY, &PANDA_GOAL, 3.0, args.dt)?
+fn weight(text: &str) -> Result<f64, String> {
+    super::number_in(text, WEIGHT_RANGE)
+}
+
+/// The reference the arguments ask for, its joints checked against the robot.
+fn reference(args: &PolicyArgs) -> Result<JointTrajectory, Box<dyn std::error::Error>> {
+    let robot = match &args.urdf {
+        Some(path) => {
+            let desc = RobotDescription::from_urdf_file(path, &MeshSearchPath::default().with_ros_package_path())?;
+            RobotModel::builder(Arc::new(desc)).build()?
         }
+        None => RobotModel::panda(),
     };
+    let Some(path) = &args.reference else {
+        let joints = RobotModel::panda().joint_names().to_vec();
+        if args.urdf.is_some() {
+            return Err("--urdf needs a --reference naming its joints (the built-in reference is the Panda's)".into());
+        }
+        return Ok(JointTrajectory::minimum_jerk(joints, &PANDA_READY, &PANDA_GOAL, 3.0, args.dt.unwrap_or(0.01))?);
+    };
+    let table = TrajectoryTable::read_csv(path)?;
+    if let Some(dt) = args.dt.filter(|dt| (dt - table.time_step).abs() > 1e-9 * dt) {
+        let msg = format!(
+            "--dt {dt} disagrees with the time column of {} ({} s apart): omit --dt",
+            path.display(),
+            table.time_step
+        );
+        return Err(msg.into());
+    }
+    let description = robot.description();
+    for (k, name) in table.joints.iter().enumerate() {
+        let joint = description.joint(name).filter(|j| j.kind.is_movable()).ok_or_else(|| {
+            let names = description.joints().iter().filter(|j| j.kind.is_movable()).map(|j| j.name.as_str());
+            let hint = crate::robot::did_you_mean(&crate::robot::suggest_names(name, names));
+            format!(
+                "{}: column {} names joint '{name}', which {} has no movable joint of{hint}",
+                path.display(),
+                k + 2,
+                description.name()
+            )
+        })?;
+        let limits = joint.limits;
+        if let Some(row) = table.configurations.iter().position(|q| !limits.contains(q[k])) {
+            let v = table.configurations[row][k];
+            let (lo, hi) = (limits.lower, limits.upper);
+            return Err(format!(
+                "{}: row {row} (line {}): joint '{name}' = {v} is outside its limits [{lo}, {hi}]",
+                path.display(),
+                row + 2
+            )
+            .into());
+        }
+    }
+    Ok(JointTrajectory::new(table.joints, table.time_step, &table.configurations)?)
+}
+
+pub(super) fn run(args: &PolicyArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
+    let reference = reference(args)?;
     let weights = TrackingWeights { position: args.q_weight, velocity: args.v_weight, control: args.r_weight };
     let schedule = if args.time_varying { GainSchedule::TimeVarying } else { GainSchedule::Constant };
-    let (a, b) = parse_slice(&args.slice, reference.dof())?;
+    let slice = match args.plot {
+        Some(_) => Some(parse_slice(&args.slice, reference.dof())?),
+        None => None,
+    };
     let policy = TrackingPolicy::new(reference, weights, schedule)?;
     let r = policy.reference();
     let k = policy.gain(0);
@@ -69,21 +141,29 @@ pub(super) fn run(args: &PolicyArgs) -> Result<(), Box<dyn std::error::Error>> {
     let starts = nearby_starts(r.position(0), 8);
     let steps = r.len() + (3.0 / r.dt()) as usize;
     let mut rollouts = Vec::new();
+    let mut missed = 0;
     for start in &starts {
         let path = policy.rollout(start, steps)?;
         let miss = distance(path.last().map_or(start.as_slice(), Vec::as_slice), r.goal());
+        let verdict = if miss <= args.goal_tolerance { "" } else { " — MISSED the goal" };
+        missed += usize::from(miss > args.goal_tolerance || !miss.is_finite());
         println!(
-            "  rollout from a start {:.3} rad off: ends {miss:.2e} rad from the goal",
+            "  rollout from a start {:.3} rad off: ends {miss:.2e} rad from the goal{verdict}",
             distance(start, r.position(0))
         );
         rollouts.push(path);
     }
     report_query_time(&policy)?;
-    if let Some(file) = &args.plot {
-        std::fs::write(file, field_plot(&policy, &rollouts, a, b)?)?;
+    if let (Some(file), Some((a, b))) = (&args.plot, slice) {
+        std::fs::write(file, field_plot(&policy, &rollouts, a, b)?)
+            .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
         println!("wrote {}", file.display());
     }
-    Ok(())
+    if missed > 0 {
+        println!("{missed} of {} rollouts ended more than {} rad from the goal", starts.len(), args.goal_tolerance);
+        return Ok(Outcome::Unsuccessful);
+    }
+    Ok(Outcome::Success)
 }
 
 /// Starts displaced from `q0` in a ring, in every joint, by up to 0.2 rad.

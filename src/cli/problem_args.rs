@@ -14,6 +14,7 @@ pub struct ProblemArgs {
     #[arg(required_unless_present = "scene")]
     pub problem: Option<PathBuf>,
     #[command(flatten)]
+    /// MoveIt inputs, instead of a problem file.
     pub moveit: MoveItArgs,
 }
 

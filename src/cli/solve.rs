@@ -1,12 +1,12 @@
 //! `tandem solve`: RRT-Connect, then trajectory optimization, on a problem
 //! file or MoveIt inputs.
 
-use super::ProblemArgs;
 use super::plan::gripper_path_svg;
+use super::{Outcome, ProblemArgs};
 use crate::data::{TrajectoryTable, write_csv, write_parquet};
 use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
 use crate::plot::SvgPlot;
-use crate::scene::Problem;
+use crate::scene::{MAX_HORIZON, MIN_HORIZON, Problem};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `tandem solve`.
@@ -17,9 +17,10 @@ pub struct SolveArgs {
     /// Seed of IK and RRT-Connect (default: the problem's planner.seed).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Number of optimized configurations T (default: the problem's
-    /// optimizer.horizon).
-    #[arg(long, short = 'T')]
+    /// Number of optimized configurations T, 2 to 100000 (default: the
+    /// problem's optimizer.horizon).
+    #[arg(long, short = 'T', value_name = "T",
+          value_parser = |s: &str| super::number_in(s, MIN_HORIZON..=MAX_HORIZON))]
     pub horizon: Option<usize>,
     /// Write trajectory.csv, trajectory.parquet, joints.svg (joint values
     /// over time) and path.svg (gripper path) into this folder.
@@ -29,14 +30,15 @@ pub struct SolveArgs {
     /// optimization), "iterations" (Gauss-Newton steps), "cost",
     /// "eq_violation", "ineq_violation", "min_distance" (m, over the
     /// slices), "collision_free" (checked every 2 mrad between slices),
-    /// "T", "joints", "trajectory" [[q_1], …, [q_T]], and "plan_ms",
+    /// "T" (optimized configurations), "joints", "trajectory" [[q_0], …,
+    /// [q_T]] (T + 1 rows, the start first, "time_step" apart), and "plan_ms",
     /// "optimize_ms", "outer_iterations", "evaluations", "within_limits",
     /// "time_step"}.
     #[arg(long)]
     pub json: bool,
 }
 
-pub(super) fn run(args: &SolveArgs) -> Result<(), Box<dyn std::error::Error>> {
+pub(super) fn run(args: &SolveArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
     let options = SolveOptions { seed: args.seed, horizon: args.horizon, ..SolveOptions::default() };
     let solution = solve_problem(&problem, &options)?;
@@ -44,18 +46,26 @@ pub(super) fn run(args: &SolveArgs) -> Result<(), Box<dyn std::error::Error>> {
         write_outputs(&problem, &solution, dir)?;
     }
     if args.json {
-        println!("{}", solution_json(&solution));
+        println!("{}", solution_json(&problem, &solution));
     } else {
         print_summary(&problem, &solution, args.out.as_deref());
     }
-    Ok(())
+    Ok(if solution.converged() { Outcome::Success } else { Outcome::Unsuccessful })
+}
+
+/// The solution as a trajectory file's table: the start, then q_1 … q_T.
+pub(super) fn trajectory_table(problem: &Problem, s: &ProblemSolution) -> TrajectoryTable {
+    let mut configurations = Vec::with_capacity(s.trajectory.len() + 1);
+    configurations.push(problem.start.clone());
+    configurations.extend(s.trajectory.iter().cloned());
+    TrajectoryTable { joints: s.joints.clone(), time_step: s.time_step, configurations }
 }
 
 fn ms(d: std::time::Duration) -> f64 {
     d.as_secs_f64() * 1e3
 }
 
-fn solution_json(s: &ProblemSolution) -> serde_json::Value {
+fn solution_json(problem: &Problem, s: &ProblemSolution) -> serde_json::Value {
     let r = &s.report;
     let plan_ms = ms(s.plan.planning_time + s.plan.simplify_time);
     serde_json::json!({
@@ -69,7 +79,7 @@ fn solution_json(s: &ProblemSolution) -> serde_json::Value {
         "collision_free": s.validation.collision_free,
         "T": s.trajectory.len(),
         "joints": s.joints,
-        "trajectory": s.trajectory,
+        "trajectory": trajectory_table(problem, s).configurations,
         "plan_ms": plan_ms,
         "optimize_ms": ms(r.time),
         "outer_iterations": r.outer_iterations,
@@ -116,8 +126,7 @@ pub(super) fn write_outputs(
     dir: &Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let table =
-        TrajectoryTable { joints: s.joints.clone(), time_step: s.time_step, configurations: s.trajectory.clone() };
+    let table = trajectory_table(problem, s);
     write_csv(&table, &dir.join("trajectory.csv"))?;
     write_parquet(&table, &dir.join("trajectory.parquet"))?;
     let write = |name: &str, text: String| {
@@ -125,9 +134,8 @@ pub(super) fn write_outputs(
         std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     };
     write("joints.svg", joints_svg(problem, s))?;
-    let mut with_start = vec![problem.start.clone()];
-    with_start.extend(s.trajectory.iter().cloned());
-    write("path.svg", gripper_path_svg(problem, &crate::plan::resample(&with_start, 200), "optimized path")?)?;
+    let path = crate::plan::resample(&table.configurations, 200);
+    write("path.svg", gripper_path_svg(problem, &path, "optimized path")?)?;
     Ok(())
 }
 
@@ -135,9 +143,10 @@ pub(super) fn write_outputs(
 fn joints_svg(problem: &Problem, s: &ProblemSolution) -> String {
     const COLORS: [&str; 8] = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"];
     let mut plot = SvgPlot::new(&format!("{}: joint trajectories", problem.name), "time (s)", "joint value (rad)");
+    let table = trajectory_table(problem, s);
     for (k, name) in s.joints.iter().enumerate() {
-        let mut points = vec![(0.0, problem.start[k])];
-        points.extend(s.trajectory.iter().enumerate().map(|(t, q)| ((t + 1) as f64 * s.time_step, q[k])));
+        let points: Vec<(f64, f64)> =
+            table.configurations.iter().enumerate().map(|(t, q)| (t as f64 * s.time_step, q[k])).collect();
         plot.line(&points, COLORS[k % COLORS.len()], 1.5, Some(name));
     }
     plot.render(720.0, 480.0)

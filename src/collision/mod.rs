@@ -40,9 +40,10 @@ mod spheres;
 
 pub use distance::{SignedDistance, closer_than, signed_distance};
 pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
+pub use motion::{MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
 pub use query::{CollisionWorkspace, PairDistance};
 pub use shape::{ConvexHull, Shape};
-pub use spheres::LANES;
+pub use spheres::{LANES, SimdLevel};
 
 use crate::robot::RobotError;
 use thiserror::Error;
@@ -52,24 +53,64 @@ use thiserror::Error;
 pub enum CollisionError {
     /// A dimension that is not finite and positive.
     #[error("invalid {what}: {value} (must be finite and positive)")]
-    InvalidShape { what: &'static str, value: f64 },
+    InvalidShape {
+        /// Which dimension (e.g. `box size`).
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+    },
     /// A mesh whose vertices span no volume.
     #[error("cannot build a convex hull from {points} points (need at least 4 finite, non-coplanar points)")]
-    DegenerateHull { points: usize },
+    DegenerateHull {
+        /// How many points were given.
+        points: usize,
+    },
     /// A link whose collision mesh tandem cannot read.
     #[error("link '{link}' has a collision mesh in a format tandem cannot read (use STL, OBJ or COLLADA)")]
-    UnreadableMesh { link: String },
+    UnreadableMesh {
+        /// The link's name.
+        link: String,
+    },
+    /// A link's collision element that cannot become a collision shape
+    /// (e.g. a flat mesh, whose convex hull has no volume).
+    #[error("{urdf}: link '{link}', collision element {element}{}: {source}", mesh.as_ref().map(|p| format!(" (mesh {})", p.display())).unwrap_or_default())]
+    LinkGeometry {
+        /// The URDF (path or `<string>`) the element comes from.
+        urdf: String,
+        /// The link's name.
+        link: String,
+        /// Index of the `<collision>` element in the link (URDF order, from 0).
+        element: usize,
+        /// The mesh file, for mesh elements.
+        mesh: Option<std::path::PathBuf>,
+        #[source]
+        /// Why the element cannot become a shape.
+        source: Box<CollisionError>,
+    },
     /// A name (link, obstacle, object) that matches nothing.
     #[error("no link, obstacle or object named '{name}'{}", crate::robot::did_you_mean(suggestions))]
-    UnknownName { name: String, suggestions: Vec<String> },
+    UnknownName {
+        /// The name asked for.
+        name: String,
+        /// Close names that do exist, for "did you mean".
+        suggestions: Vec<String>,
+    },
     /// A surface group name that no robot collision element has.
     #[error("no robot collision element is named '{name}'{}", crate::robot::did_you_mean(suggestions))]
-    UnknownSurface { name: String, suggestions: Vec<String> },
+    UnknownSurface {
+        /// The name asked for.
+        name: String,
+        /// Close names that do exist.
+        suggestions: Vec<String>,
+    },
     /// A surface group name (see
     /// [`CollisionModelBuilder::surface_groups`]) that is already a link's,
     /// an obstacle's or an object's.
     #[error("surface '{name}' has the name of a link, obstacle or object; name its collision elements apart")]
-    SurfaceNameTaken { name: String },
+    SurfaceNameTaken {
+        /// The surface's name.
+        name: String,
+    },
     /// A robot-side error (unknown frame, …).
     #[error(transparent)]
     Robot(#[from] RobotError),

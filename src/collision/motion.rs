@@ -6,6 +6,24 @@ use super::model::CollisionModel;
 use super::query::{CollisionWorkspace, prunes};
 use super::spheres::{Certification, LANES, SampleOrder, SphereModel, Verdict};
 use crate::robot::RobotError;
+use std::time::Instant;
+
+/// Finest resolution of a sampled motion check (rad or m): 10 µrad, 10 µm
+/// at a 1 m lever. Finer ones only burn time (1e-300 once overflowed the
+/// sample count to zero, so only the ends were checked).
+pub const MIN_RESOLUTION: f64 = 1e-5;
+
+/// Smallest clearance of a certified motion check (m): each advance is at
+/// least `clearance / 2` over the fastest point's sweep.
+pub const MIN_CLEARANCE: f64 = 1e-6;
+
+/// Most configurations one motion check may place (sampled) or steps it
+/// may advance (certified): a motion needing more is refused (sampled) or
+/// not certified, instead of running for hours.
+pub const MAX_MOTION_SAMPLES: usize = 1 << 22;
+
+/// Samples between two looks at the clock of a motion check with a deadline.
+const CLOCK_EVERY: usize = 256;
 
 impl CollisionModel {
     /// Certified check of the straight joint-space motion from `q0` to
@@ -36,23 +54,49 @@ impl CollisionModel {
         q1: &[f64],
         clearance: f64,
     ) -> Result<bool, RobotError> {
-        self.check_motion(q0, q1, "clearance", clearance)?;
+        Ok(self.motion_free_certified_by(ws, q0, q1, clearance, None)?.unwrap_or(false))
+    }
+
+    /// [`motion_free_certified`](Self::motion_free_certified) that gives
+    /// up at `deadline`: `None` when the clock ran out first. A motion
+    /// that would need more than [`MAX_MOTION_SAMPLES`] advances is not
+    /// certified (`Some(false)`).
+    ///
+    /// # Errors
+    /// Bad configurations; a `clearance` below [`MIN_CLEARANCE`] or not finite.
+    pub fn motion_free_certified_by(
+        &self,
+        ws: &mut CollisionWorkspace,
+        q0: &[f64],
+        q1: &[f64],
+        clearance: f64,
+        deadline: Option<Instant>,
+    ) -> Result<Option<bool>, RobotError> {
+        self.check_motion(q0, q1)?;
+        if !(clearance.is_finite() && clearance >= MIN_CLEARANCE) {
+            let expected = format!("a finite clearance of at least {MIN_CLEARANCE} m");
+            return Err(RobotError::InvalidSetting { name: "clearance", value: clearance, expected });
+        }
         match self.certify_fast(ws, (q0, q1), clearance) {
-            Some(Certification::Certified) => return Ok(true),
-            Some(Certification::Fails) => return Ok(false),
+            Some(Certification::Certified) => return Ok(Some(true)),
+            Some(Certification::Fails) => return Ok(Some(false)),
             // Undecided, sliding joints or no fast path: the general path decides.
             _ => {}
         }
         self.sweep_bounds(ws, q0, q1);
         let mut t = 0.0f64;
-        loop {
+        for advance in 0..MAX_MOTION_SAMPLES {
+            if advance % CLOCK_EVERY == CLOCK_EVERY - 1 && deadline.is_some_and(|d| Instant::now() > d) {
+                return Ok(None);
+            }
             self.place_along(ws, q0, q1, t)?;
-            let Some(step) = self.safe_step(ws, clearance, t == 0.0) else { return Ok(false) };
+            let Some(step) = self.safe_step(ws, clearance, t == 0.0) else { return Ok(Some(false)) };
             if t >= 1.0 {
-                return Ok(true);
+                return Ok(Some(true));
             }
             t = (t + step).min(1.0);
         }
+        Ok(Some(false))
     }
 
     /// Certification on the sphere fast path (validated inputs), if the
@@ -70,15 +114,10 @@ impl CollisionModel {
         Some(fast.certify(scratch, motion, (clearance / 2.0, clearance)))
     }
 
-    /// Validates both ends of a motion and its positive setting `name`.
-    fn check_motion(&self, q0: &[f64], q1: &[f64], name: &str, value: f64) -> Result<(), RobotError> {
+    /// Validates both ends of a motion.
+    fn check_motion(&self, q0: &[f64], q1: &[f64]) -> Result<(), RobotError> {
         self.robot.check_configuration(q0)?;
-        self.robot.check_configuration(q1)?;
-        if value.is_finite() && value > 0.0 {
-            Ok(())
-        } else {
-            Err(RobotError::NonFinite { joint: name.into(), index: 0, value })
-        }
+        self.robot.check_configuration(q1)
     }
 
     /// Places every moving object at `q0 + t (q1 − q0)`, without allocating.
@@ -110,11 +149,11 @@ impl CollisionModel {
     /// Relative-motion bound of every group pair over the motion q0 → q1.
     fn sweep_bounds(&self, ws: &mut CollisionWorkspace, q0: &[f64], q1: &[f64]) {
         for (sweep, gp) in ws.sweeps.iter_mut().zip(&self.group_pairs) {
-            *sweep = self.movers[gp.movers.clone()]
-                .iter()
-                .map(|&b| {
-                    let (column, multiplier, prismatic, _) = self.robot.body_joint(b as usize);
-                    let lever = if prismatic { 1.0 } else { self.levers[b as usize] };
+            *sweep = self
+                .movers(gp)
+                .map(|b| {
+                    let (column, multiplier, prismatic, _) = self.robot.body_joint(b);
+                    let lever = if prismatic { 1.0 } else { self.levers[b] };
                     (q1[column] - q0[column]).abs() * multiplier.abs() * lever
                 })
                 .sum();
@@ -161,8 +200,9 @@ impl CollisionModel {
     /// ones, both ends included, coarse to fine for an early exit.
     ///
     /// # Errors
-    /// Bad configurations; a non-positive or non-finite `resolution`
-    /// ([`RobotError::NonFinite`] names it as joint `resolution`).
+    /// Bad configurations; a `resolution` below [`MIN_RESOLUTION`] or not
+    /// finite; a motion that needs more than [`MAX_MOTION_SAMPLES`]
+    /// configurations at that resolution ([`RobotError::InvalidSetting`]).
     pub fn motion_free(
         &self,
         ws: &mut CollisionWorkspace,
@@ -170,23 +210,42 @@ impl CollisionModel {
         q1: &[f64],
         resolution: f64,
     ) -> Result<bool, RobotError> {
-        self.check_motion(q0, q1, "resolution", resolution)?;
-        let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
-        let steps = ((span / resolution).ceil() as usize).max(1);
+        let answer = self.motion_free_by(ws, q0, q1, resolution, None)?;
+        Ok(answer.expect("a motion check without a deadline always answers"))
+    }
+
+    /// [`motion_free`](Self::motion_free) that gives up at `deadline`:
+    /// `None` when the clock ran out before the answer.
+    ///
+    /// # Errors
+    /// As [`motion_free`](Self::motion_free).
+    pub fn motion_free_by(
+        &self,
+        ws: &mut CollisionWorkspace,
+        q0: &[f64],
+        q1: &[f64],
+        resolution: f64,
+        deadline: Option<Instant>,
+    ) -> Result<Option<bool>, RobotError> {
+        self.check_motion(q0, q1)?;
+        let steps = motion_samples(q0, q1, resolution)?;
         let mut order = SampleOrder::new(steps);
         if let Some(fast) = &self.spheres {
             if fast.always_collides() {
-                return Ok(false);
+                return Ok(Some(false));
             }
-            return self.motion_free_fast(fast, ws, q0, q1, steps, &mut order);
+            return self.motion_free_fast(fast, ws, (q0, q1), steps, &mut order, deadline);
         }
-        for k in order {
+        for (i, k) in order.enumerate() {
+            if i % CLOCK_EVERY == CLOCK_EVERY - 1 && deadline.is_some_and(|d| Instant::now() > d) {
+                return Ok(None);
+            }
             self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
             if !self.placed_collision_free(ws) {
-                return Ok(false);
+                return Ok(Some(false));
             }
         }
-        Ok(true)
+        Ok(Some(true))
     }
 
     /// [`motion_free`](Self::motion_free) on the sphere fast path: the
@@ -196,12 +255,15 @@ impl CollisionModel {
         &self,
         fast: &SphereModel,
         ws: &mut CollisionWorkspace,
-        q0: &[f64],
-        q1: &[f64],
+        (q0, q1): (&[f64], &[f64]),
         steps: usize,
         order: &mut SampleOrder,
-    ) -> Result<bool, RobotError> {
-        loop {
+        deadline: Option<Instant>,
+    ) -> Result<Option<bool>, RobotError> {
+        for batch in 0.. {
+            if batch % (CLOCK_EVERY / LANES) == 0 && batch > 0 && deadline.is_some_and(|d| Instant::now() > d) {
+                return Ok(None);
+            }
             let mut ks = [0; LANES];
             let mut n = 0;
             for k in order.by_ref().take(LANES) {
@@ -209,7 +271,7 @@ impl CollisionModel {
                 n += 1;
             }
             if n == 0 {
-                return Ok(true);
+                break;
             }
             // Unused lanes repeat the last sample.
             let last = ks[n - 1];
@@ -218,13 +280,33 @@ impl CollisionModel {
                 Some(scratch) => fast.check_samples(scratch, q0, q1, &ks, steps),
                 None => Verdict::Free { unsure: [true; LANES], split: [false; LANES] },
             };
-            let Verdict::Free { unsure, .. } = verdict else { return Ok(false) };
+            let Verdict::Free { unsure, .. } = verdict else { return Ok(Some(false)) };
             for (&k, _) in ks[..n].iter().zip(unsure).filter(|(_, u)| *u) {
                 self.place_along(ws, q0, q1, k as f64 / steps as f64)?;
                 if !self.placed_collision_free(ws) {
-                    return Ok(false);
+                    return Ok(Some(false));
                 }
             }
         }
+        Ok(Some(true))
     }
+}
+
+/// Number of steps of the sampled check of `q0 → q1` at `resolution`
+/// (samples `0..=steps`), refusing a resolution below [`MIN_RESOLUTION`]
+/// and motions that need more than [`MAX_MOTION_SAMPLES`] samples.
+fn motion_samples(q0: &[f64], q1: &[f64], resolution: f64) -> Result<usize, RobotError> {
+    if !(resolution.is_finite() && resolution >= MIN_RESOLUTION) {
+        let expected = format!("a finite resolution of at least {MIN_RESOLUTION} (rad or m)");
+        return Err(RobotError::InvalidSetting { name: "resolution", value: resolution, expected });
+    }
+    let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
+    let steps = (span / resolution).ceil().max(1.0);
+    if steps.is_nan() || steps > MAX_MOTION_SAMPLES as f64 {
+        let expected = format!(
+            "the motion spans {span} (rad or m): at most {MAX_MOTION_SAMPLES} samples allowed, this needs {steps:e}"
+        );
+        return Err(RobotError::InvalidSetting { name: "resolution", value: resolution, expected });
+    }
+    Ok(steps as usize)
 }

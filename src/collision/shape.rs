@@ -15,19 +15,28 @@ use std::sync::Arc;
 /// (capsule, cylinder) are centred on the origin along z.
 #[derive(Debug, Clone)]
 pub enum Shape {
+    /// A ball about the origin.
     Sphere {
+        /// Radius (m).
         radius: f64,
     },
     /// A segment from −half_length to +half_length along z, swept by a ball.
     Capsule {
+        /// Radius (m).
         radius: f64,
+        /// Half the length along z (m).
         half_length: f64,
     },
+    /// A box centred on the origin, axis-aligned in its frame.
     Box {
+        /// Half the side lengths along x, y, z (m).
         half_extents: Vector3<f64>,
     },
+    /// A solid cylinder along z, centred on the origin.
     Cylinder {
+        /// Radius (m).
         radius: f64,
+        /// Half the length along z (m).
         half_length: f64,
     },
     /// The convex hull of a mesh.

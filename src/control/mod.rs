@@ -35,46 +35,128 @@ pub use policy::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, Tracki
 pub use reference::JointTrajectory;
 pub use robot_policy::{PolicyState, RobotPolicy};
 
-use std::path::PathBuf;
 use tandem_solvers::riccati::RiccatiError;
+
+/// Shortest time step of a reference and of the control ticks (s): 10 kHz.
+pub const MIN_TIME_STEP: f64 = 1e-4;
+/// Longest time step (s): 1 Hz.
+pub const MAX_TIME_STEP: f64 = 1.0;
+/// Most waypoints of a reference (`T + 1` for the largest horizon T).
+pub const MAX_WAYPOINTS: usize = crate::scene::MAX_HORIZON + 1;
+/// Most joints of a reference: the policy solves Riccati equations of
+/// twice that size (cubic cost); a humanoid has about 40.
+pub const MAX_REFERENCE_JOINTS: usize = 64;
+/// Range of each tracking weight ([`TrackingWeights`]): within it, and
+/// with a time step in [`MIN_TIME_STEP`] ..= [`MAX_TIME_STEP`], the
+/// Riccati equations are solved for every combination (tested at the corners).
+pub const WEIGHT_RANGE: std::ops::RangeInclusive<f64> = 1e-4..=1e4;
 
 /// Errors building or querying a tracking policy.
 #[derive(Debug, thiserror::Error)]
 pub enum ControlError {
-    /// The time step is not positive and finite.
-    #[error("time step {dt} s is not positive and finite")]
-    InvalidTimeStep { dt: f64 },
+    /// A time step outside [`MIN_TIME_STEP`] ..= [`MAX_TIME_STEP`].
+    #[error("time step {dt} s is outside [{MIN_TIME_STEP}, {MAX_TIME_STEP}] s")]
+    InvalidTimeStep {
+        /// Time step (s).
+        dt: f64,
+    },
     /// A duration that is not positive and finite.
     #[error("duration {duration} s is not positive and finite")]
-    InvalidDuration { duration: f64 },
+    InvalidDuration {
+        /// The duration (s).
+        duration: f64,
+    },
     /// A reference with no waypoint or no joint.
     #[error("the reference has no waypoint or no joint")]
     EmptyReference,
+    /// A reference with more than [`MAX_REFERENCE_JOINTS`] joints.
+    #[error("the reference has {count} joints, more than {MAX_REFERENCE_JOINTS}")]
+    TooManyJoints {
+        /// How many joints it has.
+        count: usize,
+    },
+    /// A reference with more than [`MAX_WAYPOINTS`] waypoints.
+    #[error("the reference would have {count} waypoints, more than {MAX_WAYPOINTS}")]
+    TooManyWaypoints {
+        /// How many waypoints it would have.
+        count: f64,
+    },
     /// A waypoint with the wrong number of values.
     #[error("waypoint {index} has {got} values, expected {expected}")]
-    WaypointLength { index: usize, expected: usize, got: usize },
+    WaypointLength {
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The length it should have.
+        expected: usize,
+        /// The length it has.
+        got: usize,
+    },
     /// A waypoint holding NaN or an infinity.
     #[error("waypoint {index}: joint '{joint}' has non-finite value {value}")]
-    NonFiniteWaypoint { index: usize, joint: String, value: f64 },
-    /// A reference file that could not be read.
-    #[error("cannot read {path}: {message}")]
-    Io { path: PathBuf, message: String },
-    /// A malformed reference CSV.
-    #[error("{path}:{line}: {message}")]
-    Csv { path: PathBuf, line: usize, message: String },
-    /// Weights that are not positive and finite.
-    #[error("tracking weights must be positive and finite, got {weights:?}")]
-    InvalidWeights { weights: TrackingWeights },
+    NonFiniteWaypoint {
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The joint's name.
+        joint: String,
+        /// The offending value.
+        value: f64,
+    },
+    /// Waypoints so far apart that a velocity or acceleration overflows.
+    #[error(
+        "waypoint {index}: joint '{joint}' moves from {from} to {to} in {dt} s, a velocity or acceleration too large to represent"
+    )]
+    Overflow {
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The joint's name.
+        joint: String,
+        /// Value at the waypoint before (rad or m).
+        from: f64,
+        /// Value at the waypoint (rad or m).
+        to: f64,
+        /// Time step (s).
+        dt: f64,
+    },
+    /// A reference file that could not be read or parsed.
+    #[error(transparent)]
+    File(#[from] crate::data::DataError),
+    /// A tracking weight outside [`WEIGHT_RANGE`].
+    #[error(
+        "the {name} weight is {}, outside [{}, {}]",
+        crate::robot::readable(*value),
+        WEIGHT_RANGE.start(),
+        WEIGHT_RANGE.end()
+    )]
+    InvalidWeight {
+        /// Which weight: `position`, `velocity` or `control`.
+        name: &'static str,
+        /// The offending value.
+        value: f64,
+    },
     /// The Riccati solve failed.
     #[error("Riccati solve failed: {0}")]
     Riccati(#[from] RiccatiError),
     /// A query vector of the wrong length.
     #[error("{what} has {got} values, expected {expected}")]
-    WrongLength { what: &'static str, expected: usize, got: usize },
+    WrongLength {
+        /// Which vector (`q`, `v`, …).
+        what: &'static str,
+        /// The length it should have.
+        expected: usize,
+        /// The length it has.
+        got: usize,
+    },
     /// A policy state made by another kind of policy.
     #[error("the policy state was made by another kind of policy")]
     ForeignState,
     /// A query vector holding NaN or an infinity.
     #[error("{what}[{index}] = {value} is not finite")]
-    NonFinite { what: &'static str, index: usize, value: f64 },
+    NonFinite {
+        /// Which vector (`q`, `v`, …).
+        what: &'static str,
+        /// Index of the waypoint (or vector entry).
+        index: usize,
+        /// The offending value.
+        value: f64,
+    },
 }

@@ -132,16 +132,19 @@ impl TrackingPolicy {
     /// Builds the policy for `reference` with the given weights.
     ///
     /// # Errors
-    /// Non-positive or non-finite weights; a Riccati failure (which cannot
-    /// happen for valid weights, the double integrator being controllable).
+    /// A weight outside [`WEIGHT_RANGE`](super::WEIGHT_RANGE); a Riccati
+    /// failure (not seen within the ranges of weights and time steps: the
+    /// double integrator is controllable).
     pub fn new(
         reference: JointTrajectory,
         weights: TrackingWeights,
         schedule: GainSchedule,
     ) -> Result<Self, ControlError> {
         let w = weights;
-        if ![w.position, w.velocity, w.control].iter().all(|x| x.is_finite() && *x > 0.0) {
-            return Err(ControlError::InvalidWeights { weights });
+        for (name, value) in [("position", w.position), ("velocity", w.velocity), ("control", w.control)] {
+            if !super::WEIGHT_RANGE.contains(&value) {
+                return Err(ControlError::InvalidWeight { name, value });
+            }
         }
         let (a, b, q, r) = double_integrator_problem(reference.dof(), reference.dt(), &weights);
         let dare = solve_dare(&DareProblem::new(&a, &b, &q, &r), &DareSettings::default())?;

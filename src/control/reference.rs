@@ -22,15 +22,22 @@ impl JointTrajectory {
     /// Builds a reference from waypoints (one slice of `joints.len()` values each).
     ///
     /// # Errors
-    /// No waypoint, a waypoint of the wrong length, a non-finite value, or
-    /// `dt` not positive and finite.
+    /// No waypoint or joint, more than [`MAX_WAYPOINTS`](super::MAX_WAYPOINTS)
+    /// or [`MAX_REFERENCE_JOINTS`](super::MAX_REFERENCE_JOINTS),
+    /// a waypoint of the wrong length, a non-finite value, values so far
+    /// apart that a velocity or acceleration overflows, or `dt` outside
+    /// [`MIN_TIME_STEP`](super::MIN_TIME_STEP) ..= [`MAX_TIME_STEP`](super::MAX_TIME_STEP).
     pub fn new(joints: Vec<String>, dt: f64, waypoints: &[Vec<f64>]) -> Result<Self, ControlError> {
         let n = joints.len();
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(ControlError::InvalidTimeStep { dt });
-        }
+        check_time_step(dt)?;
         if waypoints.is_empty() || n == 0 {
             return Err(ControlError::EmptyReference);
+        }
+        if n > super::MAX_REFERENCE_JOINTS {
+            return Err(ControlError::TooManyJoints { count: n });
+        }
+        if waypoints.len() > super::MAX_WAYPOINTS {
+            return Err(ControlError::TooManyWaypoints { count: waypoints.len() as f64 });
         }
         let mut q = Vec::with_capacity(waypoints.len() * n);
         for (i, w) in waypoints.iter().enumerate() {
@@ -44,12 +51,22 @@ impl JointTrajectory {
         }
         let v = backward_difference(&q, n, dt);
         let a = backward_difference(&v, n, dt);
+        // The first waypoint whose velocity or acceleration overflowed.
+        if let Some(at) = v.iter().zip(&a).position(|(v, a)| !(v.is_finite() && a.is_finite())) {
+            // Entries of waypoint 0 are 0: `index` ≥ 1.
+            let (index, k) = (at / n, at % n);
+            let (from, to) = (q[(index - 1) * n + k], q[index * n + k]);
+            return Err(ControlError::Overflow { index, joint: joints[k].clone(), from, to, dt });
+        }
         Ok(JointTrajectory { joints, dt, q, v, a })
     }
 
     /// A minimum-jerk motion from `start` to `goal` over `duration` seconds,
     /// sampled every `dt` (both ends included): a smooth stand-in reference
     /// until an optimized one is available.
+    ///
+    /// # Errors
+    /// As [`new`](Self::new); a duration that is not positive and finite.
     pub fn minimum_jerk(
         joints: Vec<String>,
         start: &[f64],
@@ -60,10 +77,12 @@ impl JointTrajectory {
         if !(duration.is_finite() && duration > 0.0) {
             return Err(ControlError::InvalidDuration { duration });
         }
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(ControlError::InvalidTimeStep { dt });
+        check_time_step(dt)?;
+        let steps = (duration / dt).round().max(1.0);
+        if steps + 1.0 > super::MAX_WAYPOINTS as f64 {
+            return Err(ControlError::TooManyWaypoints { count: steps + 1.0 });
         }
-        let steps = (duration / dt).round().max(1.0) as usize;
+        let steps = steps as usize;
         let waypoints: Vec<Vec<f64>> = (0..=steps)
             .map(|i| {
                 let s = i as f64 / steps as f64;
@@ -74,27 +93,17 @@ impl JointTrajectory {
         Self::new(joints, dt, &waypoints)
     }
 
-    /// Reads a CSV file: a header row of joint names, then one row of joint
-    /// values per waypoint, `dt` seconds apart.
-    pub fn from_csv(path: &Path, dt: f64) -> Result<Self, ControlError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| ControlError::Io { path: path.to_path_buf(), message: e.to_string() })?;
-        let bad = |line: usize, message: String| ControlError::Csv { path: path.to_path_buf(), line, message };
-        let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
-        let (_, header) = lines.next().ok_or_else(|| bad(1, "the file is empty".into()))?;
-        let joints: Vec<String> = header.split(',').map(|s| s.trim().to_string()).collect();
-        let mut waypoints = Vec::new();
-        for (i, line) in lines {
-            let row = line
-                .split(',')
-                .map(|s| s.trim().parse::<f64>().map_err(|_| bad(i + 1, format!("'{}' is not a number", s.trim()))))
-                .collect::<Result<Vec<f64>, _>>()?;
-            if row.len() != joints.len() {
-                return Err(bad(i + 1, format!("{} values for {} joints", row.len(), joints.len())));
-            }
-            waypoints.push(row);
-        }
-        Self::new(joints, dt, &waypoints)
+    /// Reads a trajectory CSV file (the format of
+    /// [`TrajectoryTable`](crate::data::TrajectoryTable): a `time` column
+    /// then one column per joint, the start first); the time step is the
+    /// spacing of its `time` column.
+    ///
+    /// # Errors
+    /// A file that cannot be read or parsed (naming the line), or any
+    /// error of [`new`](Self::new).
+    pub fn from_csv(path: &Path) -> Result<Self, ControlError> {
+        let table = crate::data::TrajectoryTable::read_csv(path)?;
+        Self::new(table.joints, table.time_step, &table.configurations)
     }
 
     /// Joint names, in the order of every waypoint.
@@ -140,6 +149,14 @@ impl JointTrajectory {
     /// The last waypoint: the goal.
     pub fn goal(&self) -> &[f64] {
         self.position(self.len() - 1)
+    }
+}
+
+fn check_time_step(dt: f64) -> Result<(), ControlError> {
+    if (super::MIN_TIME_STEP..=super::MAX_TIME_STEP).contains(&dt) {
+        Ok(())
+    } else {
+        Err(ControlError::InvalidTimeStep { dt })
     }
 }
 

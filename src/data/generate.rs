@@ -24,7 +24,9 @@ use thiserror::Error;
 /// `i/M`: the i-th of M equal shares of the chunks (0 ≤ i < M).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ShardSpec {
+    /// The share, from 0.
     pub index: u64,
+    /// How many shares.
     pub count: u64,
 }
 
@@ -50,6 +52,7 @@ pub struct GenerateSettings {
     pub horizon: Option<usize>,
     /// Worker threads (default: all cores).
     pub threads: Option<usize>,
+    /// Generate only this share of the part files (default: all).
     pub shard: Option<ShardSpec>,
     /// Ids per part file.
     pub chunk_size: u64,
@@ -64,6 +67,7 @@ pub struct GenerateSettings {
     pub validation_resolution: f64,
     /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
     pub goal_tolerance: f64,
+    /// Acceptance: angle (rad) of q_T from the goal orientation.
     pub goal_angle_tolerance: f64,
 }
 
@@ -89,32 +93,55 @@ impl Default for GenerateSettings {
 #[derive(Debug, Error)]
 pub enum GenerateError {
     #[error(transparent)]
+    /// The family (or its base problem) cannot be loaded.
     Family(#[from] ProblemError),
     #[error(transparent)]
+    /// A file cannot be written.
     Data(#[from] DataError),
     #[error("generate settings: {0}")]
+    /// A setting outside its bounds.
     Settings(String),
     /// The output folder holds a dataset made with other parameters.
     #[error(
         "{path} was generated with {key} = {existing}, this run asks {requested}: use another --out folder, or the same parameters to resume"
     )]
-    Mismatch { path: PathBuf, key: String, existing: String, requested: String },
+    Mismatch {
+        /// The folder's `_dataset.json`.
+        path: PathBuf,
+        /// The differing parameter.
+        key: String,
+        /// The value the folder's dataset was made with.
+        existing: String,
+        /// The value this run asks for.
+        requested: String,
+    },
+    /// A file of an earlier run in the folder cannot be read.
     #[error("cannot read {path}: {message}")]
-    Read { path: PathBuf, message: String },
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     #[error("cannot start {0} worker threads: {1}")]
+    /// The worker threads cannot be started (count, reason).
     Threads(usize, String),
 }
 
 /// The outcome of a run.
 #[derive(Debug, Clone)]
 pub struct GenerateSummary {
+    /// The manifest written.
     pub manifest: Manifest,
+    /// Where it was written.
     pub manifest_path: PathBuf,
     /// Part files written by this run, and found complete from earlier runs.
     pub parts_written: usize,
+    /// Part files found complete from earlier runs.
     pub parts_kept: usize,
     /// Samples this run computed, and its wall-clock time.
     pub samples_run: u64,
+    /// Wall-clock time of this run.
     pub elapsed: Duration,
     /// Per-sample times of this run (ms), sorted.
     pub sample_ms: Vec<f64>,
@@ -138,21 +165,8 @@ pub fn generate(
     settings: &GenerateSettings,
     progress: &Progress,
 ) -> Result<GenerateSummary, GenerateError> {
-    validate(settings)?;
     let began = Instant::now();
-    let family = ProblemFamily::from_file(family_path)?;
-    let parameters = parameters(family_path, &family, settings)?;
-    std::fs::create_dir_all(out.join("_timings")).map_err(|e| DataError::Io { path: out.into(), source: e })?;
-    check_parameters(out, &parameters)?;
-    let chunks = shard_chunks(settings);
-    let mut found = Vec::new();
-    let mut pending = Vec::new();
-    for &k in &chunks {
-        match existing_part(out, k, settings)? {
-            Some(summary) => found.push((k, summary)),
-            None => pending.push(k),
-        }
-    }
+    let OpenedDataset { family, parameters, mut found, pending } = open_dataset(family_path, out, settings)?;
     let joints = family.base.robot.joint_names().to_vec();
     let ee_frame = family.base.robot_spec.gripper.clone().unwrap_or_default();
     let samples_run: u64 = pending.iter().map(|&k| chunk_ids(k, settings)).map(|[a, b]| b - a).sum();
@@ -186,32 +200,138 @@ pub fn generate(
     })
 }
 
+/// A dataset folder checked for a run: the family, the run parameters
+/// (written to, or checked against, `_dataset.json`), the part files of
+/// the run's shard found complete and the chunks still missing.
+struct OpenedDataset {
+    family: ProblemFamily,
+    parameters: DatasetParameters,
+    found: Vec<(u64, PartSummary)>,
+    pending: Vec<u64>,
+}
+
+fn open_dataset(family_path: &Path, out: &Path, settings: &GenerateSettings) -> Result<OpenedDataset, GenerateError> {
+    validate(settings)?;
+    let family = ProblemFamily::from_file(family_path)?;
+    let parameters = parameters(family_path, &family, settings)?;
+    validate_part_size(settings.chunk_size, parameters.horizon)?;
+    std::fs::create_dir_all(out.join("_timings")).map_err(|e| DataError::Io { path: out.into(), source: e })?;
+    check_parameters(out, &parameters)?;
+    let (mut found, mut pending) = (Vec::new(), Vec::new());
+    for k in shard_chunks(settings) {
+        match existing_part(out, k, settings)? {
+            Some(summary) => found.push((k, summary)),
+            None => pending.push(k),
+        }
+    }
+    Ok(OpenedDataset { family, parameters, found, pending })
+}
+
+/// The part files of this run (of its shard, when sharded) still missing
+/// from `out`, as part numbers `k` (file `part-{k:05}.parquet`, ids
+/// [`part_ids`]). Checks everything [`generate`] checks before it
+/// computes — settings, family, a folder holding another dataset (refused)
+/// — writes `_dataset.json` when absent and moves damaged parts aside, but
+/// generates nothing. Another scheduler can then compute each missing part
+/// as shard `k/K` with `K = `[`part_count`] (exactly part `k`), anywhere,
+/// and a final unsharded [`generate`] over the complete folder writes the
+/// manifest: the dataset of one run (this is what the Python package's
+/// `tandem.distributed` does over Ray).
+///
+/// # Errors
+/// As [`generate`].
+pub fn pending_parts(family_path: &Path, out: &Path, settings: &GenerateSettings) -> Result<Vec<u64>, GenerateError> {
+    Ok(open_dataset(family_path, out, settings)?.pending)
+}
+
+/// Number of part files of a run, `⌈count / chunk_size⌉` (0 for a chunk size of 0).
+pub fn part_count(settings: &GenerateSettings) -> u64 {
+    if settings.chunk_size == 0 { 0 } else { chunk_count(settings) }
+}
+
+/// Ids `first .. end` of part `k` of a run.
+pub fn part_ids(k: u64, settings: &GenerateSettings) -> [u64; 2] {
+    chunk_ids(k, settings)
+}
+
+/// Most samples of one run (`--count`).
+pub const MAX_COUNT: u64 = 100_000_000_000;
+/// Most ids per part file (`--chunk-size`).
+pub const MAX_CHUNK_SIZE: u64 = 100_000;
+/// Most part files of one dataset (`--count` / `--chunk-size`, rounded up).
+pub const MAX_PARTS: u64 = 1_000_000;
+/// Most slices (`--chunk-size` × T) of one part file, which is assembled
+/// in memory: 10⁷ slices of a 7-joint arm are about 2 GB of columns.
+pub const MAX_PART_SLICES: u64 = 10_000_000;
+/// Most worker threads (`--threads`).
+pub const MAX_THREADS: usize = 1024;
+/// Most attempts per sample (`--attempts`).
+pub const MAX_ATTEMPTS: u32 = 100;
+/// Largest evaluation budget of one optimizer solve (`--max-evaluations`).
+pub const MAX_EVALUATIONS: usize = 1_000_000;
+
+/// Checks every size against its bound (above), naming the setting.
 fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
-    let bad = |m: &str| Err(GenerateError::Settings(m.into()));
-    if s.count == 0 {
-        return bad("--count must be at least 1");
+    let bad = |m: String| Err(GenerateError::Settings(m));
+    if !(1..=MAX_COUNT).contains(&s.count) {
+        return bad(format!("--count must be between 1 and {MAX_COUNT}, got {}", s.count));
     }
-    if s.chunk_size == 0 {
-        return bad("--chunk-size must be at least 1");
+    if !(1..=MAX_CHUNK_SIZE).contains(&s.chunk_size) {
+        return bad(format!("--chunk-size must be between 1 and {MAX_CHUNK_SIZE}, got {}", s.chunk_size));
     }
-    if s.horizon.is_some_and(|t| t < 2) {
-        return bad("the horizon T must be at least 2");
+    if chunk_count(s) > MAX_PARTS {
+        let parts = chunk_count(s);
+        return bad(format!(
+            "--count {} in chunks of {} makes {parts} part files, more than {MAX_PARTS}: raise --chunk-size",
+            s.count, s.chunk_size
+        ));
     }
-    if s.attempts == 0 || s.max_evaluations == 0 {
-        return bad("--attempts and --max-evaluations must be at least 1");
+    let horizons = crate::scene::MIN_HORIZON..=crate::scene::MAX_HORIZON;
+    if let Some(t) = s.horizon.filter(|t| !horizons.contains(t)) {
+        return bad(format!("the horizon T must be between {} and {}, got {t}", horizons.start(), horizons.end()));
     }
-    if s.threads == Some(0) {
-        return bad("--threads must be at least 1");
+    if s.attempts == 0 || s.attempts > MAX_ATTEMPTS {
+        return bad(format!("--attempts must be between 1 and {MAX_ATTEMPTS}, got {}", s.attempts));
+    }
+    if s.max_evaluations == 0 || s.max_evaluations > MAX_EVALUATIONS {
+        return bad(format!("--max-evaluations must be between 1 and {MAX_EVALUATIONS}, got {}", s.max_evaluations));
+    }
+    if let Some(threads) = s.threads.filter(|t| !(1..=MAX_THREADS).contains(t)) {
+        return bad(format!("--threads must be between 1 and {MAX_THREADS}, got {threads}"));
     }
     let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !(positive(s.validation_resolution) && positive(s.goal_tolerance) && positive(s.goal_angle_tolerance)) {
-        return bad("the validation resolution and goal tolerances must be positive");
+    if !(s.validation_resolution >= crate::collision::MIN_RESOLUTION && s.validation_resolution.is_finite()) {
+        let min = crate::collision::MIN_RESOLUTION;
+        return bad(format!("the validation resolution must be at least {min} rad, got {}", s.validation_resolution));
+    }
+    if !(positive(s.goal_tolerance) && positive(s.goal_angle_tolerance)) {
+        return bad("the goal tolerances must be positive".into());
+    }
+    Ok(())
+}
+
+/// Checks the slices of one part file against [`MAX_PART_SLICES`] once
+/// the horizon is known.
+fn validate_part_size(chunk_size: u64, horizon: usize) -> Result<(), GenerateError> {
+    let slices = u128::from(chunk_size) * (horizon as u128 + 1);
+    if slices > u128::from(MAX_PART_SLICES) {
+        return Err(GenerateError::Settings(format!(
+            "--chunk-size {chunk_size} × {} slices is {slices} slices per part file, more than {MAX_PART_SLICES}: lower --chunk-size",
+            horizon + 1
+        )));
     }
     Ok(())
 }
 
 fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Result<DatasetParameters, GenerateError> {
     let hash = |p: &Path| {
+        // A builtin base problem is hashed as its embedded text.
+        let builtin = p.to_str().and_then(|s| s.strip_prefix("<builtin:")).and_then(|s| s.strip_suffix('>'));
+        if let Some((_, text)) =
+            builtin.and_then(|name| crate::scene::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == name))
+        {
+            return Ok(sha256_hex(text.as_bytes()));
+        }
         std::fs::read(p)
             .map(|b| sha256_hex(&b))
             .map_err(|e| GenerateError::Read { path: p.into(), message: e.to_string() })
@@ -273,6 +393,7 @@ fn shard_chunks(s: &GenerateSettings) -> Vec<u64> {
     (at(spec.index)..at(spec.index + 1)).collect()
 }
 
+/// Ids `[first, end)` of chunk `k` (validated settings: no overflow).
 fn chunk_ids(k: u64, s: &GenerateSettings) -> [u64; 2] {
     [k * s.chunk_size, ((k + 1) * s.chunk_size).min(s.count)]
 }
@@ -355,4 +476,24 @@ fn write_timings(out: &Path, k: u64, outcomes: &[SampleOutcome], timings: &[Samp
         csv.push_str(&format!("{},{outcome},{:.3},{:.3},{:.3}\n", o.id(), t.plan_ms, t.optimize_ms, t.total_ms));
     }
     write_atomically(&out.join("_timings").join(format!("part-{k:05}.csv")), csv.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shard_k_of_part_count_is_part_k() {
+        for (count, chunk_size) in [(12, 3), (10, 3), (1, 100), (250, 100)] {
+            let settings = GenerateSettings { count, chunk_size, ..GenerateSettings::default() };
+            let parts = part_count(&settings);
+            assert_eq!(parts, count.div_ceil(chunk_size));
+            for k in 0..parts {
+                let shard = Some(ShardSpec { index: k, count: parts });
+                assert_eq!(shard_chunks(&GenerateSettings { shard, ..settings.clone() }), vec![k]);
+            }
+            assert_eq!(part_ids(parts - 1, &settings)[1], count);
+        }
+        assert_eq!(part_count(&GenerateSettings { chunk_size: 0, ..GenerateSettings::default() }), 0);
+    }
 }

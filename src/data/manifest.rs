@@ -18,6 +18,7 @@ pub struct DatasetParameters {
     pub family: String,
     /// SHA-256 (hex) of the family file, and of its base problem file.
     pub family_sha256: String,
+    /// SHA-256 of the family's base problem file.
     pub base_problem_sha256: String,
     /// Run seed S: sample i draws from a stream seeded by (S, i).
     pub seed: u64,
@@ -35,6 +36,7 @@ pub struct DatasetParameters {
     pub validation_resolution: f64,
     /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
     pub goal_tolerance: f64,
+    /// Acceptance: angle (rad) of q_T from the goal orientation.
     pub goal_angle_tolerance: f64,
 }
 
@@ -45,15 +47,20 @@ pub struct PartEntry {
     pub file: String,
     /// Ids `first .. end`.
     pub ids: [u64; 2],
+    /// Accepted trajectories (rows) in the part.
     pub rows: u64,
+    /// Rejected samples.
     pub rejected: u64,
+    /// SHA-256 of the part file.
     pub sha256: String,
+    /// Size of the part file (bytes).
     pub bytes: u64,
 }
 
 /// What a run (or a shard of it) produced.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Manifest {
+    /// The run parameters (`_dataset.json`).
     pub parameters: DatasetParameters,
     /// `[i, M]` for `--shard i/M`; absent for the whole range.
     pub shard: Option<[u64; 2]>,
@@ -63,11 +70,15 @@ pub struct Manifest {
     pub joints: Vec<String>,
     /// The gripper frame of `ee_pose` (empty when none).
     pub ee_frame: String,
+    /// Samples in the dataset (accepted and rejected).
     pub samples: u64,
+    /// Accepted samples (rows).
     pub accepted: u64,
+    /// Rejected samples.
     pub rejected: u64,
     /// Rejections counted by reason (see [`Rejection`](super::Rejection)).
     pub rejected_by_reason: BTreeMap<String, u64>,
+    /// Every part file, in id order.
     pub parts: Vec<PartEntry>,
 }
 

@@ -14,8 +14,10 @@ pub enum Progress {
     Bar,
     /// A line on stderr every `every`.
     Lines {
+        /// Seconds between two lines.
         every: Duration,
     },
+    /// No output.
     Quiet,
 }
 
@@ -25,6 +27,7 @@ impl Progress {
         if std::io::stderr().is_terminal() { Progress::Bar } else { Progress::Lines { every: Duration::from_secs(10) } }
     }
 
+    /// No progress output.
     pub fn quiet() -> Progress {
         Progress::Quiet
     }

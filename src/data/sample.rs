@@ -57,7 +57,9 @@ pub struct RecordReport {
 /// (rad, or m for prismatic joints).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GoalMiss {
+    /// Position error of the gripper at q_T (m).
     pub distance: f64,
+    /// Angle between its axis and the goal's (rad).
     pub angle: f64,
 }
 
@@ -78,13 +80,17 @@ pub struct TrajectoryRecord {
     pub goal_joints: Option<Vec<f64>>,
     /// Scene objects (graspable) and obstacles, table included.
     pub objects: Vec<PlacedShape>,
+    /// Obstacles, the table included.
     pub obstacles: Vec<PlacedShape>,
-    /// q_1 … q_T.
+    /// q_0 … q_T: the start, then the optimized configurations (the
+    /// convention of every trajectory tandem writes).
     pub q: Vec<Vec<f64>>,
-    /// Backward differences (q_t − q_{t−1}) / Δt, q_0 = start.
+    /// Velocities at slices 0 … T: 0 at the start (at rest), then the
+    /// backward differences (q_t − q_{t−1}) / Δt.
     pub qd: Vec<Vec<f64>>,
-    /// Gripper frame poses at slices 1 … T, when the problem names a gripper.
+    /// Gripper frame poses at slices 0 … T, when the problem names a gripper.
     pub ee_pose: Option<Vec<PoseArray>>,
+    /// Solver and planner counts.
     pub report: RecordReport,
     /// The grasp at q_T, for grasp goals ([`GraspJudge`]).
     pub grasp: Option<GraspReport>,
@@ -93,6 +99,7 @@ pub struct TrajectoryRecord {
 /// A sample that produced no trajectory, and why.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Rejection {
+    /// Sample id within the run.
     pub id: u64,
     /// Stable snake_case reason: `sample_failed`, `ik_unreachable`,
     /// `ik_in_collision`, `plan_failed`, `in_collision`, `outside_limits`,
@@ -110,17 +117,21 @@ pub struct SampleTiming {
     pub plan_ms: f64,
     /// Everything else: sampling, optimization, re-solves, validation (ms).
     pub optimize_ms: f64,
+    /// Whole sample, every attempt (ms).
     pub total_ms: f64,
 }
 
 /// What one sample produced.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SampleOutcome {
+    /// The sample passed every check.
     Accepted(Box<TrajectoryRecord>),
+    /// It was rejected, with the reason.
     Rejected(Rejection),
 }
 
 impl SampleOutcome {
+    /// The sample id.
     pub fn id(&self) -> u64 {
         match self {
             SampleOutcome::Accepted(r) => r.id,
@@ -287,7 +298,8 @@ fn accept(
     let mut full = Vec::with_capacity(s.trajectory.len() + 1);
     full.push(problem.start.clone());
     full.extend(s.trajectory.iter().cloned());
-    let qd = full.windows(2).map(|w| w[1].iter().zip(&w[0]).map(|(b, a)| (b - a) / s.time_step).collect()).collect();
+    let mut qd = vec![vec![0.0; problem.start.len()]];
+    qd.extend(full.windows(2).map(|w| w[1].iter().zip(&w[0]).map(|(b, a)| (b - a) / s.time_step).collect()));
     let report = RecordReport {
         outer_iterations: saturate(s.report.outer_iterations),
         inner_steps: saturate(s.report.inner_steps),
@@ -314,8 +326,8 @@ fn accept(
         objects: problem.scene.objects().iter().map(|o| placed(&o.name, &o.shape, &o.pose)).collect(),
         obstacles: problem.scene.obstacles().iter().map(|o| placed(&o.name, &o.shape, &o.pose)).collect(),
         qd,
-        ee_pose: gripper_poses(problem, &s.trajectory)?,
-        q: s.trajectory.clone(),
+        ee_pose: gripper_poses(problem, &full)?,
+        q: full,
         report,
         grasp,
     })))

@@ -19,7 +19,8 @@
 //!   depends on the machine (everything else is byte-identical across runs,
 //!   thread counts and shardings).
 //!
-//! Columns (n = number of active joints, T = horizon; poses are
+//! Trajectories hold T + 1 slices, the start first (q_0 … q_T), as every
+//! trajectory tandem writes. Columns (n = number of active joints, T = horizon; poses are
 //! `[x, y, z, qx, qy, qz, qw]` in the world frame, m and unit quaternion):
 //!
 //! | column | type | meaning |
@@ -34,9 +35,9 @@
 //! | `object_sizes` | list\<f64\[3\]\> | bounding-box edge lengths in the shape frame (m) |
 //! | `object_poses` | list\<f64\[7\]\> | object poses |
 //! | `obstacle_names`, `obstacle_shapes`, `obstacle_sizes`, `obstacle_poses` | as above | obstacles, table included |
-//! | `q` | f64\[T\]\[n\] | q_1 … q_T (rad or m) |
-//! | `qd` | f64\[T\]\[n\] | (q_t − q_{t−1}) / time_step |
-//! | `ee_pose` | f64\[T\]\[7\] or null | gripper frame poses at slices 1 … T |
+//! | `q` | f64\[T+1\]\[n\] | q_0 … q_T (rad or m): the start, then the optimized slices |
+//! | `qd` | f64\[T+1\]\[n\] | 0 at slice 0 (at rest), then (q_t − q_{t−1}) / time_step |
+//! | `ee_pose` | f64\[T+1\]\[7\] or null | gripper frame poses at slices 0 … T |
 //! | `outer_iterations`, `inner_steps`, `evaluations`, `plan_iterations` | u32 | solver and planner counts (of the accepted attempt) |
 //! | `attempts` | u32 | IK + planning + optimization attempts it took (retries use other planner seeds) |
 //! | `cost`, `eq_violation`, `ineq_violation` | f64 | optimizer report |
@@ -56,7 +57,7 @@
 //! ```python
 //! import pyarrow.parquet as pq, numpy as np
 //! t = pq.read_table("dataset")            # every part file of the folder
-//! q = np.array(t["q"].to_pylist())         # (rows, T, n)
+//! q = np.array(t["q"].to_pylist())         # (rows, T + 1, n), q[:, 0] the start
 //! ```
 
 use super::sample::{PlacedShape, TrajectoryRecord};
@@ -66,22 +67,25 @@ use arrow_array::{ArrayRef, Float64Array, RecordBatch, UInt32Array, UInt64Array}
 use arrow_schema::{ArrowError, Field, Schema};
 use std::sync::Arc;
 
-/// Version of the layout above; bumped on any change to columns or metadata.
-pub const SCHEMA_VERSION: u32 = 2;
+/// Version of the layout above; bumped on any change to columns or metadata
+/// (2: `q`, `qd` and `ee_pose` hold the start as slice 0; 3: the grasp
+/// columns and grasp-judged acceptance).
+pub const SCHEMA_VERSION: u32 = 3;
 
-/// The rows of `records` (all with `joints` joints and `horizon` slices) as
-/// one Arrow record batch.
+/// The rows of `records` (all with `joints` joints and `horizon + 1`
+/// slices, the start first) as one Arrow record batch.
 ///
 /// # Errors
-/// Records of another shape than (`horizon`, `joints`).
+/// Records of another shape than (`horizon + 1`, `joints`).
 pub fn record_batch(records: &[&TrajectoryRecord], joints: usize, horizon: usize) -> Result<RecordBatch, ArrowError> {
-    if let Some(r) = records.iter().find(|r| r.q.len() != horizon || r.q.iter().any(|q| q.len() != joints)) {
+    let slices = horizon + 1;
+    if let Some(r) = records.iter().find(|r| r.q.len() != slices || r.q.iter().any(|q| q.len() != joints)) {
         return Err(ArrowError::InvalidArgumentError(format!(
-            "trajectory {} is not {horizon} slices of {joints} joints",
+            "trajectory {} is not {slices} slices (q_0 … q_T) of {joints} joints",
             r.id
         )));
     }
-    let (n, t) = (width(joints), width(horizon));
+    let (n, t) = (width(joints), width(slices));
     let mut columns: Vec<(&str, ArrayRef, bool)> = vec![
         ("id", Arc::new(records.iter().map(|r| r.id).collect::<UInt64Array>()), false),
         ("seed", Arc::new(records.iter().map(|r| r.seed).collect::<UInt64Array>()), false),

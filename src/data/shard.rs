@@ -28,12 +28,15 @@ pub struct PartMeta<'a> {
 /// A written (or found) part file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PartSummary {
+    /// Ids `[first, end)` the part covers.
     pub ids: [u64; 2],
     /// Accepted trajectories (rows).
     pub rows: u64,
+    /// The rejected ids of the range, with their reasons.
     pub rejected: Vec<Rejection>,
     /// SHA-256 of the file, lower-case hex.
     pub sha256: String,
+    /// Size of the file (bytes).
     pub bytes: u64,
 }
 

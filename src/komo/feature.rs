@@ -9,6 +9,7 @@ use nalgebra::{IsometryMatrix3, Matrix3, Matrix6xX, Vector3};
 /// in the world (the world itself, a scene object, an object's grasp frame).
 #[derive(Debug, Clone, PartialEq)]
 pub enum FrameRef {
+    /// A frame of the robot.
     Robot(FrameId),
     /// A world-fixed pose.
     Fixed(IsometryMatrix3<f64>),
@@ -21,25 +22,60 @@ pub enum Feature {
     JointState,
     /// `q − (upper − margin)` and `(lower + margin) − q` for every joint
     /// with finite limits (≤ 0 inside): dimension 2 × limited joints.
-    JointLimits { margin: f64 },
+    JointLimits {
+        /// Distance (m) or angle (rad) kept from the limit or contact.
+        margin: f64,
+    },
     /// World position of a frame's origin (m), dimension 3.
-    Position { frame: FrameRef },
+    Position {
+        /// The frame whose origin is measured.
+        frame: FrameRef,
+    },
     /// `p_a − p_b` in world axes (m), dimension 3.
-    PositionDifference { a: FrameRef, b: FrameRef },
+    PositionDifference {
+        /// First frame.
+        a: FrameRef,
+        /// Second frame.
+        b: FrameRef,
+    },
     /// `(R_a e_i) · (R_b e_j)`: the cosine between axis i of `a` and axis j
     /// of `b` (0 = x, 1 = y, 2 = z), dimension 1.
-    ScalarProduct { a: FrameRef, axis_a: usize, b: FrameRef, axis_b: usize },
+    ScalarProduct {
+        /// First frame.
+        a: FrameRef,
+        /// Axis of the first frame (0 = x, 1 = y, 2 = z).
+        axis_a: usize,
+        /// Second frame.
+        b: FrameRef,
+        /// Axis of the second frame.
+        axis_b: usize,
+    },
     /// `R_bᵀ R_a e_i`: axis i of `a` in `b`'s coordinates, dimension 3. Its
     /// target is a unit direction: unlike a scalar product of ±1, it has a
     /// full-rank Jacobian at its target.
-    Vector { a: FrameRef, axis: usize, b: FrameRef },
+    Vector {
+        /// First frame.
+        a: FrameRef,
+        /// Axis of the first frame (0 = x, 1 = y, 2 = z), expressed in the second.
+        axis: usize,
+        /// Second frame.
+        b: FrameRef,
+    },
     /// `log(R_bᵀ R_a)`: the rotation vector taking `b`'s orientation to
     /// `a`'s, in `b`'s axes (rad), dimension 3.
-    OrientationDifference { a: FrameRef, b: FrameRef },
+    OrientationDifference {
+        /// First frame.
+        a: FrameRef,
+        /// Second frame.
+        b: FrameRef,
+    },
     /// Signed distance of every collision pair ≥ `margin` (m): one
     /// inequality row `margin − d ≤ 0` per pair closer than the evaluation
     /// cutoff; rows are not a fixed-size vector, so it is evaluated apart.
-    Collision { margin: f64 },
+    Collision {
+        /// Distance (m) or angle (rad) kept from the limit or contact.
+        margin: f64,
+    },
 }
 
 /// Scratch space of feature evaluation: two frame Jacobians.
@@ -50,6 +86,7 @@ pub struct FeatureScratch {
 }
 
 impl FeatureScratch {
+    /// Scratch space for the features of `robot`.
     pub fn new(robot: &RobotModel) -> FeatureScratch {
         FeatureScratch { jac_a: Matrix6xX::zeros(robot.nq()), jac_b: Matrix6xX::zeros(robot.nq()) }
     }

@@ -45,7 +45,12 @@ use thiserror::Error;
 pub enum KomoError {
     /// An objective cannot be built or does not fit the problem.
     #[error("objective {name}: {message}")]
-    Objective { name: String, message: String },
+    Objective {
+        /// The objective's name.
+        name: String,
+        /// What is wrong.
+        message: String,
+    },
     /// Horizon, order or duration out of range.
     #[error("optimizer settings: {0}")]
     Settings(String),
@@ -56,9 +61,12 @@ pub enum KomoError {
     #[error("the problem's goal needs robot.gripper")]
     NoGripper,
     #[error(transparent)]
+    /// A robot-side error (bad configuration, unknown frame).
     Robot(#[from] RobotError),
     #[error(transparent)]
+    /// The collision model cannot be built.
     Collision(#[from] CollisionError),
     #[error("planning the initial path: {0}")]
+    /// Planning the seed failed.
     Plan(#[from] PlanError),
 }

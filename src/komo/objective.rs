@@ -12,9 +12,19 @@ use nalgebra::{IsometryMatrix3, Translation3};
 pub enum TimeSpan {
     /// Fractions of the duration, `0 ≤ start ≤ end ≤ 1`: slice `t` of `T`
     /// sits at `t/T`, so a fraction `f` maps to slice `round(f·T)` (at least 1).
-    Fraction { start: f64, end: f64 },
+    Fraction {
+        /// First fraction of the horizon (0 = the first slice).
+        start: f64,
+        /// Last fraction (1 = the last slice).
+        end: f64,
+    },
     /// Slices `first ..= last` (1-based, `last ≤ T`).
-    Slices { first: usize, last: usize },
+    Slices {
+        /// First slice (1-based, as q_1).
+        first: usize,
+        /// Last slice, inclusive.
+        last: usize,
+    },
 }
 
 impl TimeSpan {
@@ -38,8 +48,11 @@ impl TimeSpan {
 pub struct Objective {
     /// A readable name for reports, e.g. `position_difference(panda_hand_tcp, box/center)`.
     pub name: String,
+    /// What is measured.
     pub feature: Feature,
+    /// Where in the motion.
     pub time: TimeSpan,
+    /// Cost, equality or inequality.
     pub kind: ObjectiveKind,
     /// Multiplies the feature's rows (for sos: the weight's square root).
     pub scale: f64,
@@ -71,16 +84,19 @@ impl Objective {
         self.time(TimeSpan::Fraction { start, end })
     }
 
+    /// Sets the weight of the objective's rows (> 0).
     pub fn scale(mut self, scale: f64) -> Objective {
         self.scale = scale;
         self
     }
 
+    /// Sets the value the feature is driven to.
     pub fn target(mut self, target: impl Into<Vec<f64>>) -> Objective {
         self.target = target.into();
         self
     }
 
+    /// Sets the order: 0 the feature, 1 its velocity, 2 its acceleration.
     pub fn order(mut self, order: usize) -> Objective {
         self.order = order;
         self

@@ -38,7 +38,8 @@ impl TrajectoryProblem {
     /// Validates and assembles a problem.
     ///
     /// # Errors
-    /// [`KomoError`] for a horizon below 2, order not 1 or 2, a
+    /// [`KomoError`] for a horizon outside [`MIN_HORIZON`](crate::scene::MIN_HORIZON)
+    /// ..= [`MAX_HORIZON`](crate::scene::MAX_HORIZON), order not 1 or 2, a
     /// non-positive duration, a bad start, an invalid objective, or a
     /// collision objective without a collision model.
     pub fn new(
@@ -50,9 +51,12 @@ impl TrajectoryProblem {
         duration: f64,
         start: Vec<f64>,
     ) -> Result<TrajectoryProblem, KomoError> {
-        if horizon < 2 || !(1..=2).contains(&order) || !(duration.is_finite() && duration > 0.0) {
+        let horizons = crate::scene::MIN_HORIZON..=crate::scene::MAX_HORIZON;
+        if !(horizons.contains(&horizon) && (1..=2).contains(&order) && duration.is_finite() && duration > 0.0) {
             return Err(KomoError::Settings(format!(
-                "need horizon ≥ 2, order 1 or 2 and a positive duration; got T = {horizon}, k = {order}, {duration} s"
+                "need a horizon T from {} to {}, order 1 or 2 and a positive duration; got T = {horizon}, k = {order}, {duration} s",
+                horizons.start(),
+                horizons.end()
             )));
         }
         robot.check_configuration(&start)?;
@@ -120,18 +124,22 @@ impl TrajectoryProblem {
         self.robot.nq()
     }
 
+    /// The robot model.
     pub fn robot(&self) -> &Arc<RobotModel> {
         &self.robot
     }
 
+    /// The collision model, if the problem has one.
     pub fn collision_model(&self) -> Option<&CollisionModel> {
         self.collision.as_ref()
     }
 
+    /// The objectives.
     pub fn objectives(&self) -> &[Objective] {
         &self.objectives
     }
 
+    /// The start configuration q_0 (rad or m).
     pub fn start(&self) -> &[f64] {
         &self.start
     }

@@ -46,6 +46,7 @@ pub struct Validation {
 pub struct TrajectoryResult {
     /// `q_1 … q_T`.
     pub trajectory: Vec<Vec<f64>>,
+    /// How the solve went.
     pub report: SolveReport,
 }
 
@@ -80,6 +81,7 @@ impl TrajectoryOptimizer {
         TrajectoryOptimizer { problem, workspace, solver, x: vec![0.0; dimension] }
     }
 
+    /// The trajectory problem it solves.
     pub fn problem(&self) -> &TrajectoryProblem {
         &self.problem
     }
@@ -256,10 +258,13 @@ pub struct ProblemSolution {
     pub plan: PlanReport,
     /// `q_1 … q_T`.
     pub trajectory: Vec<Vec<f64>>,
+    /// Active joint names, the order of each configuration.
     pub joints: Vec<String>,
     /// Seconds between slices.
     pub time_step: f64,
+    /// How the solve went.
     pub report: SolveReport,
+    /// Checks of the result between slices.
     pub validation: Validation,
     /// Preparation, planning, optimization and validation.
     pub total_time: Duration,

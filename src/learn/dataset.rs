@@ -37,9 +37,8 @@ impl Demonstration {
     /// goal pose: joint goals are not learned).
     pub fn from_record(record: &TrajectoryRecord) -> Option<Demonstration> {
         let goal_pose = record.goal_pose?;
-        let mut states = Vec::with_capacity(record.q.len() + 1);
-        states.push(record.start.clone());
-        states.extend(record.q.iter().cloned());
+        // q_0 … q_T, the start first (schema version 2 on).
+        let states = record.q.clone();
         let obstacles = record.obstacles.iter().map(|o| (o.name.clone(), obstacle_feature(&o.pose, &o.size))).collect();
         Some(Demonstration { id: record.id, time_step: record.time_step, goal_pose, obstacles, states })
     }
@@ -60,7 +59,9 @@ fn obstacle_feature(pose: &[f64; 7], size: &[f64; 3]) -> ObstacleFeature {
 /// Demonstrations and the joint order of their configurations.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Demonstrations {
+    /// Joint names, in the order of the configurations.
     pub joints: Vec<String>,
+    /// The trajectories, in file and row order.
     pub items: Vec<Demonstration>,
 }
 
@@ -182,7 +183,9 @@ impl Default for Augmentation {
 /// and its norm (rad/s); the last state's velocity is zero.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Pairs {
+    /// Values per input row.
     pub input_width: usize,
+    /// Joints (values per direction row).
     pub dof: usize,
     /// Row-major `len × input_width`.
     pub inputs: Vec<f32>,
@@ -204,6 +207,7 @@ impl Pairs {
         self.speeds.len()
     }
 
+    /// Whether there are no pairs.
     pub fn is_empty(&self) -> bool {
         self.speeds.is_empty()
     }
@@ -390,8 +394,11 @@ fn read_batch(path: &Path, batch: &RecordBatch, n: usize, items: &mut Vec<Demons
         if start.len() != n || flat.is_empty() || flat.len() % n != 0 {
             return Err(column_error(path, "q", &format!("row {r} is not a whole number of {n}-joint configurations")));
         }
-        let mut states = vec![start];
-        states.extend(flat.chunks_exact(n).map(<[f64]>::to_vec));
+        // `q` holds q_0 … q_T, the start first (schema version 2 on).
+        if flat[..n] != start[..] {
+            return Err(column_error(path, "q", &format!("row {r}: q_0 is not the row's start")));
+        }
+        let states: Vec<Vec<f64>> = flat.chunks_exact(n).map(<[f64]>::to_vec).collect();
         let row_names = names.value(r);
         let row_names =
             row_names.as_string_opt::<i32>().ok_or_else(|| column_error(path, "obstacle_names", "expected strings"))?;

@@ -47,6 +47,7 @@ pub enum RolloutOutcome {
 }
 
 impl RolloutOutcome {
+    /// `success`, `collision`, `timeout` or `no_policy`.
     pub fn as_str(&self) -> &'static str {
         match self {
             RolloutOutcome::Success => "success",
@@ -60,6 +61,7 @@ impl RolloutOutcome {
 /// What a rollout did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Rollout {
+    /// How it ended.
     pub outcome: RolloutOutcome,
     /// Steps taken.
     pub steps: usize,
@@ -73,6 +75,7 @@ pub struct Rollout {
 /// touch the target), the judge and its criteria.
 #[derive(Debug)]
 pub struct Task {
+    /// The grasp problem (its start is the rollout's default start).
     pub problem: Problem,
     collision: Arc<CollisionModel>,
     judge: GraspJudge,
@@ -120,9 +123,12 @@ impl Task {
         &self.collision
     }
 
-    /// Whether `q` grasps the target (the gripper within `radius` of the
-    /// grasp point first, to spare the judge).
-    fn grasped(&self, kin: &mut KinematicsWorkspace, q: &[f64], radius: f64) -> Result<bool, LearnError> {
+    /// Whether `q` grasps the target (the gripper within `radius` (m) of
+    /// the grasp point first, to spare the judge).
+    ///
+    /// # Errors
+    /// Robot or grasp model errors.
+    pub fn grasped(&self, kin: &mut KinematicsWorkspace, q: &[f64], radius: f64) -> Result<bool, LearnError> {
         let robot = &self.problem.robot;
         robot.forward_kinematics(kin, q)?;
         let p = robot.frame_pose(kin, self.gripper).translation.vector;
@@ -198,16 +204,23 @@ fn step(limits: &[crate::robot::JointLimits], q: &mut [f64], action: &[f64], vel
     clamped
 }
 
-/// Counts of outcomes.
+/// Counts of outcomes, of rollouts or of shared-control episodes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 pub struct OutcomeCounts {
+    /// Grasped.
     pub success: usize,
+    /// Touched something.
     pub collision: usize,
+    /// Time ran out.
     pub timeout: usize,
+    /// No policy for the task (its reference could not be optimized).
     pub no_policy: usize,
+    /// A shared-control operator stopped where the task was not done.
+    pub failed: usize,
 }
 
 impl OutcomeCounts {
+    /// Counts one rollout's `outcome`.
     pub fn add(&mut self, outcome: RolloutOutcome) {
         match outcome {
             RolloutOutcome::Success => self.success += 1,
@@ -217,8 +230,9 @@ impl OutcomeCounts {
         }
     }
 
+    /// Episodes counted.
     pub fn total(&self) -> usize {
-        self.success + self.collision + self.timeout + self.no_policy
+        self.success + self.collision + self.timeout + self.no_policy + self.failed
     }
 
     /// Share of successes (0 without episodes).
@@ -226,6 +240,7 @@ impl OutcomeCounts {
         self.success as f64 / self.total().max(1) as f64
     }
 
+    /// Counts of rollout `outcomes`.
     pub fn from_outcomes(outcomes: impl IntoIterator<Item = RolloutOutcome>) -> OutcomeCounts {
         let mut counts = OutcomeCounts::default();
         outcomes.into_iter().for_each(|o| counts.add(o));

@@ -9,8 +9,9 @@ use crate::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalOptions, problem_goals,
 };
 use crate::control::RobotPolicy;
+use crate::robot::KinematicsWorkspace;
 use crate::scene::ProblemFamily;
-use crate::sim::{Approach, EpisodeSettings, Outcome, run_episode};
+use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
 use rayon::prelude::*;
 use std::sync::Arc;
 
@@ -75,6 +76,7 @@ pub enum GoalPolicy {
 }
 
 impl GoalPolicy {
+    /// `learned` or `lqr`.
     pub fn as_str(&self) -> &'static str {
         match self {
             GoalPolicy::Learned => "learned",
@@ -86,8 +88,9 @@ impl GoalPolicy {
 /// Outcomes of shared-control episodes: the [`Approach`] operator (to a
 /// point above the grasp, then down) through an arbiter in `mode` whose
 /// goal policy is `which`, on each task, in parallel. Success is the
-/// simulator's (the gripper within 1 cm and 0.2 rad of the grasp pose); a
-/// task whose LQR reference cannot be optimized counts as `Timeout`.
+/// task's grasp judge (as when a policy is followed alone), checked after
+/// every step; a task whose LQR reference cannot be optimized counts as
+/// `Timeout`.
 ///
 /// # Errors
 /// Arbiter or robot errors.
@@ -99,6 +102,7 @@ pub fn shared_control(
     seed: u64,
 ) -> Result<Vec<Outcome>, LearnError> {
     let episode = EpisodeSettings { record: false, ..EpisodeSettings::default() };
+    let judge_radius = super::evaluate::RolloutSettings::default().judge_radius;
     let arbitration = |e: crate::arbitration::ArbitrationError| LearnError::Training(format!("arbiter: {e}"));
     tasks
         .par_iter()
@@ -122,7 +126,17 @@ pub fn shared_control(
             };
             let Some(goal) = problem.grasp_target() else { return Ok(Outcome::Timeout) };
             let mut ws = arbiter.workspace();
-            let record = run_episode(&arbiter, &mut ws, &problem.start, &goal, &mut Approach::default(), &episode)?;
+            let mut kin = KinematicsWorkspace::new(&problem.robot);
+            let run = Episode {
+                arbiter: &arbiter,
+                start: &problem.start,
+                target: goal.translation.vector.into(),
+                true_goal: 0,
+                settings: episode,
+            };
+            // A judge error (a bad configuration) is not a grasp.
+            let mut judge = |q: &[f64]| task.grasped(&mut kin, q, judge_radius).unwrap_or(false);
+            let record = run.run(&mut ws, &mut Approach::default(), &mut judge)?;
             Ok(record.outcome)
         })
         .collect()

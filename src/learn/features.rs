@@ -38,7 +38,9 @@ const GRIPPER_FEATURES: usize = 21;
 /// edge lengths in its shape frame (m).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ObstacleFeature {
+    /// Centre (m, world).
     pub center: [f64; 3],
+    /// Bounding-box edge lengths (m).
     pub size: [f64; 3],
 }
 
@@ -50,6 +52,7 @@ pub struct GoalFeatures {
     pub position: [f64; 3],
     /// First two columns of the goal rotation matrix (world axes).
     pub rotation6: [f64; 6],
+    /// The obstacles of the slots, in scene order.
     pub obstacles: Vec<ObstacleFeature>,
 }
 

@@ -9,7 +9,6 @@ use crate::robot::JointLimits;
 ///
 /// # Errors
 /// Plotting errors.
-#[cfg(feature = "train")]
 pub fn loss_curves(report: &super::TrainReport, title: &str) -> Result<String, FigureError> {
     let log = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
     let train: Vec<(f64, f64)> = report.losses.iter().map(|l| (l.epoch as f64, log(l.train))).collect();

@@ -20,7 +20,10 @@
 //!   [`GraspJudge`](crate::scene::GraspJudge)), and [`dagger`] adds expert
 //!   trajectories where the learned policy fails.
 //!
-//! This is the only module that knows the network crate.
+//! This is the only module that knows the network crate. Loading and
+//! querying a trained policy ([`PolicyNetwork`], [`LearnedPolicy`],
+//! [`features`]) is always built; datasets, training, evaluation, DAgger
+//! and figures need the `learn` feature (candle, Parquet, rayon).
 //!
 //! ```no_run
 //! use std::sync::Arc;
@@ -36,21 +39,27 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+#[cfg(feature = "learn")]
 pub mod dagger;
+#[cfg(feature = "learn")]
 mod dataset;
+#[cfg(feature = "learn")]
 pub mod evaluate;
+#[cfg(feature = "learn")]
 pub mod experiment;
 pub mod features;
+#[cfg(feature = "learn")]
 pub mod figures;
 mod network;
 mod policy;
-#[cfg(feature = "train")]
+#[cfg(feature = "learn")]
 mod train;
 
+#[cfg(feature = "learn")]
 pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkScratch, PolicyMeta, PolicyNetwork};
 pub use policy::{LearnedPolicy, LearnedState, problem_goal};
-#[cfg(feature = "train")]
+#[cfg(feature = "learn")]
 pub use train::{EpochLoss, LearnOptions, TrainReport, TrainSettings, normalisation, speed_scale, train, train_on};
 
 use std::path::PathBuf;
@@ -58,42 +67,103 @@ use std::path::PathBuf;
 /// Errors reading data or policy files, training, or building a policy.
 #[derive(Debug, thiserror::Error)]
 pub enum LearnError {
+    /// A file or folder that cannot be read or written.
     #[error("cannot read or write {path}: {source}")]
     Io {
+        /// The file or folder.
         path: PathBuf,
+        /// What the system said.
         #[source]
         source: std::io::Error,
     },
     /// A file that is not safetensors.
     #[error("{path} is not a safetensors file: {message}")]
-    NotSafetensors { path: PathBuf, message: String },
+    NotSafetensors {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
     /// A policy file's metadata is missing, malformed or of another format.
     #[error("{path}: {message}")]
-    Metadata { path: PathBuf, message: String },
+    Metadata {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A policy file without one of the network's tensors.
     #[error("{path}: tensor `{name}` is missing")]
-    MissingTensor { path: PathBuf, name: String },
+    MissingTensor {
+        /// The file.
+        path: PathBuf,
+        /// The tensor's name.
+        name: String,
+    },
+    /// A tensor of another element type than `f32`.
     #[error("{path}: tensor `{name}` has type {got}, expected F32")]
-    TensorType { path: PathBuf, name: String, got: String },
+    TensorType {
+        /// The file.
+        path: PathBuf,
+        /// The tensor's name.
+        name: String,
+        /// Its type.
+        got: String,
+    },
+    /// A tensor whose shape does not fit the metadata's layer widths.
     #[error("{path}: tensor `{name}` has shape {got:?}, expected {expected:?}")]
-    TensorShape { path: PathBuf, name: String, expected: Vec<usize>, got: Vec<usize> },
+    TensorShape {
+        /// The file.
+        path: PathBuf,
+        /// The tensor's name.
+        name: String,
+        /// The shape the metadata implies.
+        expected: Vec<usize>,
+        /// The file's shape.
+        got: Vec<usize>,
+    },
+    /// A tensor with NaN or infinite values (or a non-positive input scale).
     #[error("{path}: tensor `{name}` holds non-finite values (or a non-positive scale)")]
-    NonFinite { path: PathBuf, name: String },
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// The tensor's name.
+        name: String,
+    },
     /// A policy used with another robot, goal or dataset than it fits.
     #[error("{what}: expected {expected}, got {got}")]
-    Mismatch { what: String, expected: String, got: String },
+    Mismatch {
+        /// What differs (joints, gripper, task, …).
+        what: String,
+        /// What the policy or dataset needs.
+        expected: String,
+        /// What it was given.
+        got: String,
+    },
     /// A dataset folder or part file that cannot be used.
     #[error("dataset {path}: {message}")]
-    Dataset { path: PathBuf, message: String },
+    Dataset {
+        /// The folder or part file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Training settings out of range.
     #[error("training settings: {0}")]
     Settings(String),
+    /// The network crate failed while training.
     #[error("training failed: {0}")]
     Training(String),
+    /// A robot model error.
     #[error(transparent)]
     Robot(#[from] crate::robot::RobotError),
+    /// A collision model error.
     #[error(transparent)]
     Collision(#[from] crate::collision::CollisionError),
+    /// A grasp model error.
     #[error(transparent)]
     Grasp(#[from] crate::scene::GraspError),
+    /// A tracking policy error.
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),
 }

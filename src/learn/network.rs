@@ -46,10 +46,13 @@ pub struct PolicyMeta {
     pub time_step: f64,
     /// The problem family the data came from.
     pub family: String,
-    /// Training seed and epochs, trajectories and state-action pairs.
+    /// Training seed.
     pub seed: u64,
+    /// Training epochs.
     pub epochs: usize,
+    /// Trajectories trained on.
     pub trajectories: usize,
+    /// State-action pairs trained on.
     pub pairs: usize,
 }
 

@@ -56,24 +56,32 @@ impl Default for TrainSettings {
 /// Mean losses of one epoch.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct EpochLoss {
+    /// Epoch number, from 1.
     pub epoch: usize,
     /// Training loss (mean over the epoch's minibatches).
     pub train: f64,
-    /// Validation loss, its direction and speed terms (NaN without validation pairs).
+    /// Validation loss (NaN without validation pairs).
     pub validation: f64,
+    /// Its direction term (mean squared error of the unit direction).
     pub validation_direction: f64,
+    /// Its speed term (mean squared error of the scaled norm).
     pub validation_speed: f64,
 }
 
 /// What training did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct TrainReport {
+    /// Losses per epoch.
     pub losses: Vec<EpochLoss>,
     /// Wall-clock seconds of the optimisation.
     pub seconds: f64,
+    /// State-action pairs trained on (perturbed ones included).
     pub train_pairs: usize,
+    /// State-action pairs held out.
     pub validation_pairs: usize,
+    /// Trajectories of the training split.
     pub train_trajectories: usize,
+    /// Trajectories of the validation split.
     pub validation_trajectories: usize,
 }
 
@@ -382,6 +390,7 @@ fn progress_bar(total: u64) -> ProgressBar {
 /// What [`train_on`] needs beyond the training settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LearnOptions {
+    /// Network and optimiser settings.
     pub train: TrainSettings,
     /// Share of sample ids held out for validation (default 0.1).
     pub validation: f64,

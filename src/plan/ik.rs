@@ -12,6 +12,7 @@ use thiserror::Error;
 /// Where a frame should go.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IkTarget {
+    /// The robot frame to place.
     pub frame: FrameId,
     /// Frame origin position (world, m).
     pub position: Vector3<f64>,
@@ -35,6 +36,7 @@ pub struct IkSettings {
     pub angle_tolerance: f64,
     /// Damping λ of (J Jᵀ + λ² I).
     pub damping: f64,
+    /// Seed of the random restarts.
     pub seed: u64,
 }
 
@@ -58,11 +60,24 @@ pub enum IkError {
     #[error(
         "no joint configuration within limits reaches the target (best attempt: {position_error:.2e} m, {angle_error:.2e} rad off after {attempts} attempts)"
     )]
-    Unreachable { position_error: f64, angle_error: f64, attempts: usize },
+    Unreachable {
+        /// Smallest position error reached (m).
+        position_error: f64,
+        /// Its orientation error (rad).
+        angle_error: f64,
+        /// Restarts tried.
+        attempts: usize,
+    },
     /// Every converged solution collides.
     #[error("{solutions} configurations reach the target but all collide (first: {first_pair})")]
-    InCollision { solutions: usize, first_pair: String },
+    InCollision {
+        /// Solutions found, all colliding.
+        solutions: usize,
+        /// The colliding pair of the first.
+        first_pair: String,
+    },
     #[error(transparent)]
+    /// A robot-side error (unknown frame, bad configuration).
     Robot(#[from] RobotError),
 }
 

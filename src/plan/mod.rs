@@ -30,10 +30,13 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum PlanError {
     #[error(transparent)]
+    /// The collision model cannot be built.
     Collision(#[from] CollisionError),
     #[error("goal: {0}")]
+    /// Inverse kinematics of the goal failed.
     Ik(#[from] IkError),
     #[error(transparent)]
+    /// A robot-side error.
     Robot(#[from] RobotError),
     /// A grasp goal names no gripper frame.
     #[error("the problem's goal needs robot.gripper")]
@@ -51,6 +54,7 @@ pub struct PlanReport {
     pub path: Vec<Vec<f64>>,
     /// Time of IK + planning, and of shortcutting (and certification).
     pub planning_time: Duration,
+    /// Time of shortcutting and certification.
     pub simplify_time: Duration,
     /// Whether every edge of `path` passed the certified check (see
     /// [`CollisionModel::motion_free_certified`]; with the planner

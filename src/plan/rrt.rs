@@ -18,7 +18,10 @@ pub enum EdgeCheck {
     /// Every configuration of the motion keeps at least `clearance / 2`
     /// (m) between all pairs, and none sampled is closer than `clearance`
     /// ([`CollisionModel::motion_free_certified`]).
-    Certified { clearance: f64 },
+    Certified {
+        /// Clearance (m): every configuration keeps half of it.
+        clearance: f64,
+    },
 }
 
 impl EdgeCheck {
@@ -36,6 +39,24 @@ impl EdgeCheck {
         match self {
             EdgeCheck::Resolution(r) => model.motion_free(ws, a, b, r),
             EdgeCheck::Certified { clearance } => model.motion_free_certified(ws, a, b, clearance),
+        }
+    }
+
+    /// [`is_free`](Self::is_free) that gives up at `deadline` (`None`:
+    /// the clock ran out before the answer).
+    ///
+    /// # Errors
+    /// Bad configurations or settings.
+    pub fn is_free_by(
+        self,
+        model: &CollisionModel,
+        ws: &mut CollisionWorkspace,
+        (a, b): (&[f64], &[f64]),
+        deadline: Instant,
+    ) -> Result<Option<bool>, RobotError> {
+        match self {
+            EdgeCheck::Resolution(r) => model.motion_free_by(ws, a, b, r, Some(deadline)),
+            EdgeCheck::Certified { clearance } => model.motion_free_certified_by(ws, a, b, clearance, Some(deadline)),
         }
     }
 
@@ -85,7 +106,8 @@ impl From<&crate::scene::PlannerSettings> for RrtSettings {
         RrtSettings {
             step: p.step,
             edge: EdgeCheck::Resolution(p.resolution),
-            time_limit: Duration::from_secs_f64(p.time_limit),
+            // Problem files bound it; a larger one from Rust code never runs out.
+            time_limit: Duration::try_from_secs_f64(p.time_limit).unwrap_or(Duration::MAX),
             max_iterations: p.max_iterations,
             seed: p.seed,
         }
@@ -124,12 +146,15 @@ impl PlanStatus {
 /// What [`rrt_connect`] found.
 #[derive(Debug, Clone)]
 pub struct PlanResult {
+    /// Why the planner stopped.
     pub status: PlanStatus,
     /// Start to goal, each edge collision-free at the resolution; empty unless solved.
     pub path: Vec<Vec<f64>>,
+    /// Extension rounds run.
     pub iterations: usize,
     /// Nodes in both trees.
     pub nodes: usize,
+    /// Wall-clock time of the search.
     pub time: Duration,
 }
 
@@ -165,6 +190,8 @@ enum Extension {
     Reached(usize),
     Advanced(usize),
     Trapped,
+    /// The time budget ran out during the edge check.
+    OutOfTime,
 }
 
 struct Planner<'a> {
@@ -172,6 +199,7 @@ struct Planner<'a> {
     ws: &'a mut CollisionWorkspace,
     settings: &'a RrtSettings,
     scratch: Vec<f64>,
+    deadline: Instant,
 }
 
 impl Planner<'_> {
@@ -189,8 +217,10 @@ impl Planner<'_> {
         let t = if reached { 1.0 } else { self.settings.step / dist };
         self.scratch.clear();
         self.scratch.extend(from.iter().zip(target).map(|(a, b)| a + (b - a) * t));
-        if !self.settings.edge.is_free(self.model, self.ws, from, &self.scratch)? {
-            return Ok(Extension::Trapped);
+        match self.settings.edge.is_free_by(self.model, self.ws, (from, &self.scratch), self.deadline)? {
+            None => return Ok(Extension::OutOfTime),
+            Some(false) => return Ok(Extension::Trapped),
+            Some(true) => {}
         }
         let new = tree.add(&self.scratch, Some(near));
         Ok(if reached { Extension::Reached(new) } else { Extension::Advanced(new) })
@@ -200,13 +230,12 @@ impl Planner<'_> {
     /// from its node nearest to `target`, step after step along the
     /// straight line (each new node is where the next step starts; a
     /// nearest-neighbour query per step would cost more than it finds).
-    fn connect(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Option<usize>, RobotError> {
+    fn connect(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Extension, RobotError> {
         let mut near = tree.nn.nearest(target).expect("trees are never empty");
         loop {
             match self.step(tree, near, target)? {
-                Extension::Reached(i) => return Ok(Some(i)),
                 Extension::Advanced(i) => near = i,
-                Extension::Trapped => return Ok(None),
+                other => return Ok(other),
             }
         }
     }
@@ -243,7 +272,9 @@ pub fn rrt_connect(
     }
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let limits = robot.limits().to_vec();
-    let mut planner = Planner { model, ws, settings, scratch: Vec::with_capacity(dim) };
+    // Far budgets (beyond what an Instant holds) never run out.
+    let deadline = began.checked_add(settings.time_limit).unwrap_or(began + Duration::from_secs(1 << 40));
+    let mut planner = Planner { model, ws, settings, scratch: Vec::with_capacity(dim), deadline };
     let mut sample = vec![0.0; dim];
     // Tree `a` holds the start when `a_is_start`.
     let mut a_is_start = true;
@@ -254,17 +285,24 @@ pub fn rrt_connect(
         for (s, l) in sample.iter_mut().zip(&limits) {
             *s = rng.random_range(l.lower..=l.upper);
         }
+        let out_of_time =
+            |a: &Tree, b: &Tree| done(PlanStatus::TimeLimit, Vec::new(), iteration, a.parent.len() + b.parent.len());
         let new = match planner.extend(&mut a, &sample)? {
             Extension::Trapped => None,
+            Extension::OutOfTime => return Ok(out_of_time(&a, &b)),
             Extension::Reached(i) | Extension::Advanced(i) => Some(i),
         };
         if let Some(i) = new {
             let q_new = a.nn.point(i).to_vec();
-            if let Some(j) = planner.connect(&mut b, &q_new)? {
-                let (from_a, from_b) = (a.branch(i), b.branch(j));
-                let path = join(from_a, from_b, a_is_start);
-                let nodes = a.parent.len() + b.parent.len();
-                return Ok(done(PlanStatus::Solved, path, iteration + 1, nodes));
+            match planner.connect(&mut b, &q_new)? {
+                Extension::Reached(j) => {
+                    let (from_a, from_b) = (a.branch(i), b.branch(j));
+                    let path = join(from_a, from_b, a_is_start);
+                    let nodes = a.parent.len() + b.parent.len();
+                    return Ok(done(PlanStatus::Solved, path, iteration + 1, nodes));
+                }
+                Extension::OutOfTime => return Ok(out_of_time(&a, &b)),
+                Extension::Trapped | Extension::Advanced(_) => {}
             }
         }
         std::mem::swap(&mut a, &mut b);

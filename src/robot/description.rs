@@ -22,11 +22,20 @@ use std::sync::Arc;
 #[derive(Debug, Clone, PartialEq)]
 pub enum JointKind {
     /// Rotation about `axis`, within position limits.
-    Revolute { axis: Unit<Vector3<f64>> },
+    Revolute {
+        /// Unit axis in the joint frame.
+        axis: Unit<Vector3<f64>>,
+    },
     /// Rotation about `axis` without position limits.
-    Continuous { axis: Unit<Vector3<f64>> },
+    Continuous {
+        /// Unit axis in the joint frame.
+        axis: Unit<Vector3<f64>>,
+    },
     /// Translation along `axis` (metres).
-    Prismatic { axis: Unit<Vector3<f64>> },
+    Prismatic {
+        /// Unit axis in the joint frame.
+        axis: Unit<Vector3<f64>>,
+    },
     /// No motion.
     Fixed,
 }
@@ -62,9 +71,13 @@ impl JointKind {
 /// m/s, N·m or N). Continuous joints have infinite position limits.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JointLimits {
+    /// Lower position limit (rad or m; −∞ for continuous joints).
     pub lower: f64,
+    /// Upper position limit (rad or m; +∞ for continuous joints).
     pub upper: f64,
+    /// Velocity limit (rad/s or m/s).
     pub velocity: f64,
+    /// Effort limit (N·m or N).
     pub effort: f64,
 }
 
@@ -80,14 +93,18 @@ impl JointLimits {
 pub struct Mimic {
     /// Index of the mimicked joint in [`RobotDescription::joints`].
     pub joint: usize,
+    /// value = multiplier · (the mimicked joint's value) + offset.
     pub multiplier: f64,
+    /// Offset (rad or m).
     pub offset: f64,
 }
 
 /// One joint of the URDF.
 #[derive(Debug, Clone)]
 pub struct Joint {
+    /// Name, as in the URDF.
     pub name: String,
+    /// Type and axis.
     pub kind: JointKind,
     /// Index of the parent link in [`RobotDescription::links`].
     pub parent: usize,
@@ -95,7 +112,9 @@ pub struct Joint {
     pub child: usize,
     /// Pose of the joint (and child link) frame in the parent link frame at zero value.
     pub origin: IsometryMatrix3<f64>,
+    /// Position, velocity and effort limits.
     pub limits: JointLimits,
+    /// The joint this one follows, if any.
     pub mimic: Option<Mimic>,
     /// Line of the `<joint>` element in the source, when known.
     pub line: Option<u32>,
@@ -105,26 +124,45 @@ pub struct Joint {
 #[derive(Debug, Clone)]
 pub enum Geometry {
     /// Box with the given half extents (m) along x, y, z.
-    Box { half_extents: Vector3<f64> },
+    Box {
+        /// Half the side lengths along x, y, z (m).
+        half_extents: Vector3<f64>,
+    },
     /// Cylinder along z, centred on the origin.
-    Cylinder { radius: f64, length: f64 },
+    Cylinder {
+        /// Radius (m).
+        radius: f64,
+        /// Full length (m).
+        length: f64,
+    },
     /// Capsule along z: a cylinder of `length` capped by two hemispheres.
-    Capsule { radius: f64, length: f64 },
+    Capsule {
+        /// Radius (m).
+        radius: f64,
+        /// Full length (m).
+        length: f64,
+    },
     /// Sphere centred on the origin.
-    Sphere { radius: f64 },
+    Sphere {
+        /// Radius (m).
+        radius: f64,
+    },
     /// Triangle mesh, already scaled, in the element frame.
     Mesh {
         /// The URI as written in the URDF.
         uri: String,
         /// The file it resolved to.
         path: std::path::PathBuf,
+        /// The triangles, scaled into the element frame.
         mesh: Arc<TriMesh>,
     },
     /// A mesh file that exists but whose format tandem cannot read for
     /// collision (e.g. COLLADA `.dae`); kept so the link's geometry is
     /// accounted for, and reported by [`RobotDescription::lint`].
     UnreadableMesh {
+        /// The URI as written.
         uri: String,
+        /// The file it resolved to.
         path: std::path::PathBuf,
         /// File extension (lower case), or empty.
         format: String,
@@ -151,16 +189,20 @@ pub struct CollisionElement {
     pub name: Option<String>,
     /// Pose of the shape in the link frame.
     pub origin: IsometryMatrix3<f64>,
+    /// The shape.
     pub geometry: Geometry,
 }
 
 /// One link of the URDF.
 #[derive(Debug, Clone)]
 pub struct Link {
+    /// Name, as in the URDF.
     pub name: String,
     /// Index of the joint whose child this link is; `None` for the root.
     pub parent_joint: Option<usize>,
+    /// Its `<collision>` elements.
     pub collisions: Vec<CollisionElement>,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
@@ -305,6 +347,15 @@ impl RobotDescription {
         // The embedded file is tested on every build; failing here is a build defect.
         super::urdf::parse_urdf(PANDA_URDF, "<embedded panda.urdf>", &super::MeshSearchPath::default())
             .expect("embedded Panda URDF is valid")
+    }
+
+    /// The embedded planar gripper of the seed's planar task: prismatic `x`
+    /// and `y` (m, over a 50 × 50 cm table) and a `yaw` joint, gripper frame
+    /// `gripper_tcp` 10 cm above the table.
+    pub fn planar_gripper() -> RobotDescription {
+        const URDF: &str = include_str!("../../problems/robots/planar/planar_gripper.urdf");
+        super::urdf::parse_urdf(URDF, "<embedded planar_gripper.urdf>", &super::MeshSearchPath::default())
+            .expect("embedded planar gripper URDF is valid")
     }
 }
 

@@ -32,94 +32,283 @@ pub enum RobotError {
     /// The URDF (or a mesh) file could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
     /// The text is not well-formed XML.
     #[error("{at}: malformed XML: {message}")]
-    MalformedXml { at: SourceLocation, message: String },
+    MalformedXml {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// What is wrong.
+        message: String,
+    },
     /// Well-formed XML that is not a valid URDF (missing attribute, bad number…).
     #[error("{at}: invalid URDF: {message}")]
-    InvalidUrdf { at: SourceLocation, message: String },
+    InvalidUrdf {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// What is wrong.
+        message: String,
+    },
     /// An SRDF that is malformed or names links or joints the robot lacks.
     #[error("{at}: invalid SRDF: {message}")]
-    InvalidSrdf { at: SourceLocation, message: String },
+    InvalidSrdf {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// What is wrong.
+        message: String,
+    },
     /// A joint `type` outside revolute, continuous, prismatic, fixed, floating,
     /// planar, spherical.
     #[error(
         "{at}: joint '{joint}' has unknown type '{joint_type}' (expected revolute, continuous, prismatic or fixed)"
     )]
-    UnknownJointType { at: SourceLocation, joint: String, joint_type: String },
+    UnknownJointType {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The joint's name.
+        joint: String,
+        /// The type as written.
+        joint_type: String,
+    },
     /// A valid URDF joint type that tandem does not model (floating, planar, spherical).
     #[error(
         "{at}: joint '{joint}' has type '{joint_type}', which tandem does not support (use revolute, continuous, prismatic or fixed)"
     )]
-    UnsupportedJointType { at: SourceLocation, joint: String, joint_type: String },
+    UnsupportedJointType {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The joint's name.
+        joint: String,
+        /// The type as written.
+        joint_type: String,
+    },
     /// A joint names a parent or child link that the URDF does not define.
     #[error("{at}: joint '{joint}' names {role} link '{link}', which is not defined")]
-    MissingLink { at: SourceLocation, joint: String, role: &'static str, link: String },
+    MissingLink {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The joint's name.
+        joint: String,
+        /// `parent` or `child`.
+        role: &'static str,
+        /// The link's name.
+        link: String,
+    },
     /// Two links, or two joints, share a name.
     #[error("{at}: duplicate {kind} name '{name}'")]
-    DuplicateName { at: SourceLocation, kind: &'static str, name: String },
+    DuplicateName {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// `link` or `joint`.
+        kind: &'static str,
+        /// The name used twice.
+        name: String,
+    },
     /// The joints do not form a tree: a link has two parents or a cycle exists.
     #[error("{at}: kinematic loop: {detail}")]
-    KinematicLoop { at: SourceLocation, detail: String },
+    KinematicLoop {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// What is wrong, in detail.
+        detail: String,
+    },
     /// More than one link has no parent joint.
     #[error("{at}: the URDF has {} root links ({}); a robot needs exactly one", roots.len(), roots.join(", "))]
-    MultipleRoots { at: SourceLocation, roots: Vec<String> },
+    MultipleRoots {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The links without a parent joint.
+        roots: Vec<String>,
+    },
     /// The URDF defines no link.
     #[error("{at}: the URDF defines no link")]
-    NoLinks { at: SourceLocation },
+    NoLinks {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+    },
     /// A joint's lower position limit is above its upper limit.
     #[error("{at}: joint '{joint}' has lower limit {lower} above upper limit {upper}")]
-    InvalidLimits { at: SourceLocation, joint: String, lower: f64, upper: f64 },
+    InvalidLimits {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The joint's name.
+        joint: String,
+        /// Lower position limit (rad or m).
+        lower: f64,
+        /// Upper position limit (rad or m).
+        upper: f64,
+    },
     /// A number that must be finite (or non-negative) is not.
     #[error("{at}: {element} '{name}': {field} = {value} is not valid ({expected})")]
     InvalidValue {
+        /// Where: the file (or `<string>`) and line.
         at: SourceLocation,
+        /// `link` or `joint`.
         element: &'static str,
+        /// The link's or joint's name.
         name: String,
+        /// The attribute (e.g. `mesh scale x`).
         field: &'static str,
+        /// The offending value.
         value: f64,
+        /// What it must be.
         expected: &'static str,
     },
     /// A revolute or prismatic joint with a zero axis.
     #[error("{at}: joint '{joint}' has a zero-length axis {axis:?}")]
-    ZeroAxis { at: SourceLocation, joint: String, axis: [f64; 3] },
+    ZeroAxis {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The joint's name.
+        joint: String,
+        /// The axis as written.
+        axis: [f64; 3],
+    },
     /// A mimic element names a joint that does not exist, or mimics form a cycle.
     #[error("{at}: joint '{joint}' mimics '{target}': {detail}")]
-    InvalidMimic { at: SourceLocation, joint: String, target: String, detail: String },
+    InvalidMimic {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The joint's name.
+        joint: String,
+        /// The joint it mimics.
+        target: String,
+        /// What is wrong, in detail.
+        detail: String,
+    },
     /// A mesh URI could not be resolved to an existing file.
     #[error("{at}: link '{link}': mesh '{uri}' not found (looked in: {})", searched.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", "))]
-    MeshNotFound { at: SourceLocation, link: String, uri: String, searched: Vec<PathBuf> },
+    MeshNotFound {
+        /// Where: the file (or `<string>`) and line.
+        at: SourceLocation,
+        /// The link's name.
+        link: String,
+        /// The mesh URI as written.
+        uri: String,
+        /// Every place looked in.
+        searched: Vec<PathBuf>,
+    },
     /// A mesh file exists but could not be parsed.
     #[error("mesh {path}: {message}")]
-    InvalidMesh { path: PathBuf, message: String },
+    InvalidMesh {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
     /// No frame (link or joint) has this name.
     #[error("unknown frame '{name}'{}", did_you_mean(suggestions))]
-    UnknownFrame { name: String, suggestions: Vec<String> },
+    UnknownFrame {
+        /// The name asked for.
+        name: String,
+        /// Close names that do exist, for "did you mean".
+        suggestions: Vec<String>,
+    },
     /// No joint has this name.
     #[error("unknown joint '{name}'{}", did_you_mean(suggestions))]
-    UnknownJoint { name: String, suggestions: Vec<String> },
+    UnknownJoint {
+        /// The name asked for.
+        name: String,
+        /// Close names that do exist, for "did you mean".
+        suggestions: Vec<String>,
+    },
     /// A joint chosen as active cannot be: fixed, or driven by a mimic.
     #[error("joint '{joint}' cannot be active: {reason}")]
-    NotActuable { joint: String, reason: String },
+    NotActuable {
+        /// The joint's name.
+        joint: String,
+        /// Why it cannot be.
+        reason: String,
+    },
     /// The requested root link is not an ancestor of the tip frame.
     #[error("link '{root}' is not an ancestor of frame '{tip}', so they do not define a chain")]
-    NotAChain { root: String, tip: String },
+    NotAChain {
+        /// The root link asked for.
+        root: String,
+        /// The tip frame asked for.
+        tip: String,
+    },
     /// A held (inactive) joint value is outside the joint's limits or not finite.
     #[error("held value {value} for joint '{joint}' is outside its limits [{lower}, {upper}]")]
-    HeldValueOutOfRange { joint: String, value: f64, lower: f64, upper: f64 },
+    HeldValueOutOfRange {
+        /// The joint's name.
+        joint: String,
+        /// The offending value.
+        value: f64,
+        /// Lower position limit (rad or m).
+        lower: f64,
+        /// Upper position limit (rad or m).
+        upper: f64,
+    },
     /// A configuration with the wrong number of values.
     #[error("expected {expected} joint values ({joints}), got {got}")]
-    WrongDof { expected: usize, got: usize, joints: String },
+    WrongDof {
+        /// What it must be.
+        expected: usize,
+        /// Values given.
+        got: usize,
+        /// The active joints, comma-separated.
+        joints: String,
+    },
     /// A configuration containing NaN or an infinity.
     #[error("joint '{joint}' (index {index}) has non-finite value {value}")]
-    NonFinite { joint: String, index: usize, value: f64 },
+    NonFinite {
+        /// The joint's name.
+        joint: String,
+        /// Its index in q.
+        index: usize,
+        /// The offending value.
+        value: f64,
+    },
+    /// A configuration value outside its joint's position limits.
+    #[error("joint '{joint}' (index {index}) = {value} is outside its limits [{lower}, {upper}]")]
+    OutsideLimits {
+        /// The joint's name.
+        joint: String,
+        /// Its index in q.
+        index: usize,
+        /// The offending value.
+        value: f64,
+        /// Lower position limit (rad or m).
+        lower: f64,
+        /// Upper position limit (rad or m).
+        upper: f64,
+    },
+    /// A setting of a query (a motion check's resolution or clearance)
+    /// outside its documented range, or one that would make the query
+    /// unbounded.
+    #[error("{name} = {value} is not valid: {expected}")]
+    InvalidSetting {
+        /// The setting (`resolution`, `clearance`).
+        name: &'static str,
+        /// The offending value.
+        value: f64,
+        /// What it must be.
+        expected: String,
+    },
     /// An output buffer of the wrong shape (a programming error of the caller).
     #[error("output has {got} columns, the model has {expected} active joints")]
-    OutputShape { expected: usize, got: usize },
+    OutputShape {
+        /// What it must be.
+        expected: usize,
+        /// Values given.
+        got: usize,
+    },
+}
+
+/// `value` in plain notation when that is short, else in scientific
+/// notation: error messages quoting 1e-300 would print 300 zeros.
+pub(crate) fn readable(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() || (1e-5..1e7).contains(&value.abs()) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
 }
 
 pub(crate) fn did_you_mean(suggestions: &[String]) -> String {

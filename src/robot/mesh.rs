@@ -16,6 +16,7 @@ use std::path::Path;
 /// An indexed triangle mesh, in metres, in the frame of its collision element.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TriMesh {
+    /// Vertices (m, element frame).
     pub vertices: Vec<Point3<f64>>,
     /// Vertex indices of each triangle, counter-clockwise seen from outside.
     pub triangles: Vec<[u32; 3]>,

@@ -30,11 +30,11 @@ mod xml_checks;
 
 pub use description::{CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription};
 pub use error::{RobotError, SourceLocation};
-pub(crate) use error::{did_you_mean, suggest as suggest_names};
+pub(crate) use error::{did_you_mean, readable, suggest as suggest_names};
 pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;
 pub(crate) use model::Motion;
 pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
 pub use rotation::rotation_log;
-pub use srdf::{DisabledPair, Group, GroupState, Srdf};
+pub use srdf::{DisabledPair, Group, GroupState, Srdf, VirtualJoint};
 pub use urdf::MeshSearchPath;

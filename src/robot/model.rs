@@ -105,7 +105,9 @@ pub enum FrameKind {
 /// A named frame rigidly attached to a body.
 #[derive(Debug, Clone)]
 pub struct Frame {
+    /// Name of the link or joint.
     pub name: String,
+    /// Link or joint frame.
     pub kind: FrameKind,
     /// Index of the link (or joint) in the description.
     pub element: usize,
@@ -134,7 +136,12 @@ pub enum JointSelection {
     Names(Vec<String>),
     /// The independent movable joints on the path from `root` (a link) to
     /// `tip` (a link or joint frame), root first.
-    Chain { root: String, tip: String },
+    Chain {
+        /// The link the chain starts at.
+        root: String,
+        /// The link or joint frame it ends at.
+        tip: String,
+    },
 }
 
 /// Builds a [`RobotModel`]; see the module example.
@@ -289,6 +296,26 @@ impl RobotModel {
         }
     }
 
+    /// Checks that `q` has one finite value per active joint, each within
+    /// its joint's position limits.
+    ///
+    /// # Errors
+    /// [`RobotError::WrongDof`], [`RobotError::NonFinite`], or
+    /// [`RobotError::OutsideLimits`] naming the first joint at fault.
+    pub fn check_within_limits(&self, q: &[f64]) -> Result<(), RobotError> {
+        self.check_configuration(q)?;
+        match q.iter().zip(&self.limits).position(|(v, l)| !l.contains(*v)) {
+            None => Ok(()),
+            Some(index) => Err(RobotError::OutsideLimits {
+                joint: self.joint_names[index].clone(),
+                index,
+                value: q[index],
+                lower: self.limits[index].lower,
+                upper: self.limits[index].upper,
+            }),
+        }
+    }
+
     /// True when every value of `q` lies within its joint's position limits.
     pub fn within_limits(&self, q: &[f64]) -> bool {
         q.len() == self.nq() && q.iter().zip(&self.limits).all(|(v, l)| l.contains(*v))
@@ -322,7 +349,7 @@ impl RobotModel {
         let active = select_joints(&description, selection)?;
         let held_values = held_joint_values(&description, &active, held)?;
         let mut compiler = Compiler::new(&description, &active, &held_values);
-        compiler.walk(description.root_index(), 0, IsometryMatrix3::identity());
+        compiler.walk(description.root_index());
         let (bodies, link_places) = (compiler.bodies, compiler.link_places);
         let frames = make_frames(&description, &link_places);
         let mut frame_lookup = HashMap::new();
@@ -347,12 +374,18 @@ fn default_value(l: &JointLimits) -> f64 {
     if l.contains(0.0) { 0.0 } else { 0.5 * (l.lower + l.upper) }
 }
 
-/// Value of joint `j` given the values of independent joints (mimics resolved).
+/// Value of joint `j` given the values of independent joints (mimics
+/// resolved, following a chain of mimics of any length without recursion;
+/// the URDF loader refuses cycles).
 fn resolve_value(joints: &[super::Joint], values: &[f64], j: usize) -> f64 {
-    match &joints[j].mimic {
-        Some(m) => m.multiplier * resolve_value(joints, values, m.joint) + m.offset,
-        None => values[j],
+    let (mut multiplier, mut offset, mut at) = (1.0, 0.0, j);
+    while let Some(m) = &joints[at].mimic {
+        // value(j) = multiplier · value(at) + offset, value(at) = m.multiplier · value(m.joint) + m.offset
+        offset += multiplier * m.offset;
+        multiplier *= m.multiplier;
+        at = m.joint;
     }
+    multiplier * values[at] + offset
 }
 
 fn unknown_joint(desc: &RobotDescription, name: &str) -> RobotError {
@@ -488,23 +521,38 @@ impl<'a> Compiler<'a> {
     /// The active column driving joint `j` (through mimics) with the combined
     /// multiplier and offset, or `None` when the joint does not move.
     fn driver(&self, j: usize) -> Option<(usize, f64, f64)> {
-        let joint = &self.desc.joints()[j];
-        joint.kind.is_movable().then_some(())?;
-        match &joint.mimic {
-            None => self.column[j].map(|c| (c, 1.0, 0.0)),
-            Some(m) => {
-                let (c, a, b) = self.driver(m.joint)?;
-                Some((c, m.multiplier * a, m.multiplier * b + m.offset))
+        let joints = self.desc.joints();
+        let (mut multiplier, mut offset, mut at) = (1.0, 0.0, j);
+        loop {
+            joints[at].kind.is_movable().then_some(())?;
+            match &joints[at].mimic {
+                None => return self.column[at].map(|c| (c, multiplier, offset)),
+                Some(m) => {
+                    offset += multiplier * m.offset;
+                    multiplier *= m.multiplier;
+                    at = m.joint;
+                }
             }
         }
     }
 
-    fn walk(&mut self, link: usize, body: usize, place: IsometryMatrix3<f64>) {
-        self.link_places[link] = (body, place);
-        for j in self.children[link].clone() {
+    /// Places every link under `root` and pushes a body for each moving
+    /// joint, depth first with children in URDF order (so a parent body
+    /// always comes before its children). An explicit stack, not
+    /// recursion: a chain of any length fits (a 10,000-link chain
+    /// overflowed the call stack).
+    fn walk(&mut self, root: usize) {
+        self.link_places[root] = (0, IsometryMatrix3::identity());
+        // Joints still to visit, with the body and placement of their parent link.
+        let mut pending: Vec<(usize, usize, IsometryMatrix3<f64>)> = Vec::new();
+        let push_children = |pending: &mut Vec<_>, link: usize, body: usize, place: IsometryMatrix3<f64>| {
+            pending.extend(self.children[link].iter().rev().map(|&j| (j, body, place)));
+        };
+        push_children(&mut pending, root, 0, IsometryMatrix3::identity());
+        while let Some((j, body, place)) = pending.pop() {
             let joint = &self.desc.joints()[j];
             let at_joint = place * joint.origin;
-            match (self.driver(j), Motion::new(&joint.kind)) {
+            let (child_body, child_place) = match (self.driver(j), Motion::new(&joint.kind)) {
                 (Some((column, multiplier, offset)), Some(motion)) => {
                     self.bodies.push(Body {
                         parent: body,
@@ -514,15 +562,17 @@ impl<'a> Compiler<'a> {
                         multiplier,
                         offset,
                     });
-                    self.walk(joint.child, self.bodies.len() - 1, IsometryMatrix3::identity());
+                    (self.bodies.len() - 1, IsometryMatrix3::identity())
                 }
                 (_, motion) => {
                     let value = resolve_value(self.desc.joints(), self.held_values, j);
                     let moved =
                         motion.map_or(IsometryMatrix3::identity(), |m| super::kinematics::joint_motion(&m, value));
-                    self.walk(joint.child, body, at_joint * moved);
+                    (body, at_joint * moved)
                 }
-            }
+            };
+            self.link_places[joint.child] = (child_body, child_place);
+            push_children(&mut pending, joint.child, child_body, child_place);
         }
     }
 }

@@ -23,42 +23,77 @@ use std::path::Path;
 /// A planning group: chains, joints, links and subgroups, as written.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Group {
+    /// Name, as in the SRDF.
     pub name: String,
     /// `(base_link, tip_link)` of each `<chain>`.
     pub chains: Vec<(String, String)>,
+    /// Joints listed by `<joint>`.
     pub joints: Vec<String>,
+    /// Links listed by `<link>`.
     pub links: Vec<String>,
+    /// Groups listed by `<group>`.
     pub subgroups: Vec<String>,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
 /// A named configuration of a group (rad or m per joint).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GroupState {
+    /// Name, as in the SRDF.
     pub name: String,
+    /// The group it configures.
     pub group: String,
+    /// Joint values (rad or m) by joint name.
     pub values: Vec<(String, f64)>,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
 /// A pair of links never checked against each other.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DisabledPair {
+    /// One link.
     pub link1: String,
+    /// The other link.
     pub link2: String,
     /// MoveIt's reason (`Adjacent`, `Never`, `Default`, …).
     pub reason: String,
+    /// 1-based line in the source file, when known.
+    pub line: Option<u32>,
+}
+
+/// A joint between a frame outside the robot and one of its links (MoveIt
+/// places the robot's root in the planning frame with one).
+#[derive(Debug, Clone, PartialEq)]
+pub struct VirtualJoint {
+    /// Name, as in the SRDF.
+    pub name: String,
+    /// `fixed`, `floating` or `planar`.
+    pub kind: String,
+    /// The frame outside the robot (e.g. `world`): MoveIt's planning frame.
+    pub parent_frame: String,
+    /// The robot link it places (the URDF root).
+    pub child_link: String,
+    /// 1-based line in the source file, when known.
     pub line: Option<u32>,
 }
 
 /// The parsed SRDF.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Srdf {
+    /// Name, as in the SRDF.
     pub name: String,
+    /// The file it was read from (or `<string>`).
     pub source: String,
+    /// Planning groups.
     pub groups: Vec<Group>,
+    /// Named group configurations.
     pub group_states: Vec<GroupState>,
+    /// Link pairs never checked for collisions.
     pub disabled_pairs: Vec<DisabledPair>,
+    /// Joints placing the robot in an outer frame.
+    pub virtual_joints: Vec<VirtualJoint>,
 }
 
 impl Srdf {
@@ -129,6 +164,9 @@ impl Srdf {
             link(&p.link1, p.line)?;
             link(&p.link2, p.line)?;
         }
+        for v in &self.virtual_joints {
+            link(&v.child_link, v.line)?;
+        }
         Ok(())
     }
 
@@ -145,7 +183,8 @@ fn parse(text: &str, source: &str) -> Result<Srdf, RobotError> {
     let at = |line: u32| SourceLocation { source: source.to_string(), line: Some(line) };
     let doc = roxmltree::Document::parse(text)
         .map_err(|e| RobotError::MalformedXml { at: at(e.pos().row), message: e.to_string() })?;
-    let line = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row;
+    let index = super::xml_checks::LineIndex::new(text);
+    let line = |n: &roxmltree::Node| index.line(n);
     let attr = |n: &roxmltree::Node, key: &str| -> Result<String, RobotError> {
         n.attribute(key).map(str::to_string).ok_or_else(|| RobotError::InvalidSrdf {
             at: at(line(n)),
@@ -192,6 +231,13 @@ fn parse(text: &str, source: &str) -> Result<Srdf, RobotError> {
                     line: Some(line(&node)),
                 });
             }
+            "virtual_joint" => srdf.virtual_joints.push(VirtualJoint {
+                name: attr(&node, "name")?,
+                kind: attr(&node, "type")?,
+                parent_frame: attr(&node, "parent_frame")?,
+                child_link: attr(&node, "child_link")?,
+                line: Some(line(&node)),
+            }),
             "disable_collisions" => srdf.disabled_pairs.push(DisabledPair {
                 link1: attr(&node, "link1")?,
                 link2: attr(&node, "link2")?,

@@ -345,8 +345,10 @@ fn collision_element(
         G::Sphere { radius } => Geometry::Sphere { radius: owner.positive("sphere radius", *radius)? },
         G::Mesh { filename, scale } => {
             let scale = scale.map_or([1.0; 3], |s| s.0);
+            // Negative factors mirror a mesh (legal); zero flattens it into
+            // something no collision shape can be built from.
             for (field, v) in ["mesh scale x", "mesh scale y", "mesh scale z"].into_iter().zip(scale) {
-                owner.finite(field, v)?;
+                owner.check(field, v, v.is_finite() && v != 0.0, "a finite, non-zero number")?;
             }
             load_mesh(filename, scale, link, at, urdf_dir, search)?
         }

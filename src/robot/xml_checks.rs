@@ -19,6 +19,24 @@ impl Lines {
     }
 }
 
+/// Line numbers of byte offsets in one text, by binary search over the
+/// line starts: roxmltree's `text_pos_at` scans from the start each time,
+/// which made loading a 10,000-link URDF quadratic (20 s).
+pub(crate) struct LineIndex(Vec<usize>);
+
+impl LineIndex {
+    pub(crate) fn new(text: &str) -> LineIndex {
+        LineIndex(text.bytes().enumerate().filter(|(_, b)| *b == b'\n').map(|(i, _)| i).collect())
+    }
+
+    /// The 1-based line of the node's start.
+    pub(crate) fn line(&self, node: &roxmltree::Node) -> u32 {
+        let offset = node.range().start;
+        // Newlines before the offset, plus one.
+        (self.0.partition_point(|&nl| nl < offset) + 1) as u32
+    }
+}
+
 /// The text with every `<visual>` and `<material>` element blanked out
 /// (newlines kept): tandem never uses them, and urdf-rs rejects some that
 /// urdfdom accepts (e.g. `<texture/>` without a filename).
@@ -37,7 +55,8 @@ pub(crate) fn without_visuals(text: &str, doc: &roxmltree::Document) -> String {
 
 /// Checks what urdf-rs would reject without a line: the root element and joint types.
 pub(crate) fn prevalidate(doc: &roxmltree::Document, source: &str) -> Result<Lines, RobotError> {
-    let line_of = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row;
+    let index = LineIndex::new(doc.input_text());
+    let line_of = |n: &roxmltree::Node| index.line(n);
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         return Err(RobotError::InvalidUrdf {

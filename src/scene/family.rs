@@ -83,8 +83,11 @@ struct ObstacleDistribution {
 /// `problems/README.md`.
 #[derive(Debug, Clone)]
 pub struct ProblemFamily {
+    /// The family's name.
     pub name: String,
+    /// One line for humans.
     pub description: String,
+    /// The base problem every member varies.
     pub base: Problem,
     start_jitter: f64,
     objects: Vec<ObjectDistribution>,
@@ -94,9 +97,11 @@ pub struct ProblemFamily {
 /// One sampled problem and how its sampling went.
 #[derive(Debug, Clone)]
 pub struct FamilySample {
+    /// Sample id.
     pub id: u64,
     /// The seed this sample's random stream was drawn from.
     pub seed: u64,
+    /// The sampled problem.
     pub problem: Problem,
     /// Obstacles that could not be placed clear of the robot and objects
     /// within the attempt budget (and were left out).
@@ -123,17 +128,39 @@ impl ProblemFamily {
     /// [`ProblemError`] naming the file, key and line (of the family file, or
     /// of the base problem file for errors there).
     pub fn from_file(path: impl AsRef<Path>) -> Result<ProblemFamily, ProblemError> {
-        let file = SourceFile::read(path.as_ref())?;
-        let src = file.source();
+        ProblemFamily::from_source(&SourceFile::read(path.as_ref())?.source())
+    }
+
+    /// Parses family text as if read from `origin`, resolving a relative
+    /// `base` against `base_dir` (the working directory for `None`); a base
+    /// of `builtin:NAME` is a shipped problem ([`Problem::builtin`]).
+    ///
+    /// # Errors
+    /// As [`from_file`](Self::from_file).
+    pub fn from_str_with(text: &str, origin: &str, base_dir: Option<&Path>) -> Result<ProblemFamily, ProblemError> {
+        ProblemFamily::from_source(&Source { origin, text, base: base_dir })
+    }
+
+    /// The most random obstacles a sample draws (0 without an
+    /// `[obstacles]` table).
+    pub fn max_obstacles(&self) -> usize {
+        self.obstacles.as_ref().map_or(0, |d| d.count[1])
+    }
+
+    fn from_source(src: &Source) -> Result<ProblemFamily, ProblemError> {
         let raw: RawFamily = toml::from_str(src.text).map_err(|e| src.toml_error(&e))?;
-        let problem = Problem::from_file(src.resolve(&raw.base)).map_err(|e| match e {
-            // Errors inside the base file name that file; a missing one is the family's.
-            ProblemError::Io { path, source } => {
-                src.error(&KeyPath::root().key("base"), format!("cannot read {}: {source}", path.display()))
-            }
-            e => e,
-        })?;
-        raw.build(&src, problem)
+        let base_key = KeyPath::root().key("base");
+        let problem = match raw.base.strip_prefix("builtin:") {
+            Some(name) => Problem::builtin(name).map_err(|e| src.error(&base_key, e.to_string()))?,
+            None => Problem::from_file(src.resolve(&raw.base)).map_err(|e| match e {
+                // Errors inside the base file name that file; a missing one is the family's.
+                ProblemError::Io { path, source } => {
+                    src.error(&base_key, format!("cannot read {}: {source}", path.display()))
+                }
+                e => e,
+            })?,
+        };
+        raw.build(src, problem)
     }
 
     /// Sample `id` of the family for run seed `seed`: the same (seed, id)

@@ -61,16 +61,33 @@ pub enum GraspError {
     NoPads,
     /// A pad name that no collision element of the robot has.
     #[error("no robot collision element is named '{name}'{}", crate::robot::did_you_mean(suggestions))]
-    UnknownPad { name: String, suggestions: Vec<String> },
+    UnknownPad {
+        /// The pad name.
+        name: String,
+        /// Close names that exist.
+        suggestions: Vec<String>,
+    },
     /// Pads must lie on exactly two links, the fingers of a parallel gripper.
     #[error("finger pads must lie on exactly two links (a parallel gripper), they lie on [{}]", links.join(", "))]
-    FingerCount { links: Vec<String> },
+    FingerCount {
+        /// The links carrying pads.
+        links: Vec<String>,
+    },
     /// A grasp frame deeper in its object than the gripper reaches.
     #[error(
         "grasp frame '{grasp}' of '{object}' lies {depth:.4} m deep in the object along its approach axis, \
          but the gripper reaches only {max_depth:.4} m past its palm (robot.max_grasp_depth, or from the palm's geometry)"
     )]
-    TooDeep { object: String, grasp: String, depth: f64, max_depth: f64 },
+    TooDeep {
+        /// The object.
+        object: String,
+        /// The grasp frame.
+        grasp: String,
+        /// Its depth in the object (m).
+        depth: f64,
+        /// How deep the gripper reaches (m).
+        max_depth: f64,
+    },
     /// A bad collision element (mesh, dimension).
     #[error(transparent)]
     Collision(#[from] CollisionError),
@@ -173,6 +190,11 @@ impl GripperGeometry {
             geometry_out.max_depth = Some(geometry_out.palm_reach(robot));
         }
         Ok(geometry_out)
+    }
+
+    /// The gripper frame (its z axis is the approach direction).
+    pub fn gripper_frame(&self) -> FrameId {
+        self.gripper
     }
 
     /// How deep the gripper frame may lie in an object (m): stated, or
@@ -344,6 +366,11 @@ impl GraspJudge {
     /// The gripper's geometry.
     pub fn geometry(&self) -> &GripperGeometry {
         &self.geometry
+    }
+
+    /// The robot whose gripper this judges.
+    pub fn robot(&self) -> &std::sync::Arc<RobotModel> {
+        &self.robot
     }
 
     /// Measures the grasp of `object` (free, or attached to the robot) at

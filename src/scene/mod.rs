@@ -21,17 +21,21 @@
 mod family;
 pub mod grasp;
 mod moveit;
+mod moveit_scene;
+mod moveit_yaml;
 mod problem;
 mod problem_file;
 mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
 pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
-pub use moveit::{MoveItRequest, read_moveit_request, read_moveit_scene};
+pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, moveit_request_from_str, read_moveit_request};
+pub use moveit_scene::{PLANE_EXTENT, moveit_scene_from_str, read_moveit_scene};
 pub use problem::{
     BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
     RobotSpec, TimeRange,
 };
+pub use problem_file::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};
 
 use crate::collision::{CollisionError, Shape};
 use crate::robot::suggest_names;
@@ -41,7 +45,9 @@ use thiserror::Error;
 /// A fixed obstacle.
 #[derive(Debug, Clone)]
 pub struct Obstacle {
+    /// Unique name in the scene.
     pub name: String,
+    /// Its shape, in its own frame.
     pub shape: Shape,
     /// Pose of the shape frame in the world.
     pub pose: IsometryMatrix3<f64>,
@@ -68,6 +74,7 @@ impl Obstacle {
 /// A named frame on an object where a gripper frame should go to grasp it.
 #[derive(Debug, Clone)]
 pub struct GraspFrame {
+    /// Unique name in the scene.
     pub name: String,
     /// Pose of the grasp frame in the object frame.
     pub pose: IsometryMatrix3<f64>,
@@ -85,11 +92,15 @@ pub struct Attachment {
 /// A movable object: lies in the world until attached to the robot.
 #[derive(Debug, Clone)]
 pub struct SceneObject {
+    /// Unique name in the scene.
     pub name: String,
+    /// Its shape, in its own frame.
     pub shape: Shape,
     /// World pose while not attached (the last pose before attachment otherwise).
     pub pose: IsometryMatrix3<f64>,
+    /// Where a gripper may hold it.
     pub grasps: Vec<GraspFrame>,
+    /// The robot frame holding it, when grasped.
     pub attachment: Option<Attachment>,
 }
 
@@ -113,12 +124,21 @@ pub enum SceneError {
     DuplicateName(String),
     /// No object (or obstacle) of this name.
     #[error("the scene has no {kind} named '{name}'{}", crate::robot::did_you_mean(suggestions))]
-    Unknown { kind: &'static str, name: String, suggestions: Vec<String> },
+    Unknown {
+        /// `object` or `grasp frame`.
+        kind: &'static str,
+        /// Unique name in the scene.
+        name: String,
+        /// Close names that do exist, for "did you mean".
+        suggestions: Vec<String>,
+    },
     /// A shape with a bad dimension.
     #[error("'{name}': {source}")]
     Shape {
+        /// Unique name in the scene.
         name: String,
         #[source]
+        /// What is wrong with the shape.
         source: Box<CollisionError>,
     },
     /// A pose with NaN or infinite entries.
@@ -126,7 +146,12 @@ pub enum SceneError {
     NonFinitePose(String),
     /// Attaching an object that is already attached, or detaching a free one.
     #[error("object '{name}' is {state}")]
-    AttachmentState { name: String, state: &'static str },
+    AttachmentState {
+        /// Unique name in the scene.
+        name: String,
+        /// Its state, as the error states it.
+        state: &'static str,
+    },
 }
 
 /// Obstacles and objects around the robot; see the module example.
@@ -198,18 +223,22 @@ impl Scene {
         &self.allowed
     }
 
+    /// The fixed obstacles, in insertion order.
     pub fn obstacles(&self) -> &[Obstacle] {
         &self.obstacles
     }
 
+    /// The movable objects, in insertion order.
     pub fn objects(&self) -> &[SceneObject] {
         &self.objects
     }
 
+    /// The obstacle named `name`.
     pub fn obstacle(&self, name: &str) -> Option<&Obstacle> {
         self.obstacles.iter().find(|o| o.name == name)
     }
 
+    /// The object named `name`.
     pub fn object(&self, name: &str) -> Option<&SceneObject> {
         self.objects.iter().find(|o| o.name == name)
     }

@@ -19,21 +19,36 @@ pub enum ProblemError {
     /// The file could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
+        /// The file.
         path: PathBuf,
         #[source]
+        /// The underlying error.
         source: std::io::Error,
     },
     /// The file is not valid TOML, or a key is unknown, has the wrong type
     /// or an out-of-range value, or names something that does not exist.
     #[error("{file}{}: {}{message}", line.map(|l| format!(":{l}")).unwrap_or_default(), key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default())]
-    Invalid { file: String, line: Option<u32>, key: Option<String>, message: String },
+    Invalid {
+        /// The file (or `<builtin:NAME>`).
+        file: String,
+        /// 1-based line, when known.
+        line: Option<u32>,
+        /// Key path (e.g. `scene.obstacles[2].size`), when known.
+        key: Option<String>,
+        /// What is wrong.
+        message: String,
+    },
     /// A grasp the gripper cannot make, e.g. a grasp frame deeper in its
     /// object than the fingers reach ([`GraspError::TooDeep`]).
     #[error("{file}{}: {}{source}", line.map(|l| format!(":{l}")).unwrap_or_default(), key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default())]
     Grasp {
+        /// The file (or `<builtin:NAME>`).
         file: String,
+        /// 1-based line, when known.
         line: Option<u32>,
+        /// Key path, when known.
         key: Option<String>,
+        /// Why the grasp cannot be made.
         #[source]
         source: Box<GraspError>,
     },
@@ -48,13 +63,22 @@ pub enum Goal {
     /// to `orientation`, or point its `axis` (its own x, y or z) along
     /// world `direction`.
     Pose {
+        /// The robot frame to place.
         frame: String,
+        /// Target position (world, m).
         position: Vector3<f64>,
+        /// Target orientation (world), if any.
         orientation: Option<nalgebra::Rotation3<f64>>,
+        /// Frame axis (0 = x, 1 = y, 2 = z) to point along a world direction, if any.
         axis_alignment: Option<(usize, Vector3<f64>)>,
     },
     /// Grasp scene object `object` at its grasp frame `grasp` with the gripper frame.
-    Grasp { object: String, grasp: String },
+    Grasp {
+        /// The scene object to grasp.
+        object: String,
+        /// Its grasp frame.
+        grasp: String,
+    },
 }
 
 /// RRT-Connect settings (used by the planner).
@@ -103,7 +127,9 @@ pub enum ObjectiveKind {
 /// A span of the motion, as fractions of its duration (0 = start, 1 = end).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TimeRange {
+    /// Fraction of the duration where it starts (0 ≤ start ≤ end).
     pub start: f64,
+    /// Fraction where it ends (≤ 1).
     pub end: f64,
 }
 
@@ -120,9 +146,13 @@ pub struct ObjectiveSpec {
     pub frames: Vec<String>,
     /// Frame axes (`x`, `y`, `z`) for `scalar_product`.
     pub axes: Vec<usize>,
+    /// Where in the motion it applies.
     pub time: TimeRange,
+    /// Cost, equality or inequality.
     pub kind: ObjectiveKind,
+    /// Weight of its rows (> 0).
     pub scale: f64,
+    /// Value the feature is driven to (default 0).
     pub target: Option<Vec<f64>>,
     /// 0: the feature itself; 1: its velocity; 2: its acceleration.
     pub order: u8,
@@ -141,6 +171,7 @@ pub struct OptimizerSettings {
     pub order: u8,
     /// Evaluation budget of the optimizer (trial points, rejected ones included).
     pub max_iterations: usize,
+    /// The objectives, as data.
     pub objectives: Vec<ObjectiveSpec>,
 }
 
@@ -153,12 +184,16 @@ impl Default for OptimizerSettings {
 /// How the robot is loaded.
 #[derive(Debug, Clone)]
 pub struct RobotSpec {
+    /// The robot's URDF.
     pub urdf: PathBuf,
+    /// Its SRDF, if given.
     pub srdf: Option<PathBuf>,
     /// A second URDF of the same robot whose collision geometry replaces the
     /// first's (e.g. a sphere-set approximation).
     pub collision_urdf: Option<PathBuf>,
+    /// Which joints move.
     pub selection: JointSelection,
+    /// Values of inactive joints (rad or m).
     pub hold: Vec<(String, f64)>,
     /// The gripper (end-effector) frame.
     pub gripper: Option<String>,
@@ -176,26 +211,38 @@ pub struct RobotSpec {
 /// A loaded, validated problem.
 #[derive(Debug, Clone)]
 pub struct Problem {
+    /// Problem name.
     pub name: String,
+    /// One line for humans.
     pub description: String,
     /// Where it came from (a path, or `<builtin:NAME>`).
     pub origin: String,
+    /// How the robot was loaded.
     pub robot_spec: RobotSpec,
+    /// The compiled robot.
     pub robot: Arc<RobotModel>,
+    /// Its SRDF, if given.
     pub srdf: Option<Srdf>,
+    /// A second description whose collision geometry replaces the robot's.
     pub collision_geometry: Option<Arc<RobotDescription>>,
+    /// Obstacles and objects.
     pub scene: Scene,
+    /// Start configuration (rad or m).
     pub start: Vec<f64>,
+    /// What the motion must achieve.
     pub goal: Goal,
+    /// RRT-Connect settings.
     pub planner: PlannerSettings,
+    /// Optimizer settings and objectives.
     pub optimizer: OptimizerSettings,
 }
 
 /// The problem files shipped with tandem, by name, embedded in the binary.
-pub const BUILTIN_PROBLEMS: [(&str, &str); 3] = [
+pub const BUILTIN_PROBLEMS: [(&str, &str); 4] = [
     ("panda_reach", include_str!("../../problems/panda_reach.toml")),
     ("panda_reach_obstacle", include_str!("../../problems/panda_reach_obstacle.toml")),
     ("panda_grasp_box", include_str!("../../problems/panda_grasp_box.toml")),
+    ("planar_pick", include_str!("../../problems/planar_pick.toml")),
 ];
 
 /// Context for building errors: the file and its text.

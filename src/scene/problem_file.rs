@@ -9,7 +9,7 @@ use super::problem::{
 use super::toml_source::KeyPath;
 use super::{Obstacle, Scene, SceneObject};
 use crate::collision::Shape;
-use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh};
+use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh, readable};
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -191,7 +191,11 @@ pub(crate) struct Check<'a, 'b> {
 
 impl Check<'_, '_> {
     fn positive(&self, path: &KeyPath, v: f64) -> Result<f64, ProblemError> {
-        if v.is_finite() && v > 0.0 { Ok(v) } else { Err(self.src.error(path, format!("must be positive, got {v}"))) }
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.src.error(path, format!("must be positive, got {}", readable(v))))
+        }
     }
 
     fn non_negative(&self, path: &KeyPath, v: f64) -> Result<f64, ProblemError> {
@@ -388,6 +392,9 @@ impl RawRobot {
         let description = |key: &str, file: &str| -> Result<Arc<RobotDescription>, ProblemError> {
             if src.base.is_none() && file == "robots/panda/panda.urdf" {
                 return Ok(Arc::new(RobotDescription::panda()));
+            }
+            if src.base.is_none() && file == "robots/planar/planar_gripper.urdf" {
+                return Ok(Arc::new(RobotDescription::planar_gripper()));
             }
             RobotDescription::from_urdf_file(src.resolve(file), &search)
                 .map(Arc::new)
@@ -635,6 +642,24 @@ impl RawGoal {
     }
 }
 
+/// Finest planner `resolution` of a problem file (rad): the motion
+/// checks' floor ([`MIN_RESOLUTION`](crate::collision::MIN_RESOLUTION)).
+pub const MIN_PLANNER_RESOLUTION: f64 = crate::collision::MIN_RESOLUTION;
+
+/// Smallest non-zero planner `clearance` of a problem file (m); edges are
+/// certified to keep half of it.
+pub const MIN_PLANNER_CLEARANCE: f64 = 1e-5;
+
+/// Fewest optimized configurations T of a trajectory.
+pub const MIN_HORIZON: usize = 2;
+
+/// Most optimized configurations T of a trajectory, from a problem file,
+/// `tandem solve -T` or `tandem generate -T` alike.
+pub const MAX_HORIZON: usize = 100_000;
+
+/// Largest planner `time_limit` of a problem file (s): one day.
+pub const MAX_TIME_LIMIT: f64 = 86_400.0;
+
 impl RawPlanner {
     fn build(self, check: &Check, path: &KeyPath) -> Result<PlannerSettings, ProblemError> {
         let d = PlannerSettings::default();
@@ -643,12 +668,30 @@ impl RawPlanner {
         if max_iterations == 0 {
             return Err(check.src.error(&path.key("max_iterations"), "must be at least 1"));
         }
+        let at_least = |key: &str, v: f64, min: f64, unit: &str| {
+            if v >= min {
+                Ok(v)
+            } else {
+                Err(check.src.error(&path.key(key), format!("must be at least {min} {unit}, got {}", readable(v))))
+            }
+        };
+        let resolution = pos("resolution", self.resolution, d.resolution)?;
+        at_least("resolution", resolution, MIN_PLANNER_RESOLUTION, "rad")?;
+        let clearance = check.non_negative(&path.key("clearance"), self.clearance.unwrap_or(d.clearance))?;
+        if clearance != 0.0 {
+            at_least("clearance", clearance, MIN_PLANNER_CLEARANCE, "m (or 0 for sampled edge checks)")?;
+        }
+        let time_limit = pos("time_limit", self.time_limit, d.time_limit)?;
+        if time_limit > MAX_TIME_LIMIT {
+            let msg = format!("must be at most {MAX_TIME_LIMIT} s (a day), got {}", readable(time_limit));
+            return Err(check.src.error(&path.key("time_limit"), msg));
+        }
         Ok(PlannerSettings {
             seed: self.seed.unwrap_or(d.seed),
             step: pos("step", self.step, d.step)?,
-            resolution: pos("resolution", self.resolution, d.resolution)?,
-            clearance: check.non_negative(&path.key("clearance"), self.clearance.unwrap_or(d.clearance))?,
-            time_limit: pos("time_limit", self.time_limit, d.time_limit)?,
+            resolution,
+            clearance,
+            time_limit,
             max_iterations,
         })
     }
@@ -679,8 +722,9 @@ impl RawOptimizer {
         let src = check.src;
         let d = OptimizerSettings::default();
         let horizon = self.horizon.unwrap_or(d.horizon);
-        if !(2..=100_000).contains(&horizon) {
-            return Err(src.error(&path.key("horizon"), format!("must be between 2 and 100000, got {horizon}")));
+        if !(MIN_HORIZON..=MAX_HORIZON).contains(&horizon) {
+            let msg = format!("must be between {MIN_HORIZON} and {MAX_HORIZON}, got {horizon}");
+            return Err(src.error(&path.key("horizon"), msg));
         }
         let order = self.order.unwrap_or(d.order);
         if !(1..=2).contains(&order) {

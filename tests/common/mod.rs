@@ -48,6 +48,38 @@ pub fn run_python(script: &str, args: &[&str], stdin: &str) -> String {
     String::from_utf8(out.stdout).expect("utf-8 output")
 }
 
+/// The larger of two errors, NaN when either is: `f64::max` returns the
+/// other operand for a NaN, so a NaN error folded with it vanished and a
+/// NaN result passed every tolerance check.
+pub fn worst(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) }
+}
+
+/// The largest absolute value, NaN when any is NaN (see [`worst`]).
+pub fn max_abs(values: impl IntoIterator<Item = f64>) -> f64 {
+    values.into_iter().map(f64::abs).fold(0.0, worst)
+}
+
+/// The vendored MotionBenchMaker files (`problems/motionbenchmaker/`,
+/// provenance in its README).
+pub fn mbm() -> PathBuf {
+    repo().join("problems/motionbenchmaker")
+}
+
+/// Unpacks the MotionBenchMaker problems into `dir`; returns the
+/// `problems` folder (one `<family>_panda` folder per family).
+pub fn unpack_mbm(dir: &Path) -> PathBuf {
+    let status = Command::new("tar")
+        .arg("xjf")
+        .arg(mbm().join("panda_problems.tar.bz2"))
+        .arg("-C")
+        .arg(dir)
+        .status()
+        .expect("run tar");
+    assert!(status.success(), "tar failed to unpack the MotionBenchMaker problems");
+    dir.join("problems")
+}
+
 /// Example-robot-data locations reported by the reference environment.
 pub struct ErdRobots {
     pub package_dir: PathBuf,

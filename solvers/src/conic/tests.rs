@@ -28,9 +28,9 @@ fn kkt_residual(data: &ConicData<'_>, x: &[f64], z: &[f64]) -> f64 {
         let gz: f64 = (0..data.rows()).map(|i| data.g[i * n + j] * z[i]).sum();
         worst = worst.max((px + data.q[j] + gz).abs());
     }
-    for i in 0..data.rows() {
+    for (i, zi) in z.iter().enumerate().take(data.rows()) {
         let slack = data.h[i] - dot(&data.g[i * n..(i + 1) * n], x);
-        worst = worst.max(-slack).max(-z[i]).max((slack * z[i]).abs());
+        worst = worst.max(-slack).max(-zi).max((slack * zi).abs());
     }
     worst
 }

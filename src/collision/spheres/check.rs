@@ -11,7 +11,7 @@ use super::lanes::{
     LANES, Lane, LanePose, box_distance_squared_local, cylinder_distance_squared, lane_distance_squared, lane_max,
     lane_min, max, min, point_distance_squared, segment_distance_squared, sin_cos, to_local,
 };
-use super::{Isa, SphereModel, StaticKind, StaticShape, TOLERANCE};
+use super::{SimdLevel, SphereModel, StaticKind, StaticShape, TOLERANCE};
 use crate::robot::Motion;
 
 /// Per-thread scratch of the sphere checks.
@@ -220,13 +220,14 @@ impl SphereModel {
     /// configurations in the workspace.
     pub(super) fn check<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
         match self.isa {
-            // SAFETY: `Isa::detect` found these instructions on this CPU.
+            // SAFETY: levels are only set through `SimdLevel::best_up_to`,
+            // which checked every enabled feature on this CPU.
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.check_avx512::<CERTIFY>(ws) },
+            SimdLevel::Avx512 => unsafe { self.check_avx512::<CERTIFY>(ws) },
             // SAFETY: as above.
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.check_avx2::<CERTIFY>(ws) },
-            Isa::Baseline => self.check_lanes::<CERTIFY>(ws),
+            SimdLevel::Avx2 => unsafe { self.check_avx2::<CERTIFY>(ws) },
+            _ => self.check_lanes::<CERTIFY>(ws),
         }
     }
 

@@ -196,28 +196,86 @@ impl EnvChunk {
     }
 }
 
-/// Which vector instructions the checks are compiled for, detected once.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Isa {
+/// Which compiled variant of the sphere fast path's checks runs: the
+/// portable one, or one compiled for AVX2 + FMA or AVX-512 (x86-64). All
+/// give the same answers (the fast-path tests run each one this CPU has).
+///
+/// By default the best one the CPU offers runs; the environment variable
+/// `TANDEM_SIMD` (`baseline`, `avx2`, `avx512`, read when a collision model
+/// is built) or [`CollisionModel::set_simd`](super::CollisionModel::set_simd)
+/// ask for another: the best available one not above it runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SimdLevel {
+    /// Portable code on [`LANES`]-wide arrays (auto-vectorised as the target allows).
     Baseline,
-    #[cfg(target_arch = "x86_64")]
+    /// Compiled with AVX2 and FMA enabled.
     Avx2,
-    #[cfg(target_arch = "x86_64")]
+    /// Compiled with AVX-512 (F, DQ, VL), AVX2 and FMA enabled.
     Avx512,
 }
 
-impl Isa {
-    fn detect() -> Isa {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx512f") {
-                return Isa::Avx512;
+impl SimdLevel {
+    /// Every level, lowest first.
+    pub const ALL: [SimdLevel; 3] = [SimdLevel::Baseline, SimdLevel::Avx2, SimdLevel::Avx512];
+
+    /// Whether this CPU runs the level.
+    pub fn is_available(self) -> bool {
+        match self {
+            SimdLevel::Baseline => true,
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx2 => {
+                std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
             }
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Isa::Avx2;
+            #[cfg(target_arch = "x86_64")]
+            SimdLevel::Avx512 => {
+                SimdLevel::Avx2.is_available()
+                    && std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
             }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
         }
-        Isa::Baseline
+    }
+
+    /// The levels this CPU runs, lowest first.
+    pub fn available() -> Vec<SimdLevel> {
+        SimdLevel::ALL.into_iter().filter(|l| l.is_available()).collect()
+    }
+
+    /// The best available level not above `wanted` (the best of all for `None`).
+    pub fn best_up_to(wanted: Option<SimdLevel>) -> SimdLevel {
+        let cap = wanted.unwrap_or(SimdLevel::Avx512);
+        SimdLevel::ALL.into_iter().rev().find(|l| *l <= cap && l.is_available()).unwrap_or(SimdLevel::Baseline)
+    }
+
+    /// Lower-case name, as `TANDEM_SIMD` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            SimdLevel::Baseline => "baseline",
+            SimdLevel::Avx2 => "avx2",
+            SimdLevel::Avx512 => "avx512",
+        }
+    }
+
+    /// The level `TANDEM_SIMD` asks for (`None`: unset, empty or `auto`).
+    /// An unknown value is reported once on stderr and ignored.
+    pub fn from_environment() -> Option<SimdLevel> {
+        let value = std::env::var("TANDEM_SIMD").ok()?;
+        let value = value.trim().to_ascii_lowercase();
+        if value.is_empty() || value == "auto" {
+            return None;
+        }
+        let level = SimdLevel::ALL.into_iter().find(|l| l.name() == value);
+        if level.is_none() {
+            static WARNED: std::sync::Once = std::sync::Once::new();
+            WARNED.call_once(|| {
+                eprintln!(
+                    "warning: TANDEM_SIMD={value} is not baseline, avx2, avx512 or auto; using the best available"
+                );
+            });
+        }
+        level
     }
 }
 
@@ -247,7 +305,7 @@ pub(crate) struct SphereModel {
     certifiable: bool,
     /// Some pair that no joint moves collides: every configuration collides.
     fixed_collision: bool,
-    isa: Isa,
+    pub(crate) isa: SimdLevel,
 }
 
 fn column_major(pose: &IsometryMatrix3<f64>) -> [f64; 9] {
@@ -343,16 +401,17 @@ impl SphereModel {
         let (mut statics, mut static_index) = (Vec::new(), vec![u32::MAX; model.objects.len()]);
         let mut env_lists = vec![Vec::new(); groups.len()];
         let (mut self_pairs, mut common_depth, mut fixed_collision) = (Vec::new(), Vec::new(), false);
+        // Depth of each body below the root (parents come before children).
+        let mut depth = vec![0usize; robot.bodies.len()];
+        for b in 1..depth.len() {
+            depth[b] = depth[robot.bodies[b].parent] + 1;
+        }
         for gp in &model.group_pairs {
             let (a, b): (&Group, &Group) = (&model.groups[gp.a], &model.groups[gp.b]);
-            if let (Some(body_a), Some(body_b)) = (a.body, b.body) {
+            if a.body.is_some() && b.body.is_some() {
                 self_pairs.push([index[gp.a], index[gp.b]]);
-                let chain = |body| {
-                    let mut c: Vec<usize> = lever_chain(robot, body, 0.0).map(|(b, _)| b).collect();
-                    c.reverse();
-                    c
-                };
-                common_depth.push(chain(body_a).iter().zip(chain(body_b)).take_while(|(x, y)| **x == *y).count());
+                // The joints moving both sides: those above their meeting body, and its own.
+                common_depth.push(depth[gp.meet as usize]);
                 continue;
             }
             if a.body == Some(0) {
@@ -402,7 +461,7 @@ impl SphereModel {
             common_depth,
             certifiable,
             fixed_collision,
-            isa: Isa::detect(),
+            isa: SimdLevel::best_up_to(SimdLevel::from_environment()),
         })
     }
 }

@@ -1,0 +1,85 @@
+"""tandem: motion for human-robot shared control, from Python.
+
+Robot models from URDF with forward kinematics and frame Jacobians,
+collision checking and signed distances, problem files and families,
+inverse kinematics, RRT-Connect planning, KOMO-style trajectory
+optimization, LQR tracking policies and bulk dataset generation — the Rust
+library, with numpy arrays in and out.
+
+>>> import tandem
+>>> panda = tandem.RobotModel.panda()
+>>> q = panda.neutral_configuration()
+>>> pose = panda.frame_pose(q, "panda_hand_tcp")           # 4 x 4, world frame
+>>> jac = panda.frame_jacobian(q, "panda_hand_tcp")        # 6 x 7, linear rows first
+>>> problem = tandem.Problem.builtin("panda_reach")
+>>> solution = tandem.solve(problem, seed=1)               # RRT-Connect + optimizer
+>>> solution.status
+'converged'
+
+Every error is a :class:`TandemError` subclass carrying the Rust message
+(file, line, key, joint or value at fault). Long calls (loading, planning,
+solving, generation, batch queries) release the GIL. Bulk generation over a
+Ray cluster: :mod:`tandem.distributed`.
+"""
+
+from ._native import (
+    CollisionError,
+    CollisionModel,
+    ConfigurationError,
+    ControlError,
+    DatasetError,
+    Distance,
+    IkError,
+    OptimizationError,
+    PlanningError,
+    PlanResult,
+    Problem,
+    ProblemError,
+    ProblemFamily,
+    RobotError,
+    RobotModel,
+    Solution,
+    TandemError,
+    TrackingPolicy,
+    UrdfError,
+    __version__,
+    generate,
+    goal_configurations,
+    missing_parts,
+    part_count,
+    part_ids,
+    plan,
+    solve,
+    solve_ik,
+)
+
+__all__ = [
+    "CollisionError",
+    "CollisionModel",
+    "ConfigurationError",
+    "ControlError",
+    "DatasetError",
+    "Distance",
+    "IkError",
+    "OptimizationError",
+    "PlanningError",
+    "PlanResult",
+    "Problem",
+    "ProblemError",
+    "ProblemFamily",
+    "RobotError",
+    "RobotModel",
+    "Solution",
+    "TandemError",
+    "TrackingPolicy",
+    "UrdfError",
+    "__version__",
+    "generate",
+    "goal_configurations",
+    "missing_parts",
+    "part_count",
+    "part_ids",
+    "plan",
+    "solve",
+    "solve_ik",
+]

@@ -1,0 +1,119 @@
+//! Robots far larger than an arm: a 10,000-link chain compiles, gives
+//! exact forward kinematics and prints (the recursive model compiler and
+//! `inspect` tree overflowed the stack), and collision models of long
+//! chains and a humanoid-like tree are built with memory growing as the
+//! pair count, not as its cube (listing every pair's movers took O(n⁴)
+//! time and O(n³) memory: 700 MB for 1,000 links).
+
+mod common;
+#[path = "../benches/support/large_robots.rs"]
+mod large;
+
+use large::{chain_urdf, humanoid_urdf};
+
+use common::alloc::{CountingAllocator, allocated_bytes};
+use nalgebra::Vector3;
+use std::sync::Arc;
+use tandem::collision::{CollisionModel, CollisionWorkspace};
+use tandem::robot::{KinematicsWorkspace, MeshSearchPath, RobotDescription, RobotModel};
+
+#[global_allocator]
+static GLOBAL: CountingAllocator = CountingAllocator;
+
+fn load(text: &str) -> Arc<RobotDescription> {
+    Arc::new(RobotDescription::from_urdf_str(text, &MeshSearchPath::default()).unwrap())
+}
+
+#[test]
+fn a_ten_thousand_link_chain_compiles_and_gives_exact_kinematics() {
+    let desc = load(&chain_urdf(10_000, false));
+    let model = RobotModel::builder(desc).build().unwrap();
+    assert_eq!(model.nq(), 9_999);
+    let mut ws = KinematicsWorkspace::new(&model);
+    let tip = model.frame_id("l9999").unwrap();
+    // Straight: the tip 999.9 m up.
+    model.forward_kinematics(&mut ws, &vec![0.0; 9_999]).unwrap();
+    let p = model.frame_pose(&ws, tip).translation.vector;
+    assert!((p - Vector3::new(0.0, 0.0, 999.9)).norm() < 1e-9, "{p}");
+    // The first joint at π/2 lays the chain along x (about y: z turns into x).
+    let mut q = vec![0.0; 9_999];
+    q[0] = std::f64::consts::FRAC_PI_2;
+    model.forward_kinematics(&mut ws, &q).unwrap();
+    let p = model.frame_pose(&ws, tip).translation.vector;
+    assert!((p - Vector3::new(999.8, 0.0, 0.1)).norm() < 1e-9, "{p}");
+}
+
+#[test]
+fn a_ten_thousand_joint_mimic_chain_resolves() {
+    // Every joint mimics the one before: one active joint drives them all.
+    let desc = load(&chain_urdf(10_000, true));
+    let model = RobotModel::builder(desc).build().unwrap();
+    assert_eq!(model.joint_names(), ["j1"]);
+    let mut ws = KinematicsWorkspace::new(&model);
+    // 9,999 joints turning by 2π/9,999 each lay the links out as a
+    // regular 9,999-gon: the tip is back where the chain started.
+    let step = std::f64::consts::TAU / 9_999.0;
+    model.forward_kinematics(&mut ws, &[step]).unwrap();
+    let values = model.all_joint_values(&[step]).unwrap();
+    assert!(values.iter().all(|v| (v - step).abs() < 1e-15), "every joint follows j1");
+    let p = model.frame_pose(&ws, model.frame_id("l9999").unwrap()).translation.vector;
+    assert!(p.norm() < 1e-9, "{p}");
+}
+
+#[test]
+fn inspect_and_fk_of_a_ten_thousand_link_chain_run_in_the_binary() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = dir.path().join("chain.urdf");
+    std::fs::write(&urdf, chain_urdf(10_000, false)).unwrap();
+    let tandem = |args: &[&str]| std::process::Command::new(env!("CARGO_BIN_EXE_tandem")).args(args).output().unwrap();
+    let o = tandem(&["inspect", urdf.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    // Linear in size: indentation stops growing at 32 levels.
+    assert!(text.len() < 10_000_000, "{} bytes", text.len());
+    assert!(text.contains("[level 19999] l9999"), "the deepest link is printed with its level");
+    let q = vec!["0"; 9_999].join(",");
+    let o = tandem(&["fk", urdf.to_str().unwrap(), "--frame", "l9999", "--q", &q, "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!((v["translation"][2].as_f64().unwrap() - 999.9).abs() < 1e-9);
+}
+
+#[test]
+fn collision_models_of_long_chains_use_memory_linear_in_their_pairs() {
+    for links in [250, 1_000] {
+        let robot = Arc::new(RobotModel::builder(load(&chain_urdf(links, false))).build().unwrap());
+        let before = allocated_bytes();
+        let model = CollisionModel::builder(robot.clone()).build().unwrap();
+        let bytes = allocated_bytes() - before;
+        let pairs = model.pair_count();
+        // Every pair of links but neighbours.
+        assert_eq!(pairs, (links - 1) * (links - 2) / 2);
+        // Measured: ~135 bytes per pair (object pairs, group pairs, the
+        // fast path's tables); 1,000 links took 700 MB before.
+        let per_pair = bytes as f64 / pairs as f64;
+        assert!(per_pair < 400.0, "{links} links: {bytes} bytes for {pairs} pairs ({per_pair:.0} per pair)");
+        eprintln!("{links} links: {:.1} MB, {per_pair:.0} bytes per pair", bytes as f64 / 1e6);
+        // Certified motions use the pairs' movers: a bent chain folds onto itself.
+        let mut ws = CollisionWorkspace::new(&model);
+        let q0 = vec![0.0; robot.nq()];
+        let mut q1 = q0.clone();
+        q1[links / 2] = 3.0;
+        assert!(model.motion_free_certified(&mut ws, &q0, &q0, 0.001).unwrap());
+        assert!(!model.motion_free_certified(&mut ws, &q0, &q1, 0.001).unwrap(), "folding the chain collides");
+    }
+}
+
+#[test]
+fn a_humanoid_loads_with_a_collision_model() {
+    let robot = Arc::new(RobotModel::builder(load(&humanoid_urdf())).build().unwrap());
+    assert_eq!(robot.description().links().len(), 62);
+    let before = allocated_bytes();
+    let model = CollisionModel::builder(robot.clone()).build().unwrap();
+    let bytes = allocated_bytes() - before;
+    assert!(bytes < 20_000_000, "{bytes} bytes");
+    let mut ws = CollisionWorkspace::new(&model);
+    let q = vec![0.0; robot.nq()];
+    // Fingers of one hand start on top of each other: the model sees it.
+    assert!(model.min_distance(&mut ws, &q).unwrap().is_some());
+}
