@@ -67,7 +67,7 @@ fn bench(c: &mut Criterion) {
     c.bench_function("learned_policy/query", |b| {
         b.iter(|| {
             k += 1;
-            q[k % 7] += if k % 2 == 0 { 1e-4 } else { -1e-4 };
+            q[k % 7] += if k.is_multiple_of(2) { 1e-4 } else { -1e-4 };
             policy.act(&mut state, black_box(&q), &zero, &mut action).expect("valid query");
             black_box(action[0])
         })

@@ -81,6 +81,9 @@ fn training_is_deterministic_per_seed_and_learns() {
     assert!((meta.time_step - 0.08).abs() < 1e-12, "4 s over 50 slices");
 }
 
+/// Keeps (possibly changed: shape, bytes) or drops (None) a named tensor.
+type TensorEdit = dyn Fn(&str, Vec<usize>, Vec<u8>) -> Option<(Vec<usize>, Vec<u8>)>;
+
 #[test]
 fn files_round_trip_and_bad_files_are_named() {
     let network = tiny_policy(1);
@@ -111,7 +114,7 @@ fn files_round_trip_and_bad_files_are_named() {
     let file = safetensors::SafeTensors::deserialize(&bytes).unwrap();
     let (_, header) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
     let meta = header.metadata().clone().unwrap();
-    let rebuild = |edit: &dyn Fn(&str, Vec<usize>, Vec<u8>) -> Option<(Vec<usize>, Vec<u8>)>, meta_text: &str| {
+    let rebuild = |edit: &TensorEdit, meta_text: &str| {
         let mut owned = Vec::new();
         for name in file.names() {
             let view = file.tensor(name).unwrap();

@@ -380,7 +380,7 @@ fn read_batch(path: &Path, batch: &RecordBatch, n: usize, items: &mut Vec<Demons
     let poses = column("obstacle_poses")?;
     let poses = poses.as_list_opt::<i32>().ok_or_else(|| column_error(path, "obstacle_poses", "expected a list"))?;
     let (start, goal, q) = (column("start")?, column("goal_pose")?, column("q")?);
-    for r in 0..batch.num_rows() {
+    for (r, &time_step) in time_steps.iter().enumerate().take(batch.num_rows()) {
         let goal_list =
             goal.as_fixed_size_list_opt().ok_or_else(|| column_error(path, "goal_pose", "expected a list"))?;
         if goal_list.is_null(r) {
@@ -412,7 +412,6 @@ fn read_batch(path: &Path, batch: &RecordBatch, n: usize, items: &mut Vec<Demons
             };
             obstacles.push((row_names.value(k).to_string(), obstacle_feature(&pose, &size)));
         }
-        let time_step = time_steps[r];
         if !(time_step.is_finite() && time_step > 0.0) {
             return Err(column_error(path, "time_step", &format!("row {r}: {time_step} s")));
         }

@@ -132,7 +132,8 @@ impl Layers {
         self.weights.iter().chain(&self.biases).cloned().collect()
     }
 
-    fn values(&self) -> Result<(Vec<Vec<f32>>, Vec<Vec<f32>>), LearnError> {
+    /// Weights and biases per layer, flattened (row-major).
+    fn values(&self) -> Result<(LayerValues, LayerValues), LearnError> {
         let read = |v: &Var| v.as_tensor().flatten_all().and_then(|t| t.to_vec1::<f32>()).map_err(candle);
         Ok((
             self.weights.iter().map(read).collect::<Result<_, _>>()?,
@@ -140,6 +141,9 @@ impl Layers {
         ))
     }
 }
+
+/// One flattened tensor per layer.
+type LayerValues = Vec<Vec<f32>>;
 
 /// One minibatch as tensors: normalised inputs, target directions, target
 /// scaled speeds and direction weights.
@@ -337,8 +341,11 @@ fn validate(
     if s.epochs == 0 || s.batch == 0 {
         return bad("epochs and batch size must be at least 1".into());
     }
-    if !(s.learning_rate.is_finite() && s.learning_rate > 0.0 && s.speed_weight.is_finite() && s.speed_weight >= 0.0)
-        || !(s.direction_speed.is_finite() && s.direction_speed > 0.0)
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !(positive(s.learning_rate)
+        && positive(s.direction_speed)
+        && s.speed_weight.is_finite()
+        && s.speed_weight >= 0.0)
     {
         return bad("the learning rate, speed weight and direction speed must be positive and finite".into());
     }
