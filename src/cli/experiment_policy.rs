@@ -20,7 +20,7 @@ use std::time::Instant;
 #[derive(Debug, clap::Args)]
 pub struct PolicyExperimentArgs {
     /// Evaluation tasks (family samples 0 … N−1 of --seed).
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
     pub tasks: usize,
     /// Seed of the evaluation tasks (use another than the training data's).
     #[arg(long, default_value_t = 1000)]
@@ -38,22 +38,22 @@ pub struct PolicyExperimentArgs {
     #[arg(long, default_value = "policy-experiment", value_name = "DIR")]
     pub out: PathBuf,
     /// Trajectories of the generated dataset (seed 0).
-    #[arg(long, default_value_t = 2000)]
+    #[arg(long, default_value_t = 2000, value_parser = |s: &str| super::number_in(s, 1u64..=crate::data::MAX_COUNT))]
     pub train_count: u64,
     /// Epochs of the first training.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
     pub epochs: usize,
     /// DAgger rounds after it.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = |s: &str| super::number_in(s, 0usize..=100))]
     pub rounds: usize,
     /// Fresh tasks followed per DAgger round.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
     pub round_tasks: usize,
     /// Epochs per DAgger round.
-    #[arg(long, default_value_t = 10)]
+    #[arg(long, default_value_t = 10, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
     pub round_epochs: usize,
     /// Tasks of the shared-control comparison (0: none).
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = 20, value_parser = |s: &str| super::number_in(s, 0usize..=100_000))]
     pub arbitration_tasks: usize,
     /// Skip the LQR policy (it optimizes a reference per task).
     #[arg(long)]

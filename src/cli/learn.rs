@@ -17,9 +17,14 @@ pub struct LearnArgs {
 pub enum LearnCommand {
     /// Train the robot policy network (seed §3.3.3) on a dataset folder
     /// written by `tandem generate`: input gripper position, goal relative
-    /// to it, goal rotation (6-D), q and the family's random obstacles;
+    /// to it, goal rotation (6-D), q (the seed's), the gripper rotation and
+    /// the goal in the gripper frame, and the family's random obstacles;
     /// output the unit joint velocity and its norm, trained on the weighted
-    /// sum of their mean squared errors. Deterministic per --seed. Writes
+    /// sum of their mean squared errors. Besides the demonstrated states it
+    /// trains on perturbed ones labelled by each demonstration's LQR
+    /// tracking policy (--augment, --noise), so the network learns how to
+    /// get back to a motion. Deterministic per --seed whatever the thread
+    /// count (RAYON_NUM_THREADS). Writes
     /// the network (safetensors), a report (JSON: losses per epoch, time,
     /// pairs) and the loss curves (SVG) beside it.
     ///
@@ -40,7 +45,7 @@ pub struct LearnPolicyArgs {
     #[arg(long, default_value = "problems/panda_grasp_family.toml", value_name = "FAMILY.toml")]
     pub family: PathBuf,
     /// Passes over the training pairs.
-    #[arg(long, default_value_t = 30)]
+    #[arg(long, default_value_t = 30, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
     pub epochs: usize,
     /// Seed of the initial weights and the minibatch order.
     #[arg(long, default_value_t = 0)]
@@ -49,21 +54,22 @@ pub struct LearnPolicyArgs {
     #[arg(long, value_delimiter = ',', default_value = "128,128,128")]
     pub hidden: Vec<usize>,
     /// Pairs per minibatch.
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = 512, value_parser = |s: &str| super::number_in(s, 1usize..=1_000_000))]
     pub batch: usize,
     /// Initial learning rate (cosine decay to 1 % of it).
     #[arg(long, default_value_t = 2e-3)]
     pub learning_rate: f64,
     /// Share of sample ids held out for validation.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, value_parser = |s: &str| super::number_in(s, 0.0..=0.9))]
     pub validation: f64,
     /// Perturbed states per demonstrated state, labelled by the
     /// demonstration's LQR tracking policy (0: the seed's data alone).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = |s: &str| super::number_in(s, 0usize..=100))]
     pub augment: usize,
     /// Range of the perturbations' standard deviation per joint (rad),
     /// drawn log-uniformly.
-    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = [0.005, 0.05])]
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = [0.005, 0.05],
+          value_parser = |s: &str| super::number_in(s, 1e-6..=1.0))]
     pub noise: Vec<f64>,
     /// The network file to write (safetensors); the report goes to FILE
     /// with extension .json, the loss curves to .svg.
