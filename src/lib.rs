@@ -45,6 +45,7 @@ pub mod data;
 #[cfg(feature = "experiments")]
 pub mod figures;
 pub mod komo;
+pub mod learn;
 pub mod plan;
 pub mod robot;
 pub mod scene;

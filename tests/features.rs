@@ -1,6 +1,7 @@
 //! A control loop that embeds tandem builds only what it uses: with
 //! `default-features = false` the library's dependency tree holds none of
-//! the command line's or the dataset writers' crates (it held them all).
+//! the command line's, the dataset writers' or the network trainer's
+//! crates (it held them all).
 
 use std::process::Command;
 
@@ -19,8 +20,18 @@ fn dependencies(features: &[&str]) -> Vec<String> {
         .collect()
 }
 
-const CLI_AND_DATA: [&str; 8] =
-    ["clap", "indicatif", "parquet", "arrow-array", "arrow-schema", "rayon", "sha2", "plotters"];
+const CLI_AND_DATA: [&str; 10] = [
+    "clap",
+    "indicatif",
+    "parquet",
+    "arrow-array",
+    "arrow-schema",
+    "rayon",
+    "sha2",
+    "plotters",
+    "candle-core",
+    "candle-nn",
+];
 
 #[test]
 fn the_library_without_default_features_leaves_out_cli_and_data_crates() {
@@ -29,9 +40,20 @@ fn the_library_without_default_features_leaves_out_cli_and_data_crates() {
     for name in CLI_AND_DATA {
         assert!(!lean.iter().any(|p| p == name), "{name} is built without the cli and data features: {lean:?}");
     }
-    // The defaults keep the command line and datasets.
+    // Querying a trained policy needs only its file format.
+    assert!(lean.iter().any(|p| p == "safetensors"), "{lean:?}");
+    // The defaults keep the command line, datasets and training.
     let full = dependencies(&[]);
-    for name in ["clap", "parquet", "rayon", "plotters"] {
+    for name in ["clap", "parquet", "rayon", "plotters", "candle-core", "candle-nn"] {
         assert!(full.iter().any(|p| p == name), "{name} missing from the default build");
     }
+}
+
+#[test]
+fn the_learn_feature_alone_brings_the_trainer_but_not_the_command_line() {
+    let learn = dependencies(&["--no-default-features", "--features", "learn"]);
+    for name in ["candle-core", "candle-nn", "parquet", "rayon"] {
+        assert!(learn.iter().any(|p| p == name), "{name} missing with --features learn: {learn:?}");
+    }
+    assert!(!learn.iter().any(|p| p == "clap"), "clap is built with --features learn alone");
 }

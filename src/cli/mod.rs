@@ -14,9 +14,11 @@ mod arbitrate;
 mod check;
 mod demo;
 mod experiment;
+mod experiment_policy;
 mod generate;
 mod inspect;
 mod kinematics;
+mod learn;
 mod plan;
 mod policy;
 mod problem_args;
@@ -226,8 +228,14 @@ pub enum Command {
     ///   tandem arbitrate builtin:panda_grasp_box --mode sos --json
     #[command(verbatim_doc_comment)]
     Arbitrate(arbitrate::ArbitrateArgs),
+    /// Train networks on tandem's datasets: `tandem learn policy --data DIR
+    /// --out policy.safetensors` fits the robot policy network (seed §3.3.3).
+    /// See `tandem learn policy --help`.
+    Learn(learn::LearnArgs),
     /// Run the seed's shared-control experiments with simulated operators:
-    /// reach-grasp (Table 5.1). See `tandem experiment <name> --help`.
+    /// reach-grasp (Table 5.1), planar (Table 4.1), and the learned policy
+    /// alone and under shared control (policy). See `tandem experiment
+    /// <name> --help`.
     Experiment(experiment::ExperimentArgs),
 }
 
@@ -247,6 +255,7 @@ pub fn run(cli: Cli) -> Result<Outcome, Box<dyn std::error::Error>> {
         Command::Solve(args) => solve::run(&args),
         Command::Generate(args) => done(generate::run(&args)),
         Command::Arbitrate(args) => arbitrate::run(&args),
+        Command::Learn(args) => done(learn::run(&args)),
         Command::Experiment(args) => done(experiment::run(&args)),
     }
 }

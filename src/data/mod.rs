@@ -51,7 +51,9 @@ pub use manifest::{DatasetParameters, Manifest, PartEntry};
 #[cfg(feature = "data")]
 pub use progress::Progress;
 #[cfg(feature = "data")]
-pub use sample::{GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_sample};
+pub use sample::{
+    GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_problem, run_sample,
+};
 #[cfg(feature = "data")]
 pub use shard::{PartSummary, read_part_summary, write_part};
 #[cfg(feature = "data")]

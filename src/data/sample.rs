@@ -154,21 +154,42 @@ pub fn run_sample(family: &ProblemFamily, settings: &GenerateSettings, id: u64) 
         Ok(s) => s,
         Err(e) => return (reject("sample_failed", e.to_string()), timing(began, Duration::ZERO)),
     };
-    let mut problem = sample.problem;
+    let (outcome, plan_time) = solve_sample(sample.problem, sample.seed, id, settings);
+    (outcome, timing(began, plan_time))
+}
+
+/// Solves `problem` as sample `id` with random stream `seed` (IK,
+/// RRT-Connect, optimizer, validation, up to `settings.attempts` times as
+/// [`run_sample`] does): the expert of a problem that no family draws, such
+/// as a start where a learned policy failed.
+pub fn run_problem(
+    problem: &Problem,
+    seed: u64,
+    id: u64,
+    settings: &GenerateSettings,
+) -> (SampleOutcome, SampleTiming) {
+    let began = Instant::now();
+    let (outcome, plan_time) = solve_sample(problem.clone(), seed, id, settings);
+    (outcome, timing(began, plan_time))
+}
+
+fn solve_sample(mut problem: Problem, seed: u64, id: u64, settings: &GenerateSettings) -> (SampleOutcome, Duration) {
+    let reject =
+        |reason: &str, detail: String| SampleOutcome::Rejected(Rejection { id, reason: reason.into(), detail });
     problem.planner.time_limit = UNLIMITED_SECONDS;
     problem.optimizer.max_iterations = settings.max_evaluations;
     let mut plan_time = Duration::ZERO;
     let mut outcome = reject("error", "no attempt was made".into());
     for attempt in 0..settings.attempts.max(1) {
         let variant = grasp_variant(&problem, attempt);
-        let (next, planned) = attempt_sample(&variant, sample.seed, id, attempt, settings);
+        let (next, planned) = attempt_sample(&variant, seed, id, attempt, settings);
         plan_time += planned;
         outcome = next;
         if matches!(outcome, SampleOutcome::Accepted(_)) {
             break;
         }
     }
-    (outcome, timing(began, plan_time))
+    (outcome, plan_time)
 }
 
 /// The problem of attempt `a`: odd attempts of a grasp turn the grasp frame

@@ -1,0 +1,186 @@
+//! `tandem learn policy`: train a goal-conditioned policy network on a
+//! dataset folder.
+
+use crate::learn::{Demonstrations, LearnOptions, PolicyNetwork, TrainReport, TrainSettings, figures, train_on};
+use crate::scene::ProblemFamily;
+use std::path::{Path, PathBuf};
+
+/// Arguments of `tandem learn`.
+#[derive(Debug, clap::Args)]
+pub struct LearnArgs {
+    #[command(subcommand)]
+    pub what: LearnCommand,
+}
+
+/// What `tandem learn` trains.
+#[derive(Debug, clap::Subcommand)]
+pub enum LearnCommand {
+    /// Train the robot policy network (seed §3.3.3) on a dataset folder
+    /// written by `tandem generate`: input gripper position, goal relative
+    /// to it, goal rotation (6-D), q (the seed's), the gripper rotation and
+    /// the goal in the gripper frame, and the family's random obstacles;
+    /// output the unit joint velocity and its norm, trained on the weighted
+    /// sum of their mean squared errors. Besides the demonstrated states it
+    /// trains on perturbed ones labelled by each demonstration's LQR
+    /// tracking policy (--augment, --noise), so the network learns how to
+    /// get back to a motion. Deterministic per --seed whatever the thread
+    /// count (RAYON_NUM_THREADS). Writes
+    /// the network (safetensors), a report (JSON: losses per epoch, time,
+    /// pairs) and the loss curves (SVG) beside it.
+    ///
+    /// Example:
+    ///   tandem generate --family problems/panda_grasp_family.toml --count 2000 --out grasps/
+    ///   tandem learn policy --data grasps/ --epochs 30 --out policy.safetensors
+    #[command(verbatim_doc_comment)]
+    Policy(LearnPolicyArgs),
+}
+
+/// Arguments of `tandem learn policy`.
+#[derive(Debug, clap::Args)]
+pub struct LearnPolicyArgs {
+    /// Dataset folder (part-*.parquet).
+    #[arg(long, value_name = "DIR")]
+    pub data: PathBuf,
+    /// The family the dataset was generated from (robot, gripper, static obstacles).
+    #[arg(long, default_value = "problems/panda_grasp_family.toml", value_name = "FAMILY.toml")]
+    pub family: PathBuf,
+    /// Passes over the training pairs.
+    #[arg(long, default_value_t = 30, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
+    pub epochs: usize,
+    /// Seed of the initial weights and the minibatch order.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Hidden layer widths.
+    #[arg(long, value_delimiter = ',', default_value = "128,128,128")]
+    pub hidden: Vec<usize>,
+    /// Pairs per minibatch.
+    #[arg(long, default_value_t = 512, value_parser = |s: &str| super::number_in(s, 1usize..=1_000_000))]
+    pub batch: usize,
+    /// Initial learning rate (cosine decay to 1 % of it).
+    #[arg(long, default_value_t = 2e-3)]
+    pub learning_rate: f64,
+    /// Share of sample ids held out for validation.
+    #[arg(long, default_value_t = 0.1, value_parser = |s: &str| super::number_in(s, 0.0..=0.9))]
+    pub validation: f64,
+    /// Perturbed states per demonstrated state, labelled by the
+    /// demonstration's LQR tracking policy (0: the seed's data alone).
+    #[arg(long, default_value_t = 1, value_parser = |s: &str| super::number_in(s, 0usize..=100))]
+    pub augment: usize,
+    /// Range of the perturbations' standard deviation per joint (rad),
+    /// drawn log-uniformly.
+    #[arg(long, value_delimiter = ',', num_args = 2, default_values_t = [0.005, 0.05],
+          value_parser = |s: &str| super::number_in(s, 1e-6..=1.0))]
+    pub noise: Vec<f64>,
+    /// The network file to write (safetensors); the report goes to FILE
+    /// with extension .json, the loss curves to .svg.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Print the report as one JSON object.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The report written beside a policy file.
+#[derive(Debug, serde::Serialize, serde::Deserialize)]
+pub struct PolicyReport {
+    pub data: PathBuf,
+    pub trajectories: usize,
+    pub pairs: usize,
+    pub validation_trajectories: usize,
+    pub validation_pairs: usize,
+    pub seconds: f64,
+    pub final_train_loss: f64,
+    pub final_validation_loss: f64,
+    pub losses: Vec<serde_json::Value>,
+}
+
+impl PolicyReport {
+    pub(super) fn new(data: &Path, report: &TrainReport) -> PolicyReport {
+        let last = report.losses.last();
+        PolicyReport {
+            data: data.to_path_buf(),
+            trajectories: report.train_trajectories,
+            pairs: report.train_pairs,
+            validation_trajectories: report.validation_trajectories,
+            validation_pairs: report.validation_pairs,
+            seconds: report.seconds,
+            final_train_loss: last.map_or(f64::NAN, |l| l.train),
+            final_validation_loss: last.map_or(f64::NAN, |l| l.validation),
+            losses: report.losses.iter().filter_map(|l| serde_json::to_value(l).ok()).collect(),
+        }
+    }
+
+    /// The report beside `policy` (`None` when there is none or it is unreadable).
+    pub(super) fn read_beside(policy: &Path) -> Option<PolicyReport> {
+        serde_json::from_str(&std::fs::read_to_string(policy.with_extension("json")).ok()?).ok()
+    }
+}
+
+pub(super) fn run(args: &LearnArgs) -> Result<(), Box<dyn std::error::Error>> {
+    match &args.what {
+        LearnCommand::Policy(a) => run_policy(a),
+    }
+}
+
+/// Trains, writes the network, its report and loss curves; returns them.
+pub(super) fn train_and_save(
+    data: &Path,
+    family: &ProblemFamily,
+    options: &LearnOptions,
+    out: &Path,
+) -> Result<(PolicyNetwork, PolicyReport), Box<dyn std::error::Error>> {
+    let demos = Demonstrations::read(data)?;
+    let (network, report) = train_on(&demos, family, options, None)?;
+    network.save(out)?;
+    let summary = PolicyReport::new(data, &report);
+    let json = out.with_extension("json");
+    std::fs::write(&json, serde_json::to_string_pretty(&summary)? + "\n")
+        .map_err(|e| format!("cannot write {}: {e}", json.display()))?;
+    let svg = out.with_extension("svg");
+    let title = format!("Training the policy network ({} trajectories, {} pairs)", summary.trajectories, summary.pairs);
+    std::fs::write(&svg, figures::loss_curves(&report, &title)?)
+        .map_err(|e| format!("cannot write {}: {e}", svg.display()))?;
+    Ok((network, summary))
+}
+
+fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let family = ProblemFamily::from_file(&args.family)?;
+    let options = LearnOptions {
+        train: TrainSettings {
+            epochs: args.epochs,
+            seed: args.seed,
+            hidden: args.hidden.clone(),
+            batch: args.batch,
+            learning_rate: args.learning_rate,
+            progress: !args.quiet && !args.json,
+            ..TrainSettings::default()
+        },
+        validation: args.validation,
+        augment: crate::learn::Augmentation {
+            per_state: args.augment,
+            noise: (args.noise[0], args.noise[1]),
+            ..crate::learn::Augmentation::default()
+        },
+        ..LearnOptions::default()
+    };
+    let (_, report) = train_and_save(&args.data, &family, &options, &args.out)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+        return Ok(());
+    }
+    println!(
+        "trained on {} trajectories ({} pairs), validated on {} ({} pairs), in {:.1} s",
+        report.trajectories, report.pairs, report.validation_trajectories, report.validation_pairs, report.seconds
+    );
+    println!("final loss: train {:.5}, validation {:.5}", report.final_train_loss, report.final_validation_loss);
+    println!(
+        "wrote {}, {} and {}",
+        args.out.display(),
+        args.out.with_extension("json").display(),
+        args.out.with_extension("svg").display()
+    );
+    Ok(())
+}

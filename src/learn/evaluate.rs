@@ -1,0 +1,288 @@
+//! Following a policy alone: kinematic steps `q ← q + Δt·π(q)` from a
+//! task's start, a collision check at every step, and the grasp judged
+//! by [`GraspJudge`] — the seed's "success rate when following the inferred
+//! action at each state" (§3.3.3).
+
+use super::LearnError;
+use crate::collision::{CollisionModel, CollisionWorkspace};
+use crate::control::RobotPolicy;
+use crate::robot::{FrameId, KinematicsWorkspace};
+use crate::scene::{Goal, GraspCriteria, GraspJudge, Problem};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// How a rollout steps and when it ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RolloutSettings {
+    /// Step (s; default 1/15, the arbiter's period).
+    pub period: f64,
+    /// Timeout (s of simulated time; default 20, five times the reference duration).
+    pub max_time: f64,
+    /// Largest tilt (rad) of the gripper from the grasp's approach axis
+    /// (default 0.1).
+    pub max_tilt: f64,
+    /// The judge is consulted within this distance (m) of the grasp point
+    /// (default 0.05).
+    pub judge_radius: f64,
+}
+
+impl Default for RolloutSettings {
+    fn default() -> Self {
+        RolloutSettings { period: 1.0 / 15.0, max_time: 20.0, max_tilt: 0.1, judge_radius: 0.05 }
+    }
+}
+
+/// How a rollout ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RolloutOutcome {
+    /// The grasp judge accepted a visited configuration.
+    Success,
+    /// A visited configuration collided (the finger pads may touch the target).
+    Collision,
+    /// Neither within the time limit.
+    Timeout,
+    /// No policy for the task (an LQR reference that could not be optimized).
+    NoPolicy,
+}
+
+impl RolloutOutcome {
+    /// `success`, `collision`, `timeout` or `no_policy`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            RolloutOutcome::Success => "success",
+            RolloutOutcome::Collision => "collision",
+            RolloutOutcome::Timeout => "timeout",
+            RolloutOutcome::NoPolicy => "no_policy",
+        }
+    }
+}
+
+/// What a rollout did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rollout {
+    /// How it ended.
+    pub outcome: RolloutOutcome,
+    /// Steps taken.
+    pub steps: usize,
+    /// Steps whose command was clamped to the joint position or velocity limits.
+    pub clamped: usize,
+    /// Visited configurations, the start first (the colliding one last on a collision).
+    pub path: Vec<Vec<f64>>,
+}
+
+/// A reach-and-grasp task: the problem, its collision model (the pads may
+/// touch the target), the judge and its criteria.
+#[derive(Debug)]
+pub struct Task {
+    /// The grasp problem (its start is the rollout's default start).
+    pub problem: Problem,
+    collision: Arc<CollisionModel>,
+    judge: GraspJudge,
+    criteria: GraspCriteria,
+    gripper: FrameId,
+    gripper_name: String,
+    target: [f64; 3],
+    object: String,
+}
+
+impl Task {
+    /// The task of a grasp `problem`, judged with `max_tilt` (rad).
+    ///
+    /// # Errors
+    /// Not a grasp goal, or one without a gripper; collision or grasp model errors.
+    pub fn new(problem: Problem, max_tilt: f64) -> Result<Task, LearnError> {
+        let not_grasp = || LearnError::Mismatch {
+            what: "task".into(),
+            expected: "a grasp goal with a gripper".into(),
+            got: format!("{:?}", problem.goal),
+        };
+        let Goal::Grasp { object, .. } = &problem.goal else { return Err(not_grasp()) };
+        let object = object.clone();
+        let gripper_name = problem.robot_spec.gripper.clone().ok_or_else(not_grasp)?;
+        let gripper = problem.robot.frame_id(&gripper_name)?;
+        let criteria = GraspCriteria::for_goal(&problem, max_tilt, 1e-4).ok_or_else(not_grasp)?;
+        let target = problem.grasp_target().ok_or_else(not_grasp)?.translation.vector.into();
+        let collision = Arc::new(problem.collision_model_grasping(&[object.as_str()], 0.0)?);
+        let judge = GraspJudge::new(&problem)?;
+        Ok(Task { problem, collision, judge, criteria, gripper, gripper_name, target, object })
+    }
+
+    /// The target object's name.
+    pub fn object(&self) -> &str {
+        &self.object
+    }
+
+    /// The gripper frame's name.
+    pub fn gripper_name(&self) -> &str {
+        &self.gripper_name
+    }
+
+    /// The collision model of the checks (the pads may touch the target).
+    pub fn collision_model(&self) -> &Arc<CollisionModel> {
+        &self.collision
+    }
+
+    /// Whether `q` grasps the target (the gripper within `radius` (m) of
+    /// the grasp point first, to spare the judge).
+    ///
+    /// # Errors
+    /// Robot or grasp model errors.
+    pub fn grasped(&self, kin: &mut KinematicsWorkspace, q: &[f64], radius: f64) -> Result<bool, LearnError> {
+        let robot = &self.problem.robot;
+        robot.forward_kinematics(kin, q)?;
+        let p = robot.frame_pose(kin, self.gripper).translation.vector;
+        let d =
+            ((p.x - self.target[0]).powi(2) + (p.y - self.target[1]).powi(2) + (p.z - self.target[2]).powi(2)).sqrt();
+        if d > radius {
+            return Ok(false);
+        }
+        let Some(object) = self.problem.scene.object(&self.object) else { return Ok(false) };
+        Ok(self.judge.judge(kin, q, object, &self.criteria)?.success(&self.criteria))
+    }
+
+    /// Follows `policy` alone from `start`.
+    ///
+    /// # Errors
+    /// A start of the wrong length; robot errors.
+    pub fn rollout(&self, policy: &dyn RobotPolicy, start: &[f64], s: &RolloutSettings) -> Result<Rollout, LearnError> {
+        let robot = &self.problem.robot;
+        let n = robot.nq();
+        robot.check_configuration(start)?;
+        let mut kin = KinematicsWorkspace::new(robot);
+        let mut cws = CollisionWorkspace::new(&self.collision);
+        let mut state = policy.new_state();
+        let (mut q, mut velocity, mut action) = (start.to_vec(), vec![0.0; n], vec![0.0; n]);
+        let mut rollout = Rollout { outcome: RolloutOutcome::Timeout, steps: 0, clamped: 0, path: vec![q.clone()] };
+        if !self.collision.collision_free(&mut cws, &q)? {
+            rollout.outcome = RolloutOutcome::Collision;
+            return Ok(rollout);
+        }
+        let steps = (s.max_time / s.period).ceil() as usize;
+        for _ in 0..steps {
+            if self.grasped(&mut kin, &q, s.judge_radius)? {
+                rollout.outcome = RolloutOutcome::Success;
+                return Ok(rollout);
+            }
+            if policy.act(&mut state, &q, &velocity, &mut action).is_err() {
+                // A policy that cannot answer leaves the arm where it is.
+                action.fill(0.0);
+            }
+            rollout.clamped += usize::from(step(robot.limits(), &mut q, &action, &mut velocity, s.period));
+            rollout.steps += 1;
+            rollout.path.push(q.clone());
+            if !self.collision.collision_free(&mut cws, &q)? {
+                rollout.outcome = RolloutOutcome::Collision;
+                return Ok(rollout);
+            }
+        }
+        if self.grasped(&mut kin, &q, s.judge_radius)? {
+            rollout.outcome = RolloutOutcome::Success;
+        }
+        Ok(rollout)
+    }
+}
+
+/// One step of a velocity-controlled arm: `action` scaled down to the
+/// velocity limits (direction kept), integrated over `dt`, positions
+/// clamped to the limits. The executed velocity goes to `velocity`;
+/// returns whether a limit changed the step.
+fn step(limits: &[crate::robot::JointLimits], q: &mut [f64], action: &[f64], velocity: &mut [f64], dt: f64) -> bool {
+    let ratio = limits
+        .iter()
+        .zip(action)
+        .map(|(l, a)| if l.velocity.is_finite() && l.velocity > 0.0 { a.abs() / l.velocity } else { 0.0 })
+        .fold(0.0, f64::max);
+    let scale = if ratio > 1.0 { 1.0 / ratio } else { 1.0 };
+    let mut clamped = ratio > 1.0;
+    for ((x, v), (l, a)) in q.iter_mut().zip(velocity.iter_mut()).zip(limits.iter().zip(action)) {
+        let next = (*x + dt * a * scale).clamp(l.lower, l.upper);
+        clamped |= next != *x + dt * a * scale;
+        *v = (next - *x) / dt;
+        *x = next;
+    }
+    clamped
+}
+
+/// Counts of outcomes, of rollouts or of shared-control episodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct OutcomeCounts {
+    /// Grasped.
+    pub success: usize,
+    /// Touched something.
+    pub collision: usize,
+    /// Time ran out.
+    pub timeout: usize,
+    /// No policy for the task (its reference could not be optimized).
+    pub no_policy: usize,
+    /// A shared-control operator stopped where the task was not done.
+    pub failed: usize,
+}
+
+impl OutcomeCounts {
+    /// Counts one rollout's `outcome`.
+    pub fn add(&mut self, outcome: RolloutOutcome) {
+        match outcome {
+            RolloutOutcome::Success => self.success += 1,
+            RolloutOutcome::Collision => self.collision += 1,
+            RolloutOutcome::Timeout => self.timeout += 1,
+            RolloutOutcome::NoPolicy => self.no_policy += 1,
+        }
+    }
+
+    /// Episodes counted.
+    pub fn total(&self) -> usize {
+        self.success + self.collision + self.timeout + self.no_policy + self.failed
+    }
+
+    /// Share of successes (0 without episodes).
+    pub fn success_rate(&self) -> f64 {
+        self.success as f64 / self.total().max(1) as f64
+    }
+
+    /// Counts of rollout `outcomes`.
+    pub fn from_outcomes(outcomes: impl IntoIterator<Item = RolloutOutcome>) -> OutcomeCounts {
+        let mut counts = OutcomeCounts::default();
+        outcomes.into_iter().for_each(|o| counts.add(o));
+        counts
+    }
+}
+
+/// For each configuration of `queries`, the joint-space (Euclidean)
+/// distance to the closest of `data` (rad; +∞ when `data` is empty).
+pub fn nearest_distances(queries: &[Vec<f64>], data: &[Vec<f64>]) -> Vec<f64> {
+    queries
+        .par_iter()
+        .map(|q| {
+            data.iter()
+                .map(|d| d.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum::<f64>())
+                .fold(f64::INFINITY, f64::min)
+                .sqrt()
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_respect_limits() {
+        let limits = vec![crate::robot::JointLimits { lower: -1.0, upper: 1.0, velocity: 2.0, effort: 1.0 }; 2];
+        let (mut q, mut v) = (vec![0.95, 0.0], vec![0.0; 2]);
+        assert!(step(&limits, &mut q, &[4.0, 1.0], &mut v, 0.1), "4 rad/s is over the 2 rad/s limit");
+        // Scaled to [2, 0.5] rad/s: joint 0 would reach 1.15, clamped at 1.
+        assert!((q[0] - 1.0).abs() < 1e-12 && (q[1] - 0.05).abs() < 1e-12, "{q:?}");
+        assert!((v[0] - 0.5).abs() < 1e-9 && (v[1] - 0.5).abs() < 1e-9, "{v:?}");
+        assert!(!step(&limits, &mut q, &[-1.0, 0.0], &mut v, 0.1));
+        assert!((q[0] - 0.9).abs() < 1e-12);
+    }
+
+    #[test]
+    fn nearest_distance_is_the_closest_point() {
+        let data = vec![vec![0.0, 0.0], vec![1.0, 1.0], vec![3.0, 0.0]];
+        let d = nearest_distances(&[vec![1.0, 0.0], vec![3.0, 4.0]], &data);
+        assert!((d[0] - 1.0).abs() < 1e-12 && (d[1] - 13f64.sqrt()).abs() < 1e-12, "{d:?}");
+        assert_eq!(nearest_distances(&[vec![0.0]], &[]), vec![f64::INFINITY]);
+    }
+}

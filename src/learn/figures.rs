@@ -1,0 +1,133 @@
+//! Figures of learning: loss curves, the training data's joint values
+//! against the limits (the seed's Fig. 3.8), and success against the
+//! start's distance from the data.
+
+use crate::figures::{FigureError, Panel, Series, render_panels};
+use crate::robot::JointLimits;
+
+/// Training and validation loss per epoch (log10), one panel.
+///
+/// # Errors
+/// Plotting errors.
+pub fn loss_curves(report: &super::TrainReport, title: &str) -> Result<String, FigureError> {
+    let log = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
+    let train: Vec<(f64, f64)> = report.losses.iter().map(|l| (l.epoch as f64, log(l.train))).collect();
+    let validation: Vec<(f64, f64)> = report
+        .losses
+        .iter()
+        .filter(|l| l.validation.is_finite())
+        .map(|l| (l.epoch as f64, log(l.validation)))
+        .collect();
+    let direction: Vec<(f64, f64)> = report
+        .losses
+        .iter()
+        .filter(|l| l.validation_direction.is_finite())
+        .map(|l| (l.epoch as f64, log(l.validation_direction)))
+        .collect();
+    let speed: Vec<(f64, f64)> = report
+        .losses
+        .iter()
+        .filter(|l| l.validation_speed.is_finite())
+        .map(|l| (l.epoch as f64, log(l.validation_speed)))
+        .collect();
+    let mut panel =
+        Panel::new("loss (direction MSE + speed MSE)", "epoch", "log10 loss").with(Series::line("train", &train, 0));
+    if !validation.is_empty() {
+        panel = panel
+            .with(Series::line("validation", &validation, 1))
+            .with(Series::dashed("validation: direction", &direction, 2))
+            .with(Series::dashed("validation: speed", &speed, 4));
+    }
+    render_panels(title, &[panel], 640, 420)
+}
+
+/// Histograms of each joint's values in `states` (one panel per joint,
+/// `bins` bins across the joint's range) with the limits as vertical lines.
+///
+/// # Errors
+/// Plotting errors.
+pub fn joint_histograms(
+    states: &[Vec<f64>],
+    joints: &[String],
+    limits: &[JointLimits],
+    bins: usize,
+) -> Result<String, FigureError> {
+    let bins = bins.max(1);
+    let panels: Vec<Panel> = joints
+        .iter()
+        .zip(limits)
+        .enumerate()
+        .map(|(j, (name, l))| {
+            let width = (l.upper - l.lower) / bins as f64;
+            let mut counts = vec![0usize; bins];
+            for q in states {
+                let b = ((q[j] - l.lower) / width).floor();
+                if b >= 0.0 {
+                    counts[(b as usize).min(bins - 1)] += 1;
+                }
+            }
+            let total = states.len().max(1) as f64;
+            let mut steps = Vec::with_capacity(2 * bins + 2);
+            steps.push((l.lower, 0.0));
+            for (b, c) in counts.iter().enumerate() {
+                let share = *c as f64 / total;
+                steps.push((l.lower + b as f64 * width, share));
+                steps.push((l.lower + (b + 1) as f64 * width, share));
+            }
+            steps.push((l.upper, 0.0));
+            let top = steps.iter().map(|p| p.1).fold(0.0, f64::max).max(1e-3) * 1.1;
+            let margin = 0.05 * (l.upper - l.lower);
+            Panel::new(name, "joint value (rad)", "share of states")
+                .with(Series::line("training states", &steps, 0))
+                .with(Series::line("limits", &[(l.lower, 0.0), (l.lower, top)], 3))
+                .with(Series::line("", &[(l.upper, 0.0), (l.upper, top)], 3).unlabelled())
+                .ranges((l.lower - margin, l.upper + margin), (0.0, top))
+        })
+        .collect();
+    render_panels("Joint values of the training data against the joint limits (Fig. 3.8)", &panels, 300, 260)
+}
+
+/// Success rate per bin of the start's distance from the data, one
+/// series per policy: `outcomes[k] = (name, [(distance, success)])`.
+/// Bins hold equal numbers of starts (quantiles of the first series).
+///
+/// # Errors
+/// Plotting errors.
+pub fn success_by_distance(outcomes: &[(String, Vec<(f64, bool)>)], bins: usize) -> Result<String, FigureError> {
+    let mut distances: Vec<f64> = outcomes.first().map(|o| o.1.iter().map(|p| p.0).collect()).unwrap_or_default();
+    distances.retain(|d| d.is_finite());
+    distances.sort_by(f64::total_cmp);
+    let bins = bins.max(1).min(distances.len().max(1));
+    let edges: Vec<f64> = (0..=bins)
+        .map(|b| if distances.is_empty() { 0.0 } else { distances[(b * (distances.len() - 1)) / bins] })
+        .collect();
+    let mut panel = Panel::new(
+        "success by the start's distance from the data",
+        "distance to the nearest training state (rad)",
+        "success rate",
+    );
+    for (k, (name, points)) in outcomes.iter().enumerate() {
+        let series: Vec<(f64, f64)> = edges
+            .windows(2)
+            .enumerate()
+            .filter_map(|(b, w)| {
+                let inside: Vec<bool> = points
+                    .iter()
+                    .filter(|(d, _)| *d >= w[0] && (*d < w[1] || (b == bins - 1 && *d <= w[1])))
+                    .map(|p| p.1)
+                    .collect();
+                (!inside.is_empty()).then(|| {
+                    let rate = inside.iter().filter(|s| **s).count() as f64 / inside.len() as f64;
+                    (0.5 * (w[0] + w[1]), rate)
+                })
+            })
+            .collect();
+        panel = panel.with(Series::line(name, &series, k)).with(Series::points("", &series, k).unlabelled());
+    }
+    render_panels(
+        "Following the policy alone",
+        &[panel.ranges((edges[0], edges[bins].max(edges[0] + 1e-3)), (0.0, 1.05))],
+        640,
+        420,
+    )
+}

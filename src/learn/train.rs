@@ -1,0 +1,544 @@
+//! Training the policy network with candle (CPU): minibatch AdamW on the
+//! seed's loss (§3.3.3) — the weighted sum of the mean squared errors of the
+//! unit joint velocity and of its norm — with a cosine learning-rate decay.
+//!
+//! Deterministic: the initial weights and the minibatch order come from the
+//! seed (ChaCha8), and every operation runs in a fixed order on the CPU, so
+//! the same seed and data give the same bytes of the weights.
+
+use super::LearnError;
+use super::dataset::Pairs;
+use super::network::{PolicyMeta, PolicyNetwork};
+use candle_core::{Device, Tensor, Var};
+use candle_nn::{AdamW, Optimizer, ParamsAdamW};
+use indicatif::{ProgressBar, ProgressStyle};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::time::Instant;
+
+/// How to train.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainSettings {
+    /// Passes over the training pairs (default 30).
+    pub epochs: usize,
+    /// Seed of the initial weights and the minibatch order.
+    pub seed: u64,
+    /// Widths of the hidden layers (default 128, 128, 128).
+    pub hidden: Vec<usize>,
+    /// Pairs per minibatch (default 512).
+    pub batch: usize,
+    /// Initial learning rate, decayed to 1 % of it by a cosine (default 2e-3).
+    pub learning_rate: f64,
+    /// Weight of the speed loss against the direction loss (default 1).
+    pub speed_weight: f64,
+    /// Speed (rad/s) below which a pair's direction loss is scaled down
+    /// linearly: the direction of a near-zero velocity is noise (default 0.05).
+    pub direction_speed: f64,
+    /// Show a progress bar on stderr.
+    pub progress: bool,
+}
+
+impl Default for TrainSettings {
+    fn default() -> Self {
+        TrainSettings {
+            epochs: 30,
+            seed: 0,
+            hidden: vec![128, 128, 128],
+            batch: 512,
+            learning_rate: 2e-3,
+            speed_weight: 1.0,
+            direction_speed: 0.05,
+            progress: false,
+        }
+    }
+}
+
+/// Mean losses of one epoch.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct EpochLoss {
+    /// Epoch number, from 1.
+    pub epoch: usize,
+    /// Training loss (mean over the epoch's minibatches).
+    pub train: f64,
+    /// Validation loss (NaN without validation pairs).
+    pub validation: f64,
+    /// Its direction term (mean squared error of the unit direction).
+    pub validation_direction: f64,
+    /// Its speed term (mean squared error of the scaled norm).
+    pub validation_speed: f64,
+}
+
+/// What training did.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TrainReport {
+    /// Losses per epoch.
+    pub losses: Vec<EpochLoss>,
+    /// Wall-clock seconds of the optimisation.
+    pub seconds: f64,
+    /// State-action pairs trained on (perturbed ones included).
+    pub train_pairs: usize,
+    /// State-action pairs held out.
+    pub validation_pairs: usize,
+    /// Trajectories of the training split.
+    pub train_trajectories: usize,
+    /// Trajectories of the validation split.
+    pub validation_trajectories: usize,
+}
+
+fn candle(e: candle_core::Error) -> LearnError {
+    LearnError::Training(e.to_string())
+}
+
+/// The trainable layers.
+struct Layers {
+    weights: Vec<Var>,
+    biases: Vec<Var>,
+}
+
+impl Layers {
+    /// He-uniform weights from `rng`, zero biases; or a copy of `initial`'s.
+    fn new(meta: &PolicyMeta, initial: Option<&PolicyNetwork>, rng: &mut ChaCha8Rng) -> Result<Layers, LearnError> {
+        let mut layers = Layers { weights: vec![], biases: vec![] };
+        for (i, (inputs, outputs)) in meta.layer_shapes().into_iter().enumerate() {
+            let (w, b) = match initial {
+                Some(net) => net.layer(i),
+                None => {
+                    let bound = (6.0 / inputs as f64).sqrt();
+                    let w = (0..inputs * outputs).map(|_| rng.random_range(-bound..bound) as f32).collect();
+                    (w, vec![0.0; outputs])
+                }
+            };
+            let w = Tensor::from_vec(w, (outputs, inputs), &Device::Cpu).map_err(candle)?;
+            let b = Tensor::from_vec(b, outputs, &Device::Cpu).map_err(candle)?;
+            layers.weights.push(Var::from_tensor(&w).map_err(candle)?);
+            layers.biases.push(Var::from_tensor(&b).map_err(candle)?);
+        }
+        Ok(layers)
+    }
+
+    fn forward(&self, x: &Tensor) -> Result<Tensor, candle_core::Error> {
+        let last = self.weights.len() - 1;
+        let mut h = x.clone();
+        for (i, (w, b)) in self.weights.iter().zip(&self.biases).enumerate() {
+            h = h.matmul(&w.as_tensor().t()?)?.broadcast_add(b.as_tensor())?;
+            if i < last {
+                h = h.relu()?;
+            }
+        }
+        Ok(h)
+    }
+
+    fn vars(&self) -> Vec<Var> {
+        self.weights.iter().chain(&self.biases).cloned().collect()
+    }
+
+    /// Weights and biases per layer, flattened (row-major).
+    fn values(&self) -> Result<(LayerValues, LayerValues), LearnError> {
+        let read = |v: &Var| v.as_tensor().flatten_all().and_then(|t| t.to_vec1::<f32>()).map_err(candle);
+        Ok((
+            self.weights.iter().map(read).collect::<Result<_, _>>()?,
+            self.biases.iter().map(read).collect::<Result<_, _>>()?,
+        ))
+    }
+}
+
+/// One flattened tensor per layer.
+type LayerValues = Vec<Vec<f32>>;
+
+/// One minibatch as tensors: normalised inputs, target directions, target
+/// scaled speeds and direction weights.
+struct Batch {
+    x: Tensor,
+    direction: Tensor,
+    speed: Tensor,
+    weight: Tensor,
+}
+
+/// Normalised inputs and targets of a pair set, ready for minibatches.
+struct Prepared {
+    d: usize,
+    n: usize,
+    x: Vec<f32>,
+    direction: Vec<f32>,
+    speed: Vec<f32>,
+    weight: Vec<f32>,
+}
+
+impl Prepared {
+    fn new(pairs: &Pairs, mean: &[f32], std: &[f32], speed_scale: f64, direction_speed: f64) -> Prepared {
+        let d = pairs.input_width;
+        let x = pairs
+            .inputs
+            .chunks_exact(d)
+            .flat_map(|row| row.iter().zip(mean.iter().zip(std)).map(|(v, (m, s))| (v - m) / s))
+            .collect();
+        let weight = pairs.speeds.iter().map(|s| (f64::from(*s) / direction_speed).min(1.0) as f32).collect();
+        let speed = pairs.speeds.iter().map(|s| (f64::from(*s) / speed_scale) as f32).collect();
+        Prepared { d, n: pairs.dof, x, direction: pairs.directions.clone(), speed, weight }
+    }
+
+    fn len(&self) -> usize {
+        self.speed.len()
+    }
+
+    fn batch(&self, rows: &[usize]) -> Result<Batch, LearnError> {
+        let (d, n, m) = (self.d, self.n, rows.len());
+        let mut x = Vec::with_capacity(m * d);
+        let mut direction = Vec::with_capacity(m * n);
+        for &r in rows {
+            x.extend_from_slice(&self.x[r * d..(r + 1) * d]);
+            direction.extend_from_slice(&self.direction[r * n..(r + 1) * n]);
+        }
+        let speed: Vec<f32> = rows.iter().map(|&r| self.speed[r]).collect();
+        let weight: Vec<f32> = rows.iter().map(|&r| self.weight[r]).collect();
+        let dev = &Device::Cpu;
+        Ok(Batch {
+            x: Tensor::from_vec(x, (m, d), dev).map_err(candle)?,
+            direction: Tensor::from_vec(direction, (m, n), dev).map_err(candle)?,
+            speed: Tensor::from_vec(speed, (m, 1), dev).map_err(candle)?,
+            weight: Tensor::from_vec(weight, (m, 1), dev).map_err(candle)?,
+        })
+    }
+}
+
+/// The loss of a minibatch: `(direction, speed)` mean squared errors.
+fn losses(layers: &Layers, batch: &Batch, n: usize) -> Result<(Tensor, Tensor), candle_core::Error> {
+    let out = layers.forward(&batch.x)?;
+    let direction = out.narrow(1, 0, n)?;
+    let speed = out.narrow(1, n, 1)?;
+    let direction_loss = (direction - &batch.direction)?.sqr()?.sum_keepdim(1)?.mul(&batch.weight)?.mean_all()?;
+    let speed_loss = (speed - &batch.speed)?.sqr()?.mean_all()?;
+    Ok((direction_loss, speed_loss))
+}
+
+/// Input normalisation of `pairs`: per-feature mean and standard deviation
+/// (1 for a feature that never varies).
+pub fn normalisation(pairs: &Pairs) -> (Vec<f32>, Vec<f32>) {
+    let d = pairs.input_width;
+    let rows = pairs.len().max(1) as f64;
+    let mut mean = vec![0.0f64; d];
+    let mut square = vec![0.0f64; d];
+    for row in pairs.inputs.chunks_exact(d) {
+        for j in 0..d {
+            mean[j] += f64::from(row[j]);
+            square[j] += f64::from(row[j]).powi(2);
+        }
+    }
+    let mean: Vec<f64> = mean.iter().map(|m| m / rows).collect();
+    let std = square
+        .iter()
+        .zip(&mean)
+        .map(|(s, m)| (s / rows - m * m).max(0.0).sqrt())
+        .map(|s| if s > 1e-6 { s } else { 1.0 });
+    (mean.iter().map(|m| *m as f32).collect(), std.map(|s| s as f32).collect())
+}
+
+/// Root mean square speed of `pairs` (rad/s): the output scale.
+pub fn speed_scale(pairs: &Pairs) -> f64 {
+    let rms = (pairs.speeds.iter().map(|s| f64::from(*s).powi(2)).sum::<f64>() / pairs.len().max(1) as f64).sqrt();
+    if rms > 1e-9 { rms } else { 1.0 }
+}
+
+/// Trains a network described by `meta` on `train` (validated on
+/// `validation` after each epoch). `initial` continues from a network
+/// (same shapes; its normalisation and speed scale are kept); otherwise
+/// they come from `train`.
+///
+/// # Errors
+/// No training pairs, settings out of range, shapes that differ from
+/// `initial`'s, candle errors.
+pub fn train(
+    meta: PolicyMeta,
+    train: &Pairs,
+    validation: &Pairs,
+    initial: Option<&PolicyNetwork>,
+    settings: &TrainSettings,
+) -> Result<(PolicyNetwork, TrainReport), LearnError> {
+    validate(&meta, train, settings, initial)?;
+    let began = Instant::now();
+    let (mean, std, meta) = match initial {
+        Some(net) => {
+            let (mean, std) = net.normalisation();
+            (mean, std, PolicyMeta { speed_scale: net.meta().speed_scale, ..meta })
+        }
+        None => {
+            let (mean, std) = normalisation(train);
+            (mean, std, PolicyMeta { speed_scale: speed_scale(train), ..meta })
+        }
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+    let layers = Layers::new(&meta, initial, &mut rng)?;
+    let prepare = |p: &Pairs| Prepared::new(p, &mean, &std, meta.speed_scale, settings.direction_speed);
+    let (data, held_out) = (prepare(train), prepare(validation));
+    let params = ParamsAdamW { lr: settings.learning_rate, weight_decay: 0.0, ..ParamsAdamW::default() };
+    let mut optimizer = AdamW::new(layers.vars(), params).map_err(candle)?;
+    let batches_per_epoch = data.len().div_ceil(settings.batch);
+    let total = (batches_per_epoch * settings.epochs) as u64;
+    let bar = settings.progress.then(|| progress_bar(total));
+    let mut order: Vec<usize> = (0..data.len()).collect();
+    let mut report = TrainReport {
+        losses: vec![],
+        seconds: 0.0,
+        train_pairs: train.len(),
+        validation_pairs: validation.len(),
+        train_trajectories: train.trajectories,
+        validation_trajectories: validation.trajectories,
+    };
+    let mut step = 0u64;
+    for epoch in 0..settings.epochs {
+        shuffle(&mut order, &mut rng);
+        let mut sum = 0.0;
+        for rows in order.chunks(settings.batch) {
+            let progress = step as f64 / total.max(1) as f64;
+            let lr = settings.learning_rate * (0.01 + 0.99 * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()));
+            optimizer.set_learning_rate(lr);
+            let batch = data.batch(rows)?;
+            let (direction, speed) = losses(&layers, &batch, meta.dof()).map_err(candle)?;
+            let loss = (direction + (speed * settings.speed_weight).map_err(candle)?).map_err(candle)?;
+            optimizer.backward_step(&loss).map_err(candle)?;
+            sum += f64::from(loss.to_scalar::<f32>().map_err(candle)?);
+            step += 1;
+            if let Some(bar) = &bar {
+                bar.inc(1);
+            }
+        }
+        let (vd, vs) = evaluate(&layers, &held_out, meta.dof())?;
+        let loss = EpochLoss {
+            epoch: epoch + 1,
+            train: sum / batches_per_epoch as f64,
+            validation: vd + settings.speed_weight * vs,
+            validation_direction: vd,
+            validation_speed: vs,
+        };
+        let line = format!("epoch {} · train {:.4} · validation {:.4}", epoch + 1, loss.train, loss.validation);
+        match &bar {
+            Some(bar) if !bar.is_hidden() => bar.set_message(line),
+            // Not a terminal (logs, CI): a line per epoch.
+            Some(_) => eprintln!("{line} · {:.0} s", began.elapsed().as_secs_f64()),
+            None => {}
+        }
+        report.losses.push(loss);
+    }
+    if let Some(bar) = &bar {
+        bar.finish();
+    }
+    let (weights, biases) = layers.values()?;
+    let network = PolicyNetwork::from_parts(meta, mean, std, &weights, &biases)?;
+    report.seconds = began.elapsed().as_secs_f64();
+    Ok((network, report))
+}
+
+fn validate(
+    meta: &PolicyMeta,
+    train: &Pairs,
+    s: &TrainSettings,
+    initial: Option<&PolicyNetwork>,
+) -> Result<(), LearnError> {
+    let bad = |m: String| Err(LearnError::Settings(m));
+    if train.is_empty() {
+        return bad("no training pairs (is the validation share 1, or the dataset empty?)".into());
+    }
+    if s.epochs == 0 || s.batch == 0 {
+        return bad("epochs and batch size must be at least 1".into());
+    }
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if !(positive(s.learning_rate)
+        && positive(s.direction_speed)
+        && s.speed_weight.is_finite()
+        && s.speed_weight >= 0.0)
+    {
+        return bad("the learning rate, speed weight and direction speed must be positive and finite".into());
+    }
+    if train.input_width != meta.input_width() || train.dof != meta.dof() {
+        return bad(format!("pairs of width {} for a network of width {}", train.input_width, meta.input_width()));
+    }
+    if let Some(net) = initial
+        && net.meta().layer_shapes() != meta.layer_shapes()
+    {
+        return bad("the network to continue from has other layer shapes".into());
+    }
+    Ok(())
+}
+
+/// Mean direction and speed losses over `data` (NaN when empty).
+fn evaluate(layers: &Layers, data: &Prepared, n: usize) -> Result<(f64, f64), LearnError> {
+    if data.len() == 0 {
+        return Ok((f64::NAN, f64::NAN));
+    }
+    let (mut direction, mut speed) = (0.0, 0.0);
+    let rows: Vec<usize> = (0..data.len()).collect();
+    for chunk in rows.chunks(8192) {
+        let batch = data.batch(chunk)?;
+        let (d, s) = losses(layers, &batch, n).map_err(candle)?;
+        let w = chunk.len() as f64;
+        direction += w * f64::from(d.to_scalar::<f32>().map_err(candle)?);
+        speed += w * f64::from(s.to_scalar::<f32>().map_err(candle)?);
+    }
+    Ok((direction / data.len() as f64, speed / data.len() as f64))
+}
+
+/// Fisher-Yates with `rng`.
+fn shuffle(order: &mut [usize], rng: &mut ChaCha8Rng) {
+    for i in (1..order.len()).rev() {
+        let j = rng.random_range(0..=i);
+        order.swap(i, j);
+    }
+}
+
+fn progress_bar(total: u64) -> ProgressBar {
+    let bar = ProgressBar::new(total);
+    let style = ProgressStyle::with_template("{elapsed_precise} [{wide_bar}] {pos}/{len} batches · ETA {eta} · {msg}")
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> ");
+    bar.set_style(style);
+    bar
+}
+
+/// What [`train_on`] needs beyond the training settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LearnOptions {
+    /// Network and optimiser settings.
+    pub train: TrainSettings,
+    /// Share of sample ids held out for validation (default 0.1).
+    pub validation: f64,
+    /// Obstacle slots of the input (default 2, the grasp family's most).
+    pub obstacle_slots: usize,
+    /// Perturbed states labelled by the LQR tracking policy, training
+    /// split only (default: one per state; `per_state: 0` is the seed's
+    /// data alone).
+    pub augment: super::Augmentation,
+}
+
+impl Default for LearnOptions {
+    fn default() -> Self {
+        LearnOptions {
+            train: TrainSettings::default(),
+            validation: 0.1,
+            obstacle_slots: 2,
+            augment: super::Augmentation { per_state: 1, ..super::Augmentation::default() },
+        }
+    }
+}
+
+/// Trains a policy for `family`'s robot and gripper on `demos` (its base
+/// scene's obstacles are static, the others fill the slots), split into
+/// training and validation by sample id; `initial` continues from a network.
+///
+/// # Errors
+/// A family without a gripper, demonstrations of other joints, as [`train`].
+pub fn train_on(
+    demos: &super::Demonstrations,
+    family: &crate::scene::ProblemFamily,
+    options: &LearnOptions,
+    initial: Option<&PolicyNetwork>,
+) -> Result<(PolicyNetwork, TrainReport), LearnError> {
+    let (lo, hi) = options.augment.noise;
+    if options.augment.per_state > 0 && !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+        return Err(LearnError::Settings(format!("perturbation range [{lo}, {hi}] rad is not positive and ordered")));
+    }
+    if !(0.0..1.0).contains(&options.validation) {
+        return Err(LearnError::Settings(format!("validation share {} is not in [0, 1)", options.validation)));
+    }
+    let base = &family.base;
+    let gripper = base.robot_spec.gripper.clone().ok_or_else(|| LearnError::Mismatch {
+        what: "family".into(),
+        expected: "a robot with a gripper frame".into(),
+        got: format!("{} without one", family.name),
+    })?;
+    let static_obstacles: Vec<String> = base.scene.obstacles().iter().map(|o| o.name.clone()).collect();
+    let slots = options.obstacle_slots;
+    let robot = &base.robot;
+    let v = options.validation;
+    let augment = super::Augmentation { seed: options.train.seed, ..options.augment };
+    let train_pairs =
+        demos.pairs(robot, &gripper, &static_obstacles, slots, &augment, |id| !super::in_validation(id, v))?;
+    let none = super::Augmentation { per_state: 0, ..augment };
+    let validation_pairs =
+        demos.pairs(robot, &gripper, &static_obstacles, slots, &none, |id| super::in_validation(id, v))?;
+    let meta = PolicyMeta {
+        format: super::FORMAT.into(),
+        version: super::FORMAT_VERSION,
+        joints: robot.joint_names().to_vec(),
+        gripper,
+        static_obstacles,
+        obstacle_slots: slots,
+        hidden: options.train.hidden.clone(),
+        speed_scale: 1.0,
+        time_step: demos.items.first().map_or(0.0, |d| d.time_step),
+        family: family.name.clone(),
+        seed: options.train.seed,
+        epochs: options.train.epochs,
+        trajectories: train_pairs.trajectories,
+        pairs: train_pairs.len(),
+    };
+    train(meta, &train_pairs, &validation_pairs, initial, &options.train)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn meta(hidden: Vec<usize>) -> PolicyMeta {
+        PolicyMeta {
+            format: super::super::FORMAT.into(),
+            version: super::super::FORMAT_VERSION,
+            joints: (0..7).map(|i| format!("j{i}")).collect(),
+            gripper: "tcp".into(),
+            static_obstacles: vec![],
+            obstacle_slots: 2,
+            hidden,
+            speed_scale: 0.7,
+            time_step: 0.08,
+            family: "test".into(),
+            seed: 0,
+            epochs: 0,
+            trajectories: 0,
+            pairs: 0,
+        }
+    }
+
+    /// The query-time network (hand-written f32 layers) computes what the
+    /// training graph (candle) does, to float rounding.
+    #[test]
+    fn hand_written_forward_matches_the_training_graph() {
+        let meta = meta(vec![20, 12]);
+        let d = meta.input_width();
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let layers = Layers::new(&meta, None, &mut rng).unwrap();
+        // Non-zero biases too.
+        for b in &layers.biases {
+            let values: Vec<f32> = (0..b.as_tensor().elem_count()).map(|_| rng.random_range(-0.5..0.5)).collect();
+            b.set(&Tensor::from_vec(values, b.as_tensor().shape(), &Device::Cpu).unwrap()).unwrap();
+        }
+        let mean: Vec<f32> = (0..d).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let std: Vec<f32> = (0..d).map(|_| rng.random_range(0.5..2.0)).collect();
+        let (weights, biases) = layers.values().unwrap();
+        let network = PolicyNetwork::from_parts(meta.clone(), mean.clone(), std.clone(), &weights, &biases).unwrap();
+        let rows = 40;
+        let x: Vec<f32> = (0..rows * d).map(|_| rng.random_range(-3.0..3.0)).collect();
+        let normalised: Vec<f32> = x
+            .chunks_exact(d)
+            .flat_map(|r| r.iter().zip(mean.iter().zip(&std)).map(|(v, (m, s))| (v - m) / s))
+            .collect();
+        let graph = layers.forward(&Tensor::from_vec(normalised, (rows, d), &Device::Cpu).unwrap()).unwrap();
+        let graph: Vec<f32> = graph.flatten_all().unwrap().to_vec1().unwrap();
+        let mut scratch = network.scratch();
+        let mut out = vec![0.0f32; 8];
+        let mut worst = 0.0f32;
+        for (r, row) in x.chunks_exact(d).enumerate() {
+            network.forward(row, &mut scratch, &mut out);
+            for (a, b) in out.iter().zip(&graph[r * 8..(r + 1) * 8]) {
+                worst = worst.max((a - b).abs() / (1.0 + b.abs()));
+            }
+        }
+        assert!(worst < 1e-5, "largest relative difference {worst}");
+        assert!(graph.iter().any(|v| v.abs() > 0.1), "a non-trivial network");
+    }
+
+    #[test]
+    fn bad_settings_are_refused() {
+        let pairs = Pairs { input_width: meta(vec![4]).input_width(), dof: 7, ..Pairs::default() };
+        let e = train(meta(vec![4]), &pairs, &pairs, None, &TrainSettings::default()).unwrap_err();
+        assert!(e.to_string().contains("no training pairs"), "{e}");
+    }
+}

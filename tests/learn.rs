@@ -1,0 +1,279 @@
+//! The learned robot policy: training on a tiny generated dataset
+//! (deterministic per seed, whatever the thread count), the file format and
+//! its errors, queries (allocation-free, the same as the training graph),
+//! the policy inside the arbiter, and the CLI.
+
+mod common;
+
+#[global_allocator]
+static GLOBAL: common::alloc::CountingAllocator = common::alloc::CountingAllocator;
+
+use common::alloc::allocations;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::{Arc, OnceLock};
+use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput};
+use tandem::control::RobotPolicy;
+use tandem::data::{GenerateSettings, Progress, generate};
+use tandem::learn::evaluate::{RolloutSettings, Task};
+use tandem::learn::{
+    Demonstrations, FORMAT_VERSION, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainSettings, train_on,
+};
+use tandem::scene::ProblemFamily;
+
+fn family_path() -> PathBuf {
+    common::repo().join("problems/panda_grasp_family.toml")
+}
+
+fn family() -> ProblemFamily {
+    ProblemFamily::from_file(family_path()).unwrap()
+}
+
+/// 24 grasp trajectories (seed 3), generated once per test binary.
+fn tiny_dataset() -> &'static Path {
+    static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let settings = GenerateSettings { count: 24, seed: 3, chunk_size: 12, ..GenerateSettings::default() };
+        let summary = generate(&family_path(), dir.path(), &settings, &Progress::quiet()).unwrap();
+        assert!(summary.manifest.accepted >= 20, "{} of 24 accepted", summary.manifest.accepted);
+        dir
+    })
+    .path()
+}
+
+fn tiny_options(seed: u64) -> LearnOptions {
+    LearnOptions {
+        train: TrainSettings { epochs: 4, seed, hidden: vec![24, 24], batch: 128, ..TrainSettings::default() },
+        validation: 0.2,
+        ..LearnOptions::default()
+    }
+}
+
+fn tiny_policy(seed: u64) -> PolicyNetwork {
+    let demos = Demonstrations::read(tiny_dataset()).unwrap();
+    train_on(&demos, &family(), &tiny_options(seed), None).unwrap().0
+}
+
+#[test]
+fn training_is_deterministic_per_seed_and_learns() {
+    let demos = Demonstrations::read(tiny_dataset()).unwrap();
+    assert!(demos.items.len() >= 20);
+    let lengths: Vec<usize> = demos.items.iter().map(|d| d.states.len()).collect();
+    assert!(lengths.iter().all(|n| *n == 51), "q_0 … q_50 per trajectory: {lengths:?}");
+    let (a, report) = train_on(&demos, &family(), &tiny_options(7), None).unwrap();
+    let b = tiny_policy(7);
+    let c = tiny_policy(8);
+    assert_eq!(a.to_bytes().unwrap(), b.to_bytes().unwrap(), "same seed, same bytes");
+    assert_ne!(a.to_bytes().unwrap(), c.to_bytes().unwrap(), "another seed, other weights");
+    // The split is by sample id: every pair of a trajectory on one side.
+    // One perturbed state per demonstrated state in the training split
+    // (the default augmentation), none in validation.
+    assert_eq!(report.train_pairs, 2 * 51 * report.train_trajectories);
+    assert_eq!(report.validation_pairs, 51 * report.validation_trajectories);
+    assert!(report.validation_trajectories > 0 && report.train_trajectories > report.validation_trajectories);
+    let (first, last) = (report.losses[0], report.losses[report.losses.len() - 1]);
+    assert!(last.train < 0.7 * first.train, "training loss {} -> {}", first.train, last.train);
+    assert!(last.validation.is_finite() && last.validation < first.validation);
+    let meta = a.meta();
+    assert_eq!(meta.static_obstacles, vec!["table".to_string()]);
+    assert_eq!(meta.joints.len(), 7);
+    assert!((meta.time_step - 0.08).abs() < 1e-12, "4 s over 50 slices");
+}
+
+/// Keeps (possibly changed: shape, bytes) or drops (None) a named tensor.
+type TensorEdit = dyn Fn(&str, Vec<usize>, Vec<u8>) -> Option<(Vec<usize>, Vec<u8>)>;
+
+#[test]
+fn files_round_trip_and_bad_files_are_named() {
+    let network = tiny_policy(1);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("policy.safetensors");
+    network.save(&path).unwrap();
+    let loaded = PolicyNetwork::load(&path).unwrap();
+    assert_eq!(loaded, network);
+
+    let bad = |bytes: &[u8]| {
+        let p = dir.path().join("bad.safetensors");
+        std::fs::write(&p, bytes).unwrap();
+        PolicyNetwork::load(&p).unwrap_err()
+    };
+    assert!(matches!(bad(b"not a tensor file"), LearnError::NotSafetensors { .. }));
+    assert!(matches!(PolicyNetwork::load(&dir.path().join("missing.safetensors")), Err(LearnError::Io { .. })));
+    // Tensors without tandem's metadata.
+    let plain = safetensors::serialize(
+        [("x", safetensors::tensor::TensorView::new(safetensors::Dtype::F32, vec![1], &[0u8; 4]).unwrap())],
+        None,
+    )
+    .unwrap();
+    let e = bad(&plain);
+    assert!(matches!(&e, LearnError::Metadata { message, .. } if message.contains("not a tandem policy")), "{e}");
+
+    // Edit the file: drop a tensor, change a shape, poison a value, bump the version.
+    let bytes = std::fs::read(&path).unwrap();
+    let file = safetensors::SafeTensors::deserialize(&bytes).unwrap();
+    let (_, header) = safetensors::SafeTensors::read_metadata(&bytes).unwrap();
+    let meta = header.metadata().clone().unwrap();
+    let rebuild = |edit: &TensorEdit, meta_text: &str| {
+        let mut owned = Vec::new();
+        for name in file.names() {
+            let view = file.tensor(name).unwrap();
+            if let Some((shape, data)) = edit(name, view.shape().to_vec(), view.data().to_vec()) {
+                owned.push((name.to_string(), shape, data));
+            }
+        }
+        let views: Vec<_> = owned
+            .iter()
+            .map(|(n, s, d)| {
+                (n.clone(), safetensors::tensor::TensorView::new(safetensors::Dtype::F32, s.clone(), d).unwrap())
+            })
+            .collect();
+        let info = std::collections::HashMap::from([("tandem".to_string(), meta_text.to_string())]);
+        safetensors::serialize(views, Some(info)).unwrap()
+    };
+    let text = meta["tandem"].clone();
+    let keep = |_: &str, s: Vec<usize>, d: Vec<u8>| Some((s, d));
+    assert_eq!(PolicyNetwork::from_bytes(&rebuild(&keep, &text), &path).unwrap(), network);
+    let e = bad(&rebuild(&|n, s, d| (n != "layers.1.bias").then_some((s, d)), &text));
+    assert!(matches!(&e, LearnError::MissingTensor { name, .. } if name == "layers.1.bias"), "{e}");
+    let e = bad(&rebuild(
+        &|n, s, d| if n == "input_std" { Some((vec![s[0] - 1], d[4..].to_vec())) } else { Some((s, d)) },
+        &text,
+    ));
+    assert!(matches!(&e, LearnError::TensorShape { name, .. } if name == "input_std"), "{e}");
+    let e = bad(&rebuild(
+        &|n, s, mut d| {
+            if n == "layers.0.weight" {
+                d[..4].copy_from_slice(&f32::NAN.to_le_bytes());
+            }
+            Some((s, d))
+        },
+        &text,
+    ));
+    assert!(matches!(&e, LearnError::NonFinite { name, .. } if name == "layers.0.weight"), "{e}");
+    let e = bad(&rebuild(&keep, &text.replace(&format!("\"version\":{FORMAT_VERSION}"), "\"version\":99")));
+    assert!(matches!(&e, LearnError::Metadata { message, .. } if message.contains("version 99")), "{e}");
+    let e = bad(&rebuild(&keep, &text.replace("\"hidden\":[24,24]", "\"hidden\":[24,25]")));
+    assert!(matches!(&e, LearnError::TensorShape { name, .. } if name.starts_with("layers.1")), "{e}");
+
+    // A policy for another robot.
+    let planar = tandem::scene::Problem::from_file(common::repo().join("problems/planar_pick.toml")).unwrap();
+    let e = LearnedPolicy::for_problem(Arc::new(network), &planar).unwrap_err();
+    assert!(matches!(&e, LearnError::Mismatch { what, .. } if what == "active joints"), "{e}");
+}
+
+#[test]
+fn dataset_errors_name_the_folder() {
+    let empty = tempfile::tempdir().unwrap();
+    let e = Demonstrations::read(empty.path()).unwrap_err();
+    assert!(e.to_string().contains("no part-*.parquet"), "{e}");
+    std::fs::write(empty.path().join("part-00000.parquet"), b"garbage").unwrap();
+    let e = Demonstrations::read(empty.path()).unwrap_err();
+    assert!(matches!(&e, LearnError::Dataset { path, .. } if path.ends_with("part-00000.parquet")), "{e}");
+    assert!(matches!(Demonstrations::read(&empty.path().join("nope")), Err(LearnError::Io { .. })));
+}
+
+#[test]
+fn queries_allocate_nothing_and_feed_the_arbiter() {
+    let network = Arc::new(tiny_policy(2));
+    let family = family();
+    let problem = family.sample(11, 0).unwrap().problem;
+    let policy = Arc::new(LearnedPolicy::for_problem(network.clone(), &problem).unwrap());
+    let mut state = policy.new_state();
+    let (zero, mut act, mut probe) = (vec![0.0; 7], vec![0.0; 7], vec![0.0; 7]);
+    policy.act(&mut state, &problem.start, &zero, &mut act).unwrap();
+    let mut q = problem.start.clone();
+    let before = allocations();
+    for k in 0..100 {
+        q.copy_from_slice(&problem.start);
+        q[k % 7] += 1e-3 * k as f64;
+        policy.act(&mut state, &q, &zero, &mut act).unwrap();
+        policy.probe(&mut state, &q, &zero, &mut probe).unwrap();
+        assert_eq!(act, probe, "the policy has no memory: act and probe agree");
+    }
+    assert_eq!(allocations() - before, 0, "learned policy queries allocate");
+    assert!(act.iter().all(|v| v.is_finite()));
+    let speed = act.iter().map(|v| v * v).sum::<f64>().sqrt();
+    assert!(speed < 10.0, "{speed} rad/s");
+    // Bad inputs are errors, not panics.
+    assert!(policy.act(&mut state, &[0.0; 3], &zero, &mut act).is_err());
+    assert!(policy.act(&mut state, &[f64::NAN; 7], &zero, &mut act).is_err());
+
+    // The arbiter queries it (actions and the 36-query metric) in the
+    // modes that use a metric.
+    let task = Task::new(problem.clone(), RolloutSettings::default().max_tilt).unwrap();
+    let target = problem.grasp_target().unwrap().translation.vector;
+    for mode in [ArbitrationMode::Constrained, ArbitrationMode::SumOfSquares] {
+        let goal = ArbiterGoal { name: "box".into(), position: target.into(), policy: policy.clone() };
+        let settings = ArbiterSettings { mode, ..ArbiterSettings::default() };
+        let arbiter = Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings).unwrap();
+        let mut ws = arbiter.workspace();
+        let command = [0.05, 0.0, -0.05];
+        let input =
+            TickInput { q: &problem.start, velocity: None, command: HumanCommand::Linear(&command), beliefs: None };
+        let out = arbiter.tick(&mut ws, &input);
+        assert!(out.qdot.iter().all(|v| v.is_finite()), "{mode:?}: {:?}", out.status);
+        assert!(!matches!(out.status, tandem::arbitration::TickStatus::PolicyFailed), "{mode:?}: {:?}", out.status);
+    }
+}
+
+#[test]
+fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = tiny_dataset().to_str().unwrap().to_string();
+    let train = |threads: &str, out: &Path| {
+        let output = Command::new(env!("CARGO_BIN_EXE_tandem"))
+            .args(["learn", "policy", "--data", &data, "--epochs", "2", "--hidden", "16,16", "--quiet", "--out"])
+            .arg(out)
+            .env("RAYON_NUM_THREADS", threads)
+            .current_dir(common::repo())
+            .output()
+            .unwrap();
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        std::fs::read(out).unwrap()
+    };
+    let one = train("1", &dir.path().join("one.safetensors"));
+    let two = train("2", &dir.path().join("two.safetensors"));
+    assert_eq!(one, two, "the weights do not depend on the thread count");
+    assert!(dir.path().join("one.json").exists() && dir.path().join("one.svg").exists());
+
+    let output = Command::new(env!("CARGO_BIN_EXE_tandem"))
+        .args(["experiment", "policy", "--tasks", "3", "--arbitration-tasks", "1", "--json", "--data", &data])
+        .arg("--policy")
+        .arg(dir.path().join("one.safetensors"))
+        .arg("--out")
+        .arg(dir.path().join("experiment"))
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(json["tasks"], 3);
+    let results = json["results"].as_array().unwrap();
+    assert_eq!(results.len(), 2);
+    for (r, name) in results.iter().zip(["learned", "lqr"]) {
+        assert_eq!(r["policy"], name);
+        let sum: f64 =
+            ["success", "collision", "timeout", "no_reference", "failed"].iter().map(|k| r[*k].as_f64().unwrap()).sum();
+        assert!((sum - 1.0).abs() < 1e-12, "{r}");
+    }
+    assert_eq!(
+        json["training"]["samples"].as_u64().unwrap() as usize,
+        json["training"]["pairs"].as_u64().unwrap() as usize / (2 * 51)
+    );
+    assert!(json["training"]["seconds"].as_f64().unwrap() > 0.0);
+    assert_eq!(json["arbitration"].as_array().unwrap().len(), 4);
+    for figure in ["joint_histograms.svg", "success_by_distance.svg"] {
+        let svg = std::fs::read_to_string(dir.path().join("experiment").join(figure)).unwrap();
+        assert!(svg.contains("<svg"), "{figure}");
+    }
+    let bad = Command::new(env!("CARGO_BIN_EXE_tandem"))
+        .args(["experiment", "policy", "--tasks", "1", "--data", &data, "--policy", "Cargo.toml", "--out"])
+        .arg(dir.path().join("bad"))
+        .current_dir(common::repo())
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(stderr.contains("Cargo.toml") && stderr.contains("safetensors"), "{stderr}");
+}
