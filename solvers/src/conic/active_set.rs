@@ -65,17 +65,8 @@ impl ActiveSetSolver {
     /// dependent active rows, [`ConicError::MaxIterations`] past the step
     /// limit.
     pub fn solve(&mut self, data: &ConicData<'_>) -> Result<ConicSolution<'_>, ConicError> {
-        let (n, m) = (data.variables(), data.rows());
-        if n != self.n || m > self.m_max || data.cone.is_some() || data.p.len() != n * n || data.g.len() != m * n {
-            return Err(ConicError::Capacity {
-                variables: n,
-                rows: m,
-                cone: data.cone.map(|c| c.c.len()),
-                capacity_variables: self.n,
-                capacity_rows: self.m_max,
-                capacity_cone: None,
-            });
-        }
+        super::check_qp_capacity(data, self.n, self.m_max)?;
+        let m = data.rows();
         self.start(data)?;
         let mut steps = 0;
         while let Some(p) = self.most_violated(data) {

@@ -105,6 +105,23 @@ impl ConicData<'_> {
     }
 }
 
+/// `Ok` when `data` is a QP (no cone) that fits `n` variables and
+/// `m_max` rows, else the [`ConicError::Capacity`] naming both.
+pub(crate) fn check_qp_capacity(data: &ConicData<'_>, n: usize, m_max: usize) -> Result<(), ConicError> {
+    let (variables, rows) = (data.variables(), data.rows());
+    if variables != n || rows > m_max || data.cone.is_some() || data.p.len() != n * n || data.g.len() != rows * n {
+        return Err(ConicError::Capacity {
+            variables,
+            rows,
+            cone: data.cone.map(|c| c.c.len()),
+            capacity_variables: n,
+            capacity_rows: m_max,
+            capacity_cone: None,
+        });
+    }
+    Ok(())
+}
+
 /// `‖L u − c‖₂`.
 pub(crate) fn cone_norm(cone: &SecondOrderCone<'_>, u: &[f64]) -> f64 {
     let n = u.len();

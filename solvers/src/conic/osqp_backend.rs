@@ -73,17 +73,8 @@ impl OsqpSolver {
     /// # Errors
     /// As [`super::ConicSolver::solve`].
     pub fn solve(&mut self, data: &ConicData<'_>) -> Result<ConicSolution<'_>, ConicError> {
+        super::check_qp_capacity(data, self.n, self.m_max)?;
         let (n, m) = (data.variables(), data.rows());
-        if n != self.n || m > self.m_max || data.cone.is_some() || data.p.len() != n * n || data.g.len() != m * n {
-            return Err(ConicError::Capacity {
-                variables: n,
-                rows: m,
-                cone: data.cone.map(|c| c.c.len()),
-                capacity_variables: self.n,
-                capacity_rows: self.m_max,
-                capacity_cone: None,
-            });
-        }
         let rows = self.m_max;
         let mut at = 0;
         for j in 0..n {
