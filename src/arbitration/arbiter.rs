@@ -7,6 +7,7 @@
 use super::ArbitrationError;
 use super::command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
 use super::intent::{IntentEstimator, IntentSettings};
+use super::learned::{ArbitrationPolicy, StateLayout};
 use super::metric::{Metric, MetricScratch, MetricSettings};
 use super::modes::{ArbitrationMode, ModeSettings};
 use super::safety::{Row, SafetyRows, SafetySettings};
@@ -127,6 +128,8 @@ pub struct Arbiter {
     pub(crate) gripper: FrameId,
     pub(crate) goals: Vec<ArbiterGoal>,
     pub(crate) settings: ArbiterSettings,
+    /// The policy of [`ArbitrationMode::Learned`].
+    pub(crate) learned: Option<Arc<dyn ArbitrationPolicy>>,
 }
 
 /// Per-control-loop state of an [`Arbiter`]: buffers, policy states, the
@@ -186,6 +189,11 @@ pub struct ArbiterWorkspace {
     qnext: Vec<f64>,
     qdot: Vec<f64>,
     pub(crate) diagnostics: Diagnostics,
+    /// The arbitration state of the learned mode and of [`Arbiter::observe`].
+    pub(crate) state: Vec<f64>,
+    pub(crate) learned_scratch: Vec<f32>,
+    /// Whether the last call was a successful [`Arbiter::observe`].
+    pub(crate) observed: bool,
 }
 
 /// Distance rows beyond the bounds the solver may take per tick.
@@ -219,7 +227,10 @@ impl Arbiter {
             }
         }
         validate_settings(&settings)?;
-        Ok(Arbiter { robot, collision, gripper, goals, settings })
+        if settings.mode == ArbitrationMode::Learned {
+            return Err(ArbitrationError::NoArbitrationPolicy);
+        }
+        Ok(Arbiter { robot, collision, gripper, goals, settings, learned: None })
     }
 
     /// The same robot, collision model and goals with other settings
@@ -229,13 +240,47 @@ impl Arbiter {
     /// Invalid settings.
     pub fn with_settings(&self, settings: ArbiterSettings) -> Result<Arbiter, ArbitrationError> {
         validate_settings(&settings)?;
+        if settings.mode == ArbitrationMode::Learned && self.learned.is_none() {
+            return Err(ArbitrationError::NoArbitrationPolicy);
+        }
         Ok(Arbiter {
             robot: self.robot.clone(),
             collision: self.collision.clone(),
             gripper: self.gripper,
             goals: self.goals.clone(),
             settings,
+            learned: self.learned.clone(),
         })
+    }
+
+    /// The same arbiter with `policy` as the policy of
+    /// [`ArbitrationMode::Learned`] (cheap: shares the rest).
+    ///
+    /// # Errors
+    /// A policy whose [`StateLayout`] has another number of goals, or an
+    /// invalid layout.
+    pub fn with_arbitration_policy(&self, policy: Arc<dyn ArbitrationPolicy>) -> Result<Arbiter, ArbitrationError> {
+        let layout = policy.layout();
+        if layout.goals != self.goals.len() || !layout.is_valid() {
+            return Err(ArbitrationError::PolicyLayout {
+                expected_goals: self.goals.len(),
+                goals: layout.goals,
+                task_dims: layout.task_dims,
+            });
+        }
+        Ok(Arbiter {
+            robot: self.robot.clone(),
+            collision: self.collision.clone(),
+            gripper: self.gripper,
+            goals: self.goals.clone(),
+            settings: self.settings,
+            learned: Some(policy),
+        })
+    }
+
+    /// The policy of [`ArbitrationMode::Learned`], if any.
+    pub fn arbitration_policy(&self) -> Option<&Arc<dyn ArbitrationPolicy>> {
+        self.learned.as_ref()
     }
 
     /// The settings.
@@ -319,6 +364,9 @@ impl Arbiter {
             qnext: vec![0.0; n],
             qdot: vec![0.0; n],
             diagnostics: Diagnostics::default(),
+            state: vec![0.0; StateLayout { task_dims: 3, goals: k, length_scale: 1.0, speed_scale: 1.0 }.width()],
+            learned_scratch: vec![0.0; self.learned.as_ref().map_or(0, |p| p.scratch_len())],
+            observed: false,
         }
     }
 
@@ -334,32 +382,92 @@ impl Arbiter {
     /// One control tick: the joint velocity to execute for one period, a
     /// status and diagnostics. Never panics; allocates nothing.
     pub fn tick<'w>(&self, ws: &'w mut ArbiterWorkspace, input: &TickInput<'_>) -> Command<'w> {
-        ws.diagnostics = Diagnostics {
-            mode: ws.mode,
-            step_fraction: 1.0,
-            min_distance: f64::INFINITY,
-            metric_condition: 1.0,
-            ..Diagnostics::default()
-        };
-        let status = match self.run(ws, input) {
-            Ok(status) => status,
-            Err(status) => {
-                ws.u.fill(0.0);
-                status
-            }
-        };
-        if status.is_hold() {
-            ws.qdot.fill(0.0);
-        } else {
-            let f = ws.diagnostics.step_fraction;
-            for (v, u) in ws.qdot.iter_mut().zip(&ws.u) {
-                *v = f * u;
-            }
+        begin_tick(ws);
+        let result = self.run(ws, input);
+        emit(ws, result)
+    }
+
+    /// The first half of a tick for an external arbitration policy (a
+    /// learner, a Gymnasium environment): validates `input`, updates the
+    /// beliefs, queries the robot policies and returns the arbitration
+    /// state in `layout` (see [`StateLayout`]). Follow it with
+    /// [`Arbiter::act_observed`] for the same `input`. Allocates nothing.
+    ///
+    /// # Errors
+    /// The status a tick would hold with: invalid inputs, a failed robot
+    /// policy, a non-finite state, or a `layout` for another number of goals.
+    pub fn observe<'w>(
+        &self,
+        ws: &'w mut ArbiterWorkspace,
+        input: &TickInput<'_>,
+        layout: &StateLayout,
+    ) -> Result<&'w [f64], TickStatus> {
+        begin_tick(ws);
+        ws.observed = false;
+        if layout.goals != self.goals.len() || !layout.is_valid() || layout.width() > ws.state.len() {
+            return Err(TickStatus::InvalidBeliefs);
         }
-        Command { qdot: &ws.qdot, status, diagnostics: ws.diagnostics }
+        let (_, policy_failed) = self.prepare(ws, input)?;
+        if policy_failed {
+            return Err(TickStatus::PolicyFailed);
+        }
+        if !self.fill_state(ws, input.q, layout, &input.command) {
+            return Err(TickStatus::InvalidState);
+        }
+        ws.observed = true;
+        Ok(&ws.state[..layout.width()])
+    }
+
+    /// The second half: executes `command` (the arbitrated gripper
+    /// velocity, m/s, world axes; 2 values for a planar layout, z = 0) under
+    /// the hard constraints at the configuration of the last
+    /// [`Arbiter::observe`], which must have succeeded for this `input`
+    /// (else the tick holds with [`TickStatus::InvalidState`]).
+    pub fn act_observed<'w>(
+        &self,
+        ws: &'w mut ArbiterWorkspace,
+        input: &TickInput<'_>,
+        command: &[f64],
+    ) -> Command<'w> {
+        let mut linear = [0.0; 3];
+        let result = if !ws.observed || command.len() > 3 || command.iter().any(|c| !c.is_finite()) {
+            Err(if ws.observed { TickStatus::InvalidCommand } else { TickStatus::InvalidState })
+        } else {
+            linear[..command.len()].copy_from_slice(command);
+            self.finish(ws, input.q, ArbitrationMode::DirectControl, &HumanCommand::Linear(&linear), false)
+        };
+        ws.observed = false;
+        if result.is_err() {
+            ws.u.fill(0.0);
+        }
+        emit(ws, result)
     }
 
     fn run(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Result<TickStatus, TickStatus> {
+        let (mut mode, mut policy_failed) = self.prepare(ws, input)?;
+        let mut learned = [0.0; 3];
+        if mode == ArbitrationMode::Learned && !policy_failed {
+            match self.learned_command(ws, input) {
+                Some(command) => learned = command,
+                None => policy_failed = true,
+            }
+        }
+        if policy_failed {
+            mode = ArbitrationMode::DirectControl;
+        }
+        match mode {
+            // The learned command is executed as the operator's would be under direct control.
+            ArbitrationMode::Learned => {
+                self.finish(ws, input.q, ArbitrationMode::DirectControl, &HumanCommand::Linear(&learned), false)
+            }
+            _ => self.finish(ws, input.q, mode, &input.command, policy_failed),
+        }
+    }
+
+    /// The first half of a tick: inputs validated, kinematics, beliefs,
+    /// robot actions and the mode's metric. Returns the mode to run and
+    /// whether a policy failed (the tick then falls back to direct control).
+    fn prepare(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Result<(ArbitrationMode, bool), TickStatus> {
         self.validate(ws, input)?;
         // Validated above: FK and the Jacobian cannot fail.
         let _ = self.robot.forward_kinematics(&mut ws.kin, input.q);
@@ -377,13 +485,37 @@ impl Arbiter {
         if !policy_failed && mode.metric().is_some() && !self.compute_metric(ws, mode, input.q) {
             policy_failed = true;
         }
-        if policy_failed {
-            mode = ArbitrationMode::DirectControl;
+        Ok((mode, policy_failed))
+    }
+
+    /// The learned policy's command (m/s, world) for this tick's state;
+    /// `None` without a policy or when the state or the command is not finite.
+    fn learned_command(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Option<[f64; 3]> {
+        let policy = self.learned.as_ref()?;
+        let layout = policy.layout();
+        if !self.fill_state(ws, input.q, &layout, &input.command) {
+            return None;
         }
-        self.objective(ws, mode, &input.command);
+        let mut command = [0.0; 3];
+        policy.act(&ws.state[..layout.width()], &mut ws.learned_scratch, &mut command[..layout.task_dims]);
+        command.iter_mut().for_each(|c| *c *= layout.speed_scale);
+        command.iter().all(|c| c.is_finite()).then_some(command)
+    }
+
+    /// The second half of a tick: `mode`'s objective for `command`, the
+    /// hard constraints, the solve and the certification.
+    fn finish(
+        &self,
+        ws: &mut ArbiterWorkspace,
+        q: &[f64],
+        mode: ArbitrationMode,
+        command: &HumanCommand<'_>,
+        policy_failed: bool,
+    ) -> Result<TickStatus, TickStatus> {
+        self.objective(ws, mode, command);
         let s = &self.settings.safety;
         let dt = self.settings.period;
-        ws.rows.build_bounds(&self.robot, input.q, dt, s);
+        ws.rows.build_bounds(&self.robot, q, dt, s);
         let rate = if mode == ArbitrationMode::ObstacleAvoidance { s.avoidance_gain.min(1.0 / dt) } else { 1.0 / dt };
         let reach = self.build_distance_rows(ws, rate, None);
         self.note_rows(ws);
@@ -408,7 +540,7 @@ impl Arbiter {
         if in_collision {
             status = TickStatus::InCollision;
         } else if s.certify && s.collisions {
-            status = self.certify(ws, input.q, status)?;
+            status = self.certify(ws, q, status)?;
         }
         if policy_failed {
             status = TickStatus::PolicyFailed;
@@ -593,6 +725,38 @@ impl Arbiter {
         ws.diagnostics.step_fraction = 0.0;
         Err(TickStatus::Halted)
     }
+}
+
+/// Resets the diagnostics at the start of a tick.
+fn begin_tick(ws: &mut ArbiterWorkspace) {
+    ws.diagnostics = Diagnostics {
+        mode: ws.mode,
+        step_fraction: 1.0,
+        min_distance: f64::INFINITY,
+        metric_condition: 1.0,
+        ..Diagnostics::default()
+    };
+}
+
+/// The command of a tick that ended with `result`: zero on a hold, else
+/// the step (shortened by the certification).
+fn emit(ws: &mut ArbiterWorkspace, result: Result<TickStatus, TickStatus>) -> Command<'_> {
+    let status = match result {
+        Ok(status) => status,
+        Err(status) => {
+            ws.u.fill(0.0);
+            status
+        }
+    };
+    if status.is_hold() {
+        ws.qdot.fill(0.0);
+    } else {
+        let f = ws.diagnostics.step_fraction;
+        for (v, u) in ws.qdot.iter_mut().zip(&ws.u) {
+            *v = f * u;
+        }
+    }
+    Command { qdot: &ws.qdot, status, diagnostics: ws.diagnostics }
 }
 
 impl ArbiterWorkspace {

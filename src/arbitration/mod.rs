@@ -58,6 +58,7 @@ mod arbiter;
 mod command;
 mod field;
 mod intent;
+mod learned;
 pub mod metric;
 mod modes;
 mod objective;
@@ -71,6 +72,7 @@ pub use arbiter::{
 pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
 pub use field::{FieldSample, metric_field};
 pub use intent::{IntentEstimator, IntentSettings};
+pub use learned::{ArbitrationPolicy, StateLayout};
 pub use metric::{Metric, MetricSettings};
 pub use modes::{ArbitrationMode, BlendingStyle, MetricSpace, ModeSettings, UnknownMode};
 pub use repulsion::ObstacleRepulsion;
@@ -109,6 +111,23 @@ pub enum ArbitrationError {
     /// The gripper frame (or another robot-side input) is wrong.
     #[error(transparent)]
     Robot(#[from] RobotError),
+    /// [`ArbitrationMode::Learned`] asked of an arbiter without a policy
+    /// ([`Arbiter::with_arbitration_policy`]).
+    #[error("the learned arbitration mode needs a trained policy (Arbiter::with_arbitration_policy); none is loaded")]
+    NoArbitrationPolicy,
+    /// An arbitration policy trained for another number of goals (or with
+    /// an invalid layout).
+    #[error(
+        "the arbitration policy was trained for {goals} goals in {task_dims} task dimensions; this arbiter has {expected_goals} goals"
+    )]
+    PolicyLayout {
+        /// The arbiter's goals.
+        expected_goals: usize,
+        /// The policy's goals.
+        goals: usize,
+        /// The policy's task dimensions.
+        task_dims: usize,
+    },
     /// The problem names no gripper frame (`robot.gripper`).
     #[error("the problem names no gripper frame (robot.gripper): task commands and intent need one")]
     NoGripper,

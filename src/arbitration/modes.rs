@@ -50,6 +50,12 @@ pub enum ArbitrationMode {
     Constrained,
     /// `min ‖J u − v_H‖²_C + ‖u‖²_W`, `C⁻¹ = εI` (§5.3.2, eq. 5.4 linearised).
     SumOfSquares,
+    /// A learned arbitration policy (§6.4: the DDPG actor trained with the
+    /// disagreement reward) maps the arbitration state to the gripper
+    /// velocity, executed as direct control under the hard constraints.
+    /// Needs a policy ([`Arbiter::with_arbitration_policy`](super::Arbiter::with_arbitration_policy));
+    /// not in [`ArbitrationMode::ALL`], which lists the modes every arbiter runs.
+    Learned,
 }
 
 impl ArbitrationMode {
@@ -76,6 +82,7 @@ impl ArbitrationMode {
             ArbitrationMode::NaturalGradient(MetricSpace::Joint) => "natural-gradient-joint",
             ArbitrationMode::Constrained => "constrained",
             ArbitrationMode::SumOfSquares => "sos",
+            ArbitrationMode::Learned => "learned",
         }
     }
 
@@ -112,7 +119,7 @@ impl fmt::Display for ArbitrationMode {
 /// A mode name that is not one of [`ArbitrationMode::ALL`].
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error(
-    "unknown arbitration mode '{0}' (have: direct, blend-timid, blend-aggressive, avoid, natural-gradient, natural-gradient-joint, constrained, sos)"
+    "unknown arbitration mode '{0}' (have: direct, blend-timid, blend-aggressive, avoid, natural-gradient, natural-gradient-joint, constrained, sos, learned)"
 )]
 pub struct UnknownMode(pub String);
 
@@ -120,7 +127,12 @@ impl FromStr for ArbitrationMode {
     type Err = UnknownMode;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        ArbitrationMode::ALL.iter().copied().find(|m| m.as_str() == s).ok_or_else(|| UnknownMode(s.to_string()))
+        ArbitrationMode::ALL
+            .iter()
+            .copied()
+            .chain([ArbitrationMode::Learned])
+            .find(|m| m.as_str() == s)
+            .ok_or_else(|| UnknownMode(s.to_string()))
     }
 }
 

@@ -46,7 +46,8 @@ impl Arbiter {
         }
         let modes = &self.settings.modes;
         match mode {
-            ArbitrationMode::DirectControl | ArbitrationMode::ObstacleAvoidance => match k {
+            // `Learned` reaches here as direct control with the learned command.
+            ArbitrationMode::DirectControl | ArbitrationMode::ObstacleAvoidance | ArbitrationMode::Learned => match k {
                 Some(k) => task_objective(ws, k, n, damping),
                 None => joint_objective(ws, n, |ws, t| t.copy_from_slice(&ws.human)),
             },

@@ -19,9 +19,14 @@ pub struct ArbitrateArgs {
     #[arg(default_value = "builtin:panda_grasp_box")]
     pub problem: PathBuf,
     /// Arbitration mode: direct, blend-timid, blend-aggressive, avoid,
-    /// natural-gradient, natural-gradient-joint, constrained, sos.
+    /// natural-gradient, natural-gradient-joint, constrained, sos, or
+    /// learned (with --arbiter).
     #[arg(long, default_value = "sos")]
     pub mode: ArbitrationMode,
+    /// The trained arbitration actor of `--mode learned` (`tandem learn
+    /// arbitration`; trained for the problem's number of goals).
+    #[arg(long, value_name = "FILE")]
+    pub arbiter: Option<PathBuf>,
     /// Simulated operator: straightline (straight at the grasp point) or
     /// approach (to a point 10 cm above it, then down).
     #[arg(long, default_value = "approach", value_parser = ["straightline", "approach"])]
@@ -66,8 +71,13 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
     let goals = problem_goals(&problem, &options)?;
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
-    let settings = ArbiterSettings { mode: args.mode, period: 1.0 / args.rate, ..ArbiterSettings::default() };
-    let arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
+    let settings = ArbiterSettings { period: 1.0 / args.rate, ..ArbiterSettings::default() };
+    let mut arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
+    if let Some(path) = &args.arbiter {
+        let actor = crate::learn::ArbitrationActor::load(path)?;
+        arbiter = arbiter.with_arbitration_policy(std::sync::Arc::new(actor))?;
+    }
+    let arbiter = arbiter.with_settings(ArbiterSettings { mode: args.mode, ..settings })?;
     let settings = *arbiter.settings();
     let mut operator: Box<dyn Operator> = match args.operator.as_str() {
         "straightline" => Box::new(Straightline { pace: Pace { speed: args.speed, ..Pace::default() } }),

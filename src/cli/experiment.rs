@@ -72,6 +72,22 @@ pub enum Experiment {
     ///   tandem experiment policy --policy policy.safetensors --data grasps/ --tasks 500 --rounds 3 --json
     #[command(verbatim_doc_comment)]
     Policy(super::experiment_policy::PolicyExperimentArgs),
+    /// Table 6.1: the learned arbiters (combined reward, environment-only
+    /// reward; DDPG, seed chapter 6) beside direct control (no collision
+    /// avoidance, as the seed's) with the users noisy-0.5, noisy-1.0,
+    /// straight and biased (5 cm/s, 30 Hz) on the planar reach task: the
+    /// gripper starts behind a pole and reaches the user's cylinder (1 cm)
+    /// within 20 s. Reports success, collisions and travel (mean ± std),
+    /// Fig. 6.4 (training curves over --train-seeds seeds) and Fig. 6.5
+    /// (distance of the executed command to the user's and to the
+    /// predicted sub-policy over the episode). Trains the actors first
+    /// unless --combined and --environment give them.
+    ///
+    /// Examples:
+    ///   tandem experiment learned --episodes 100 --out results/
+    ///   tandem experiment learned --combined c.safetensors --environment e.safetensors --json
+    #[command(verbatim_doc_comment)]
+    Learned(super::learned_arbitration::LearnedExperimentArgs),
 }
 
 /// Arguments of `tandem experiment planar`.
@@ -128,6 +144,7 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error
         Experiment::ReachGrasp(a) => reach_grasp(a),
         Experiment::Planar(a) => planar(a),
         Experiment::Policy(a) => super::experiment_policy::run_policy(a),
+        Experiment::Learned(a) => super::learned_arbitration::experiment_learned(a),
     }
 }
 

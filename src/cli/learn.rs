@@ -33,6 +33,27 @@ pub enum LearnCommand {
     ///   tandem learn policy --data grasps/ --epochs 30 --out policy.safetensors
     #[command(verbatim_doc_comment)]
     Policy(LearnPolicyArgs),
+    /// Train a learned arbiter (seed chapter 6) with DDPG on the planar
+    /// task of §6.5: the gripper behind a pole, two cylinders near the far
+    /// edge, a simulated user (straight, noisy-0.5, noisy-1.0, biased,
+    /// drawn per episode) heading for one of them. The actor sees the
+    /// gripper, the goals, the distance to the nearest obstacle, every
+    /// sub-policy's action and belief and the user's command (17 values)
+    /// and outputs the arbitrated x–y velocity, executed under the hard
+    /// constraints. --reward combined adds Algorithm 5's agreement term —
+    /// follow the user at decision points (the sub-policies' von Mises
+    /// mixture multimodal), the user's goal's sub-policy elsewhere, at the
+    /// user's speed — to the environment reward (−10 obstacle, −2 border,
+    /// +10 goal); --reward environment uses the latter alone. Rewards are
+    /// labelled in hindsight, once the user's goal is known. Deterministic
+    /// per --seed. Writes the actor (safetensors; load it with
+    /// `--mode learned --arbiter FILE` or ArbitrationActor::load), the
+    /// training log (.json) and curves (.svg).
+    ///
+    /// Example:
+    ///   tandem learn arbitration --episodes 300 --reward combined --out arbiter.safetensors
+    #[command(verbatim_doc_comment)]
+    Arbitration(super::learned_arbitration::LearnArbitrationArgs),
 }
 
 /// Arguments of `tandem learn policy`.
@@ -122,6 +143,7 @@ impl PolicyReport {
 pub(super) fn run(args: &LearnArgs) -> Result<(), Box<dyn std::error::Error>> {
     match &args.what {
         LearnCommand::Policy(a) => run_policy(a),
+        LearnCommand::Arbitration(a) => super::learned_arbitration::learn_arbitration(a),
     }
 }
 

@@ -19,6 +19,7 @@ mod generate;
 mod inspect;
 mod kinematics;
 mod learn;
+mod learned_arbitration;
 mod plan;
 mod policy;
 mod problem_args;

@@ -131,3 +131,57 @@ pub fn success_by_distance(outcomes: &[(String, Vec<(f64, bool)>)], bins: usize)
         420,
     )
 }
+
+/// Fig. 6.4: success rate and return per training episode, one line per
+/// reward (each the mean over its seeds' runs, smoothed by a moving
+/// average over `window` episodes).
+///
+/// # Errors
+/// Plotting errors.
+pub fn training_curves(
+    runs: &[(String, Vec<Vec<super::TrainingEpisode>>)],
+    window: usize,
+) -> Result<String, FigureError> {
+    let window = window.max(1);
+    let smoothed = |values: &[f64]| -> Vec<(f64, f64)> {
+        (0..values.len())
+            .map(|i| {
+                let from = (i + 1).saturating_sub(window);
+                let part = &values[from..=i];
+                (i as f64 + 1.0, part.iter().sum::<f64>() / part.len() as f64)
+            })
+            .collect()
+    };
+    let mean_over = |seeds: &[Vec<super::TrainingEpisode>], f: &dyn Fn(&super::TrainingEpisode) -> f64| {
+        let len = seeds.iter().map(Vec::len).min().unwrap_or(0);
+        (0..len).map(|i| seeds.iter().map(|s| f(&s[i])).sum::<f64>() / seeds.len() as f64).collect::<Vec<f64>>()
+    };
+    let mut success = Panel::new("success rate", "training episode", "share of episodes (moving average)");
+    let mut returns = Panel::new("return", "training episode", "episode return (moving average)");
+    for (color, (name, seeds)) in runs.iter().enumerate() {
+        let s = mean_over(seeds, &|e| f64::from(u8::from(e.outcome == "success")));
+        let r = mean_over(seeds, &|e| e.episode_return);
+        success = success.with(Series::line(name, &smoothed(&s), color));
+        returns = returns.with(Series::line(name, &smoothed(&r), color));
+    }
+    let seeds = runs.first().map_or(0, |r| r.1.len());
+    render_panels(&format!("Training the arbiter with DDPG (mean of {seeds} seeds)"), &[success, returns], 560, 400)
+}
+
+/// Fig. 6.5: distance of the executed command to the user's and to the
+/// predicted sub-policy along normalised episode time, one panel per method.
+///
+/// # Errors
+/// Plotting errors.
+pub fn authority_curves(curves: &[super::arbitration_experiment::AuthorityCurve]) -> Result<String, FigureError> {
+    let at = |v: &[f64]| v.iter().enumerate().map(|(k, y)| (10.0 * k as f64 + 5.0, *y)).collect::<Vec<_>>();
+    let panels: Vec<Panel> = curves
+        .iter()
+        .map(|c| {
+            Panel::new(&c.method, "episode duration (%)", "‖u − a‖ (units of the user speed)")
+                .with(Series::line("to the user", &at(&c.to_user), 0))
+                .with(Series::line("to the predicted sub-policy", &at(&c.to_robot), 1))
+        })
+        .collect();
+    render_panels("Who has authority along the episode (straight user)", &panels, 420, 380)
+}

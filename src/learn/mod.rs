@@ -39,10 +39,16 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod arbitration_actor;
+#[cfg(feature = "learn")]
+pub mod arbitration_experiment;
 #[cfg(feature = "learn")]
 pub mod dagger;
 #[cfg(feature = "learn")]
 mod dataset;
+#[cfg(feature = "learn")]
+mod ddpg;
+pub mod decision;
 #[cfg(feature = "learn")]
 pub mod evaluate;
 #[cfg(feature = "learn")]
@@ -55,8 +61,11 @@ mod policy;
 #[cfg(feature = "learn")]
 mod train;
 
+pub use arbitration_actor::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
 #[cfg(feature = "learn")]
 pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
+#[cfg(feature = "learn")]
+pub use ddpg::{DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkScratch, PolicyMeta, PolicyNetwork};
 pub use policy::{LearnedPolicy, LearnedState, problem_goal};
 #[cfg(feature = "learn")]

@@ -80,11 +80,57 @@ impl PolicyMeta {
 /// multiplies input `j` into output `o`) so the product is a sequence of
 /// contiguous, vectorisable `axpy`s.
 #[derive(Debug, Clone, PartialEq)]
-struct DenseLayer {
-    inputs: usize,
-    outputs: usize,
+pub(crate) struct DenseLayer {
+    pub(crate) inputs: usize,
+    pub(crate) outputs: usize,
     weights: Vec<f32>,
     bias: Vec<f32>,
+}
+
+impl DenseLayer {
+    /// A layer from row-major `[out, in]` weights (PyTorch's convention).
+    pub(crate) fn from_row_major(inputs: usize, outputs: usize, w: &[f32], bias: Vec<f32>) -> DenseLayer {
+        let mut weights = vec![0.0; w.len()];
+        for o in 0..outputs {
+            for j in 0..inputs {
+                weights[j * outputs + o] = w[o * inputs + j];
+            }
+        }
+        DenseLayer { inputs, outputs, weights, bias }
+    }
+
+    /// The weights row-major `[out, in]`, and the bias.
+    pub(crate) fn row_major(&self) -> (Vec<f32>, Vec<f32>) {
+        let mut w = vec![0.0f32; self.weights.len()];
+        for o in 0..self.outputs {
+            for j in 0..self.inputs {
+                w[o * self.inputs + j] = self.weights[j * self.outputs + o];
+            }
+        }
+        (w, self.bias.clone())
+    }
+
+    /// `y = W x + b`, then ReLU when `relu`. Allocates nothing.
+    pub(crate) fn apply(&self, x: &[f32], y: &mut [f32], relu: bool) {
+        let y = &mut y[..self.outputs];
+        y.copy_from_slice(&self.bias);
+        for (j, xj) in x[..self.inputs].iter().enumerate() {
+            let column = &self.weights[j * self.outputs..(j + 1) * self.outputs];
+            for (yo, w) in y.iter_mut().zip(column) {
+                *yo += xj * w;
+            }
+        }
+        if relu {
+            for v in y.iter_mut() {
+                *v = v.max(0.0);
+            }
+        }
+    }
+
+    /// Whether every weight and bias is finite.
+    pub(crate) fn is_finite(&self) -> (bool, bool) {
+        (self.weights.iter().all(|x| x.is_finite()), self.bias.iter().all(|x| x.is_finite()))
+    }
 }
 
 /// The trained network: normalisation, layers and metadata. Immutable and
@@ -150,13 +196,7 @@ impl PolicyNetwork {
             if b.len() != *outputs {
                 return Err(shape_error(format!("layers.{i}.bias"), vec![*outputs], b.len()));
             }
-            let mut transposed = vec![0.0; w.len()];
-            for o in 0..*outputs {
-                for j in 0..*inputs {
-                    transposed[j * outputs + o] = w[o * inputs + j];
-                }
-            }
-            layers.push(DenseLayer { inputs: *inputs, outputs: *outputs, weights: transposed, bias: b.clone() });
+            layers.push(DenseLayer::from_row_major(*inputs, *outputs, w, b.clone()));
         }
         let network = PolicyNetwork { meta, input_mean, input_std, layers };
         if let Some(name) = network.first_non_finite() {
@@ -173,15 +213,7 @@ impl PolicyNetwork {
         if bad(&self.input_std) || self.input_std.iter().any(|s| *s <= 0.0) {
             return Some("input_std".into());
         }
-        self.layers.iter().enumerate().find_map(|(i, l)| {
-            if bad(&l.weights) {
-                Some(format!("layers.{i}.weight"))
-            } else if bad(&l.bias) {
-                Some(format!("layers.{i}.bias"))
-            } else {
-                None
-            }
-        })
+        first_non_finite_layer(&self.layers, "layers")
     }
 
     /// The metadata.
@@ -194,14 +226,7 @@ impl PolicyNetwork {
     /// # Panics
     /// `i` beyond the last layer.
     pub fn layer(&self, i: usize) -> (Vec<f32>, Vec<f32>) {
-        let l = &self.layers[i];
-        let mut w = vec![0.0f32; l.weights.len()];
-        for o in 0..l.outputs {
-            for j in 0..l.inputs {
-                w[o * l.inputs + j] = l.weights[j * l.outputs + o];
-            }
-        }
-        (w, l.bias.clone())
+        self.layers[i].row_major()
     }
 
     /// The input normalisation: per-feature mean and standard deviation.
@@ -225,19 +250,7 @@ impl PolicyNetwork {
         }
         let last = self.layers.len() - 1;
         for (i, layer) in self.layers.iter().enumerate() {
-            let (x, y) = (&scratch.a[..layer.inputs], &mut scratch.b[..layer.outputs]);
-            y.copy_from_slice(&layer.bias);
-            for (j, xj) in x.iter().enumerate() {
-                let column = &layer.weights[j * layer.outputs..(j + 1) * layer.outputs];
-                for (yo, w) in y.iter_mut().zip(column) {
-                    *yo += xj * w;
-                }
-            }
-            if i < last {
-                for v in y.iter_mut() {
-                    *v = v.max(0.0);
-                }
-            }
+            layer.apply(&scratch.a, &mut scratch.b, i < last);
             std::mem::swap(&mut scratch.a, &mut scratch.b);
         }
         let n = self.layers[last].outputs;
@@ -262,27 +275,16 @@ impl PolicyNetwork {
     pub fn to_bytes(&self) -> Result<Vec<u8>, LearnError> {
         let meta = serde_json::to_string(&self.meta)
             .map_err(|e| LearnError::Metadata { path: "(in memory)".into(), message: e.to_string() })?;
-        let mut tensors: Vec<(String, Vec<usize>, Vec<u8>)> = vec![
-            ("input_mean".into(), vec![self.input_mean.len()], le_bytes(&self.input_mean)),
-            ("input_std".into(), vec![self.input_std.len()], le_bytes(&self.input_std)),
+        let mut tensors: Vec<(String, Vec<usize>, Vec<f32>)> = vec![
+            ("input_mean".into(), vec![self.input_mean.len()], self.input_mean.clone()),
+            ("input_std".into(), vec![self.input_std.len()], self.input_std.clone()),
         ];
         for (i, l) in self.layers.iter().enumerate() {
             let (w, b) = self.layer(i);
-            tensors.push((format!("layers.{i}.weight"), vec![l.outputs, l.inputs], le_bytes(&w)));
-            tensors.push((format!("layers.{i}.bias"), vec![l.outputs], le_bytes(&b)));
+            tensors.push((format!("layers.{i}.weight"), vec![l.outputs, l.inputs], w));
+            tensors.push((format!("layers.{i}.bias"), vec![l.outputs], b));
         }
-        let views = tensors
-            .iter()
-            .map(|(name, shape, data)| {
-                TensorView::new(Dtype::F32, shape.clone(), data).map(|v| (name.clone(), v)).map_err(|e| {
-                    LearnError::Metadata { path: "(in memory)".into(), message: format!("tensor {name}: {e}") }
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        // One metadata key: safetensors writes its map in hash order.
-        let info = HashMap::from([("tandem".to_string(), meta)]);
-        safetensors::serialize(views, Some(info))
-            .map_err(|e| LearnError::Metadata { path: "(in memory)".into(), message: e.to_string() })
+        safetensors_bytes(meta, &tensors)
     }
 
     /// Writes the network to `path`.
@@ -337,26 +339,7 @@ impl PolicyNetwork {
             ));
         }
         let d = meta.input_width();
-        let read = |name: &str, shape: &[usize]| -> Result<Vec<f32>, LearnError> {
-            let view =
-                file.tensor(name).map_err(|_| LearnError::MissingTensor { path: path.into(), name: name.into() })?;
-            if view.dtype() != Dtype::F32 {
-                return Err(LearnError::TensorType {
-                    path: path.into(),
-                    name: name.into(),
-                    got: format!("{:?}", view.dtype()),
-                });
-            }
-            if view.shape() != shape {
-                return Err(LearnError::TensorShape {
-                    path: path.into(),
-                    name: name.into(),
-                    expected: shape.to_vec(),
-                    got: view.shape().to_vec(),
-                });
-            }
-            Ok(view.data().chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
-        };
+        let read = |name: &str, shape: &[usize]| read_f32(&file, path, name, shape);
         let mean = read("input_mean", &[d])?;
         let std = read("input_std", &[d])?;
         let mut weights = Vec::new();
@@ -377,6 +360,64 @@ impl PolicyNetwork {
             e => e,
         })
     }
+}
+
+/// The first layer (as `{prefix}.{i}.weight` or `.bias`) holding a
+/// non-finite value.
+pub(crate) fn first_non_finite_layer(layers: &[DenseLayer], prefix: &str) -> Option<String> {
+    layers.iter().enumerate().find_map(|(i, l)| match l.is_finite() {
+        (false, _) => Some(format!("{prefix}.{i}.weight")),
+        (_, false) => Some(format!("{prefix}.{i}.bias")),
+        _ => None,
+    })
+}
+
+/// Reads `name` from `file` as `f32` values of exactly `shape`.
+pub(crate) fn read_f32(
+    file: &SafeTensors<'_>,
+    path: &Path,
+    name: &str,
+    shape: &[usize],
+) -> Result<Vec<f32>, LearnError> {
+    let view = file.tensor(name).map_err(|_| LearnError::MissingTensor { path: path.into(), name: name.into() })?;
+    if view.dtype() != Dtype::F32 {
+        return Err(LearnError::TensorType {
+            path: path.into(),
+            name: name.into(),
+            got: format!("{:?}", view.dtype()),
+        });
+    }
+    if view.shape() != shape {
+        return Err(LearnError::TensorShape {
+            path: path.into(),
+            name: name.into(),
+            expected: shape.to_vec(),
+            got: view.shape().to_vec(),
+        });
+    }
+    Ok(view.data().chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
+}
+
+/// Serialises `tensors` (name, shape, values) with `meta` as the `tandem`
+/// metadata key. Same input, same bytes.
+pub(crate) fn safetensors_bytes(
+    meta: String,
+    tensors: &[(String, Vec<usize>, Vec<f32>)],
+) -> Result<Vec<u8>, LearnError> {
+    let data: Vec<Vec<u8>> = tensors.iter().map(|(_, _, v)| le_bytes(v)).collect();
+    let views = tensors
+        .iter()
+        .zip(&data)
+        .map(|((name, shape, _), data)| {
+            TensorView::new(Dtype::F32, shape.clone(), data).map(|v| (name.clone(), v)).map_err(|e| {
+                LearnError::Metadata { path: "(in memory)".into(), message: format!("tensor {name}: {e}") }
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    // One metadata key: safetensors writes its map in hash order.
+    let info = HashMap::from([("tandem".to_string(), meta)]);
+    safetensors::serialize(views, Some(info))
+        .map_err(|e| LearnError::Metadata { path: "(in memory)".into(), message: e.to_string() })
 }
 
 fn le_bytes(values: &[f32]) -> Vec<u8> {

@@ -85,12 +85,12 @@ pub struct TrainReport {
     pub validation_trajectories: usize,
 }
 
-fn candle(e: candle_core::Error) -> LearnError {
+pub(crate) fn candle(e: candle_core::Error) -> LearnError {
     LearnError::Training(e.to_string())
 }
 
-/// The trainable layers.
-struct Layers {
+/// Trainable dense layers (ReLU between them).
+pub(crate) struct Layers {
     weights: Vec<Var>,
     biases: Vec<Var>,
 }
@@ -98,10 +98,21 @@ struct Layers {
 impl Layers {
     /// He-uniform weights from `rng`, zero biases; or a copy of `initial`'s.
     fn new(meta: &PolicyMeta, initial: Option<&PolicyNetwork>, rng: &mut ChaCha8Rng) -> Result<Layers, LearnError> {
+        Layers::with_shapes(&meta.layer_shapes(), |i| initial.map(|net| net.layer(i)), rng)
+    }
+
+    /// Layers of `shapes` (inputs, outputs): `initial(i)`'s weights
+    /// (row-major `[out, in]`) and bias where it has them, else He-uniform
+    /// weights from `rng` and zero biases.
+    pub(crate) fn with_shapes(
+        shapes: &[(usize, usize)],
+        initial: impl Fn(usize) -> Option<(Vec<f32>, Vec<f32>)>,
+        rng: &mut ChaCha8Rng,
+    ) -> Result<Layers, LearnError> {
         let mut layers = Layers { weights: vec![], biases: vec![] };
-        for (i, (inputs, outputs)) in meta.layer_shapes().into_iter().enumerate() {
-            let (w, b) = match initial {
-                Some(net) => net.layer(i),
+        for (i, &(inputs, outputs)) in shapes.iter().enumerate() {
+            let (w, b) = match initial(i) {
+                Some(layer) => layer,
                 None => {
                     let bound = (6.0 / inputs as f64).sqrt();
                     let w = (0..inputs * outputs).map(|_| rng.random_range(-bound..bound) as f32).collect();
@@ -116,7 +127,7 @@ impl Layers {
         Ok(layers)
     }
 
-    fn forward(&self, x: &Tensor) -> Result<Tensor, candle_core::Error> {
+    pub(crate) fn forward(&self, x: &Tensor) -> Result<Tensor, candle_core::Error> {
         let last = self.weights.len() - 1;
         let mut h = x.clone();
         for (i, (w, b)) in self.weights.iter().zip(&self.biases).enumerate() {
@@ -128,12 +139,12 @@ impl Layers {
         Ok(h)
     }
 
-    fn vars(&self) -> Vec<Var> {
+    pub(crate) fn vars(&self) -> Vec<Var> {
         self.weights.iter().chain(&self.biases).cloned().collect()
     }
 
     /// Weights and biases per layer, flattened (row-major).
-    fn values(&self) -> Result<(LayerValues, LayerValues), LearnError> {
+    pub(crate) fn values(&self) -> Result<(LayerValues, LayerValues), LearnError> {
         let read = |v: &Var| v.as_tensor().flatten_all().and_then(|t| t.to_vec1::<f32>()).map_err(candle);
         Ok((
             self.weights.iter().map(read).collect::<Result<_, _>>()?,
@@ -274,7 +285,7 @@ pub fn train(
     let mut optimizer = AdamW::new(layers.vars(), params).map_err(candle)?;
     let batches_per_epoch = data.len().div_ceil(settings.batch);
     let total = (batches_per_epoch * settings.epochs) as u64;
-    let bar = settings.progress.then(|| progress_bar(total));
+    let bar = settings.progress.then(|| progress_bar(total, "batches"));
     let mut order: Vec<usize> = (0..data.len()).collect();
     let mut report = TrainReport {
         losses: vec![],
@@ -385,11 +396,11 @@ fn shuffle(order: &mut [usize], rng: &mut ChaCha8Rng) {
     }
 }
 
-fn progress_bar(total: u64) -> ProgressBar {
+pub(crate) fn progress_bar(total: u64, unit: &str) -> ProgressBar {
     let bar = ProgressBar::new(total);
-    let style = ProgressStyle::with_template("{elapsed_precise} [{wide_bar}] {pos}/{len} batches · ETA {eta} · {msg}")
-        .unwrap_or_else(|_| ProgressStyle::default_bar())
-        .progress_chars("=> ");
+    let template = format!("{{elapsed_precise}} [{{wide_bar}}] {{pos}}/{{len}} {unit} · ETA {{eta}} · {{msg}}");
+    let style =
+        ProgressStyle::with_template(&template).unwrap_or_else(|_| ProgressStyle::default_bar()).progress_chars("=> ");
     bar.set_style(style);
     bar
 }

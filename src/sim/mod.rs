@@ -16,6 +16,8 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+#[cfg(feature = "experiments")]
+mod arbitration_env;
 mod episode;
 mod judge;
 mod operator;
@@ -24,6 +26,10 @@ mod planar;
 #[cfg(feature = "experiments")]
 mod reach_grasp;
 
+#[cfg(feature = "experiments")]
+pub use arbitration_env::{
+    ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, EnvTask, RewardKind, StepResult, reward,
+};
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
 pub use operator::{

@@ -63,7 +63,7 @@ impl PlanarUser {
         }
     }
 
-    fn build(&self, speed: f64, seed: u64) -> Box<dyn Operator> {
+    pub(crate) fn build(&self, speed: f64, seed: u64) -> Box<dyn Operator> {
         let pace = Pace { speed, slow_down: 0.03, arrive: 0.005 };
         let follower = PolicyFollower { pace };
         match *self {

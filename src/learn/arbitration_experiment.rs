@@ -1,0 +1,233 @@
+//! Table 6.1 of the seed: the learned arbiters (combined and
+//! environment-only reward) beside direct control, with every simulated
+//! user of §6.5, on the planar reach task: the gripper behind a pole, two
+//! cylinders near the far edge, the user heading for one. Success: the
+//! gripper reaches the user's cylinder (the task judge, 1 cm) within the
+//! timeout; collision: it touches anything first. The learned arbiters run
+//! as [`ArbitrationMode::Learned`] under the hard constraints; direct
+//! control has no collision avoidance (the seed's DC). Also the data of
+//! Fig. 6.5: the distance of the executed command to the user's and to the
+//! most likely goal's sub-policy along normalised episode time.
+
+use super::ArbitrationActor;
+use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode};
+use crate::scene::Problem;
+use crate::sim::{
+    Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarUser, TaskJudge, mean_std, sample_planar_task,
+};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Settings of the experiment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LearnedExperimentSettings {
+    /// Episodes (tasks) per user and method.
+    pub episodes: usize,
+    /// Seed of the tasks and the users.
+    pub seed: u64,
+    /// The users (default: noisy-0.5, noisy-1.0, straight, biased).
+    pub users: Vec<PlanarUser>,
+    /// User speed (m/s; default 0.05).
+    pub speed: f64,
+    /// Timeout (s; default 20).
+    pub max_time: f64,
+    /// The arbiters' settings (30 Hz).
+    pub arbiter: ArbiterSettings,
+}
+
+impl Default for LearnedExperimentSettings {
+    fn default() -> Self {
+        LearnedExperimentSettings {
+            episodes: 100,
+            seed: 1,
+            users: PlanarUser::ALL.to_vec(),
+            speed: 0.05,
+            max_time: 20.0,
+            arbiter: ArbiterSettings { period: 1.0 / 30.0, ..ArbiterSettings::default() },
+        }
+    }
+}
+
+/// A method of the table: direct control or a learned actor.
+#[derive(Debug, Clone)]
+pub struct LearnedMethod {
+    /// Its name in the table (`combined`, `environment`, `direct`).
+    pub name: String,
+    /// The actor; `None` for direct control.
+    pub actor: Option<Arc<ArbitrationActor>>,
+}
+
+/// One cell of the table.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LearnedCell {
+    /// The user's name.
+    pub user: String,
+    /// The method's name.
+    pub method: String,
+    /// Share of successful episodes.
+    pub success: f64,
+    /// Share of episodes that ended in a collision.
+    pub collision: f64,
+    /// Gripper travel (cm), mean and standard deviation.
+    pub travel_cm: [f64; 2],
+    /// Episodes.
+    pub episodes: usize,
+}
+
+/// Fig. 6.5's curves for one method with the straight user: per tenth of
+/// the normalised episode time, the mean distance (units of the user
+/// speed) of the executed gripper velocity to the user's command and to the
+/// most likely goal's sub-policy.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct AuthorityCurve {
+    /// The method's name.
+    pub method: String,
+    /// Distance to the user's command, per tenth.
+    pub to_user: Vec<f64>,
+    /// Distance to the predicted sub-policy, per tenth.
+    pub to_robot: Vec<f64>,
+}
+
+/// The experiment's results.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct LearnedResults {
+    /// Episodes per cell.
+    pub episodes: usize,
+    /// Every cell, by user then method.
+    pub cells: Vec<LearnedCell>,
+    /// Fig. 6.5 data (straight user), one per method.
+    pub curves: Vec<AuthorityCurve>,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+struct Run {
+    user: usize,
+    method: usize,
+    outcome: Outcome,
+    travel_cm: f64,
+    to_user: [f64; 10],
+    to_robot: [f64; 10],
+    counts: [usize; 10],
+}
+
+/// Runs the table (parallel over episodes; deterministic).
+///
+/// # Errors
+/// A task that cannot be set up, an actor trained for another layout.
+pub fn run_learned_experiment(
+    settings: &LearnedExperimentSettings,
+    methods: &[LearnedMethod],
+    progress: &(dyn Fn() + Sync),
+) -> Result<LearnedResults, ArbitrationError> {
+    let began = std::time::Instant::now();
+    let base = Problem::builtin("planar_pick")?;
+    let runs: Vec<Vec<Run>> = (0..settings.episodes)
+        .into_par_iter()
+        .map(|e| {
+            let runs = episode_runs(&base, settings, methods, e);
+            progress();
+            runs
+        })
+        .collect::<Result<_, _>>()?;
+    let runs: Vec<Run> = runs.into_iter().flatten().collect();
+    let mut cells = vec![];
+    for (u, user) in settings.users.iter().enumerate() {
+        for (m, method) in methods.iter().enumerate() {
+            let mine: Vec<&Run> = runs.iter().filter(|r| r.user == u && r.method == m).collect();
+            let share = |o: Outcome| mine.iter().filter(|r| r.outcome == o).count() as f64 / mine.len().max(1) as f64;
+            cells.push(LearnedCell {
+                user: user.name(),
+                method: method.name.clone(),
+                success: share(Outcome::Success),
+                collision: share(Outcome::Collision),
+                travel_cm: mean_std(mine.iter().map(|r| r.travel_cm)),
+                episodes: mine.len(),
+            });
+        }
+    }
+    let straight = settings.users.iter().position(|u| *u == PlanarUser::Straight);
+    let curves = methods
+        .iter()
+        .enumerate()
+        .map(|(m, method)| {
+            let (mut to_user, mut to_robot, mut counts) = ([0.0; 10], [0.0; 10], [0usize; 10]);
+            for r in runs.iter().filter(|r| Some(r.user) == straight && r.method == m) {
+                for k in 0..10 {
+                    to_user[k] += r.to_user[k];
+                    to_robot[k] += r.to_robot[k];
+                    counts[k] += r.counts[k];
+                }
+            }
+            let mean = |v: [f64; 10]| (0..10).map(|k| v[k] / counts[k].max(1) as f64).collect();
+            AuthorityCurve { method: method.name.clone(), to_user: mean(to_user), to_robot: mean(to_robot) }
+        })
+        .collect();
+    Ok(LearnedResults { episodes: settings.episodes, cells, curves, seconds: began.elapsed().as_secs_f64() })
+}
+
+fn episode_runs(
+    base: &Problem,
+    settings: &LearnedExperimentSettings,
+    methods: &[LearnedMethod],
+    e: usize,
+) -> Result<Vec<Run>, ArbitrationError> {
+    let task = sample_planar_task(base, settings.seed, e)?;
+    let goal = &task.reach[task.target];
+    let arbiter = Arbiter::for_problem(&goal.problem, &task.reach, settings.arbiter)?;
+    let mut runs = vec![];
+    for (m, method) in methods.iter().enumerate() {
+        let mut s = settings.arbiter;
+        let arbiter = match &method.actor {
+            Some(actor) => {
+                s.mode = ArbitrationMode::Learned;
+                arbiter.with_arbitration_policy(actor.clone())?.with_settings(s)?
+            }
+            None => {
+                s.mode = ArbitrationMode::DirectControl;
+                s.safety.collisions = false;
+                arbiter.with_settings(s)?
+            }
+        };
+        for (u, user) in settings.users.iter().enumerate() {
+            let seed = settings.seed ^ ((e as u64) << 20) ^ ((u as u64) << 8);
+            let mut operator = user.build(settings.speed, seed);
+            let mut judge = TaskJudge::new(goal);
+            let episode = Episode {
+                arbiter: &arbiter,
+                start: &goal.problem.start,
+                target: goal.position,
+                true_goal: task.target,
+                settings: EpisodeSettings { max_time: settings.max_time, record: true },
+            };
+            let record = episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut |q| judge.succeeded(q))?;
+            runs.push(summarise(&record, u, m, settings.speed));
+        }
+    }
+    Ok(runs)
+}
+
+/// Outcome, travel and the Fig. 6.5 distances of one episode. The planar
+/// gripper's x and y joints move its tool point along the world axes, so a
+/// sub-policy's first two joint velocities are its gripper velocity.
+fn summarise(record: &EpisodeRecord, user: usize, method: usize, speed: f64) -> Run {
+    let mut run = Run {
+        user,
+        method,
+        outcome: record.outcome,
+        travel_cm: record.travel * 100.0,
+        to_user: [0.0; 10],
+        to_robot: [0.0; 10],
+        counts: [0; 10],
+    };
+    let steps = record.executed.len();
+    for (t, (executed, human)) in record.executed.iter().zip(&record.human).enumerate() {
+        let Some(robot) = record.robot.get(t).filter(|r| r.len() >= 2) else { continue };
+        let k = (10 * t / steps.max(1)).min(9);
+        let gap = |a: [f64; 2]| (executed[0] - a[0]).hypot(executed[1] - a[1]) / speed;
+        run.to_user[k] += gap([human[0], human[1]]);
+        run.to_robot[k] += gap([robot[0], robot[1]]);
+        run.counts[k] += 1;
+    }
+    run
+}
