@@ -5,7 +5,9 @@
 #      (python_kinematics.py; target: tandem no slower than pin);
 #   2. one arbitration tick from Python per mode (python_arbitration.py), to
 #      set beside the Rust tick of `cargo bench --bench arbitration`;
-#   3. bulk generation over a local Ray cluster against `tandem generate` with
+#   3. one step of the Gymnasium environments of tandem.gym (python_gym_step.py;
+#      target: under 100 µs);
+#   4. bulk generation over a local Ray cluster against `tandem generate` with
 #      the same CPUs: samples/s, the engine's overhead in %, byte identity
 #      (ray_generate.py).
 # Release builds of both: `pip install .` (release) into python/.venv, which
@@ -37,6 +39,8 @@ echo "== FK + Jacobian from Python: tandem vs pin" >&2
 "$py" "$here/python_kinematics.py" --json target/peers/python_kinematics.json
 echo "== one arbitration tick from Python, every mode" >&2
 "$py" "$here/python_arbitration.py" --json target/peers/python_arbitration.json
+echo "== one Gymnasium environment step from Python" >&2
+"$py" "$here/python_gym_step.py" --json target/peers/python_gym_step.json
 if $ray; then
   echo "== bulk generation: Ray vs the CLI ($cpus CPUs)" >&2
   cargo build --release --quiet --bin tandem

@@ -8,16 +8,18 @@ use crate::problem::PyProblem;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use tandem::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, GoalOptions, HumanCommand, TickInput, problem_goals,
 };
+use tandem::learn::ArbitrationActor;
 
 /// The arbiter of a problem: one goal per graspable object (or the
 /// problem's goal), each with an optimized reference and an LQR tracking
 /// policy, blended with the operator's commands by ``mode`` (``direct``,
 /// ``blend-timid``, ``blend-aggressive``, ``avoid``, ``natural-gradient``,
-/// ``natural-gradient-joint``, ``constrained``, ``sos``) every ``period``
+/// ``natural-gradient-joint``, ``constrained``, ``sos``, ``learned`` with
+/// ``actor``) every ``period``
 /// seconds, under joint position and velocity limits and distances of at
 /// least ``margin`` metres.
 ///
@@ -40,8 +42,10 @@ fn mode(name: &str) -> PyResult<ArbitrationMode> {
 impl PyArbiter {
     /// Prepares the goals of ``problem`` (optimizing their references:
     /// milliseconds each; the GIL is released) and the arbiter.
+    /// ``actor``: a trained arbitration actor file (``tandem learn
+    /// arbitration``), needed by ``mode="learned"``.
     #[new]
-    #[pyo3(signature = (problem, *, mode="sos", period=1.0 / 15.0, margin=0.005, seed=None))]
+    #[pyo3(signature = (problem, *, mode="sos", period=1.0 / 15.0, margin=0.005, seed=None, actor=None))]
     fn py_new(
         py: Python<'_>,
         problem: &PyProblem,
@@ -49,14 +53,26 @@ impl PyArbiter {
         period: f64,
         margin: f64,
         seed: Option<u64>,
+        actor: Option<std::path::PathBuf>,
     ) -> PyResult<Self> {
-        let mut settings = ArbiterSettings { mode: self::mode(mode)?, period, ..ArbiterSettings::default() };
+        let mode = self::mode(mode)?;
+        let mut settings = ArbiterSettings { period, ..ArbiterSettings::default() };
         settings.safety.margin = margin;
         let p = &problem.problem;
+        let actor = match actor {
+            Some(path) => {
+                Some(Arc::new(ArbitrationActor::load(&path).map_err(|e| ArbitrationError::new_err(e.to_string()))?))
+            }
+            None => None,
+        };
         let arbiter = py
             .detach(|| {
                 let goals = problem_goals(p, &GoalOptions { seed, ..GoalOptions::default() })?;
-                Arbiter::for_problem(p, &goals, settings)
+                let mut arbiter = Arbiter::for_problem(p, &goals, settings)?;
+                if let Some(actor) = actor {
+                    arbiter = arbiter.with_arbitration_policy(actor)?;
+                }
+                arbiter.with_settings(ArbiterSettings { mode, ..settings })
             })
             .py()?;
         let workspace = Mutex::new(arbiter.workspace());

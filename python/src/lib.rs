@@ -4,7 +4,8 @@
 //! One Rust module per box of the pipeline, mirroring the library:
 //! [`robot`] (models, kinematics), [`collision`], [`problem`] (problems,
 //! families), [`plan`] (IK, planning, optimization), [`control`] (tracking
-//! policies), [`arbitration`] (the per-tick arbiter), [`data`] (bulk
+//! policies), [`arbitration`] (the per-tick arbiter), [`env`] (the
+//! arbitration-learning environment of `tandem.gym`), [`data`] (bulk
 //! generation); [`errors`] maps every Rust error
 //! to an exception class, [`arrays`] moves numpy data in and out. Long
 //! calls release the GIL; sub-microsecond queries keep it.
@@ -14,6 +15,7 @@ mod arrays;
 mod collision;
 mod control;
 mod data;
+mod env;
 mod errors;
 mod plan;
 mod problem;
@@ -34,6 +36,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<plan::PySolution>()?;
     m.add_class::<control::PyTrackingPolicy>()?;
     m.add_class::<arbitration::PyArbiter>()?;
+    m.add_class::<env::PyArbitrationEnv>()?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(plan::solve, m)?)?;
     m.add_function(wrap_pyfunction!(plan::goal_configurations, m)?)?;

@@ -22,11 +22,13 @@ out.
 Every error is a :class:`TandemError` subclass carrying the Rust message
 (file, line, key, joint or value at fault). Long calls (loading, planning,
 solving, generation, batch queries) release the GIL. Bulk generation over a
-Ray cluster: :mod:`tandem.distributed`.
+Ray cluster: :mod:`tandem.distributed`. Gymnasium environments for learning
+arbitration: :mod:`tandem.gym`.
 """
 
 from ._native import (
     Arbiter,
+    ArbitrationEnv,
     ArbitrationError,
     CollisionError,
     CollisionModel,

@@ -355,7 +355,7 @@ class TrackingPolicy:
 
 _Mode = Literal[
     "direct", "blend-timid", "blend-aggressive", "avoid", "natural-gradient", "natural-gradient-joint",
-    "constrained", "sos",
+    "constrained", "sos", "learned",
 ]
 
 @final
@@ -365,8 +365,9 @@ class Arbiter:
 
     def __new__(
         cls, problem: Problem, *, mode: _Mode = "sos", period: float = 1.0 / 15.0, margin: float = 0.005,
-        seed: Optional[int] = None,
-    ) -> Arbiter: ...
+        seed: Optional[int] = None, actor: Optional[str | os.PathLike[str]] = None,
+    ) -> Arbiter:
+        """``actor``: a trained arbitration actor (``tandem learn arbitration``) for ``mode="learned"``."""
     def tick(
         self,
         q: _ArrayLike,
@@ -389,6 +390,33 @@ class Arbiter:
     def period(self) -> float: ...
     @property
     def nq(self) -> int: ...
+
+@final
+class ArbitrationEnv:
+    """The arbitration-learning environment (seed §6.5); :mod:`tandem.gym` wraps it for Gymnasium."""
+
+    def __new__(
+        cls,
+        task: Literal["planar", "panda"] = "planar",
+        *,
+        reward: Literal["combined", "environment"] = "combined",
+        max_time: Optional[float] = None,
+        hard_collisions: bool = True,
+    ) -> ArbitrationEnv: ...
+    def reset(self, seed: int) -> _Vector:
+        """Starts episode ``seed`` and returns the first state (17 values)."""
+    def step(self, action: _ArrayLike) -> tuple[_Vector, float, bool, bool, dict[str, Any]]:
+        """``(state, reward, terminated, truncated, info)`` as Gymnasium's ``step``."""
+    @property
+    def state_width(self) -> int: ...
+    @property
+    def action_width(self) -> int: ...
+    @property
+    def max_action(self) -> float: ...
+    @property
+    def human_offset(self) -> int: ...
+    @property
+    def gripper(self) -> tuple[float, float, float]: ...
 
 def plan(problem: Problem, seed: Optional[int] = None) -> PlanResult:
     """RRT-Connect + shortcutting, as ``tandem plan``; releases the GIL."""
