@@ -110,7 +110,8 @@ fn closed_form(
     let top = if b[0] >= b[1] { 0 } else { 1 };
     let s = arbiter.settings();
     match mode {
-        ArbitrationMode::DirectControl | ArbitrationMode::ObstacleAvoidance => h,
+        // The learned mode's closed form is its policy's command (tests/learned_arbitration.rs).
+        ArbitrationMode::DirectControl | ArbitrationMode::ObstacleAvoidance | ArbitrationMode::Learned => h,
         ArbitrationMode::LinearBlending(style) => {
             let alpha = s.modes.blending_alpha(style, b[top], 2);
             DVector::from_column_slice(ws.robot_action(top)) * alpha + h * (1.0 - alpha)

@@ -127,13 +127,16 @@ pub(super) fn learn_arbitration(args: &LearnArbitrationArgs) -> Result<(), Box<d
     Ok(())
 }
 
+/// Training logs per reward: one list of episodes per seed.
+type TrainingLogs = Vec<(String, Vec<Vec<TrainingEpisode>>)>;
+
 /// The actors of the table: loaded, or trained over several seeds (the
 /// best by the return of its last 50 episodes). Returns them, the training
 /// logs per reward, and the training seconds.
 fn actors(
     args: &LearnedExperimentArgs,
     dir: &Path,
-) -> Result<(Vec<LearnedMethod>, Vec<(String, Vec<Vec<TrainingEpisode>>)>, f64), Box<dyn std::error::Error>> {
+) -> Result<(Vec<LearnedMethod>, TrainingLogs, f64), Box<dyn std::error::Error>> {
     let mut methods = vec![];
     let mut logs = vec![];
     let mut seconds = 0.0;

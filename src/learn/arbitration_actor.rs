@@ -18,6 +18,9 @@ pub const ARBITRATION_FORMAT: &str = "tandem.arbitration_actor";
 /// Value of [`ArbitrationMeta::version`] this build writes and reads.
 pub const ARBITRATION_FORMAT_VERSION: u32 = 1;
 
+/// (inputs, outputs) of each layer.
+pub type LayerShapes = Vec<(usize, usize)>;
+
 /// What an actor file says about itself.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ArbitrationMeta {
@@ -43,7 +46,7 @@ pub struct ArbitrationMeta {
 
 impl ArbitrationMeta {
     /// Input and output widths of every head layer, then every tail layer.
-    pub fn layer_shapes(&self) -> (Vec<(usize, usize)>, Vec<(usize, usize)>) {
+    pub fn layer_shapes(&self) -> (LayerShapes, LayerShapes) {
         let d = self.layout.task_dims;
         let mut head = vec![self.layout.human_offset()];
         head.extend(&self.head);

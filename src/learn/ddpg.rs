@@ -113,8 +113,17 @@ pub struct DdpgReport {
     pub seconds: f64,
 }
 
-/// A transition waiting for its reward (episode buffer) or stored with it
-/// (replay buffer).
+/// A transition in the episode buffer, waiting for its reward until the
+/// user's goal is known.
+struct Pending {
+    state: Vec<f64>,
+    action: Vec<f64>,
+    env_reward: f64,
+    next: Vec<f64>,
+    done: bool,
+}
+
+/// A transition in the replay buffer, with its reward.
 #[derive(Debug, Clone)]
 struct Transition {
     state: Vec<f32>,
@@ -247,7 +256,7 @@ fn train_in_pool(
     for episode in 0..settings.episodes {
         let noise = settings.noise * (1.0 - 2.0 / 3.0 * episode as f64 / settings.episodes.max(1) as f64);
         let mut state: Vec<f64> = env.reset(rng.random()).map_err(env_error)?.to_vec();
-        let mut buffer: Vec<(Vec<f64>, Vec<f64>, f64, Vec<f64>, bool)> = vec![];
+        let mut buffer: Vec<Pending> = vec![];
         let mut outcome = EnvOutcome::Running;
         while outcome == EnvOutcome::Running {
             let s = Tensor::from_vec(state.iter().map(|x| *x as f32).collect::<Vec<_>>(), (1, w), &Device::Cpu)
@@ -257,7 +266,13 @@ fn train_in_pool(
                 a.iter().map(|x| (f64::from(*x) + noise * gaussian(&mut rng)).clamp(-max, max)).collect();
             let step = env.step(&action).map_err(env_error)?;
             outcome = step.outcome;
-            buffer.push((state.clone(), action.clone(), step.env_reward, step.state.to_vec(), step.done()));
+            buffer.push(Pending {
+                state: state.clone(),
+                action: action.clone(),
+                env_reward: step.env_reward,
+                next: step.state.to_vec(),
+                done: step.done(),
+            });
             state.copy_from_slice(step.state);
             if episode >= settings.warmup_episodes && replay.len() >= settings.batch {
                 let batch = sample(&replay, settings.batch, &mut rng)?;
@@ -273,16 +288,16 @@ fn train_in_pool(
         // Hindsight goal labelling: the user's goal is known now.
         let goal = env.true_goal();
         let (mut total, mut env_total) = (0.0, 0.0);
-        for (s, a, r_env, next, done) in buffer {
-            let r = reward(&layout, &s, &a, goal, r_env, settings.reward, &settings.env.decision);
+        for p in buffer {
+            let r = reward(&layout, &p.state, &p.action, goal, p.env_reward, settings.reward, &settings.env.decision);
             total += r;
-            env_total += r_env;
+            env_total += p.env_reward;
             let t = Transition {
-                state: s.iter().map(|x| *x as f32).collect(),
-                action: a.iter().map(|x| *x as f32).collect(),
+                state: p.state.iter().map(|x| *x as f32).collect(),
+                action: p.action.iter().map(|x| *x as f32).collect(),
                 reward: r as f32,
-                next: next.iter().map(|x| *x as f32).collect(),
-                done,
+                next: p.next.iter().map(|x| *x as f32).collect(),
+                done: p.done,
             };
             if replay.len() < settings.buffer {
                 replay.push(t);
@@ -359,7 +374,7 @@ fn check(s: &DdpgSettings) -> Result<(), LearnError> {
         && s.critic_lr > 0.0
         && s.noise >= 0.0
         && s.noise.is_finite()
-        && s.head.len() >= 1
+        && !s.head.is_empty()
         && !s.head.contains(&0)
         && !s.actor_tail.contains(&0)
         && !s.critic_tail.contains(&0);

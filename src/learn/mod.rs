@@ -61,7 +61,9 @@ mod policy;
 #[cfg(feature = "learn")]
 mod train;
 
-pub use arbitration_actor::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
+pub use arbitration_actor::{
+    ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta, LayerShapes,
+};
 #[cfg(feature = "learn")]
 pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
 #[cfg(feature = "learn")]
