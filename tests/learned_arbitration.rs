@@ -296,3 +296,49 @@ fn ddpg_is_deterministic_per_seed_and_feeds_the_table() {
     }
     assert_eq!(results.curves.len(), 2);
 }
+
+#[test]
+fn the_cli_trains_an_arbiter_and_runs_table_6_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let actor = dir.path().join("arbiter.safetensors");
+    let tandem = env!("CARGO_BIN_EXE_tandem");
+    let train = std::process::Command::new(tandem)
+        .args(["learn", "arbitration", "--episodes", "2", "--seed", "3", "--json", "--out"])
+        .arg(&actor)
+        .output()
+        .unwrap();
+    assert!(train.status.success(), "{}", String::from_utf8_lossy(&train.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&train.stdout).unwrap();
+    assert_eq!(summary["episodes"], 2);
+    for extension in ["safetensors", "json", "svg"] {
+        assert!(actor.with_extension(extension).is_file(), "{extension} missing");
+    }
+    let out = dir.path().join("results");
+    let table = std::process::Command::new(tandem)
+        .args(["experiment", "learned", "--episodes", "1", "--json", "--combined"])
+        .arg(&actor)
+        .arg("--environment")
+        .arg(&actor)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(table.status.success(), "{}", String::from_utf8_lossy(&table.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&table.stdout).unwrap();
+    let results = json["results"].as_array().unwrap();
+    assert_eq!(results.len(), 4 * 3, "four users × combined, environment, direct");
+    for key in ["user", "method", "success", "collision", "travel_cm"] {
+        assert!(results[0].get(key).is_some(), "{key} missing");
+    }
+    for file in ["training_curves.svg", "authority.svg", "learned.json"] {
+        assert!(out.join(file).is_file(), "{file} missing");
+    }
+    // A robot policy file is not an arbitration actor: a clear error, exit 1.
+    let bad = std::process::Command::new(tandem)
+        .args(["arbitrate", "builtin:planar_pick", "--mode", "learned", "--arbiter"])
+        .arg(actor.with_extension("json"))
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("not a safetensors file"));
+}

@@ -45,10 +45,11 @@ pub struct LearnedExperimentArgs {
     /// Seed of the evaluation tasks and users (training uses 0, 1, …).
     #[arg(long, default_value_t = 1000)]
     pub seed: u64,
-    /// A trained combined-reward actor (else one is trained).
+    /// A trained combined-reward actor (else one is trained); the training
+    /// log `tandem learn arbitration` wrote beside it (FILE.json) feeds Fig. 6.4.
     #[arg(long, value_name = "FILE")]
     pub combined: Option<PathBuf>,
-    /// A trained environment-reward actor (else one is trained).
+    /// A trained environment-reward actor (else one is trained), its log as for --combined.
     #[arg(long, value_name = "FILE")]
     pub environment: Option<PathBuf>,
     /// Training episodes of each actor trained here.
@@ -142,7 +143,13 @@ fn actors(
     let mut seconds = 0.0;
     for (kind, given) in [(RewardKind::Combined, &args.combined), (RewardKind::Environment, &args.environment)] {
         let actor = match given {
-            Some(path) => ArbitrationActor::load(path)?,
+            Some(path) => {
+                // The training log `tandem learn arbitration` wrote beside it feeds Fig. 6.4.
+                if let Some(episodes) = read_log(path) {
+                    logs.push((kind.as_str().to_string(), vec![episodes]));
+                }
+                ArbitrationActor::load(path)?
+            }
             None => {
                 let mut best: Option<(f64, ArbitrationActor)> = None;
                 let mut runs = vec![];
@@ -171,6 +178,13 @@ fn actors(
     }
     methods.push(LearnedMethod { name: "direct".into(), actor: None });
     Ok((methods, logs, seconds))
+}
+
+/// The episodes of the training log beside `actor` (`None` when absent or unreadable).
+fn read_log(actor: &Path) -> Option<Vec<TrainingEpisode>> {
+    let text = std::fs::read_to_string(actor.with_extension("json")).ok()?;
+    let log: serde_json::Value = serde_json::from_str(&text).ok()?;
+    serde_json::from_value(log.get("episodes")?.clone()).ok()
 }
 
 pub(super) fn experiment_learned(args: &LearnedExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {

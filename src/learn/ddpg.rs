@@ -86,7 +86,7 @@ impl Default for DdpgSettings {
 }
 
 /// One training episode.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct TrainingEpisode {
     /// Episode number (from 0).
     pub episode: usize,
