@@ -9,6 +9,8 @@
 //! constraints are those of a real run. Groups:
 //! * `arbitration/tick/<mode>`: the default settings (closed form first,
 //!   then the active-set QP solver; Clarabel for `Constrained`'s cone);
+//!   `learned` runs an actor of the seed's §6.5 shape (head 32-32-32-2,
+//!   tail 16-16-16; weights drawn at random: the cost does not depend on them);
 //! * `arbitration/solver/<mode>/<backend>`: the solver forced on every tick
 //!   (`closed_form_first = false`) on every row: the active set, Clarabel
 //!   and, with `--features osqp`, OSQP.
@@ -21,9 +23,11 @@
 use criterion::Criterion;
 use std::hint::black_box;
 use std::time::Instant;
+use tandem::arbitration::StateLayout;
 use tandem::arbitration::{
     Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, TickInput, problem_goals,
 };
+use tandem::learn::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
 use tandem::scene::Problem;
 use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
 
@@ -73,6 +77,34 @@ fn arbiter(s: &Setup, mode: ArbitrationMode, backend: SolverBackend, closed_form
     Arbiter::for_problem(&s.problem, &s.goals, settings).expect("arbiter")
 }
 
+/// An arbiter in `ArbitrationMode::Learned` with an actor of the seed's shape.
+fn learned_arbiter(s: &Setup) -> Arbiter {
+    let meta = ArbitrationMeta {
+        format: ARBITRATION_FORMAT.into(),
+        version: ARBITRATION_FORMAT_VERSION,
+        layout: StateLayout { task_dims: 3, goals: s.goals.len(), length_scale: 0.1, speed_scale: 0.1 },
+        head: vec![32, 32, 32, 2],
+        tail: vec![16, 16, 16],
+        max_command: 2.0,
+        reward: "combined".into(),
+        seed: 0,
+        episodes: 0,
+    };
+    let (head, tail) = meta.layer_shapes();
+    let mut x = 0.5f32;
+    let mut next = || {
+        x = (x * 1.618_034 + 0.31).fract();
+        (x - 0.5) * 0.5
+    };
+    let layers: Vec<(Vec<f32>, Vec<f32>)> =
+        head.iter().chain(&tail).map(|(i, o)| ((0..i * o).map(|_| next()).collect(), vec![0.0; *o])).collect();
+    let actor = ArbitrationActor::from_parts(meta, &layers).expect("actor");
+    arbiter(s, ArbitrationMode::DirectControl, SolverBackend::default(), true)
+        .with_arbitration_policy(std::sync::Arc::new(actor))
+        .and_then(|a| a.with_settings(ArbiterSettings { mode: ArbitrationMode::Learned, ..*a.settings() }))
+        .expect("learned arbiter")
+}
+
 /// Runs tick `k` of the recorded episode (resetting at its start).
 fn tick(a: &Arbiter, ws: &mut tandem::arbitration::ArbiterWorkspace, s: &Setup, k: usize) -> usize {
     let r = &s.ticks[k % s.ticks.len()];
@@ -107,6 +139,15 @@ fn criterion_groups(c: &mut Criterion, s: &Setup) {
             })
         });
     }
+    let a = learned_arbiter(s);
+    let mut ws = a.workspace();
+    let mut k = 0;
+    group.bench_function("learned", |b| {
+        b.iter(|| {
+            k += 1;
+            tick(&a, &mut ws, s, k)
+        })
+    });
     group.finish();
     let mut group = c.benchmark_group("arbitration/solver");
     for mode in ArbitrationMode::ALL {

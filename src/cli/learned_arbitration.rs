@@ -228,7 +228,7 @@ fn summary_json(results: &LearnedResults, train_episodes: usize, seconds: f64) -
         .map(|c| {
             serde_json::json!({
                 "user": c.user, "method": c.method, "success": c.success,
-                "collision": c.collision, "travel_cm": c.travel_cm,
+                "collision": c.collision, "travel_cm": c.travel_cm, "tick_us": c.tick_us,
             })
         })
         .collect();
@@ -242,16 +242,20 @@ fn summary_json(results: &LearnedResults, train_episodes: usize, seconds: f64) -
 
 fn print_table(results: &LearnedResults) {
     println!("Table 6.1 — {} episodes per cell (seed: 15)", results.episodes);
-    println!("{:<10} {:<12} {:>8} {:>18} {:>10}", "user", "method", "success", "travel (cm)", "collisions");
+    println!(
+        "{:<10} {:<12} {:>8} {:>18} {:>10} {:>8}",
+        "user", "method", "success", "travel (cm)", "collisions", "tick µs"
+    );
     for c in &results.cells {
         println!(
-            "{:<10} {:<12} {:>7.0}% {:>9.1} ± {:<6.1} {:>9.0}%",
+            "{:<10} {:<12} {:>7.1}% {:>9.1} ± {:<6.1} {:>9.1}% {:>8.1}",
             c.user,
             c.method,
             100.0 * c.success,
             c.travel_cm[0],
             c.travel_cm[1],
-            100.0 * c.collision
+            100.0 * c.collision,
+            c.tick_us
         );
     }
 }

@@ -72,6 +72,8 @@ pub struct LearnedCell {
     pub travel_cm: [f64; 2],
     /// Episodes.
     pub episodes: usize,
+    /// Median wall-clock time of one arbiter tick over the cell's episodes (µs).
+    pub tick_us: f64,
 }
 
 /// Fig. 6.5's curves for one method with the straight user: per tenth of
@@ -109,6 +111,7 @@ struct Run {
     to_user: [f64; 10],
     to_robot: [f64; 10],
     counts: [usize; 10],
+    tick_us: Vec<f64>,
 }
 
 /// Runs the table (parallel over episodes; deterministic).
@@ -143,6 +146,10 @@ pub fn run_learned_experiment(
                 collision: share(Outcome::Collision),
                 travel_cm: mean_std(mine.iter().map(|r| r.travel_cm)),
                 episodes: mine.len(),
+                tick_us: crate::sim::percentiles(
+                    &mine.iter().flat_map(|r| r.tick_us.iter().copied()).collect::<Vec<_>>(),
+                )
+                .0,
             });
         }
     }
@@ -219,6 +226,7 @@ fn summarise(record: &EpisodeRecord, user: usize, method: usize, speed: f64) -> 
         to_user: [0.0; 10],
         to_robot: [0.0; 10],
         counts: [0; 10],
+        tick_us: record.tick_us.clone(),
     };
     let steps = record.executed.len();
     for (t, (executed, human)) in record.executed.iter().zip(&record.human).enumerate() {
