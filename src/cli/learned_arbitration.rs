@@ -145,8 +145,9 @@ fn actors(
         let actor = match given {
             Some(path) => {
                 // The training log `tandem learn arbitration` wrote beside it feeds Fig. 6.4.
-                if let Some(episodes) = read_log(path) {
+                if let Some((episodes, trained)) = read_log(path) {
                     logs.push((kind.as_str().to_string(), vec![episodes]));
+                    seconds += trained;
                 }
                 ArbitrationActor::load(path)?
             }
@@ -180,11 +181,13 @@ fn actors(
     Ok((methods, logs, seconds))
 }
 
-/// The episodes of the training log beside `actor` (`None` when absent or unreadable).
-fn read_log(actor: &Path) -> Option<Vec<TrainingEpisode>> {
+/// The episodes and seconds of the training log beside `actor` (`None`
+/// when absent or unreadable).
+fn read_log(actor: &Path) -> Option<(Vec<TrainingEpisode>, f64)> {
     let text = std::fs::read_to_string(actor.with_extension("json")).ok()?;
     let log: serde_json::Value = serde_json::from_str(&text).ok()?;
-    serde_json::from_value(log.get("episodes")?.clone()).ok()
+    let episodes = serde_json::from_value(log.get("episodes")?.clone()).ok()?;
+    Some((episodes, log.get("seconds")?.as_f64()?))
 }
 
 pub(super) fn experiment_learned(args: &LearnedExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {

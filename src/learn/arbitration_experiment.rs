@@ -77,9 +77,10 @@ pub struct LearnedCell {
 }
 
 /// Fig. 6.5's curves for one method with the straight user: per tenth of
-/// the normalised episode time, the mean distance (units of the user
-/// speed) of the executed gripper velocity to the user's command and to the
-/// most likely goal's sub-policy.
+/// the normalised episode time, the mean distance between the direction of
+/// the executed gripper velocity and that of the user's command, and of
+/// the most likely goal's sub-policy (unit vectors, as the seed normalises
+/// the actions: 0 = same direction, 2 = opposite).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct AuthorityCurve {
     /// The method's name.
@@ -232,7 +233,15 @@ fn summarise(record: &EpisodeRecord, user: usize, method: usize, speed: f64) -> 
     for (t, (executed, human)) in record.executed.iter().zip(&record.human).enumerate() {
         let Some(robot) = record.robot.get(t).filter(|r| r.len() >= 2) else { continue };
         let k = (10 * t / steps.max(1)).min(9);
-        let gap = |a: [f64; 2]| (executed[0] - a[0]).hypot(executed[1] - a[1]) / speed;
+        let unit = |v: [f64; 2]| {
+            let n = v[0].hypot(v[1]);
+            if n > 1e-3 * speed { [v[0] / n, v[1] / n] } else { [0.0, 0.0] }
+        };
+        let u = unit([executed[0], executed[1]]);
+        let gap = |a: [f64; 2]| {
+            let a = unit(a);
+            (u[0] - a[0]).hypot(u[1] - a[1])
+        };
         run.to_user[k] += gap([human[0], human[1]]);
         run.to_robot[k] += gap([robot[0], robot[1]]);
         run.counts[k] += 1;

@@ -178,7 +178,7 @@ pub fn authority_curves(curves: &[super::arbitration_experiment::AuthorityCurve]
     let panels: Vec<Panel> = curves
         .iter()
         .map(|c| {
-            Panel::new(&c.method, "episode duration (%)", "‖u − a‖ (units of the user speed)")
+            Panel::new(&c.method, "episode duration (%)", "‖û − â‖ (unit directions)")
                 .with(Series::line("to the user", &at(&c.to_user), 0))
                 .with(Series::line("to the predicted sub-policy", &at(&c.to_robot), 1))
         })
