@@ -20,17 +20,21 @@
 //! workspace border; +10 on reaching the user's cylinder).
 //!
 //! ```no_run
-//! use tandem::sim::{ArbitrationEnv, ArbitrationEnvSettings, reward, RewardKind};
+//! use tandem::sim::{ArbitrationEnv, ArbitrationEnvSettings, RewardKind, reward};
 //! let mut env = ArbitrationEnv::new(ArbitrationEnvSettings::default())?;
+//! let (layout, decision) = (env.layout(), env.settings().decision);
 //! let mut state = env.reset(7)?.to_vec();
 //! loop {
-//!     let human = env.layout().human_offset();
-//!     let action = [state[human], state[human + 1]]; // follow the user
+//!     let h = layout.human_offset();
+//!     let action = [state[h], state[h + 1]]; // follow the user
+//!     let goal = env.true_goal();
 //!     let step = env.step(&action)?;
-//!     let r = reward(&env.layout(), &state, &action, env.true_goal(), step.env_reward, RewardKind::Combined, &env.settings().decision);
-//!     state = step.state.to_vec();
-//!     if step.done() { break; }
-//! #   let _ = r;
+//!     let (r_env, done) = (step.env_reward, step.done());
+//!     let next = step.state.to_vec();
+//!     let r = reward(&layout, &state, &action, goal, r_env, RewardKind::Combined, &decision);
+//!     println!("reward {r:.2}");
+//!     state = next;
+//!     if done { break; }
 //! }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
