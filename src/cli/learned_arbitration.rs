@@ -45,13 +45,15 @@ pub struct LearnedExperimentArgs {
     /// Seed of the evaluation tasks and users (training uses 0, 1, …).
     #[arg(long, default_value_t = 1000)]
     pub seed: u64,
-    /// A trained combined-reward actor (else one is trained); the training
-    /// log `tandem learn arbitration` wrote beside it (FILE.json) feeds Fig. 6.4.
-    #[arg(long, value_name = "FILE")]
-    pub combined: Option<PathBuf>,
-    /// A trained environment-reward actor (else one is trained), its log as for --combined.
-    #[arg(long, value_name = "FILE")]
-    pub environment: Option<PathBuf>,
+    /// Trained combined-reward actors, one per training seed (else they are
+    /// trained here). The training logs `tandem learn arbitration` wrote
+    /// beside them (FILE.json) feed Fig. 6.4; the table uses the actor whose
+    /// last 50 training episodes earned the most.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub combined: Vec<PathBuf>,
+    /// Trained environment-reward actors, as for --combined.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub environment: Vec<PathBuf>,
     /// Training episodes of each actor trained here.
     #[arg(long, default_value_t = 300, value_parser = |s: &str| super::number_in(s, 1usize..=1_000_000))]
     pub train_episodes: usize,
@@ -142,43 +144,63 @@ fn actors(
     let mut logs = vec![];
     let mut seconds = 0.0;
     for (kind, given) in [(RewardKind::Combined, &args.combined), (RewardKind::Environment, &args.environment)] {
-        let actor = match given {
-            Some(path) => {
-                // The training log `tandem learn arbitration` wrote beside it feeds Fig. 6.4.
-                if let Some((episodes, trained)) = read_log(path) {
-                    logs.push((kind.as_str().to_string(), vec![episodes]));
-                    seconds += trained;
-                }
-                ArbitrationActor::load(path)?
+        let mut runs = vec![];
+        let actor = if given.is_empty() {
+            let mut best = Best::default();
+            for seed in 0..args.train_seeds as u64 {
+                let settings = DdpgSettings {
+                    episodes: args.train_episodes,
+                    reward: kind,
+                    seed,
+                    progress: !args.json,
+                    ..DdpgSettings::default()
+                };
+                let out = dir.join(format!("{}-{seed}.safetensors", kind.as_str()));
+                let report = train_and_save(&settings, &out)?;
+                seconds += report.seconds;
+                best.offer(&report.episodes, report.actor);
+                runs.push(report.episodes);
             }
-            None => {
-                let mut best: Option<(f64, ArbitrationActor)> = None;
-                let mut runs = vec![];
-                for seed in 0..args.train_seeds as u64 {
-                    let settings = DdpgSettings {
-                        episodes: args.train_episodes,
-                        reward: kind,
-                        seed,
-                        progress: !args.json,
-                        ..DdpgSettings::default()
-                    };
-                    let out = dir.join(format!("{}-{seed}.safetensors", kind.as_str()));
-                    let report = train_and_save(&settings, &out)?;
-                    seconds += report.seconds;
-                    let tail: f64 = report.episodes.iter().rev().take(50).map(|e| e.episode_return).sum();
-                    if best.as_ref().is_none_or(|(b, _)| tail > *b) {
-                        best = Some((tail, report.actor.clone()));
+            best.actor.ok_or("no training seed")?
+        } else {
+            let mut best = Best::default();
+            for path in given {
+                let actor = ArbitrationActor::load(path)?;
+                match read_log(path) {
+                    Some((episodes, trained)) => {
+                        seconds += trained;
+                        best.offer(&episodes, actor);
+                        runs.push(episodes);
                     }
-                    runs.push(report.episodes);
+                    // Without a log, the first actor given.
+                    None => best.offer(&[], actor),
                 }
-                logs.push((kind.as_str().to_string(), runs));
-                best.map(|b| b.1).ok_or("no training seed")?
             }
+            best.actor.ok_or("no actor given")?
         };
+        if !runs.is_empty() {
+            logs.push((kind.as_str().to_string(), runs));
+        }
         methods.push(LearnedMethod { name: kind.as_str().into(), actor: Some(Arc::new(actor)) });
     }
     methods.push(LearnedMethod { name: "direct".into(), actor: None });
     Ok((methods, logs, seconds))
+}
+
+/// The actor whose last 50 training episodes earned the most.
+#[derive(Default)]
+struct Best {
+    tail: f64,
+    actor: Option<ArbitrationActor>,
+}
+
+impl Best {
+    fn offer(&mut self, episodes: &[TrainingEpisode], actor: ArbitrationActor) {
+        let tail: f64 = episodes.iter().rev().take(50).map(|e| e.episode_return).sum();
+        if self.actor.is_none() || (!episodes.is_empty() && tail > self.tail) {
+            *self = Best { tail, actor: Some(actor) };
+        }
+    }
 }
 
 /// The episodes and seconds of the training log beside `actor` (`None`
