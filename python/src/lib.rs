@@ -17,6 +17,7 @@ mod control;
 mod data;
 mod env;
 mod errors;
+mod experiments;
 mod plan;
 mod problem;
 mod robot;
@@ -37,6 +38,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<control::PyTrackingPolicy>()?;
     m.add_class::<arbitration::PyArbiter>()?;
     m.add_class::<env::PyArbitrationEnv>()?;
+    m.add_function(wrap_pyfunction!(experiments::run_planar_experiment, m)?)?;
+    m.add_function(wrap_pyfunction!(experiments::run_reach_grasp_experiment, m)?)?;
     m.add_function(wrap_pyfunction!(plan::plan, m)?)?;
     m.add_function(wrap_pyfunction!(plan::solve, m)?)?;
     m.add_function(wrap_pyfunction!(plan::goal_configurations, m)?)?;

@@ -56,6 +56,8 @@ from ._native import (
     part_count,
     part_ids,
     plan,
+    run_planar_experiment,
+    run_reach_grasp_experiment,
     solve,
     solve_ik,
 )
@@ -89,6 +91,8 @@ __all__ = [
     "part_count",
     "part_ids",
     "plan",
+    "run_planar_experiment",
+    "run_reach_grasp_experiment",
     "solve",
     "solve_ik",
 ]

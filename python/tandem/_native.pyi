@@ -418,6 +418,14 @@ class ArbitrationEnv:
     @property
     def gripper(self) -> tuple[float, float, float]: ...
 
+def run_planar_experiment(tasks: int = 10, seed: int = 0) -> list[dict[str, Any]]:
+    """Table 4.1's planar experiment, one dict per episode (``tandem experiment planar``)."""
+
+def run_reach_grasp_experiment(
+    tasks: int = 5, seed: int = 0, arm: Literal["right", "left", "both"] = "right"
+) -> list[dict[str, Any]]:
+    """Table 5.1's Panda reach-and-grasp experiment, one dict per episode (``tandem experiment reach-grasp``)."""
+
 def plan(problem: Problem, seed: Optional[int] = None) -> PlanResult:
     """RRT-Connect + shortcutting, as ``tandem plan``; releases the GIL."""
 

@@ -88,3 +88,19 @@ def test_the_learned_mode_needs_an_actor_file(tmp_path):
     bad.write_bytes(b"not a tensor file")
     with pytest.raises(tandem.ArbitrationError, match="not a safetensors file"):
         tandem.Arbiter(problem, mode="learned", actor=str(bad))
+
+
+def test_the_simulator_experiments_run_from_python():
+    planar = tandem.run_planar_experiment(tasks=1, seed=0)
+    users = {e["user"] for e in planar}
+    methods = {e["method"] for e in planar}
+    assert users == {"straight", "noisy-0.5", "noisy-1", "biased"}
+    assert "direct" in methods and len(planar) == len(users) * len(methods)
+    # Every assisted method keeps the hard constraints.
+    assert all(e["hard_violations"] == 0 for e in planar if e["method"] != "direct")
+    assert planar == tandem.run_planar_experiment(tasks=1, seed=0)
+    grasp = tandem.run_reach_grasp_experiment(tasks=1, seed=0, arm="right")
+    assert len(grasp) == 7 * 6
+    assert {e["outcome"] for e in grasp} <= {"success", "collision", "failed", "timeout"}
+    with pytest.raises(tandem.ArbitrationError, match="'right', 'left' or 'both'"):
+        tandem.run_reach_grasp_experiment(arm="middle")
