@@ -266,7 +266,7 @@ fn summary_json(results: &LearnedResults, train_episodes: usize, seconds: f64) -
 }
 
 fn print_table(results: &LearnedResults) {
-    println!("Table 6.1 — {} episodes per cell (seed: 15)", results.episodes);
+    println!("Table 6.1 — {} episodes per cell (the seed's table had 15)", results.episodes);
     println!(
         "{:<10} {:<12} {:>8} {:>18} {:>10} {:>8}",
         "user", "method", "success", "travel (cm)", "collisions", "tick µs"
