@@ -68,8 +68,8 @@ pub struct TradedRow {
     pub user: &'static str,
     /// Mode name.
     pub mode: &'static str,
-    /// Seconds from a demonstration's start to the robot's start, per pick
-    /// (mean, std).
+    /// Seconds from each demonstration's start to the robot's start, summed
+    /// over the episode's three picks as in the seed (mean, std).
     pub time_until_execution_s: [f64; 2],
     /// Episode duration (three picks; mean, std).
     pub episode_s: [f64; 2],
@@ -190,7 +190,7 @@ fn row<'a>(user: HandUser, mode: PlanningMode, episodes: impl Iterator<Item = &'
     TradedRow {
         user: user.as_str(),
         mode: mode.as_str(),
-        time_until_execution_s: mean_std(picks.iter().map(|p| p.time_until_execution)),
+        time_until_execution_s: mean_std(episodes.iter().map(|e| e.picks.iter().map(|p| p.time_until_execution).sum())),
         episode_s: mean_std(episodes.iter().map(|e| e.episode_seconds)),
         goal_accuracy: picks.iter().filter(|p| p.grasped.0 == p.object).count() as f64 / n,
         direction_accuracy: picks.iter().filter(|p| p.grasped.1 == p.direction).count() as f64 / n,
