@@ -45,10 +45,10 @@ fn reproducible(r: &TradedResults) -> String {
 
 #[test]
 fn traded_experiment_is_deterministic_per_seed_and_thread_count() {
-    let one = in_pool(1, || run_traded_experiment(&small(3), &|| {})).expect("run");
-    let two = in_pool(2, || run_traded_experiment(&small(3), &|| {})).expect("run");
+    let one = in_pool(1, || run_traded_experiment(&small(3), &|| {}).map_err(|e| e.to_string())).expect("run");
+    let two = in_pool(2, || run_traded_experiment(&small(3), &|| {}).map_err(|e| e.to_string())).expect("run");
     assert_eq!(reproducible(&one), reproducible(&two));
-    let other = in_pool(2, || run_traded_experiment(&small(4), &|| {})).expect("run");
+    let other = in_pool(2, || run_traded_experiment(&small(4), &|| {}).map_err(|e| e.to_string())).expect("run");
     assert_ne!(reproducible(&one), reproducible(&other));
     assert_eq!(one.rows.len(), 9);
     for (_, episodes) in &one.runs {
