@@ -88,6 +88,29 @@ pub enum Experiment {
     ///   tandem experiment learned --combined c.safetensors --environment e.safetensors --json
     #[command(verbatim_doc_comment)]
     Learned(super::learned_arbitration::LearnedExperimentArgs),
+    /// Table 7.3: traded control from predicted intent (seed chapter 7).
+    /// A simulated person mimics reaching for one of three boxes on the
+    /// table, from the top or the side (minimum-jerk hand motion at 180 Hz
+    /// with trial-to-trial variability and a slow start; users Normal,
+    /// Noisy: Gaussian noise each frame, Biased: a constant offset per
+    /// demonstration). A classifier (trained first, on demonstrations
+    /// seeded apart) names the object and the grasp direction from eight
+    /// hand features each frame; a prediction held for --commit-steps
+    /// frames after the first --discard-steps commits the target; the
+    /// Panda then plans (IK, RRT-Connect, shortcut) and grasps and
+    /// retrieves it. Modes: Early (plan on commit), Late (plan after the
+    /// demonstration), Continuous (re-plan on every change). Reports time
+    /// until execution, episode duration (three picks), goal and direction
+    /// accuracy and planning time per user × mode, and Fig. 7.9 (accuracy
+    /// over normalised time) with --out. Object poses are given (no
+    /// perception).
+    ///
+    /// Examples:
+    ///   tandem experiment traded
+    ///   tandem experiment traded --episodes 100 --seed 1 --json
+    ///   tandem experiment traded --planning-latency 2.0 --out results/
+    #[command(verbatim_doc_comment)]
+    Traded(super::experiment_traded::TradedArgs),
 }
 
 /// Arguments of `tandem experiment planar`.
@@ -145,6 +168,7 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error
         Experiment::Planar(a) => planar(a),
         Experiment::Policy(a) => super::experiment_policy::run_policy(a),
         Experiment::Learned(a) => super::learned_arbitration::experiment_learned(a),
+        Experiment::Traded(a) => super::experiment_traded::traded(a),
     }
 }
 

@@ -15,6 +15,7 @@ mod check;
 mod demo;
 mod experiment;
 mod experiment_policy;
+mod experiment_traded;
 mod generate;
 mod inspect;
 mod kinematics;

@@ -56,6 +56,8 @@ pub mod experiment;
 pub mod features;
 #[cfg(feature = "learn")]
 pub mod figures;
+#[cfg(feature = "learn")]
+pub mod grasp_intent;
 mod network;
 mod policy;
 #[cfg(feature = "learn")]

@@ -389,7 +389,7 @@ fn evaluate(layers: &Layers, data: &Prepared, n: usize) -> Result<(f64, f64), Le
 }
 
 /// Fisher-Yates with `rng`.
-fn shuffle(order: &mut [usize], rng: &mut ChaCha8Rng) {
+pub(crate) fn shuffle(order: &mut [usize], rng: &mut ChaCha8Rng) {
     for i in (1..order.len()).rev() {
         let j = rng.random_range(0..=i);
         order.swap(i, j);

@@ -25,6 +25,8 @@ mod operator;
 mod planar;
 #[cfg(feature = "experiments")]
 mod reach_grasp;
+#[cfg(feature = "learn")]
+pub mod traded;
 
 #[cfg(feature = "experiments")]
 pub use arbitration_env::{
