@@ -8,7 +8,7 @@
 //! simplification, one seed per problem, as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME]
 //!
 //! Writes target/peers/motionbenchmaker_robots.json.
 
@@ -34,7 +34,8 @@ fn main() {
     let time_limit = option(&args, "--time-limit").unwrap_or(10.0);
     let dir = tempfile::tempdir().expect("temp dir");
     let mut results = serde_json::Map::new();
-    for robot in &ROBOTS {
+    let only = args.iter().position(|a| a == "--robot").and_then(|i| args.get(i + 1));
+    for robot in ROBOTS.iter().filter(|r| only.is_none_or(|name| name == r.name)) {
         let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
         let mut not_generated = Vec::new();
         let mut nq = 0;
