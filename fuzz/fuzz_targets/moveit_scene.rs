@@ -28,7 +28,8 @@ const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };
     let panda = &*PANDA;
-    let Ok(scene) = moveit_scene_from_str(text, "<fuzz>", &panda.description, Some(&panda.srdf)) else { return };
+    let Ok(read) = moveit_scene_from_str(text, "<fuzz>", &panda.description, Some(&panda.srdf)) else { return };
+    let scene = read.scene;
     let Ok(model) = CollisionModel::builder(panda.arm.clone()).scene(&scene).srdf(&panda.srdf).build() else {
         return;
     };

@@ -29,7 +29,9 @@ pub struct CheckArgs {
     /// [body, body], "problem", "q", "pairs_checked", "colliding_pairs"
     /// [[body, body, distance], ...], "goal_collision_free" (joint goals,
     /// else null), "fast_path" (the sphere fast path's variant: baseline,
-    /// avx2 or avx512, from TANDEM_SIMD or the CPU; null off it)}; for a family file {"valid", "family", "base",
+    /// avx2 or avx512, from TANDEM_SIMD or the CPU; null off it),
+    /// "warnings" [what loading left out: SRDF entries and allowed-collision
+    /// names the robot or scene lacks, as MoveIt ignores them]}; for a family file {"valid", "family", "base",
     /// "samples": [that object plus "id", "seed", "skipped_obstacles"]}.
     /// An invalid file or --q prints {"valid": false, "error": message}
     /// and exits with status 1.
@@ -201,6 +203,7 @@ fn report_json(r: &Report) -> serde_json::Value {
         "colliding_pairs": colliding,
         "goal_collision_free": r.goal_free,
         "fast_path": r.fast_path.map(|l| l.name()),
+        "warnings": r.problem.warnings,
     })
 }
 
@@ -209,6 +212,12 @@ fn print_text(r: &Report) {
     println!("problem {} ({}): valid", p.name, p.origin);
     if !p.description.is_empty() {
         println!("  {}", p.description);
+    }
+    if !p.warnings.is_empty() {
+        println!("warnings ({}; left out, as MoveIt does):", p.warnings.len());
+        for w in &p.warnings {
+            println!("  - {w}");
+        }
     }
     println!("robot: {} active joints ({})", p.robot.nq(), p.robot.joint_names().join(", "));
     let obstacles: Vec<&str> = p.scene.obstacles().iter().map(|o| o.name.as_str()).collect();

@@ -1,20 +1,66 @@
-//! `tandem inspect`: a readable account of a URDF.
+//! `tandem inspect`: a readable account of a URDF (and of an SRDF for it:
+//! its planning groups' active joints, and the entries naming what the
+//! URDF lacks, which MoveIt and tandem ignore).
 
 use super::UrdfArgs;
-use crate::robot::{Geometry, JointKind, RobotDescription};
+use crate::robot::{Geometry, JointKind, RobotDescription, RobotModel, Srdf};
 use std::fmt::Write;
+use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Arguments of `tandem inspect`.
 #[derive(Debug, clap::Args)]
 pub struct InspectArgs {
     #[command(flatten)]
     pub urdf: UrdfArgs,
+    /// The robot's SRDF: list its planning groups with the joints each
+    /// moves (MoveIt groups: chains, joints, links, subgroups), and warn
+    /// about entries naming links, joints or groups the URDF lacks (left
+    /// out on loading, as MoveIt does).
+    #[arg(long, value_name = "FILE")]
+    pub srdf: Option<PathBuf>,
 }
 
 pub(super) fn run(args: &InspectArgs) -> Result<(), Box<dyn std::error::Error>> {
     let desc = args.urdf.load()?;
     print!("{}", report(&desc));
+    if let Some(path) = &args.srdf {
+        let srdf = Srdf::from_srdf_file(path)?;
+        print!("{}", srdf_report(Arc::new(desc), srdf));
+    }
     Ok(())
+}
+
+/// The SRDF part of `tandem inspect`: warnings, then each group's joints.
+pub fn srdf_report(desc: Arc<RobotDescription>, mut srdf: Srdf) -> String {
+    let mut out = String::new();
+    let warnings = srdf.reconcile(&desc);
+    let _ = writeln!(
+        out,
+        "
+SRDF {}: {} groups, {} group states, {} disabled pairs",
+        srdf.source,
+        srdf.groups.len(),
+        srdf.group_states.len(),
+        srdf.disabled_pairs.len()
+    );
+    let count = if warnings.is_empty() { "none".to_string() } else { warnings.len().to_string() };
+    let _ = writeln!(out, "SRDF warnings (entries left out, as MoveIt does): {count}");
+    for w in &warnings {
+        let _ = writeln!(out, "  - {w}");
+    }
+    out.push_str("planning groups:\n");
+    for g in &srdf.groups {
+        let joints = srdf
+            .joint_selection(&g.name)
+            .map_err(|e| e.to_string())
+            .and_then(|s| RobotModel::builder(desc.clone()).selection(s).build().map_err(|e| e.to_string()));
+        let _ = match joints {
+            Ok(m) => writeln!(out, "  {:<20} {} joints: {}", g.name, m.nq(), m.joint_names().join(", ")),
+            Err(e) => writeln!(out, "  {:<20} unusable: {e}", g.name),
+        };
+    }
+    out
 }
 
 /// The full text of `tandem inspect`.
@@ -66,6 +112,7 @@ pub fn report(desc: &RobotDescription) -> String {
         let shapes: Vec<String> = l.collisions.iter().map(|c| shape_summary(&c.geometry)).collect();
         let _ = writeln!(out, "  {:<28} {}", l.name, summarize(&shapes));
     }
+    fast_path_report(desc, &mut out);
     let problems = desc.lint();
     let count = if problems.is_empty() { "none".to_string() } else { problems.len().to_string() };
     let _ = writeln!(out, "\nproblems found: {count}");
@@ -73,6 +120,40 @@ pub fn report(desc: &RobotDescription) -> String {
         let _ = writeln!(out, "  - {p}");
     }
     out
+}
+
+/// Whether the robot's collision geometry takes the sphere fast path
+/// (boolean checks and motion certification in lanes), and if not, which
+/// links keep it off and what would put it on.
+fn fast_path_report(desc: &RobotDescription, out: &mut String) {
+    let off: Vec<&str> = desc
+        .links()
+        .iter()
+        .filter(|l| l.collisions.iter().any(|c| !matches!(c.geometry, Geometry::Sphere { .. })))
+        .map(|l| l.name.as_str())
+        .collect();
+    let with_geometry = desc.links().iter().filter(|l| !l.collisions.is_empty()).count();
+    out.push_str("\ncollision fast path:\n");
+    if off.is_empty() && with_geometry > 0 {
+        out.push_str(
+            "  every collision element is a sphere: checks and motion certification take the sphere fast path\n  \
+             (revolute and prismatic joints, any number of chains), against sphere, capsule, box and\n  \
+             cylinder obstacles (a scene with a mesh obstacle uses the general path)\n",
+        );
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "  general path (exact convex distances): {} of {with_geometry} links with geometry have non-sphere \
+         elements ({})",
+        off.len(),
+        off.join(", ")
+    );
+    out.push_str(
+        "  what would take the fast path: a sphere model of the robot, every <collision> a <sphere>, as a second\n  \
+         URDF (problem file `robot.collision_urdf`, or as --urdf for MoveIt inputs), e.g. the spherized URDFs of\n  \
+         MotionBenchMaker and VAMP, or one fitted with foam (github.com/CoMMALab/foam)\n",
+    );
 }
 
 /// Depth beyond which the tree is no longer indented further (its level is

@@ -105,9 +105,16 @@ pub enum Command {
     /// Example: tandem demo
     Demo(demo::DemoArgs),
     /// Describe a URDF: the kinematic tree, joints with types, axes and
-    /// limits, frames, collision geometry, and problems found in the file.
+    /// limits, frames, collision geometry, whether it takes the sphere fast
+    /// path (and what would), and problems found in the file. With --srdf,
+    /// also the planning groups' joints and the SRDF entries naming what
+    /// the URDF lacks (warnings: left out, as MoveIt does).
     ///
-    /// Example: tandem inspect problems/robots/panda/panda.urdf
+    /// Examples:
+    ///   tandem inspect problems/robots/panda/panda.urdf
+    ///   tandem inspect problems/motionbenchmaker/panda_spherized.urdf
+    ///     --srdf problems/motionbenchmaker/panda.srdf
+    #[command(verbatim_doc_comment)]
     Inspect(inspect::InspectArgs),
     /// Pose and geometric Jacobian of a frame at a configuration.
     ///

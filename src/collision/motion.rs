@@ -80,8 +80,10 @@ impl CollisionModel {
         match self.certify_fast(ws, (q0, q1), clearance) {
             Some(Certification::Certified) => return Ok(Some(true)),
             Some(Certification::Fails) => return Ok(Some(false)),
-            // Undecided, sliding joints or no fast path: the general path decides.
-            _ => {}
+            // Undecided: the general path decides.
+            Some(Certification::Undecided) => ws.deferred += 1,
+            // No fast path: the general path decides.
+            None => {}
         }
         self.sweep_bounds(ws, q0, q1);
         let mut t = 0.0f64;

@@ -29,6 +29,8 @@ pub struct CollisionWorkspace {
     placed: Vec<bool>,
     /// Per object: within reach of the other group of the pair at hand.
     near: Vec<bool>,
+    /// Certifications the sphere fast path left to the general path.
+    pub(crate) deferred: u64,
 }
 
 /// Signed distance of one object pair.
@@ -56,7 +58,17 @@ impl CollisionWorkspace {
             spheres: model.spheres.as_ref().map(|s| SphereWorkspace::new(s, model.robot.nq())),
             placed: vec![true; model.groups.len()],
             near: vec![false; model.objects.len()],
+            deferred: 0,
         }
+    }
+
+    /// How many motion certifications with this workspace the sphere fast
+    /// path could not decide and left to the general path (exact convex
+    /// distances, tens of times slower): a near-contact motion now and
+    /// then; most of them means the robot's geometry or joints keep it off
+    /// the fast path.
+    pub fn deferred_certifications(&self) -> u64 {
+        self.deferred
     }
 
     /// The pairs returned by the last [`CollisionModel::distances`] call with

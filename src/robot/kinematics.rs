@@ -246,11 +246,18 @@ impl RobotModel {
     }
 
     /// How body `body` moves: the q column driving it, the multiplier of
-    /// its joint value, whether it slides, and the distance of its joint
-    /// origin from its parent's (m, independent of q).
+    /// its joint value, whether it slides, and an upper bound of the
+    /// distance of its frame origin from its parent's over every q within
+    /// the joint limits (m): the placement offset, plus for a sliding joint
+    /// the farthest it slides.
     pub(crate) fn body_joint(&self, body: usize) -> (usize, f64, bool, f64) {
         let b = &self.bodies[body];
-        let offset = b.placement.after(&IsometryMatrix3::identity()).translation.vector.norm();
+        let mut offset = b.placement.after(&IsometryMatrix3::identity()).translation.vector.norm();
+        if b.motion.is_prismatic() {
+            let limits = &self.limits()[b.column];
+            let value = |q: f64| (b.multiplier * q + b.offset).abs();
+            offset += value(limits.lower).max(value(limits.upper));
+        }
         (b.column, b.multiplier, b.motion.is_prismatic(), offset)
     }
 

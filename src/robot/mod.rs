@@ -36,5 +36,5 @@ pub use mesh::TriMesh;
 pub(crate) use model::Motion;
 pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
 pub use rotation::rotation_log;
-pub use srdf::{DisabledPair, Group, GroupState, Srdf, VirtualJoint};
+pub use srdf::{DisabledPair, Group, GroupState, Srdf, SrdfWarning, VirtualJoint};
 pub use urdf::MeshSearchPath;

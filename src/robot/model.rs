@@ -142,6 +142,19 @@ pub enum JointSelection {
         /// The link or joint frame it ends at.
         tip: String,
     },
+    /// A MoveIt group's joints: the union of its chains' joints, the named
+    /// joints and the parent joints of the named links, in depth-first
+    /// tree order (as MoveIt orders a group's joints), keeping only the
+    /// independent movable ones (fixed joints and
+    /// mimics may be listed, as MoveIt allows, but do not become active).
+    Union {
+        /// `(base_link, tip_link)` chains.
+        chains: Vec<(String, String)>,
+        /// Joint names.
+        joints: Vec<String>,
+        /// Link names (each stands for the joint above it).
+        links: Vec<String>,
+    },
 }
 
 /// Builds a [`RobotModel`]; see the module example.
@@ -419,23 +432,76 @@ fn select_joints(desc: &RobotDescription, selection: &JointSelection) -> Result<
             }
             Ok(out)
         }
-        JointSelection::Chain { root, tip } => {
-            let tip_link = frame_link(desc, tip)?;
-            let root_link = desc.link_index(root).ok_or_else(|| RobotError::UnknownFrame {
-                name: root.clone(),
-                suggestions: suggest(root, desc.links().iter().map(|l| l.name.as_str())),
-            })?;
-            let path = desc.joints_to_root(tip_link);
-            let start = if root_link == desc.root_index() {
-                0
-            } else {
-                path.iter()
-                    .position(|&j| joints[j].parent == root_link)
-                    .ok_or_else(|| RobotError::NotAChain { root: root.clone(), tip: tip.clone() })?
-            };
-            Ok(path[start..].iter().copied().filter(|&j| independent(j)).collect())
-        }
+        JointSelection::Chain { root, tip } => chain_joints(desc, root, tip),
+        JointSelection::Union { chains, joints: names, links } => union_joints(desc, chains, names, links),
     }
+}
+
+/// The independent movable joints of a MoveIt group's members, first
+/// appearance first (see [`JointSelection::Union`]).
+fn union_joints(
+    desc: &RobotDescription,
+    chains: &[(String, String)],
+    names: &[String],
+    links: &[String],
+) -> Result<Vec<usize>, RobotError> {
+    let joints = desc.joints();
+    let independent = |j: usize| joints[j].kind.is_movable() && joints[j].mimic.is_none();
+    let mut listed = Vec::new();
+    for (root, tip) in chains {
+        listed.extend(chain_joints(desc, root, tip)?);
+    }
+    for name in names {
+        listed.push(desc.joint_index(name).ok_or_else(|| unknown_joint(desc, name))?);
+    }
+    for name in links {
+        let link = desc.link_index(name).ok_or_else(|| RobotError::UnknownFrame {
+            name: name.clone(),
+            suggestions: suggest(name, desc.links().iter().map(|l| l.name.as_str())),
+        })?;
+        listed.extend(desc.links()[link].parent_joint);
+    }
+    // Depth-first tree order, as MoveIt orders a group's joints.
+    let rank = tree_order(desc);
+    let mut out: Vec<usize> = listed.into_iter().filter(|&j| independent(j)).collect();
+    out.sort_by_key(|&j| rank[j]);
+    out.dedup();
+    Ok(out)
+}
+
+/// Each joint's position in a depth-first walk of the tree from the root
+/// (children in URDF order).
+fn tree_order(desc: &RobotDescription) -> Vec<usize> {
+    let children = desc.children();
+    let mut rank = vec![0; desc.joints().len()];
+    let mut stack: Vec<usize> = children[desc.root_index()].iter().rev().copied().collect();
+    let mut next = 0;
+    while let Some(j) = stack.pop() {
+        rank[j] = next;
+        next += 1;
+        stack.extend(children[desc.joints()[j].child].iter().rev());
+    }
+    rank
+}
+
+/// The independent movable joints from link `root` down to frame `tip`, root first.
+fn chain_joints(desc: &RobotDescription, root: &str, tip: &str) -> Result<Vec<usize>, RobotError> {
+    let joints = desc.joints();
+    let independent = |j: usize| joints[j].kind.is_movable() && joints[j].mimic.is_none();
+    let tip_link = frame_link(desc, tip)?;
+    let root_link = desc.link_index(root).ok_or_else(|| RobotError::UnknownFrame {
+        name: root.to_string(),
+        suggestions: suggest(root, desc.links().iter().map(|l| l.name.as_str())),
+    })?;
+    let path = desc.joints_to_root(tip_link);
+    let start = if root_link == desc.root_index() {
+        0
+    } else {
+        path.iter()
+            .position(|&j| joints[j].parent == root_link)
+            .ok_or_else(|| RobotError::NotAChain { root: root.to_string(), tip: tip.to_string() })?
+    };
+    Ok(path[start..].iter().copied().filter(|&j| independent(j)).collect())
 }
 
 /// The link a frame name belongs to (a link, or a joint's child link).

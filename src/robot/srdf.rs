@@ -79,6 +79,22 @@ pub struct VirtualJoint {
     pub line: Option<u32>,
 }
 
+/// An SRDF entry [`Srdf::reconcile`] dropped because it names a link,
+/// joint or group the robot lacks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SrdfWarning {
+    /// The SRDF file and line of the entry.
+    pub at: SourceLocation,
+    /// What was unknown and what was dropped.
+    pub message: String,
+}
+
+impl std::fmt::Display for SrdfWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.at, self.message)
+    }
+}
+
 /// The parsed SRDF.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Srdf {
@@ -125,53 +141,160 @@ impl Srdf {
         self.disabled_pairs.iter().any(|p| (p.link1 == a && p.link2 == b) || (p.link1 == b && p.link2 == a))
     }
 
-    /// The active joints of a group with a single chain, as a selection.
+    /// The joints a group moves, as MoveIt defines a group: the union of
+    /// its chains, joints, links (each standing for the joint above it) and
+    /// subgroups, recursively. A group of one chain is a
+    /// [`JointSelection::Chain`]; anything else (several chains, both arms
+    /// of a dual-arm robot, a torso joint plus an arm chain, joint lists
+    /// naming fixed joints) a [`JointSelection::Union`] of the chains,
+    /// joints and links of the group and its subgroups, whose joints the
+    /// model orders depth first down the kinematic tree, as MoveIt does.
+    ///
+    /// # Errors
+    /// No group of that name, a subgroup naming no group, a group that
+    /// contains itself (through subgroups), a group with no members.
     pub fn joint_selection(&self, group: &str) -> Result<JointSelection, RobotError> {
         let g = self.group(group).ok_or_else(|| self.invalid(None, format!("no group named '{group}'")))?;
-        match (g.chains.as_slice(), g.joints.is_empty()) {
-            ([(base, tip)], true) => Ok(JointSelection::Chain { root: base.clone(), tip: tip.clone() }),
-            ([], false) => Ok(JointSelection::Names(g.joints.clone())),
-            _ => Err(self.invalid(g.line, format!("group '{group}' must be one chain or a list of joints"))),
+        if let ([(base, tip)], true, true, true) =
+            (g.chains.as_slice(), g.joints.is_empty(), g.links.is_empty(), g.subgroups.is_empty())
+        {
+            return Ok(JointSelection::Chain { root: base.clone(), tip: tip.clone() });
         }
+        let (mut chains, mut joints, mut links) = (Vec::new(), Vec::new(), Vec::new());
+        self.collect_members(g, &mut vec![g.name.as_str()], &mut chains, &mut joints, &mut links)?;
+        if chains.is_empty() && joints.is_empty() && links.is_empty() {
+            return Err(self.invalid(g.line, format!("group '{group}' has no chains, joints or links")));
+        }
+        Ok(JointSelection::Union { chains, joints, links })
     }
 
-    /// Checks that every link and joint named exists in `robot`.
-    pub fn check_against(&self, robot: &RobotDescription) -> Result<(), RobotError> {
-        let link = |name: &str, line| {
-            robot.link(name).map(|_| ()).ok_or_else(|| {
-                let close = suggest(name, robot.links().iter().map(|l| l.name.as_str()));
-                self.invalid(line, format!("link '{name}' is not in robot '{}'{}", robot.name(), hint(&close)))
-            })
-        };
-        let joint = |name: &str, line| {
-            robot.joint(name).map(|_| ()).ok_or_else(|| {
-                let close = suggest(name, robot.joints().iter().map(|j| j.name.as_str()));
-                self.invalid(line, format!("joint '{name}' is not in robot '{}'{}", robot.name(), hint(&close)))
-            })
-        };
-        for g in &self.groups {
-            for (base, tip) in &g.chains {
-                link(base, g.line)?;
-                link(tip, g.line)?;
+    /// Adds `g`'s members and its subgroups' (depth first) to the lists;
+    /// `path` holds the groups being expanded, to refuse cycles.
+    fn collect_members<'a>(
+        &'a self,
+        g: &'a Group,
+        path: &mut Vec<&'a str>,
+        chains: &mut Vec<(String, String)>,
+        joints: &mut Vec<String>,
+        links: &mut Vec<String>,
+    ) -> Result<(), RobotError> {
+        chains.extend(g.chains.iter().cloned());
+        joints.extend(g.joints.iter().cloned());
+        links.extend(g.links.iter().cloned());
+        for name in &g.subgroups {
+            let sub = self.group(name).ok_or_else(|| {
+                let close = suggest(name, self.groups.iter().map(|g| g.name.as_str()));
+                self.invalid(
+                    g.line,
+                    format!("group '{}' names subgroup '{name}', which is no group{}", g.name, hint(&close)),
+                )
+            })?;
+            if path.contains(&sub.name.as_str()) {
+                let cycle = format!("{} -> {}", path.join(" -> "), sub.name);
+                return Err(self.invalid(g.line, format!("groups contain themselves: {cycle}")));
             }
-            g.links.iter().try_for_each(|l| link(l, g.line))?;
-            g.joints.iter().try_for_each(|j| joint(j, g.line))?;
-        }
-        for s in &self.group_states {
-            s.values.iter().try_for_each(|(j, _)| joint(j, s.line))?;
-        }
-        for p in &self.disabled_pairs {
-            link(&p.link1, p.line)?;
-            link(&p.link2, p.line)?;
-        }
-        for v in &self.virtual_joints {
-            link(&v.child_link, v.line)?;
+            path.push(&sub.name);
+            self.collect_members(sub, path, chains, joints, links)?;
+            path.pop();
         }
         Ok(())
     }
 
+    /// Checks that every link, joint and group named exists: the first name
+    /// [`Srdf::reconcile`] would warn about, as an error.
+    ///
+    /// # Errors
+    /// [`RobotError::InvalidSrdf`] naming the SRDF line and the unknown name.
+    pub fn check_against(&self, robot: &RobotDescription) -> Result<(), RobotError> {
+        match self.clone().reconcile(robot).into_iter().next() {
+            Some(w) => Err(RobotError::InvalidSrdf { at: w.at, message: w.message }),
+            None => Ok(()),
+        }
+    }
+
+    /// Drops every entry naming a link, joint or group that `robot` (or this
+    /// SRDF) lacks, as MoveIt's srdfdom does ("Link … is not known to
+    /// URDF"), and returns one warning per entry dropped: a disabled pair,
+    /// a group's chain, joint, link or subgroup, a group state's joint
+    /// value or a whole group state of an unknown group, a virtual joint.
+    /// A robot description shared by several robots (one SRDF for a family
+    /// of arms, a gripper left out of the URDF) then loads.
+    pub fn reconcile(&mut self, robot: &RobotDescription) -> Vec<SrdfWarning> {
+        let mut warnings = Vec::new();
+        let source = self.source.clone();
+        let mut warn = |line: Option<u32>, message: String| {
+            warnings.push(SrdfWarning { at: SourceLocation { source: source.clone(), line }, message });
+        };
+        let unknown_link = |name: &str| {
+            robot.link(name).is_none().then(|| {
+                let close = suggest(name, robot.links().iter().map(|l| l.name.as_str()));
+                format!("link '{name}' is not in robot '{}'{}", robot.name(), hint(&close))
+            })
+        };
+        let unknown_joint = |name: &str| {
+            robot.joint(name).is_none().then(|| {
+                let close = suggest(name, robot.joints().iter().map(|j| j.name.as_str()));
+                format!("joint '{name}' is not in robot '{}'{}", robot.name(), hint(&close))
+            })
+        };
+        let group_names: Vec<String> = self.groups.iter().map(|g| g.name.clone()).collect();
+        for g in &mut self.groups {
+            let (name, line) = (g.name.clone(), g.line);
+            g.chains.retain(|(base, tip)| match unknown_link(base).or_else(|| unknown_link(tip)) {
+                Some(m) => {
+                    warn(line, format!("{m}; chain {base} -> {tip} left out of group '{name}'"));
+                    false
+                }
+                None => true,
+            });
+            g.joints.retain(|j| keep(unknown_joint(j), |m| warn(line, format!("{m}; left out of group '{name}'"))));
+            g.links.retain(|l| keep(unknown_link(l), |m| warn(line, format!("{m}; left out of group '{name}'"))));
+            g.subgroups.retain(|s| {
+                let message = (!group_names.contains(s)).then(|| {
+                    let close = suggest(s, group_names.iter().map(String::as_str));
+                    format!("subgroup '{s}' is no group of this SRDF{}", hint(&close))
+                });
+                keep(message, |m| warn(line, format!("{m}; left out of group '{name}'")))
+            });
+        }
+        self.group_states.retain_mut(|s| {
+            if !group_names.contains(&s.group) {
+                warn(
+                    s.line,
+                    format!("group state '{}' is for group '{}', which this SRDF lacks; ignored", s.name, s.group),
+                );
+                return false;
+            }
+            let (name, line) = (s.name.clone(), s.line);
+            s.values.retain(|(j, _)| {
+                keep(unknown_joint(j), |m| warn(line, format!("{m}; left out of group state '{name}'")))
+            });
+            true
+        });
+        self.disabled_pairs.retain(|p| {
+            let message = unknown_link(&p.link1).or_else(|| unknown_link(&p.link2));
+            keep(message, |m| warn(p.line, format!("{m}; disable_collisions {} / {} ignored", p.link1, p.link2)))
+        });
+        self.virtual_joints.retain(|v| {
+            keep(unknown_link(&v.child_link), |m| warn(v.line, format!("{m}; virtual joint '{}' ignored", v.name)))
+        });
+        warnings
+    }
+
     fn invalid(&self, line: Option<u32>, message: String) -> RobotError {
         RobotError::InvalidSrdf { at: SourceLocation { source: self.source.clone(), line }, message }
+    }
+}
+
+/// True when `problem` is `None`; otherwise reports it and returns false
+/// (a `retain` predicate that warns about what it drops).
+fn keep(problem: Option<String>, report: impl FnOnce(String)) -> bool {
+    match problem {
+        Some(message) => {
+            report(message);
+            false
+        }
+        None => true,
     }
 }
 

@@ -197,10 +197,13 @@ fn pick(file: &Path, what: &str, joints: &[String], named: &[(String, f64)]) -> 
 
 impl Problem {
     /// A problem from MoveIt inputs: the robot from `urdf` with the joints
-    /// of the request's SRDF group active, every other movable joint the
+    /// of the request's SRDF group active (a MoveIt group: chains, joints,
+    /// links and subgroups; see [`Srdf::joint_selection`]), every other movable joint the
     /// start names held at its value, the SRDF's disabled pairs, the
     /// scene's obstacles, attached objects and allowed contacts, the
-    /// request's start and joint goal.
+    /// request's start and joint goal. SRDF entries and allowed-collision
+    /// names the robot and scene lack are left out, as MoveIt does, and
+    /// listed in [`Problem::warnings`].
     ///
     /// # Errors
     /// Any file unreadable or invalid; a group the SRDF lacks; a start
@@ -216,8 +219,8 @@ impl Problem {
         };
         let search = MeshSearchPath::default().with_ros_package_path();
         let desc = Arc::new(RobotDescription::from_urdf_file(urdf, &search).map_err(|e| invalid(urdf, None, &e))?);
-        let srdf_data = Srdf::from_srdf_file(srdf).map_err(|e| invalid(srdf, None, &e))?;
-        srdf_data.check_against(&desc).map_err(|e| invalid(srdf, None, &e))?;
+        let mut srdf_data = Srdf::from_srdf_file(srdf).map_err(|e| invalid(srdf, None, &e))?;
+        let mut warnings: Vec<String> = srdf_data.reconcile(&desc).iter().map(ToString::to_string).collect();
         let req = read_moveit_request(request)?;
         let selection = srdf_data.joint_selection(&req.group).map_err(|e| invalid(request, Some("group_name"), &e))?;
         let probe = RobotModel::builder(desc.clone()).selection(selection.clone()).build();
@@ -257,7 +260,9 @@ impl Problem {
         for (what, q) in [("start_state", &start), ("goal_constraints", &goal)] {
             robot.check_within_limits(q).map_err(|e| invalid(request, Some(what), &e))?;
         }
-        let scene = read_moveit_scene(scene_file, &desc, Some(&srdf_data))?;
+        let read = read_moveit_scene(scene_file, &desc, Some(&srdf_data))?;
+        warnings.extend(read.warnings);
+        let scene = read.scene;
         Ok(Problem {
             name: request.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default(),
             description: format!("MoveIt request {} in scene {}", request.display(), scene_file.display()),
@@ -284,6 +289,7 @@ impl Problem {
             // certify with half a millimetre instead.
             planner: PlannerSettings { clearance: MOVEIT_CLEARANCE, ..PlannerSettings::default() },
             optimizer: OptimizerSettings::default(),
+            warnings,
         })
     }
 }

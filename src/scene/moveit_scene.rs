@@ -23,7 +23,11 @@
 //!   `touch_links`. The robot state's joint values are not read: the start
 //!   comes from the request.
 //! - `allowed_collision_matrix`: `true` entries become allowed contacts; a
-//!   `true` default entry is refused.
+//!   `true` default entry is refused. Entries naming no robot link,
+//!   obstacle or object are kept out and reported in
+//!   [`MoveItScene::warnings`], as MoveIt keeps and ignores them (an ACM
+//!   saved for a robot with a gripper, loaded for the arm alone); so are
+//!   unknown `touch_links`.
 //! - Refused unless neutral: `link_padding` (must be 0), `link_scale` (1),
 //!   `world.octomap` (no data), multi-DOF transforms (identity).
 //!   Ignored: `name`, `robot_model_name`, `object_colors`, `is_diff`,
@@ -100,6 +104,16 @@ impl Frames {
     }
 }
 
+/// A planning scene as read, and what reading it tolerated.
+#[derive(Debug, Clone)]
+pub struct MoveItScene {
+    /// The obstacles, attached objects and allowed contacts.
+    pub scene: Scene,
+    /// One line per entry left out because it names nothing tandem knows
+    /// (allowed-collision-matrix names, touch links), naming file and key.
+    pub warnings: Vec<String>,
+}
+
 /// Reads a MoveIt planning scene YAML for `robot` (and its SRDF, whose
 /// virtual joint names the planning frame); see the module documentation
 /// for what is read and what is refused.
@@ -112,7 +126,7 @@ pub fn read_moveit_scene(
     path: impl AsRef<Path>,
     robot: &RobotDescription,
     srdf: Option<&Srdf>,
-) -> Result<Scene, ProblemError> {
+) -> Result<MoveItScene, ProblemError> {
     let (file, doc) = load(path.as_ref())?;
     scene_from_yaml(&file, &doc, robot, srdf)
 }
@@ -126,7 +140,7 @@ pub fn moveit_scene_from_str(
     origin: &str,
     robot: &RobotDescription,
     srdf: Option<&Srdf>,
-) -> Result<Scene, ProblemError> {
+) -> Result<MoveItScene, ProblemError> {
     scene_from_yaml(origin, &parse(text, origin)?, robot, srdf)
 }
 
@@ -135,7 +149,7 @@ fn scene_from_yaml(
     doc: &yaml_rust2::Yaml,
     robot: &RobotDescription,
     srdf: Option<&Srdf>,
-) -> Result<Scene, ProblemError> {
+) -> Result<MoveItScene, ProblemError> {
     let root = Node::root(file, doc);
     if !matches!(doc, yaml_rust2::Yaml::Hash(_)) {
         return Err(root.error("a planning scene must be a mapping (moveit_msgs/PlanningScene)"));
@@ -170,9 +184,10 @@ fn scene_from_yaml(
             scene.add_obstacle(obstacle).map_err(|e| root.error(format!("collision object '{}': {e}", o.id)))?;
         }
     }
-    attached_objects(&root.get("robot_state"), robot, &mut scene)?;
-    allowed_collisions(&root.get("allowed_collision_matrix"), &mut scene)?;
-    Ok(scene)
+    let mut warnings = Vec::new();
+    attached_objects(&root.get("robot_state"), robot, &mut scene, &mut warnings)?;
+    allowed_collisions(&root.get("allowed_collision_matrix"), robot, &mut scene, &mut warnings)?;
+    Ok(MoveItScene { scene, warnings })
 }
 
 /// Obstacle names of an object's shapes: `id`, then `id/1`, `id/2`, ….
@@ -436,7 +451,12 @@ fn plane_pose(node: &Node) -> Result<IsometryMatrix3<f64>, ProblemError> {
 }
 
 /// `robot_state.attached_collision_objects`: scene objects attached to their link.
-fn attached_objects(state: &Node, robot: &RobotDescription, scene: &mut Scene) -> Result<(), ProblemError> {
+fn attached_objects(
+    state: &Node,
+    robot: &RobotDescription,
+    scene: &mut Scene,
+    warnings: &mut Vec<String>,
+) -> Result<(), ProblemError> {
     for a in state.get("attached_collision_objects").items()? {
         a.fields("an attached collision object", &["link_name", "object", "touch_links", "detach_posture", "weight"])?;
         let link_node = a.required("link_name")?;
@@ -471,7 +491,9 @@ fn attached_objects(state: &Node, robot: &RobotDescription, scene: &mut Scene) -
             scene.allow_contact(link, name.clone());
             for t in &touch {
                 if robot.link(t).is_none() {
-                    return Err(a.get("touch_links").error(format!("no link '{t}' in robot '{}'", robot.name())));
+                    let message = format!("no link '{t}' in robot '{}'; touch link ignored", robot.name());
+                    warnings.push(a.get("touch_links").error(message).to_string());
+                    continue;
                 }
                 scene.allow_contact(*t, name.clone());
             }
@@ -480,13 +502,34 @@ fn attached_objects(state: &Node, robot: &RobotDescription, scene: &mut Scene) -
     Ok(())
 }
 
-/// `true` entries of the allowed collision matrix become allowed contacts.
-fn allowed_collisions(acm: &Node, scene: &mut Scene) -> Result<(), ProblemError> {
+/// `true` entries of the allowed collision matrix become allowed contacts;
+/// names that are no robot link, obstacle or object are left out with a
+/// warning (once per name).
+fn allowed_collisions(
+    acm: &Node,
+    robot: &RobotDescription,
+    scene: &mut Scene,
+    warnings: &mut Vec<String>,
+) -> Result<(), ProblemError> {
     acm.fields(
         "an allowed collision matrix",
         &["entry_names", "entry_values", "default_entry_names", "default_entry_values"],
     )?;
     let names = acm.get("entry_names").texts()?;
+    let known = |n: &str| robot.link(n).is_some() || scene.obstacle(n).is_some() || scene.object(n).is_some();
+    let unknown: Vec<bool> = names.iter().map(|n| !known(n)).collect();
+    let name_nodes = acm.get("entry_names").items()?;
+    for ((name, node), _) in names.iter().zip(&name_nodes).zip(&unknown).filter(|(_, u)| **u) {
+        let close = crate::robot::suggest_names(
+            name,
+            robot.links().iter().map(|l| l.name.as_str()).chain(scene.obstacles().iter().map(|o| o.name.as_str())),
+        );
+        let message = format!(
+            "no link, obstacle or object named '{name}'{}; its entries are ignored, as MoveIt does",
+            crate::robot::did_you_mean(&close)
+        );
+        warnings.push(node.error(message).to_string());
+    }
     let rows = acm.get("entry_values").items()?;
     if rows.len() != names.len() {
         return Err(acm.get("entry_values").error(format!("{} rows for {} entry_names", rows.len(), names.len())));
@@ -498,7 +541,7 @@ fn allowed_collisions(acm: &Node, scene: &mut Scene) -> Result<(), ProblemError>
         }
         for (j, cell) in cells.iter().enumerate() {
             let allowed = cell.value.as_bool().ok_or_else(|| cell.error("must be true or false"))?;
-            if j > i && allowed {
+            if j > i && allowed && !unknown[i] && !unknown[j] {
                 scene.allow_contact(names[i], names[j]);
             }
         }

@@ -235,6 +235,10 @@ pub struct Problem {
     pub planner: PlannerSettings,
     /// Optimizer settings and objectives.
     pub optimizer: OptimizerSettings,
+    /// What loading tolerated and left out, one line each naming the file
+    /// and line: SRDF entries and allowed-collision-matrix names the robot
+    /// and scene lack (MoveIt ignores them too). `tandem check` lists them.
+    pub warnings: Vec<String>,
 }
 
 /// The problem files shipped with tandem, by name, embedded in the binary.

@@ -307,7 +307,7 @@ impl RawProblem {
     pub(crate) fn into_problem(self, src: &Source) -> Result<Problem, ProblemError> {
         let check = Check { src };
         let root = KeyPath::root();
-        let (robot_spec, robot, srdf, collision_geometry) = self.robot.load(&check, &root.key("robot"))?;
+        let (robot_spec, robot, srdf, collision_geometry, warnings) = self.robot.load(&check, &root.key("robot"))?;
         let scene = self.scene.build(&check, &robot)?;
         let clash =
             robot_spec.finger_pads.iter().position(|p| scene.obstacle(p).is_some() || scene.object(p).is_some());
@@ -337,6 +337,7 @@ impl RawProblem {
             goal,
             planner,
             optimizer,
+            warnings,
         };
         check_grasp_depths(src, &problem)?;
         Ok(problem)
@@ -383,7 +384,9 @@ fn check_configuration(check: &Check, robot: &RobotModel, path: &KeyPath, q: &[f
     Ok(())
 }
 
-type LoadedRobot = (RobotSpec, Arc<RobotModel>, Option<Srdf>, Option<Arc<RobotDescription>>);
+/// The robot of a problem file, and the warnings loading it gave (SRDF
+/// entries naming what the URDF lacks).
+type LoadedRobot = (RobotSpec, Arc<RobotModel>, Option<Srdf>, Option<Arc<RobotDescription>>, Vec<String>);
 
 impl RawRobot {
     fn load(self, check: &Check, path: &KeyPath) -> Result<LoadedRobot, ProblemError> {
@@ -401,11 +404,12 @@ impl RawRobot {
                 .map_err(|e| src.error(&path.key(key), e.to_string()))
         };
         let desc = description("urdf", &self.urdf)?;
+        let mut warnings = Vec::new();
         let srdf = match &self.srdf {
             Some(file) => {
-                let s =
+                let mut s =
                     Srdf::from_srdf_file(src.resolve(file)).map_err(|e| src.error(&path.key("srdf"), e.to_string()))?;
-                s.check_against(&desc).map_err(|e| src.error(&path.key("srdf"), e.to_string()))?;
+                warnings.extend(s.reconcile(&desc).iter().map(ToString::to_string));
                 Some(s)
             }
             None => None,
@@ -467,7 +471,7 @@ impl RawRobot {
             max_grasp_depth: self.max_grasp_depth,
             padding,
         };
-        Ok((spec, robot, srdf, collision_geometry))
+        Ok((spec, robot, srdf, collision_geometry, warnings))
     }
 
     /// Finger pads name collision elements of `geometry` (not links) and

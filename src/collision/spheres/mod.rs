@@ -125,13 +125,15 @@ struct BodySphere {
 }
 
 /// One joint's share of how fast the sphere centres of a cluster can
-/// move: at most `lever` times the speed of the joint of body `body`, the
-/// lever bounding the distance from the joint's origin to them for every
-/// q (m).
+/// move: at most `lever` times the speed of the joint of body `body`. For
+/// a revolute joint the lever bounds the distance from the joint's origin
+/// to them for every q (m); a prismatic joint moves them exactly as fast
+/// as it slides (`slides`, lever 1).
 #[derive(Debug, Clone, Copy)]
 struct SweepTerm {
     body: usize,
     lever: f64,
+    slides: bool,
 }
 
 /// A static shape in world coordinates (m), with its world bounding box.
@@ -300,9 +302,6 @@ pub(crate) struct SphereModel {
     /// Per self pair: the joints moving both sides (the first ones of each
     /// side's terms), which leave their distance unchanged.
     common_depth: Vec<usize>,
-    /// Sweep bounds hold: no joint slides (a prismatic joint would stretch
-    /// the levers of the bodies after it).
-    certifiable: bool,
     /// Some pair that no joint moves collides: every configuration collides.
     fixed_collision: bool,
     pub(crate) isa: SimdLevel,
@@ -389,7 +388,10 @@ impl SphereModel {
                 let norm = |s: &BodySphere| s.center.iter().map(|x| x * x).sum::<f64>().sqrt();
                 let farthest = spheres[c.spheres.clone()].iter().map(norm).fold(0.0, f64::max);
                 let at = sweep_terms.len();
-                sweep_terms.extend(lever_chain(robot, body, farthest).map(|(body, lever)| SweepTerm { body, lever }));
+                sweep_terms.extend(lever_chain(robot, body, farthest).map(|(body, lever)| {
+                    let slides = robot.bodies[body].motion.is_prismatic();
+                    SweepTerm { body, lever: if slides { 1.0 } else { lever }, slides }
+                }));
                 sweep_terms[at..].reverse();
                 c.terms = at..sweep_terms.len();
                 // Clusters' terms follow each other: one more slot per cluster.
@@ -436,7 +438,6 @@ impl SphereModel {
             env.extend(list.chunks(lanes::LANES).map(|c| EnvChunk::new(c, &statics)));
             group.env = start..env.len();
         }
-        let certifiable = robot.bodies.iter().all(|b| !b.motion.is_prismatic());
         let mut cluster_group = vec![0; clusters.len()];
         for (g, group) in groups.iter().enumerate() {
             cluster_group[group.clusters.clone()].fill(g as u32);
@@ -459,7 +460,6 @@ impl SphereModel {
             sweep_terms,
             self_pairs,
             common_depth,
-            certifiable,
             fixed_collision,
             isa: SimdLevel::best_up_to(SimdLevel::from_environment()),
         })

@@ -111,9 +111,6 @@ impl SphereModel {
         (q0, q1): (&[f64], &[f64]),
         (half, full): (f64, f64),
     ) -> Certification {
-        if !self.certifiable {
-            return Certification::Undecided;
-        }
         self.start_certification(ws, q0, q1, half, full);
         while let Some(first) = ws.intervals.pop_front() {
             let mut taken = [first; LANES];

@@ -3,7 +3,10 @@
 //! the straight motion `q0 → q1`.
 //!
 //! A revolute joint `k` turning at `|Δq_k|` moves a point at most
-//! `|Δq_k| · r` where `r` is the point's distance from the joint's origin.
+//! `|Δq_k| · r` where `r` is the point's distance from the joint's origin;
+//! a prismatic joint sliding at `|Δq_k|` moves every point after it at
+//! exactly that speed (its term has lever 1, and the levers of the joints
+//! before it include the farthest it slides).
 //! The loose bound takes for `r` the lever (link offsets and the sphere's
 //! offset added up, valid for every q) and holds over the whole motion.
 //! The tight bound, per lane, measures `r` at the interval's midpoint and
@@ -101,9 +104,17 @@ impl SphereModel {
             ws.tight[slot] = [0.0; LANES];
             for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
                 let (origin, rate) = (ws.poses[term.body].t, ws.rates[term.body]);
+                let mut next = ws.tight[slot + k];
+                if term.slides {
+                    // A slide moves every point after it at its own speed.
+                    for l in 0..LANES {
+                        next[l] += rate;
+                    }
+                    ws.tight[slot + k + 1] = next;
+                    continue;
+                }
                 // What the joints after this one can add to the distance.
                 let tail = total - ws.prefix[slot + k + 1];
-                let mut next = ws.tight[slot + k];
                 for l in 0..LANES {
                     let (x, y, z) =
                         (center[0][l] - origin[0][l], center[1][l] - origin[1][l], center[2][l] - origin[2][l]);

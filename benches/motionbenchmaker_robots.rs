@@ -1,0 +1,90 @@
+//! RRT-Connect on MotionBenchMaker-style problems for robots unlike the
+//! Panda (benches/support/robots.rs): a 6-DOF UR5 (`manipulator`), a TIAGo
+//! planning its prismatic torso lift with its arm (`arm_torso`, 8 joints)
+//! and a Baxter planning both arms at once (`both_arms`, 14 joints), each
+//! with sphere-model collision geometry, in `table`, `shelf` and `cage`
+//! scenes. Per robot: solved count (solved and every edge certified), and
+//! median / mean / 95th percentile of planning time and of planning +
+//! simplification, one seed per problem, as the `motionbenchmaker` bench
+//! reports the Panda's. Problem generation and loading are not timed.
+//!
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME]
+//!
+//! Writes target/peers/motionbenchmaker_robots.json.
+
+#[allow(dead_code)]
+#[path = "support/mbm.rs"]
+mod mbm;
+#[path = "support/robots.rs"]
+mod robots;
+
+use mbm::{full_run, row};
+use robots::{FAMILIES, ROBOTS};
+use tandem::plan::{PlanStatus, ProblemPlanner};
+
+fn option(args: &[String], name: &str) -> Option<f64> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    // `cargo test --all-targets` runs bench targets without `--bench`: one
+    // problem per family and robot then.
+    let per_family = if full_run() { option(&args, "--per-family").unwrap_or(100.0) as u64 } else { 1 };
+    let time_limit = option(&args, "--time-limit").unwrap_or(10.0);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut results = serde_json::Map::new();
+    let only = args.iter().position(|a| a == "--robot").and_then(|i| args.get(i + 1));
+    for robot in ROBOTS.iter().filter(|r| only.is_none_or(|name| name == r.name)) {
+        let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
+        let mut not_generated = Vec::new();
+        let mut nq = 0;
+        for family in FAMILIES {
+            for k in 1..=per_family {
+                let Some(mut problem) = robots::problem(robot, family, k, dir.path()) else {
+                    not_generated.push(format!("{family} {k}"));
+                    continue;
+                };
+                nq = problem.robot.nq();
+                problem.planner.time_limit = time_limit;
+                let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
+                let report = planner.run(0).expect("plan");
+                if report.result.status == PlanStatus::Solved && report.certified {
+                    let p = report.planning_time.as_secs_f64();
+                    planning.push(p);
+                    total.push(p + report.simplify_time.as_secs_f64());
+                } else {
+                    failed.push(format!("{family} {k}: {}", report.result.status.name()));
+                }
+            }
+        }
+        println!(
+            "\n{} (group {}, {nq} joints), sphere model, RRT-Connect (one seed per problem, {time_limit} s limit):",
+            robot.name, robot.group
+        );
+        println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
+        let p = row("planning time", &mut planning);
+        let t = row("planning + simplification", &mut total);
+        let count = per_family as usize * FAMILIES.len() - not_generated.len();
+        println!("| solved | {} of {count} | | |", planning.len());
+        if !not_generated.is_empty() {
+            println!("no start and goal found in 20 scene draws (not counted): {}", not_generated.join(", "));
+        }
+        for f in &failed {
+            println!("unsolved: {f}");
+        }
+        results.insert(
+            robot.name.to_string(),
+            serde_json::json!({"group": robot.group, "joints": nq, "problems": count, "solved": planning.len(),
+                "planning": p, "total": t, "unsolved": failed, "not_generated": not_generated,
+                "time_limit_s": time_limit}),
+        );
+    }
+    if !full_run() {
+        return;
+    }
+    let peers = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
+    std::fs::create_dir_all(&peers).expect("target/peers");
+    std::fs::write(peers.join("motionbenchmaker_robots.json"), serde_json::Value::Object(results).to_string())
+        .expect("write results");
+}

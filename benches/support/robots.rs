@@ -1,0 +1,377 @@
+//! MotionBenchMaker-style problems for robots unlike the Panda: a 6-DOF UR5,
+//! a TIAGo whose planning group includes its prismatic torso lift, and a
+//! Baxter planning both arms at once (sphere models and SRDFs in
+//! problems/robots/, made by scripts/spherize_robot.py).
+//!
+//! Each problem is written as MoveIt files (a planning scene YAML and a
+//! motion plan request YAML) and loaded with `Problem::from_moveit`, as
+//! MotionBenchMaker's are. Families, as MotionBenchMaker's: `table` (a
+//! table with clutter, the goal just above it), `shelf` (a bookshelf, the
+//! goal inside a bin) and `cage` (a box cage open at the front, the goal
+//! inside). Obstacle placement is jittered per problem. Start and goal are
+//! seeded rejection samples: 1 mm clear of everything, every frame above the robot's
+//! mount, the start within 0.4 rad per joint of the robot's home pose (as
+//! MotionBenchMaker starts from a ready pose) with its tool(s) outside the
+//! goal region, the goal within 1.6 rad per joint of home (one IK branch,
+//! as a MotionBenchMaker goal seeded from the ready pose) with the tool
+//! frame(s) inside the region (for the dual arm, the left tool in the left half and
+//! the right tool in the right half), and the straight line between them in
+//! collision when one of 50 starts gives that.
+//! Everything follows from (robot, family, index): same problems on every
+//! machine.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use tandem::collision::CollisionWorkspace;
+use tandem::robot::{KinematicsWorkspace, RobotModel};
+use tandem::scene::Problem;
+
+/// The problem families.
+pub const FAMILIES: [&str; 3] = ["table", "shelf", "cage"];
+
+/// A robot of the benchmark.
+pub struct BenchRobot {
+    /// Short name (also the folder under problems/robots/).
+    pub name: &'static str,
+    /// The SRDF planning group.
+    pub group: &'static str,
+    /// Tool frames whose position the goal region constrains, with the side
+    /// (y sign) each must be on: 0 for either.
+    tools: &'static [(&'static str, f64)],
+    /// Joints outside the group, held at these values (rad or m).
+    held: &'static [(&'static str, f64)],
+    /// The work point in front of the robot (m, URDF root frame) and the
+    /// scale of the furniture (1 for a Panda-sized reach).
+    work: [f64; 3],
+    scale: f64,
+    /// What the robot stands on (a pedestal, the floor): a box of this size
+    /// and centre (m) in every scene, allowed to touch the named link.
+    mount: Option<([f64; 3], [f64; 3], &'static str)>,
+    /// The home pose (joint name, value), near which starts are drawn, as
+    /// MotionBenchMaker starts from a fixed ready pose.
+    home: &'static [(&'static str, f64)],
+    /// Lowest height (m) any frame may take in a start or goal: the arm
+    /// works above its mount, as a real cell's would.
+    min_height: f64,
+}
+
+/// The three robots.
+pub const ROBOTS: [BenchRobot; 3] = [
+    BenchRobot {
+        name: "ur5",
+        group: "manipulator",
+        tools: &[("tool0", 0.0)],
+        held: &[],
+        work: [0.5, 0.0, 0.0],
+        scale: 1.0,
+        mount: Some(([0.2, 0.2, 1.0], [0.0, 0.0, -0.505], "base_link")),
+        home: &[
+            ("shoulder_pan_joint", 0.0),
+            ("shoulder_lift_joint", -1.57),
+            ("elbow_joint", 1.57),
+            ("wrist_1_joint", -1.57),
+            ("wrist_2_joint", -1.57),
+            ("wrist_3_joint", 0.0),
+        ],
+        min_height: -0.05,
+    },
+    BenchRobot {
+        name: "tiago",
+        group: "arm_torso",
+        tools: &[("arm_tool_link", 0.0)],
+        held: &[("head_1_joint", 0.0), ("head_2_joint", 0.0)],
+        work: [0.6, -0.15, 0.8],
+        scale: 1.0,
+        mount: Some(([3.0, 3.0, 0.02], [0.0, 0.0, -0.011], "base_link")),
+        home: &[
+            ("torso_lift_joint", 0.15),
+            ("arm_1_joint", 0.2),
+            ("arm_2_joint", -1.34),
+            ("arm_3_joint", -0.2),
+            ("arm_4_joint", 1.94),
+            ("arm_5_joint", -1.57),
+            ("arm_6_joint", 1.37),
+            ("arm_7_joint", 0.0),
+        ],
+        min_height: 0.0,
+    },
+    BenchRobot {
+        name: "baxter",
+        group: "both_arms",
+        tools: &[("left_gripper", 1.0), ("right_gripper", -1.0)],
+        held: &[],
+        work: [0.65, 0.0, 0.0],
+        scale: 1.3,
+        mount: None,
+        home: &[
+            ("left_s0", 0.0),
+            ("left_s1", -0.55),
+            ("left_e0", 0.0),
+            ("left_e1", 0.75),
+            ("left_w0", 0.0),
+            ("left_w1", 1.26),
+            ("left_w2", 0.0),
+            ("right_s0", 0.0),
+            ("right_s1", -0.55),
+            ("right_e0", 0.0),
+            ("right_e1", 0.75),
+            ("right_w0", 0.0),
+            ("right_w1", 1.26),
+            ("right_w2", 0.0),
+        ],
+        min_height: -1.0,
+    },
+];
+
+impl BenchRobot {
+    fn folder(&self) -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("problems/robots").join(self.name)
+    }
+
+    /// The sphere-model URDF.
+    pub fn urdf(&self) -> PathBuf {
+        self.folder().join(format!("{}_spheres.urdf", self.name))
+    }
+
+    /// The SRDF.
+    pub fn srdf(&self) -> PathBuf {
+        self.folder().join(format!("{}.srdf", self.name))
+    }
+}
+
+/// An axis-aligned box obstacle: name, size and centre (m).
+struct Block {
+    name: String,
+    size: [f64; 3],
+    center: [f64; 3],
+}
+
+/// Axis-aligned region (m): lower and upper corners.
+type Region = ([f64; 3], [f64; 3]);
+
+fn block(name: &str, size: [f64; 3], center: [f64; 3]) -> Block {
+    Block { name: name.to_string(), size, center }
+}
+
+/// The obstacles of problem `rng`'s draw of `family` and its goal region.
+fn furniture(robot: &BenchRobot, family: &str, rng: &mut ChaCha8Rng) -> (Vec<Block>, Region) {
+    let s = robot.scale;
+    let mut jitter = |w: f64| rng.random_range(-w..=w);
+    let [wx, wy, wz] = robot.work;
+    let (x, y, z) = (wx + jitter(0.05 * s), wy + jitter(0.05 * s), wz + jitter(0.05 * s));
+    match family {
+        "table" => {
+            let top = z - 0.15 * s;
+            let mut blocks = vec![block("table", [0.6 * s, 1.2 * s, 0.04], [x, y, top - 0.02])];
+            for k in 0..3 {
+                let h = 0.08 + jitter(0.04);
+                let at = [x + jitter(0.22 * s), y + jitter(0.5 * s), top + h / 2.0];
+                blocks.push(block(&format!("clutter{k}"), [0.06 + jitter(0.02), 0.06 + jitter(0.02), h], at));
+            }
+            (blocks, ([x - 0.25 * s, y - 0.5 * s, top + 0.05], [x + 0.25 * s, y + 0.5 * s, top + 0.25 * s]))
+        }
+        "shelf" => {
+            let (depth, width, front) = (0.35 * s, 1.1 * s, x);
+            let cx = front + depth / 2.0;
+            let mut blocks = vec![
+                block("back", [0.02, width, 1.0 * s], [front + depth, y, z]),
+                block("side_left", [depth, 0.02, 1.0 * s], [cx, y + width / 2.0, z]),
+                block("side_right", [depth, 0.02, 1.0 * s], [cx, y - width / 2.0, z]),
+            ];
+            for (k, dz) in [-0.5, -0.15, 0.2, 0.5].iter().enumerate() {
+                blocks.push(block(&format!("board{k}"), [depth, width, 0.02], [cx, y, z + dz * s]));
+            }
+            // The middle bin, between boards 1 and 2.
+            let lo = [front + 0.02, y - width / 2.0 + 0.06, z - 0.15 * s + 0.05];
+            let hi = [front + depth - 0.08, y + width / 2.0 - 0.06, z + 0.2 * s - 0.06];
+            (blocks, (lo, hi))
+        }
+        _ => {
+            let (half, height) = (0.3 * s, 0.45 * s);
+            let (floor, roof) = (z - height / 2.0, z + height / 2.0);
+            let blocks = vec![
+                block("floor", [2.0 * half, 2.0 * half, 0.02], [x + half, y, floor]),
+                block("roof", [2.0 * half, 2.0 * half, 0.02], [x + half, y, roof]),
+                block("back", [0.02, 2.0 * half, height], [x + 2.0 * half, y, z]),
+                block("wall_left", [2.0 * half, 0.02, height], [x + half, y + half, z]),
+                block("wall_right", [2.0 * half, 0.02, height], [x + half, y - half, z]),
+                block("bar_left", [0.03, 0.03, height], [x, y + 0.55 * half, z]),
+                block("bar_right", [0.03, 0.03, height], [x, y - 0.55 * half, z]),
+            ];
+            let lo = [x + 0.1 * s, y - half + 0.08, floor + 0.06];
+            let hi = [x + 2.0 * half - 0.1, y + half - 0.08, roof - 0.06];
+            (blocks, (lo, hi))
+        }
+    }
+}
+
+fn scene_yaml(blocks: &[Block], robot: &BenchRobot) -> String {
+    let mut out = String::from("name: generated\n");
+    if let Some((_, _, link)) = robot.mount {
+        out += &format!(
+            "allowed_collision_matrix:\n  entry_names: [{link}, mount]\n  entry_values:\n    - enabled: [false, true]\n    - enabled: [true, false]\n"
+        );
+    }
+    out += "world:\n  collision_objects:\n";
+    for b in blocks {
+        let [sx, sy, sz] = b.size;
+        let [x, y, z] = b.center;
+        out += &format!(
+            "    - id: {}\n      header: {{frame_id: ''}}\n      primitives: [{{type: box, dimensions: [{sx}, {sy}, {sz}]}}]\n      primitive_poses: [{{position: [{x}, {y}, {z}], orientation: [0, 0, 0, 1]}}]\n",
+            b.name
+        );
+    }
+    out
+}
+
+fn request_yaml(group: &str, start: &[(String, f64)], goal: &[(String, f64)]) -> String {
+    let names: Vec<&str> = start.iter().map(|(n, _)| n.as_str()).collect();
+    let values: Vec<String> = start.iter().map(|(_, v)| format!("{v}")).collect();
+    let mut out = format!(
+        "group_name: {group}\nstart_state:\n  joint_state:\n    name: [{}]\n    position: [{}]\ngoal_constraints:\n  - joint_constraints:\n",
+        names.join(", "),
+        values.join(", ")
+    );
+    for (n, v) in goal {
+        out += &format!(
+            "      - {{joint_name: {n}, position: {v}, tolerance_above: 0.0001, tolerance_below: 0.0001, weight: 1.0}}\n"
+        );
+    }
+    out
+}
+
+/// How far (rad or m per joint) starts and goals may lie from the home pose.
+const START_SPREAD: f64 = 0.4;
+const GOAL_SPREAD: f64 = 1.6;
+
+/// Rejection sampler of start and goal configurations.
+struct Sampler<'a> {
+    problem: &'a Problem,
+    robot: &'a RobotModel,
+    model: tandem::collision::CollisionModel,
+    ws: CollisionWorkspace,
+    kin: KinematicsWorkspace,
+    tools: Vec<(tandem::robot::FrameId, f64)>,
+    home: Vec<f64>,
+    min_height: f64,
+}
+
+impl Sampler<'_> {
+    /// Uniform within `spread` of the home pose and within the limits.
+    fn random(&self, rng: &mut ChaCha8Rng, spread: f64) -> Vec<f64> {
+        let limits = self.problem.robot.limits().iter().zip(&self.home);
+        limits.map(|(l, h)| rng.random_range((h - spread).max(l.lower)..=(h + spread).min(l.upper))).collect()
+    }
+
+    /// Whether every tool is inside `region` (on its side), or none is.
+    fn tools_in(&mut self, q: &[f64], region: &Region) -> (bool, bool) {
+        self.robot.forward_kinematics(&mut self.kin, q).expect("fk");
+        self.robot.update_frame_placements(&mut self.kin);
+        let low = self.robot.frame_ids().any(|f| self.robot.frame_pose(&self.kin, f).translation.z < self.min_height);
+        if low {
+            return (false, true);
+        }
+        let (mut all, mut any) = (true, false);
+        for &(frame, side) in &self.tools {
+            let p = self.robot.frame_pose(&self.kin, frame).translation.vector;
+            let mid = 0.5 * (region.0[1] + region.1[1]);
+            let on_side = side == 0.0 || (p.y - mid) * side > 0.05;
+            let inside = (0..3).all(|i| p[i] >= region.0[i] && p[i] <= region.1[i]) && on_side;
+            all &= inside;
+            any |= (0..3).all(|i| p[i] >= region.0[i] && p[i] <= region.1[i]);
+        }
+        (all, any)
+    }
+
+    /// Collision-free with the planner's clearance to spare (1 mm: the
+    /// planner certifies with half a millimetre).
+    fn free(&mut self, q: &[f64]) -> bool {
+        self.model.collision_free(&mut self.ws, q).expect("check")
+            && self.model.min_distance(&mut self.ws, q).expect("distance").is_none_or(|d| d.signed.distance >= 1e-3)
+    }
+
+    /// A free configuration with every tool inside `region` (`inside`) or
+    /// none inside.
+    fn sample(&mut self, rng: &mut ChaCha8Rng, region: &Region, inside: bool) -> Option<Vec<f64>> {
+        for _ in 0..200_000 {
+            let q = self.random(rng, if inside { GOAL_SPREAD } else { START_SPREAD });
+            let (all, any) = self.tools_in(&q, region);
+            if (inside && all || !inside && !any) && self.free(&q) {
+                return Some(q);
+            }
+        }
+        None
+    }
+}
+
+/// Problem `k` of `family` for `robot`, written into `dir` and loaded;
+/// `None` when 20 draws of the scene gave no start and goal.
+pub fn problem(robot: &BenchRobot, family: &str, k: u64, dir: &Path) -> Option<Problem> {
+    let family_index = FAMILIES.iter().position(|f| *f == family).expect("family") as u64;
+    let robot_index = ROBOTS.iter().position(|r| r.name == robot.name).expect("robot") as u64;
+    let mut rng = ChaCha8Rng::seed_from_u64(0x7a6d_0000 + robot_index * 1_000_000 + family_index * 10_000 + k);
+    let base = dir.join(format!("{}_{family}_{k:04}", robot.name));
+    let (scene, request) = (base.with_extension("scene.yaml"), base.with_extension("request.yaml"));
+    for _draw in 0..20 {
+        let (mut blocks, region) = furniture(robot, family, &mut rng);
+        if let Some((size, center, _)) = robot.mount {
+            blocks.push(block("mount", size, center));
+        }
+        std::fs::write(&scene, scene_yaml(&blocks, robot)).expect("write scene");
+        // A placeholder request (the held joints and the group at 0) to build the checker.
+        let desc = tandem::robot::RobotDescription::from_urdf_file(robot.urdf(), &Default::default()).expect("urdf");
+        let srdf = tandem::robot::Srdf::from_srdf_file(robot.srdf()).expect("srdf");
+        let selection = srdf.joint_selection(robot.group).expect("group");
+        let model = RobotModel::builder(Arc::new(desc)).selection(selection).build().expect("model");
+        let zero: Vec<(String, f64)> = model
+            .joint_names()
+            .iter()
+            .zip(model.limits())
+            .map(|(n, l)| (n.clone(), 0.0f64.clamp(l.lower, l.upper)))
+            .chain(robot.held.iter().map(|(n, v)| (n.to_string(), *v)))
+            .collect();
+        let group: Vec<(String, f64)> = zero[..model.nq()].to_vec();
+        std::fs::write(&request, request_yaml(robot.group, &zero, &group)).expect("write request");
+        let placeholder = Problem::from_moveit(&robot.urdf(), &robot.srdf(), &scene, &request).expect("problem");
+        let collision = placeholder.collision_model().expect("collision model");
+        let tools = robot.tools.iter().map(|(f, side)| (model.frame_id(f).expect("tool frame"), *side)).collect();
+        let mut sampler = Sampler {
+            problem: &placeholder,
+            robot: &model,
+            ws: CollisionWorkspace::new(&collision),
+            model: collision,
+            kin: KinematicsWorkspace::new(&model),
+            tools,
+            home: model
+                .joint_names()
+                .iter()
+                .map(|n| robot.home.iter().find(|(h, _)| h == n).map(|(_, v)| *v).expect("home value"))
+                .collect(),
+            min_height: robot.min_height,
+        };
+        let Some(goal) = sampler.sample(&mut rng, &region, true) else { continue };
+        // A start the straight line to the goal does not reach, if one of
+        // 50 draws is; else the last (a direct problem, as some of
+        // MotionBenchMaker's are).
+        let mut found = None;
+        for _ in 0..50 {
+            let Some(start) = sampler.sample(&mut rng, &region, false) else { break };
+            let mut ws = CollisionWorkspace::new(&sampler.model);
+            let direct = sampler.model.motion_free(&mut ws, &start, &goal, 0.01).expect("motion check");
+            found = Some(start);
+            if !direct {
+                break;
+            }
+        }
+        let Some(start) = found else { continue };
+        let named =
+            |q: &[f64]| -> Vec<(String, f64)> { model.joint_names().iter().cloned().zip(q.iter().copied()).collect() };
+        let mut start_state = named(&start);
+        start_state.extend(robot.held.iter().map(|(n, v)| (n.to_string(), *v)));
+        std::fs::write(&request, request_yaml(robot.group, &start_state, &named(&goal))).expect("write request");
+        return Some(Problem::from_moveit(&robot.urdf(), &robot.srdf(), &scene, &request).expect("problem"));
+    }
+    None
+}

@@ -1,0 +1,106 @@
+//! Robots unlike the Panda on the fast paths: a TIAGo whose planning group
+//! slides its torso (a prismatic joint) and a Baxter planning both arms,
+//! with sphere models (problems/robots/). Motion certification on the
+//! sphere fast path covers prismatic joints (sound: every certified motion
+//! keeps half the clearance, checked densely on the general path), and the
+//! MotionBenchMaker-style problems of the robot benchmark
+//! (benches/support/robots.rs) plan, certified, for every robot and family.
+
+mod common;
+
+#[allow(dead_code)]
+#[path = "../benches/support/robots.rs"]
+mod robots;
+
+use common::random_configurations;
+use nalgebra::IsometryMatrix3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
+use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::plan::{PlanStatus, ProblemPlanner};
+use tandem::robot::{RobotDescription, RobotModel, Srdf};
+use tandem::scene::{Obstacle, Scene};
+
+/// The TIAGo sphere model with its `arm_torso` group (torso lift + 7 arm
+/// joints), its SRDF's disabled pairs, and boxes around it.
+fn tiago() -> (Arc<RobotModel>, CollisionModel) {
+    let tiago = &robots::ROBOTS[1];
+    let desc = Arc::new(RobotDescription::from_urdf_file(tiago.urdf(), &Default::default()).unwrap());
+    let srdf = Srdf::from_srdf_file(tiago.srdf()).unwrap();
+    let selection = srdf.joint_selection("arm_torso").unwrap();
+    let robot = Arc::new(RobotModel::builder(desc).selection(selection).build().unwrap());
+    assert_eq!(robot.joint_names()[0], "torso_lift_joint");
+    let mut scene = Scene::new();
+    let at = |x: f64, y: f64, z: f64| IsometryMatrix3::translation(x, y, z);
+    for (name, size, pose) in [
+        ("table", [0.6, 1.2, 0.04], at(0.75, 0.0, 0.6)),
+        ("crate", [0.2, 0.3, 0.3], at(0.6, -0.35, 0.8)),
+        ("shelf", [0.35, 1.0, 0.02], at(0.7, 0.0, 1.25)),
+    ] {
+        scene.add_obstacle(Obstacle::new(name, Shape::cuboid(size), pose)).unwrap();
+    }
+    let model = CollisionModel::builder(robot.clone()).scene(&scene).srdf(&srdf).build().unwrap();
+    (robot, model)
+}
+
+#[test]
+fn prismatic_joints_are_certified_on_the_sphere_fast_path() {
+    let (robot, fast) = tiago();
+    assert!(fast.has_fast_path());
+    let mut general = fast.clone();
+    general.set_fast_path(false);
+    let (mut fast_ws, mut general_ws) = (CollisionWorkspace::new(&fast), CollisionWorkspace::new(&general));
+    let clearance = 0.002;
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let (mut certified, mut agree, mut total) = (0, 0, 0);
+    for q in random_configurations(&robot, 300, 17) {
+        if !fast.collision_free(&mut fast_ws, &q).unwrap() {
+            continue;
+        }
+        // Short and long motions, the torso sliding along.
+        let s = rng.random_range(0.05..0.6);
+        let q1: Vec<f64> = q
+            .iter()
+            .zip(robot.limits())
+            .map(|(v, l)| (v + s * rng.random_range(-1.0..1.0) * (l.upper - l.lower)).clamp(l.lower, l.upper))
+            .collect();
+        let ok = fast.motion_free_certified(&mut fast_ws, &q, &q1, clearance).unwrap();
+        let reference = general.motion_free_certified(&mut general_ws, &q, &q1, clearance).unwrap();
+        total += 1;
+        agree += usize::from(ok == reference);
+        if !ok {
+            continue;
+        }
+        certified += 1;
+        for k in 0..=200 {
+            let t = k as f64 / 200.0;
+            let qt: Vec<f64> = q.iter().zip(&q1).map(|(a, b)| a + (b - a) * t).collect();
+            let d = general.min_distance(&mut general_ws, &qt).unwrap().unwrap().signed.distance;
+            assert!(d >= clearance / 2.0, "certified motion {q:?} -> {q1:?} comes {d} m close at t = {t}");
+        }
+    }
+    let deferred = fast_ws.deferred_certifications();
+    println!("{certified} of {total} motions certified, general path agrees on {agree}, {deferred} deferred");
+    assert!(certified >= 30 && certified + 20 <= total, "{certified} of {total}");
+    assert!(agree * 100 >= total * 95);
+    // The fast path decides nearly every motion itself (it deferred every
+    // one when a sliding joint was in the chain).
+    assert!(deferred * 10 <= total as u64, "{deferred} of {total} deferred");
+}
+
+#[test]
+fn benchmark_problems_of_every_robot_and_family_plan_certified() {
+    let dir = tempfile::tempdir().unwrap();
+    for robot in &robots::ROBOTS {
+        for family in robots::FAMILIES {
+            let problem = robots::problem(robot, family, 1, dir.path()).expect("a start and a goal");
+            assert!(problem.warnings.is_empty(), "{:?}", problem.warnings);
+            let model = problem.collision_model().unwrap();
+            assert!(model.has_fast_path(), "{} {family}", robot.name);
+            let report = ProblemPlanner::new(&problem, Some(0)).unwrap().run(0).unwrap();
+            assert_eq!(report.result.status, PlanStatus::Solved, "{} {family}", robot.name);
+            assert!(report.certified, "{} {family}", robot.name);
+        }
+    }
+}
