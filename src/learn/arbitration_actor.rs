@@ -8,9 +8,8 @@
 //! in]`; metadata key `tandem` = [`ArbitrationMeta`] as JSON).
 
 use super::LearnError;
-use super::network::{DenseLayer, first_non_finite_layer, read_f32, safetensors_bytes};
+use super::network::{DenseLayer, first_non_finite_layer, read_f32, read_with_meta, safetensors_bytes};
 use crate::arbitration::{ArbitrationPolicy, StateLayout};
-use safetensors::tensor::SafeTensors;
 use std::path::Path;
 
 /// Value of [`ArbitrationMeta::format`].
@@ -170,18 +169,8 @@ impl ArbitrationActor {
     /// # Errors
     /// As [`ArbitrationActor::load`].
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<ArbitrationActor, LearnError> {
-        let not_safetensors =
-            |e: &dyn std::fmt::Display| LearnError::NotSafetensors { path: path.into(), message: e.to_string() };
-        let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| not_safetensors(&e))?;
-        let file = SafeTensors::deserialize(bytes).map_err(|e| not_safetensors(&e))?;
+        let (file, meta): (_, ArbitrationMeta) = read_with_meta(bytes, path, "a tandem arbitration actor")?;
         let metadata_error = |message: String| LearnError::Metadata { path: path.into(), message };
-        let text = header
-            .metadata()
-            .as_ref()
-            .and_then(|m| m.get("tandem"))
-            .ok_or_else(|| metadata_error("no `tandem` metadata: not a tandem arbitration actor".into()))?;
-        let meta: ArbitrationMeta =
-            serde_json::from_str(text).map_err(|e| metadata_error(format!("`tandem` metadata: {e}")))?;
         meta.check().map_err(metadata_error)?;
         let (head, tail) = meta.layer_shapes();
         let mut layers = vec![];

@@ -312,18 +312,8 @@ impl PolicyNetwork {
     /// # Errors
     /// As [`PolicyNetwork::load`].
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PolicyNetwork, LearnError> {
-        let not_safetensors =
-            |e: &dyn std::fmt::Display| LearnError::NotSafetensors { path: path.into(), message: e.to_string() };
-        let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| not_safetensors(&e))?;
-        let file = SafeTensors::deserialize(bytes).map_err(|e| not_safetensors(&e))?;
+        let (file, meta): (_, PolicyMeta) = read_with_meta(bytes, path, "a tandem policy file")?;
         let metadata_error = |message: String| LearnError::Metadata { path: path.into(), message };
-        let text = header
-            .metadata()
-            .as_ref()
-            .and_then(|m| m.get("tandem"))
-            .ok_or_else(|| metadata_error("no `tandem` metadata: not a tandem policy file".into()))?;
-        let meta: PolicyMeta =
-            serde_json::from_str(text).map_err(|e| metadata_error(format!("`tandem` metadata: {e}")))?;
         if meta.format != FORMAT {
             return Err(metadata_error(format!("format is {:?}, expected {FORMAT:?}", meta.format)));
         }
@@ -370,6 +360,27 @@ pub(crate) fn first_non_finite_layer(layers: &[DenseLayer], prefix: &str) -> Opt
         (_, false) => Some(format!("{prefix}.{i}.bias")),
         _ => None,
     })
+}
+
+/// Parses a safetensors file and its `tandem` metadata (JSON) as `T`;
+/// `what` names the kind of file in the error when the metadata is missing.
+pub(crate) fn read_with_meta<'a, T: serde::de::DeserializeOwned>(
+    bytes: &'a [u8],
+    path: &Path,
+    what: &str,
+) -> Result<(SafeTensors<'a>, T), LearnError> {
+    let not_safetensors =
+        |e: &dyn std::fmt::Display| LearnError::NotSafetensors { path: path.into(), message: e.to_string() };
+    let (_, header) = SafeTensors::read_metadata(bytes).map_err(|e| not_safetensors(&e))?;
+    let file = SafeTensors::deserialize(bytes).map_err(|e| not_safetensors(&e))?;
+    let metadata_error = |message: String| LearnError::Metadata { path: path.into(), message };
+    let text = header
+        .metadata()
+        .as_ref()
+        .and_then(|m| m.get("tandem"))
+        .ok_or_else(|| metadata_error(format!("no `tandem` metadata: not {what}")))?;
+    let meta = serde_json::from_str(text).map_err(|e| metadata_error(format!("`tandem` metadata: {e}")))?;
+    Ok((file, meta))
 }
 
 /// Reads `name` from `file` as `f32` values of exactly `shape`.
