@@ -9,8 +9,13 @@
 #   4. the Python package: `pip install .` (maturin) into python/.venv, then
 #      its pytest suite (python/tests: Pinocchio cross-checks, planning,
 #      errors, Ray generation equal to the CLI's).
-#   5. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh);
-#   6. one million random arbitration ticks in a release build
+#   5. the teleoperation page of `tandem serve` in headless Chromium
+#      (web/tests: Debian's chromium, installed with apt-get when missing;
+#      playwright-core and the page's sources from npm, web/package-lock.json),
+#      after checking that the committed bundle web/dist/app.js is built
+#      from web/src;
+#   6. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh);
+#   7. one million random arbitration ticks in a release build
 #      (tests/arbitration_stress.rs).
 # The OSQP cross-check backend (feature `osqp`) is built with the cmake of
 # python_ref/.venv (PyPI's cmake).
@@ -80,6 +85,24 @@ MATURIN_PEP517_ARGS="--profile dev" "$pyvenv/bin/pip" install --quiet --disable-
   --force-reinstall --no-deps .
 echo "== pytest python/tests"
 TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:cacheprovider python/tests
+
+# The browser page: Chromium from Debian (CI machines start without it),
+# the page's npm packages, the bundle check, then the end-to-end tests
+# against the tandem binary the Rust tests built.
+echo "== teleoperation page in headless Chromium (web/tests)"
+if [ ! -x /usr/bin/chromium ]; then
+  echo "   installing Debian's chromium"
+  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
+  $sudo_cmd apt-get install -y -q chromium > /dev/null \
+    || { $sudo_cmd apt-get update -q > /dev/null && $sudo_cmd apt-get install -y -q chromium > /dev/null; } \
+    || { echo "error: could not install chromium (apt-get); the browser tests need /usr/bin/chromium" >&2; exit 1; }
+fi
+(cd web && npm ci --no-audit --no-fund --loglevel=error)
+(cd web && node build.mjs node_modules/.app-check.js)
+cmp -s web/dist/app.js web/node_modules/.app-check.js \
+  || { echo "error: web/dist/app.js is not built from web/src: run 'npm run build' in web/ and commit it" >&2; exit 1; }
+(cd web && node tests/teleop.test.mjs --bin "$PWD/../target/debug/tandem")
+disk "browser tests done"
 
 # Every fuzz target for a few seconds (a fresh build of fuzz/ is part of
 # the cost; scripts/fuzz.sh TARGET SECONDS fuzzes for real).

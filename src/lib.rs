@@ -50,3 +50,5 @@ pub mod plan;
 pub mod robot;
 pub mod scene;
 pub mod sim;
+#[cfg(feature = "serve")]
+pub mod teleop;

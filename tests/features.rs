@@ -1,7 +1,7 @@
 //! A control loop that embeds tandem builds only what it uses: with
 //! `default-features = false` the library's dependency tree holds none of
 //! the command line's, the dataset writers' or the network trainer's
-//! crates (it held them all).
+//! crates, nor the web server's (it held them all).
 
 use std::process::Command;
 
@@ -20,7 +20,7 @@ fn dependencies(features: &[&str]) -> Vec<String> {
         .collect()
 }
 
-const CLI_AND_DATA: [&str; 10] = [
+const CLI_AND_DATA: [&str; 12] = [
     "clap",
     "indicatif",
     "parquet",
@@ -31,6 +31,8 @@ const CLI_AND_DATA: [&str; 10] = [
     "plotters",
     "candle-core",
     "candle-nn",
+    "axum",
+    "tokio",
 ];
 
 #[test]
@@ -44,7 +46,7 @@ fn the_library_without_default_features_leaves_out_cli_and_data_crates() {
     assert!(lean.iter().any(|p| p == "safetensors"), "{lean:?}");
     // The defaults keep the command line, datasets and training.
     let full = dependencies(&[]);
-    for name in ["clap", "parquet", "rayon", "plotters", "candle-core", "candle-nn"] {
+    for name in ["clap", "parquet", "rayon", "plotters", "candle-core", "candle-nn", "axum", "tokio"] {
         assert!(full.iter().any(|p| p == name), "{name} missing from the default build");
     }
 }

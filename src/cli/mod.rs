@@ -24,6 +24,7 @@ mod learned_arbitration;
 mod plan;
 mod policy;
 mod problem_args;
+mod serve;
 mod solve;
 
 pub use problem_args::{MoveItArgs, ProblemArgs};
@@ -246,6 +247,28 @@ pub enum Command {
     /// alone and under shared control (policy). See `tandem experiment
     /// <name> --help`.
     Experiment(experiment::ExperimentArgs),
+    /// Drive the arm yourself from a browser: a local web server with a
+    /// live shared-control page (3-D view of the robot, the scene, the
+    /// reference and the metric's ellipsoid; beliefs, tick time, status
+    /// and clearance as you drive). Steer the gripper with a gamepad or the
+    /// keyboard (W/S: ±x, A/D: ±y, R/F: ±z; arrow keys too), pick the task
+    /// (reach-grasp, planar) and the arbitration mode, and reset. The
+    /// simulator and the arbiter run in the server at --rate (30 Hz, the
+    /// seed's joystick rate); each driven episode is saved as Parquet in
+    /// the simulator's layout, to compare with the simulated operators'.
+    ///
+    /// A page that disconnects or stops sending holds the arm (after
+    /// 0.5 s); malformed, binary or oversized (> 4 KiB) messages are
+    /// refused with a message on the page; NaN commands make the arbiter
+    /// hold. /stats reports tick and latency percentiles as JSON.
+    ///
+    /// Examples:
+    ///   tandem serve                       (then open http://127.0.0.1:8080/)
+    ///   tandem serve --task planar --mode natural-gradient-joint
+    ///   tandem serve --rate 1000 --port 0
+    ///   tandem serve --task planar --arbiter combined.safetensors --mode learned
+    #[command(verbatim_doc_comment)]
+    Serve(serve::ServeArgs),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -266,6 +289,7 @@ pub fn run(cli: Cli) -> Result<Outcome, Box<dyn std::error::Error>> {
         Command::Arbitrate(args) => arbitrate::run(&args),
         Command::Learn(args) => done(learn::run(&args)),
         Command::Experiment(args) => done(experiment::run(&args)),
+        Command::Serve(args) => done(serve::run(&args)),
     }
 }
 

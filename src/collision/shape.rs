@@ -70,6 +70,11 @@ impl ConvexHull {
         Ok(ConvexHull { polyhedron, radius, vertex_count })
     }
 
+    /// The hull's vertices (m, shape frame).
+    pub fn points(&self) -> Vec<[f64; 3]> {
+        self.polyhedron.points().iter().map(|p| [p.x, p.y, p.z]).collect()
+    }
+
     /// Number of hull vertices.
     pub fn vertex_count(&self) -> usize {
         self.vertex_count

@@ -147,144 +147,261 @@ impl Episode<'_> {
         judge: &mut dyn FnMut(&[f64]) -> bool,
     ) -> Result<EpisodeRecord, RobotError> {
         let arbiter = self.arbiter;
-        let (robot, model) = (arbiter.robot(), arbiter.collision_model());
         let dt = arbiter.settings().period;
-        let avoids = arbiter.settings().safety.collisions;
-        let n = robot.nq();
-        let mut kin = KinematicsWorkspace::new(robot);
-        let mut cws = CollisionWorkspace::new(model);
-        let mut jac = Matrix6xX::zeros(n);
-        let mut linear = vec![0.0; 3 * n];
-        let (mut q, mut velocity, mut next) = (self.start.to_vec(), vec![0.0; n], vec![0.0; n]);
+        let n = arbiter.robot().nq();
+        let mut live = LiveEpisode::new(arbiter, ws, self.start, self.settings.record)?;
         let true_policy = arbiter.goals().get(self.true_goal).map(|g| g.policy.clone());
         let mut policy_state: Option<PolicyState> = true_policy.as_ref().map(|p| p.new_state());
         let mut policy_action = vec![0.0; if operator.needs_policy() { n } else { 0 }];
-        arbiter.reset(ws);
         let steps_max = (self.settings.max_time / dt).ceil() as usize;
-        let mut record = EpisodeRecord {
-            outcome: Outcome::Timeout,
-            steps: 0,
-            duration: 0.0,
-            tick_us: Vec::with_capacity(steps_max),
-            hard_violations: 0,
-            min_clearance: model.min_distance(&mut cws, &q)?.map_or(f64::INFINITY, |d| d.signed.distance),
-            fallbacks: 0,
-            travel: 0.0,
-            q: vec![],
-            gripper: vec![],
-            human: vec![],
-            executed: vec![],
-            qdot: vec![],
-            robot: vec![],
-            beliefs: vec![],
-            statuses: vec![],
-            final_q: vec![],
-        };
-        let mut gripper = self.gripper_state(&mut kin, &mut jac, &mut linear, &q)?;
-        record.gripper.push(gripper);
-        if self.settings.record {
-            record.q.push(q.clone());
-        }
+        live.record.tick_us.reserve(steps_max);
+        let mut outcome = Outcome::Timeout;
         for step in 0..steps_max {
-            if judge(&q) {
-                record.outcome = Outcome::Success;
+            if judge(live.q()) {
+                outcome = Outcome::Success;
                 break;
             }
             if let (Some(policy), Some(state), false) = (&true_policy, policy_state.as_mut(), policy_action.is_empty())
-                && policy.act(state, &q, &velocity, &mut policy_action).is_err()
+                && policy.act(state, live.q(), live.velocity(), &mut policy_action).is_err()
             {
                 policy_action.fill(0.0);
             }
             let seen = Observation {
-                q: &q,
-                gripper,
+                q: live.q(),
+                gripper: live.gripper(),
                 goal: self.target,
-                jacobian: &linear,
+                jacobian: live.linear_jacobian(),
                 policy_action: &policy_action,
                 time: step as f64 * dt,
             };
             let v = match operator.act(&seen) {
                 OperatorAction::Done => {
-                    record.outcome = Outcome::Failed;
+                    outcome = Outcome::Failed;
                     break;
                 }
                 OperatorAction::Move(v) => v,
             };
-            let began = Instant::now();
-            let input =
-                TickInput { q: &q, velocity: Some(&velocity), command: HumanCommand::Linear(&v), beliefs: None };
-            let command = arbiter.tick(ws, &input);
-            record.tick_us.push(began.elapsed().as_secs_f64() * 1e6);
-            record.steps += 1;
-            let (status, goal) = (command.status, command.diagnostics.goal);
-            if !matches!(status, TickStatus::Nominal | TickStatus::Constrained | TickStatus::StepShortened) {
-                record.fallbacks += 1;
-            }
-            velocity.copy_from_slice(command.qdot);
-            for j in 0..n {
-                next[j] = q[j] + dt * velocity[j];
-            }
-            if self.settings.record {
-                let executed = [0, 1, 2].map(|r| (0..n).map(|c| linear[r * n + c] * velocity[c]).sum::<f64>());
-                record.human.push(v);
-                record.executed.push(executed);
-                record.qdot.push(velocity.clone());
-                record.robot.push(goal.map_or_else(Vec::new, |g| ws.robot_action(g).to_vec()));
-                record.beliefs.push(ws.beliefs().to_vec());
-                record.statuses.push(status);
-            }
-            let within_limits = robot.limits().iter().zip(&next).zip(&velocity).all(|((l, x), v)| {
-                let vmax = if l.velocity.is_finite() && l.velocity > 0.0 { l.velocity } else { f64::INFINITY };
-                *x >= l.lower - 1e-9
-                    && *x <= l.upper + 1e-9
-                    && v.abs() <= vmax * arbiter.settings().safety.velocity_scale + 1e-9
-            });
-            let free = model.collision_free(&mut cws, &next)?;
-            if !within_limits || (avoids && !free) {
-                record.hard_violations += 1;
-            }
-            q.copy_from_slice(&next);
-            if let Some(d) = model.min_distance(&mut cws, &q)? {
-                record.min_clearance = record.min_clearance.min(d.signed.distance);
-            }
-            let before = gripper;
-            gripper = self.gripper_state(&mut kin, &mut jac, &mut linear, &q)?;
-            record.travel += super::operator::distance(before, gripper);
-            record.gripper.push(gripper);
-            if self.settings.record {
-                record.q.push(q.clone());
-            }
-            if !free {
-                record.outcome = Outcome::Collision;
+            if live.step(arbiter, ws, HumanCommand::Linear(&v))?.collided {
+                outcome = Outcome::Collision;
                 break;
             }
         }
-        if record.outcome == Outcome::Timeout && judge(&q) {
-            record.outcome = Outcome::Success;
+        if outcome == Outcome::Timeout && judge(live.q()) {
+            outcome = Outcome::Success;
         }
-        record.duration = record.steps as f64 * dt;
-        record.final_q = q;
-        Ok(record)
+        Ok(live.finish(outcome, dt))
+    }
+}
+
+/// What one [`LiveEpisode::step`] did.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiveStep {
+    /// The tick's status.
+    pub status: TickStatus,
+    /// The executed step ended in collision (the episode is over).
+    pub collided: bool,
+    /// Wall-clock time of the arbiter's tick (µs).
+    pub tick_us: f64,
+    /// Signed distance to the nearest obstacle after the step (m; infinite
+    /// without obstacles).
+    pub clearance: f64,
+}
+
+/// An episode stepped one tick at a time by whoever supplies the
+/// operator's command: [`Episode::run`] with a simulated operator, `tandem
+/// serve` with a person at the controls. It owns the simulator's buffers
+/// and the growing [`EpisodeRecord`]; the [`Arbiter`] is passed to each
+/// step (model/workspace split), always the one it was made with.
+#[derive(Debug)]
+pub struct LiveEpisode {
+    kin: KinematicsWorkspace,
+    cws: CollisionWorkspace,
+    jac: Matrix6xX<f64>,
+    linear: Vec<f64>,
+    q: Vec<f64>,
+    velocity: Vec<f64>,
+    next: Vec<f64>,
+    gripper: [f64; 3],
+    clearance: f64,
+    keep: bool,
+    record: EpisodeRecord,
+}
+
+impl LiveEpisode {
+    /// Starts at `start` (at rest) and resets `ws`; `keep` records every
+    /// tick's configuration, commands, beliefs and status.
+    ///
+    /// # Errors
+    /// A start configuration of the wrong length or not finite.
+    pub fn new(
+        arbiter: &Arbiter,
+        ws: &mut ArbiterWorkspace,
+        start: &[f64],
+        keep: bool,
+    ) -> Result<LiveEpisode, RobotError> {
+        let (robot, model) = (arbiter.robot(), arbiter.collision_model());
+        robot.check_configuration(start)?;
+        let n = robot.nq();
+        let mut cws = CollisionWorkspace::new(model);
+        let clearance = model.min_distance(&mut cws, start)?.map_or(f64::INFINITY, |d| d.signed.distance);
+        arbiter.reset(ws);
+        let mut live = LiveEpisode {
+            kin: KinematicsWorkspace::new(robot),
+            cws,
+            jac: Matrix6xX::zeros(n),
+            linear: vec![0.0; 3 * n],
+            q: start.to_vec(),
+            velocity: vec![0.0; n],
+            next: vec![0.0; n],
+            gripper: [0.0; 3],
+            clearance,
+            keep,
+            record: EpisodeRecord {
+                outcome: Outcome::Timeout,
+                steps: 0,
+                duration: 0.0,
+                tick_us: vec![],
+                hard_violations: 0,
+                min_clearance: clearance,
+                fallbacks: 0,
+                travel: 0.0,
+                q: vec![],
+                gripper: vec![],
+                human: vec![],
+                executed: vec![],
+                qdot: vec![],
+                robot: vec![],
+                beliefs: vec![],
+                statuses: vec![],
+                final_q: vec![],
+            },
+        };
+        live.update_gripper(arbiter)?;
+        live.record.gripper.push(live.gripper);
+        if keep {
+            live.record.q.push(live.q.clone());
+        }
+        Ok(live)
     }
 
-    /// Gripper position at `q`, and the Jacobian's linear rows (row-major).
-    fn gripper_state(
-        &self,
-        kin: &mut KinematicsWorkspace,
-        jac: &mut Matrix6xX<f64>,
-        linear: &mut [f64],
-        q: &[f64],
-    ) -> Result<[f64; 3], RobotError> {
-        let robot = self.arbiter.robot();
-        robot.forward_kinematics(kin, q)?;
-        let pose = robot.frame_jacobian(kin, self.arbiter.gripper_frame(), ReferenceFrame::WorldAligned, jac)?;
-        let n = q.len();
+    /// The configuration (rad or m).
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// The joint velocity executed last (rad/s or m/s; zero at the start).
+    pub fn velocity(&self) -> &[f64] {
+        &self.velocity
+    }
+
+    /// The gripper position (m, world).
+    pub fn gripper(&self) -> [f64; 3] {
+        self.gripper
+    }
+
+    /// The gripper Jacobian's linear rows at [`Self::q`] (3 × n, row-major).
+    pub fn linear_jacobian(&self) -> &[f64] {
+        &self.linear
+    }
+
+    /// Signed distance to the nearest obstacle at [`Self::q`] (m).
+    pub fn clearance(&self) -> f64 {
+        self.clearance
+    }
+
+    /// The record so far (its outcome is set by [`Self::finish`]).
+    pub fn record(&self) -> &EpisodeRecord {
+        &self.record
+    }
+
+    /// One control tick: the arbiter blends `command` at the current state,
+    /// the arm moves `q ← q + q̇·dt`, and the new configuration is checked
+    /// against the limits and for collision.
+    ///
+    /// # Errors
+    /// Kinematics or collision queries failing on the new configuration.
+    pub fn step(
+        &mut self,
+        arbiter: &Arbiter,
+        ws: &mut ArbiterWorkspace,
+        command: HumanCommand<'_>,
+    ) -> Result<LiveStep, RobotError> {
+        let (robot, model) = (arbiter.robot(), arbiter.collision_model());
+        let dt = arbiter.settings().period;
+        let n = self.q.len();
+        let began = Instant::now();
+        let input = TickInput { q: &self.q, velocity: Some(&self.velocity), command, beliefs: None };
+        let tick = arbiter.tick(ws, &input);
+        let tick_us = began.elapsed().as_secs_f64() * 1e6;
+        let (status, goal) = (tick.status, tick.diagnostics.goal);
+        self.velocity.copy_from_slice(tick.qdot);
+        let record = &mut self.record;
+        record.tick_us.push(tick_us);
+        record.steps += 1;
+        if !matches!(status, TickStatus::Nominal | TickStatus::Constrained | TickStatus::StepShortened) {
+            record.fallbacks += 1;
+        }
+        for j in 0..n {
+            self.next[j] = self.q[j] + dt * self.velocity[j];
+        }
+        if self.keep {
+            let linear = &self.linear;
+            let executed = [0, 1, 2].map(|r| (0..n).map(|c| linear[r * n + c] * self.velocity[c]).sum::<f64>());
+            let human = match command {
+                HumanCommand::Linear(v) | HumanCommand::Twist(v) if v.len() >= 3 => [v[0], v[1], v[2]],
+                _ => [f64::NAN; 3],
+            };
+            record.human.push(human);
+            record.executed.push(executed);
+            record.qdot.push(self.velocity.clone());
+            record.robot.push(goal.map_or_else(Vec::new, |g| ws.robot_action(g).to_vec()));
+            record.beliefs.push(ws.beliefs().to_vec());
+            record.statuses.push(status);
+        }
+        let safety = &arbiter.settings().safety;
+        let within_limits = robot.limits().iter().zip(&self.next).zip(&self.velocity).all(|((l, x), v)| {
+            let vmax = if l.velocity.is_finite() && l.velocity > 0.0 { l.velocity } else { f64::INFINITY };
+            *x >= l.lower - 1e-9 && *x <= l.upper + 1e-9 && v.abs() <= vmax * safety.velocity_scale + 1e-9
+        });
+        let free = model.collision_free(&mut self.cws, &self.next)?;
+        if !within_limits || (safety.collisions && !free) {
+            record.hard_violations += 1;
+        }
+        self.q.copy_from_slice(&self.next);
+        self.clearance = model.min_distance(&mut self.cws, &self.q)?.map_or(f64::INFINITY, |d| d.signed.distance);
+        self.record.min_clearance = self.record.min_clearance.min(self.clearance);
+        let before = self.gripper;
+        self.update_gripper(arbiter)?;
+        self.record.travel += super::operator::distance(before, self.gripper);
+        self.record.gripper.push(self.gripper);
+        if self.keep {
+            self.record.q.push(self.q.clone());
+        }
+        Ok(LiveStep { status, collided: !free, tick_us, clearance: self.clearance })
+    }
+
+    /// Ends the episode with `outcome`; `dt` is the control period (s).
+    pub fn finish(mut self, outcome: Outcome, dt: f64) -> EpisodeRecord {
+        self.record.outcome = outcome;
+        self.record.duration = self.record.steps as f64 * dt;
+        self.record.final_q = self.q;
+        self.record
+    }
+
+    /// Gripper position and the Jacobian's linear rows (row-major) at `q`.
+    fn update_gripper(&mut self, arbiter: &Arbiter) -> Result<(), RobotError> {
+        let robot = arbiter.robot();
+        robot.forward_kinematics(&mut self.kin, &self.q)?;
+        let pose =
+            robot.frame_jacobian(&self.kin, arbiter.gripper_frame(), ReferenceFrame::WorldAligned, &mut self.jac)?;
+        let n = self.q.len();
         for r in 0..3 {
             for c in 0..n {
-                linear[r * n + c] = jac[(r, c)];
+                self.linear[r * n + c] = self.jac[(r, c)];
             }
         }
-        Ok(pose.translation.vector.into())
+        self.gripper = pose.translation.vector.into();
+        Ok(())
     }
 }
 

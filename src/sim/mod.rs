@@ -32,7 +32,7 @@ pub mod traded;
 pub use arbitration_env::{
     ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, EnvTask, RewardKind, StepResult, reward,
 };
-pub use episode::{Episode, EpisodeRecord, EpisodeSettings, Outcome, percentiles};
+pub use episode::{Episode, EpisodeRecord, EpisodeSettings, LiveEpisode, LiveStep, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, Pace, PolicyFollower, Straightline,

@@ -1,0 +1,524 @@
+//! The web server: the page at `/`, its script at `/app.js`, one
+//! [`TeleopSession`] per WebSocket at `/ws`, and health and timing at
+//! `/stats`. Each session ticks at the control rate on the runtime; states
+//! go out at most 60 times a second through a latest-wins channel, so a
+//! slow page never delays the control loop, and a flood of commands only
+//! overwrites the latest one.
+
+use super::protocol::{ClientMessage, MAX_MESSAGE_BYTES, parse_client_message};
+use super::session::{SessionSettings, TeleopSession, TeleopTask};
+use super::{StateView, TeleopError};
+use axum::Router;
+use axum::extract::State;
+use axum::extract::ws::{CloseFrame, Message, WebSocket, WebSocketUpgrade};
+use axum::http::header;
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::get;
+use futures_util::{SinkExt, StreamExt};
+use serde::Serialize;
+use std::net::SocketAddr;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio::sync::{mpsc, watch};
+
+const PAGE: &str = include_str!("../../web/index.html");
+const SCRIPT: &str = include_str!("../../web/dist/app.js");
+
+/// How `tandem serve` runs.
+#[derive(Clone)]
+pub struct ServeSettings {
+    /// Where to listen (default `127.0.0.1:8080`; port 0 picks a free one).
+    pub address: SocketAddr,
+    /// The sessions' settings.
+    pub session: SessionSettings,
+    /// States sent per second at most (default 60).
+    pub state_rate_hz: f64,
+    /// The task a new page starts on.
+    pub task: TeleopTask,
+    /// Its seed.
+    pub seed: u64,
+}
+
+impl Default for ServeSettings {
+    fn default() -> Self {
+        ServeSettings {
+            address: SocketAddr::from(([127, 0, 0, 1], 8080)),
+            session: SessionSettings::default(),
+            state_rate_hz: 60.0,
+            task: TeleopTask::ReachGrasp,
+            seed: 0,
+        }
+    }
+}
+
+/// Counters and recent timings of the server, served at `/stats`.
+#[derive(Debug, Default)]
+pub struct ServerStats {
+    sessions_open: AtomicU64,
+    sessions_total: AtomicU64,
+    ticks: AtomicU64,
+    late_ticks: AtomicU64,
+    messages: AtomicU64,
+    rejected: AtomicU64,
+    closed_oversized: AtomicU64,
+    states_sent: AtomicU64,
+    episodes_saved: AtomicU64,
+    samples: Mutex<Samples>,
+}
+
+#[derive(Debug, Default)]
+struct Samples {
+    tick_us: Vec<f64>,
+    latency_us: Vec<f64>,
+}
+
+/// Recent samples kept for the percentiles.
+const KEPT_SAMPLES: usize = 20_000;
+
+fn keep(samples: &mut Vec<f64>, value: f64) {
+    if samples.len() >= KEPT_SAMPLES {
+        samples.drain(..KEPT_SAMPLES / 2);
+    }
+    samples.push(value);
+}
+
+#[derive(Serialize)]
+struct Percentiles {
+    count: usize,
+    median: f64,
+    p99: f64,
+    max: f64,
+}
+
+impl Percentiles {
+    fn of(samples: &[f64]) -> Percentiles {
+        let (median, p99, max) = crate::sim::percentiles(samples);
+        Percentiles { count: samples.len(), median, p99, max }
+    }
+}
+
+impl ServerStats {
+    /// The counters and percentiles as JSON (what `/stats` returns).
+    pub fn to_json(&self) -> serde_json::Value {
+        let load = |c: &AtomicU64| c.load(Ordering::Relaxed);
+        let samples = self.samples.lock().unwrap_or_else(|e| e.into_inner());
+        serde_json::json!({
+            "sessions_open": load(&self.sessions_open),
+            "sessions_total": load(&self.sessions_total),
+            "ticks": load(&self.ticks),
+            "late_ticks": load(&self.late_ticks),
+            "messages": load(&self.messages),
+            "rejected": load(&self.rejected),
+            "closed_oversized": load(&self.closed_oversized),
+            "states_sent": load(&self.states_sent),
+            "episodes_saved": load(&self.episodes_saved),
+            "tick_us": Percentiles::of(&samples.tick_us),
+            "latency_us": Percentiles::of(&samples.latency_us),
+        })
+    }
+}
+
+struct Shared {
+    settings: ServeSettings,
+    stats: Arc<ServerStats>,
+}
+
+/// A bound server, ready to [`Server::run`].
+pub struct Server {
+    listener: tokio::net::TcpListener,
+    app: Router,
+    stats: Arc<ServerStats>,
+}
+
+impl Server {
+    /// Binds `settings.address`.
+    ///
+    /// # Errors
+    /// The address cannot be bound (in use, not local, …).
+    pub async fn bind(settings: ServeSettings) -> Result<Server, TeleopError> {
+        let listener = tokio::net::TcpListener::bind(settings.address).await?;
+        let stats = Arc::new(ServerStats::default());
+        let shared = Arc::new(Shared { settings, stats: stats.clone() });
+        let app = Router::new()
+            .route("/", get(|| async { Html(PAGE) }))
+            .route("/app.js", get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], SCRIPT) }))
+            .route("/stats", get(stats_page))
+            .route("/ws", get(upgrade))
+            .with_state(shared);
+        Ok(Server { listener, app, stats })
+    }
+
+    /// The address it listens on.
+    ///
+    /// # Errors
+    /// The socket's address cannot be read.
+    pub fn local_addr(&self) -> Result<SocketAddr, TeleopError> {
+        Ok(self.listener.local_addr()?)
+    }
+
+    /// Its counters.
+    pub fn stats(&self) -> Arc<ServerStats> {
+        self.stats.clone()
+    }
+
+    /// Serves until the process ends.
+    ///
+    /// # Errors
+    /// The listener failing.
+    pub async fn run(self) -> Result<(), TeleopError> {
+        axum::serve(self.listener, self.app).await?;
+        Ok(())
+    }
+}
+
+/// Serves on a runtime of its own until the process ends; `ready` is told
+/// the bound address first.
+///
+/// # Errors
+/// Binding or serving failing.
+pub fn serve(settings: ServeSettings, ready: impl FnOnce(SocketAddr)) -> Result<(), TeleopError> {
+    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    runtime.block_on(async {
+        let server = Server::bind(settings).await?;
+        ready(server.local_addr()?);
+        server.run().await
+    })
+}
+
+async fn stats_page(State(shared): State<Arc<Shared>>) -> Response {
+    ([(header::CONTENT_TYPE, "application/json")], shared.stats.to_json().to_string()).into_response()
+}
+
+async fn upgrade(ws: WebSocketUpgrade, State(shared): State<Arc<Shared>>) -> Response {
+    ws.max_message_size(MAX_MESSAGE_BYTES)
+        .max_frame_size(MAX_MESSAGE_BYTES)
+        .on_upgrade(move |socket| run_session(socket, shared))
+}
+
+/// Messages to the page other than states, which go through a latest-wins
+/// channel.
+enum Outgoing {
+    Text(String),
+    Close(u16, &'static str),
+}
+
+fn json_message<T: Serialize>(kind: &str, body: &T) -> String {
+    let mut value = serde_json::to_value(body).unwrap_or(serde_json::Value::Null);
+    if let serde_json::Value::Object(map) = &mut value {
+        map.insert("type".into(), kind.into());
+    }
+    value.to_string()
+}
+
+/// Writes to the socket: control messages in order, and the latest state
+/// whenever it changes.
+async fn writer(
+    mut sink: futures_util::stream::SplitSink<WebSocket, Message>,
+    mut control: mpsc::Receiver<Outgoing>,
+    mut states: watch::Receiver<Option<String>>,
+    stats: Arc<ServerStats>,
+) {
+    loop {
+        let message = tokio::select! {
+            biased;
+            m = control.recv() => match m {
+                Some(Outgoing::Text(t)) => Message::Text(t.into()),
+                Some(Outgoing::Close(code, reason)) => {
+                    let _ = sink.send(Message::Close(Some(CloseFrame { code, reason: reason.into() }))).await;
+                    return;
+                }
+                None => return,
+            },
+            changed = states.changed() => {
+                if changed.is_err() {
+                    return;
+                }
+                let Some(text) = states.borrow_and_update().clone() else { continue };
+                stats.states_sent.fetch_add(1, Ordering::Relaxed);
+                Message::Text(text.into())
+            }
+        };
+        if sink.send(message).await.is_err() {
+            return;
+        }
+    }
+}
+
+/// The per-connection loop state.
+struct Connection {
+    shared: Arc<Shared>,
+    control: mpsc::Sender<Outgoing>,
+    states: watch::Sender<Option<String>>,
+    errors_sent: (Instant, u32),
+    last_state_sent: Option<Instant>,
+    /// When the oldest command not yet reflected in a sent state arrived.
+    unanswered_command: Option<Instant>,
+}
+
+impl Connection {
+    fn send(&self, text: String) {
+        // A page that does not read fills the queue: drop, never block the loop.
+        let _ = self.control.try_send(Outgoing::Text(text));
+    }
+
+    /// Tells the page what was wrong, at most 10 times a second.
+    fn error(&mut self, message: &str) {
+        self.shared.stats.rejected.fetch_add(1, Ordering::Relaxed);
+        let now = Instant::now();
+        if now.duration_since(self.errors_sent.0) > Duration::from_secs(1) {
+            self.errors_sent = (now, 0);
+        }
+        if self.errors_sent.1 < 10 {
+            self.errors_sent.1 += 1;
+            self.send(json_message("error", &serde_json::json!({ "message": message })));
+        }
+    }
+
+    fn scene(&mut self, session: &TeleopSession) {
+        self.send(json_message("scene", &session.scene()));
+        self.publish(session.state(), true);
+    }
+
+    /// Sends `state` when one is due (at most `state_rate_hz`) or `force`d;
+    /// the latency of the command it answers, if any, goes with it.
+    fn publish(&mut self, state: &StateView, force: bool) {
+        let now = Instant::now();
+        let period = 1.0 / self.shared.settings.state_rate_hz;
+        let due = self.last_state_sent.is_none_or(|t| now.duration_since(t).as_secs_f64() >= period * 0.95);
+        if !(force || due) {
+            return;
+        }
+        let mut view = state.clone();
+        if let Some(at) = self.unanswered_command.take() {
+            view.latency_us = now.duration_since(at).as_secs_f64() * 1e6;
+            let mut samples = self.shared.stats.samples.lock().unwrap_or_else(|e| e.into_inner());
+            keep(&mut samples.latency_us, view.latency_us);
+        }
+        self.states.send_replace(Some(json_message("state", &view)));
+        self.last_state_sent = Some(now);
+    }
+}
+
+type Preparing = tokio::task::JoinHandle<(Option<TeleopSession>, Result<TeleopSession, TeleopError>)>;
+
+/// Prepares `task` off the runtime's threads (it plans and optimizes).
+fn start_preparing(settings: &SessionSettings, old: Option<TeleopSession>, task: TeleopTask, seed: u64) -> Preparing {
+    let settings = settings.clone();
+    tokio::task::spawn_blocking(move || match old {
+        Some(mut session) => {
+            let result = session.restart(task, seed);
+            match result {
+                Ok(()) => (None, Ok(session)),
+                Err(e) => (Some(session), Err(e)),
+            }
+        }
+        None => (None, TeleopSession::prepare(&settings, task, seed)),
+    })
+}
+
+async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
+    let stats = shared.stats.clone();
+    stats.sessions_open.fetch_add(1, Ordering::Relaxed);
+    stats.sessions_total.fetch_add(1, Ordering::Relaxed);
+    let (sink, mut stream) = socket.split();
+    let (control_tx, control_rx) = mpsc::channel(64);
+    let (state_tx, state_rx) = watch::channel(None);
+    let writer = tokio::spawn(writer(sink, control_rx, state_rx, stats.clone()));
+    let settings = shared.settings.clone();
+    let mut conn = Connection {
+        shared,
+        control: control_tx,
+        states: state_tx,
+        errors_sent: (Instant::now(), 0),
+        last_state_sent: None,
+        unanswered_command: None,
+    };
+    conn.send(json_message(
+        "hello",
+        &serde_json::json!({
+            "version": env!("CARGO_PKG_VERSION"),
+            "tasks": TeleopTask::ALL.map(|t| t.as_str()),
+            "rate_hz": settings.session.rate_hz,
+            "max_speed": settings.session.max_speed,
+            "max_message_bytes": MAX_MESSAGE_BYTES,
+        }),
+    ));
+    conn.send(json_message("preparing", &serde_json::json!({ "task": settings.task.as_str(), "seed": settings.seed })));
+    let mut session: Option<TeleopSession> = None;
+    let mut preparing = Some(start_preparing(&settings.session, None, settings.task, settings.seed));
+    let period = Duration::from_secs_f64(1.0 / settings.session.rate_hz);
+    let mut clock = tokio::time::interval(period);
+    clock.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+    let mut last_tick: Option<Instant> = None;
+    loop {
+        tokio::select! {
+            _ = clock.tick(), if session.is_some() => {
+                let now = Instant::now();
+                if last_tick.is_some_and(|t| now.duration_since(t) > period.mul_f64(1.5)) {
+                    stats.late_ticks.fetch_add(1, Ordering::Relaxed);
+                }
+                last_tick = Some(now);
+                if let Some(s) = session.as_mut() {
+                    tick(&mut conn, s, now);
+                }
+            }
+            done = async { preparing.as_mut().expect("guarded by the branch condition").await }, if preparing.is_some() => {
+                preparing = None;
+                match done {
+                    Ok((_, Ok(s))) => {
+                        conn.scene(&s);
+                        session = Some(s);
+                    }
+                    Ok((old, Err(e))) => {
+                        conn.error(&format!("{e}"));
+                        if let Some(s) = old {
+                            conn.scene(&s);
+                            session = Some(s);
+                        }
+                    }
+                    Err(e) => conn.error(&format!("preparing the task panicked: {e}")),
+                }
+            }
+            incoming = stream.next() => {
+                let Some(incoming) = incoming else { break };
+                stats.messages.fetch_add(1, Ordering::Relaxed);
+                match incoming {
+                    Ok(Message::Text(text)) => {
+                        if let Some((task, seed)) = handle_text(&mut conn, session.as_mut(), &text) {
+                            if preparing.is_some() {
+                                conn.error("a task is being prepared; reset again when it is ready");
+                            } else {
+                                let mut old = session.take();
+                                if let Some(s) = old.as_mut() {
+                                    finish_episode(&conn, s, &stats);
+                                }
+                                let task = task.unwrap_or(old.as_ref().map_or(settings.task, TeleopSession::task));
+                                let seed = seed.unwrap_or(old.as_ref().map_or(settings.seed, TeleopSession::seed));
+                                let body = serde_json::json!({ "task": task.as_str(), "seed": seed });
+                                conn.send(json_message("preparing", &body));
+                                preparing = Some(start_preparing(&settings.session, old, task, seed));
+                            }
+                        }
+                    }
+                    Ok(Message::Binary(_)) => {
+                        conn.error("binary frames are not read: send JSON text messages");
+                        if let Some(s) = session.as_mut() { s.reject(); }
+                    }
+                    Ok(Message::Close(_)) => break,
+                    Ok(Message::Ping(_) | Message::Pong(_)) => {}
+                    Err(e) => {
+                        // The only read errors that leave a reason to give:
+                        // a frame over the size limit (code 1009).
+                        if format!("{e:?}").contains("Capacity") || format!("{e}").contains("too long") {
+                            stats.closed_oversized.fetch_add(1, Ordering::Relaxed);
+                            let _ = conn.control.try_send(Outgoing::Close(1009, "message larger than 4096 bytes"));
+                        }
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    if let Some(s) = session.as_mut() {
+        finish_episode(&conn, s, &stats);
+    }
+    drop(conn);
+    let _ = writer.await;
+    stats.sessions_open.fetch_sub(1, Ordering::Relaxed);
+}
+
+/// Ends the session's episode, saves it, and tells the page where.
+fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &ServerStats) {
+    match session.finish() {
+        Ok(file) => {
+            if file.is_some() {
+                stats.episodes_saved.fetch_add(1, Ordering::Relaxed);
+            }
+            let outcome = session.outcome().map_or("failed", |o| o.as_str());
+            let state = session.state();
+            conn.send(json_message(
+                "episode",
+                &serde_json::json!({
+                    "outcome": outcome,
+                    "steps": state.steps,
+                    "time": state.time,
+                    "min_clearance": state.min_clearance,
+                    "file": file.map(|f| f.display().to_string()),
+                }),
+            ));
+        }
+        Err(e) => conn.send(json_message("error", &serde_json::json!({ "message": format!("{e}") }))),
+    }
+}
+
+/// One control tick and, when due, a state for the page; an episode that
+/// just ended is saved.
+fn tick(conn: &mut Connection, session: &mut TeleopSession, now: Instant) {
+    let stats = conn.shared.stats.clone();
+    let was_running = session.outcome().is_none();
+    match session.tick(now) {
+        Ok(state) => {
+            if was_running {
+                stats.ticks.fetch_add(1, Ordering::Relaxed);
+                let mut samples = stats.samples.lock().unwrap_or_else(|e| e.into_inner());
+                keep(&mut samples.tick_us, state.tick_us);
+            }
+        }
+        Err(e) => conn.error(&format!("the simulator failed: {e}")),
+    }
+    let ended = was_running && session.outcome().is_some();
+    if let (true, Some(at)) = (was_running, session.used_command_at()) {
+        conn.unanswered_command.get_or_insert(at);
+    }
+    conn.publish(session.state(), ended);
+    if ended {
+        finish_episode(conn, session, &stats);
+    }
+}
+
+/// Applies a text message; returns a requested reset (task, seed). A
+/// message that cannot be applied is counted and explained to the page.
+fn handle_text(
+    conn: &mut Connection,
+    mut session: Option<&mut TeleopSession>,
+    text: &str,
+) -> Option<(Option<TeleopTask>, Option<u64>)> {
+    match apply(session.as_deref_mut(), text) {
+        Ok(reset) => reset,
+        Err(e) => {
+            if let Some(s) = session {
+                s.reject();
+            }
+            conn.error(&e);
+            None
+        }
+    }
+}
+
+type Reset = Option<(Option<TeleopTask>, Option<u64>)>;
+
+fn apply(session: Option<&mut TeleopSession>, text: &str) -> Result<Reset, String> {
+    match parse_client_message(text)? {
+        ClientMessage::Command { linear } => {
+            if let Some(s) = session {
+                s.set_command(linear, Instant::now());
+            }
+            Ok(None)
+        }
+        ClientMessage::Mode { mode } => {
+            if let Some(s) = session {
+                s.set_mode(&mode)?;
+            }
+            Ok(None)
+        }
+        ClientMessage::Reset { task, seed } => match task.as_deref().map(TeleopTask::parse) {
+            Some(None) => {
+                let known = TeleopTask::ALL.map(|t| t.as_str()).join(", ");
+                Err(format!("unknown task '{}' (known: {known})", task.unwrap_or_default()))
+            }
+            Some(Some(t)) => Ok(Some((Some(t), seed))),
+            None => Ok(Some((None, seed))),
+        },
+    }
+}

@@ -1,0 +1,372 @@
+//! One person's simulator: a task, its arbiter, the arm stepped one tick
+//! at a time, the latest command, and the recording of each episode.
+
+use super::TeleopError;
+use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, robot_links, tick_ellipsoid};
+use crate::arbitration::{
+    Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalOptions,
+    HumanCommand, ProblemGoal, problem_goals,
+};
+use crate::robot::{FrameId, KinematicsWorkspace};
+use crate::scene::Problem;
+use crate::sim::{Arm, LiveEpisode, Outcome, TaskJudge, sample_planar_task, sample_task};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// The tasks a person can drive.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TeleopTask {
+    /// The Panda's reach-and-grasp of a box (seed §5.5.1), the box placed
+    /// by the seed as in `tandem experiment reach-grasp` (or the problem
+    /// given to `tandem serve`).
+    ReachGrasp,
+    /// The planar gripper reaching one of two cylinders past a pole (seed
+    /// §6.5), placed by the seed as in `tandem experiment planar`.
+    Planar,
+}
+
+impl TeleopTask {
+    /// Every task.
+    pub const ALL: [TeleopTask; 2] = [TeleopTask::ReachGrasp, TeleopTask::Planar];
+
+    /// `reach-grasp` or `planar`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            TeleopTask::ReachGrasp => "reach-grasp",
+            TeleopTask::Planar => "planar",
+        }
+    }
+
+    /// The task named `name`.
+    pub fn parse(name: &str) -> Option<TeleopTask> {
+        TeleopTask::ALL.into_iter().find(|t| t.as_str() == name)
+    }
+}
+
+/// How sessions run.
+#[derive(Clone)]
+pub struct SessionSettings {
+    /// Control rate (Hz; default 30, the seed's joystick rate; at most 1000).
+    pub rate_hz: f64,
+    /// Largest commanded gripper speed (m/s; default 0.25): longer commands
+    /// are scaled down to it.
+    pub max_speed: f64,
+    /// Commands older than this hold the arm (s; default 0.5): a page that
+    /// stalls or disconnects never leaves the arm moving.
+    pub command_timeout: f64,
+    /// An episode times out after this long (s of simulated time; default 120).
+    pub max_episode_time: f64,
+    /// The mode sessions start in (default sum-of-squares).
+    pub mode: ArbitrationMode,
+    /// The reach-and-grasp problem (default: the built-in `panda_grasp_box`
+    /// with the box placed by the seed).
+    pub problem: Option<Arc<Problem>>,
+    /// Where each driven episode is saved (Parquet); `None` keeps nothing.
+    pub record_dir: Option<PathBuf>,
+    /// The learned arbitration actor (offered as mode `learned` on tasks
+    /// with as many goals as it was trained for).
+    pub actor: Option<Arc<dyn ArbitrationPolicy>>,
+}
+
+impl Default for SessionSettings {
+    fn default() -> Self {
+        SessionSettings {
+            rate_hz: 30.0,
+            max_speed: 0.25,
+            command_timeout: 0.5,
+            max_episode_time: 120.0,
+            mode: ArbitrationMode::SumOfSquares,
+            problem: None,
+            record_dir: None,
+            actor: None,
+        }
+    }
+}
+
+/// A prepared task: its problem, goals and arbiter (built once per task
+/// and seed; episodes restart on it cheaply).
+struct Prepared {
+    task: TeleopTask,
+    seed: u64,
+    problem: Problem,
+    goals: Vec<ProblemGoal>,
+    arbiter: Arbiter,
+    modes: Vec<ArbitrationMode>,
+    links: Vec<LinkView>,
+    frames: Vec<FrameId>,
+}
+
+/// One person's simulator.
+pub struct TeleopSession {
+    settings: SessionSettings,
+    prepared: Prepared,
+    ws: ArbiterWorkspace,
+    live: LiveEpisode,
+    judges: Vec<TaskJudge>,
+    kin: KinematicsWorkspace,
+    command: [f64; 3],
+    command_at: Option<Instant>,
+    used_command_at: Option<Instant>,
+    new_command: bool,
+    outcome: Option<Outcome>,
+    saved: bool,
+    episode: usize,
+    state: StateView,
+}
+
+fn prepare(settings: &SessionSettings, task: TeleopTask, seed: u64) -> Result<Prepared, TeleopError> {
+    let wrap = |source| TeleopError::Prepare { task: task.as_str(), source: Box::new(source) };
+    let (problem, goals) = match task {
+        TeleopTask::ReachGrasp => match &settings.problem {
+            Some(problem) => {
+                let options =
+                    GoalOptions { seed: Some(seed), objects: GoalObjects::AllGraspable, ..Default::default() };
+                ((**problem).clone(), problem_goals(problem, &options).map_err(wrap)?)
+            }
+            None => {
+                let base = Problem::builtin("panda_grasp_box").map_err(|e| wrap(e.into()))?;
+                let sampled = sample_task(&base, Arm::Right, seed, 0).map_err(wrap)?;
+                (sampled.goal.problem.clone(), vec![sampled.goal])
+            }
+        },
+        TeleopTask::Planar => {
+            let base = Problem::builtin("planar_pick").map_err(|e| wrap(e.into()))?;
+            let sampled = sample_planar_task(&base, seed, 0).map_err(wrap)?;
+            (sampled.reach[0].problem.clone(), sampled.reach)
+        }
+    };
+    let period = 1.0 / settings.rate_hz;
+    let arbiter_settings = ArbiterSettings { mode: settings.mode, period, ..ArbiterSettings::default() };
+    let mut arbiter = Arbiter::for_problem(&problem, &goals, arbiter_settings).map_err(wrap)?;
+    let mut modes = ArbitrationMode::ALL.to_vec();
+    if let Some(actor) = &settings.actor
+        && let Ok(learned) = arbiter.with_arbitration_policy(actor.clone())
+    {
+        arbiter = learned;
+        modes.push(ArbitrationMode::Learned);
+    }
+    let (links, frames) = robot_links(&problem);
+    Ok(Prepared { task, seed, problem, goals, arbiter, modes, links, frames })
+}
+
+impl TeleopSession {
+    /// Prepares `task` with `seed` (plans and optimizes its references:
+    /// milliseconds to a second) and starts an episode at its start.
+    ///
+    /// # Errors
+    /// The task's problem, references or arbiter failing.
+    pub fn prepare(settings: &SessionSettings, task: TeleopTask, seed: u64) -> Result<TeleopSession, TeleopError> {
+        let prepared = prepare(settings, task, seed)?;
+        let mut ws = prepared.arbiter.workspace();
+        let live = LiveEpisode::new(&prepared.arbiter, &mut ws, &prepared.problem.start, true)?;
+        let judges = prepared.goals.iter().map(TaskJudge::new).collect();
+        let kin = KinematicsWorkspace::new(&prepared.problem.robot);
+        let mut session = TeleopSession {
+            settings: settings.clone(),
+            prepared,
+            ws,
+            live,
+            judges,
+            kin,
+            command: [0.0; 3],
+            command_at: None,
+            used_command_at: None,
+            new_command: false,
+            outcome: None,
+            saved: false,
+            episode: 0,
+            state: StateView::default(),
+        };
+        session.refresh_state(0.0)?;
+        Ok(session)
+    }
+
+    /// The task.
+    pub fn task(&self) -> TeleopTask {
+        self.prepared.task
+    }
+
+    /// The task's seed.
+    pub fn seed(&self) -> u64 {
+        self.prepared.seed
+    }
+
+    /// The scene to draw.
+    pub fn scene(&self) -> SceneView {
+        let p = &self.prepared;
+        SceneView::new(SceneParts {
+            task: p.task.as_str(),
+            seed: p.seed,
+            problem: &p.problem,
+            goals: &p.goals,
+            arbiter: &p.arbiter,
+            modes: &p.modes,
+            mode: self.ws.mode(),
+            links: p.links.clone(),
+        })
+    }
+
+    /// The latest state (after the last tick).
+    pub fn state(&self) -> &StateView {
+        &self.state
+    }
+
+    /// How the episode ended, if it has.
+    pub fn outcome(&self) -> Option<Outcome> {
+        self.outcome
+    }
+
+    /// Sets the operator's command (m/s, world axes), received at `at`.
+    /// Commands faster than the speed limit are scaled down to it; NaN is
+    /// kept, so that the arbiter reports it and holds.
+    pub fn set_command(&mut self, linear: [f64; 3], at: Instant) {
+        let norm = linear.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let scale = if norm > self.settings.max_speed { self.settings.max_speed / norm } else { 1.0 };
+        self.command = linear.map(|v| v * scale);
+        self.command_at = Some(at);
+        self.new_command = true;
+        self.state.commands += 1;
+    }
+
+    /// Counts a rejected message.
+    pub fn reject(&mut self) {
+        self.state.rejected += 1;
+    }
+
+    /// Switches the arbitration mode from the next tick on.
+    ///
+    /// # Errors
+    /// A name no mode has, or a mode this task cannot run (`learned`
+    /// without a matching actor).
+    pub fn set_mode(&mut self, name: &str) -> Result<ArbitrationMode, String> {
+        let mode: ArbitrationMode = name.parse().map_err(|e| format!("{e}"))?;
+        if !self.prepared.modes.contains(&mode) {
+            return Err(format!(
+                "mode '{name}' is not available on the {} task (it needs `tandem serve --arbiter FILE` with an actor trained for {} goals)",
+                self.prepared.task.as_str(),
+                self.prepared.goals.len()
+            ));
+        }
+        self.ws.set_mode(mode);
+        Ok(mode)
+    }
+
+    /// One control tick at wall-clock time `now`: the arbiter blends the
+    /// latest command (zero when older than the command timeout), the arm
+    /// moves, and the episode ends on success, collision or timeout. After
+    /// the end the arm holds until [`Self::restart`].
+    ///
+    /// # Errors
+    /// The simulator's kinematics or collision queries failing.
+    pub fn tick(&mut self, now: Instant) -> Result<&StateView, TeleopError> {
+        if self.outcome.is_some() {
+            return Ok(&self.state);
+        }
+        let fresh =
+            self.command_at.is_some_and(|t| now.duration_since(t).as_secs_f64() <= self.settings.command_timeout);
+        let command = if fresh { self.command } else { [0.0; 3] };
+        self.used_command_at = if fresh && self.new_command { self.command_at } else { None };
+        self.new_command = false;
+        let arbiter = &self.prepared.arbiter;
+        let step = self.live.step(arbiter, &mut self.ws, HumanCommand::Linear(&command))?;
+        let q = self.live.q();
+        let done = self.judges.iter_mut().any(|j| j.succeeded(q));
+        let time = self.live.record().steps as f64 * arbiter.settings().period;
+        self.outcome = if step.collided {
+            Some(Outcome::Collision)
+        } else if done {
+            Some(Outcome::Success)
+        } else if time >= self.settings.max_episode_time {
+            Some(Outcome::Timeout)
+        } else {
+            None
+        };
+        self.state.human = command;
+        self.state.status = step.status.as_str();
+        self.state.tick_us = step.tick_us;
+        self.state.stale_command = !fresh;
+        self.refresh_state(time)?;
+        Ok(&self.state)
+    }
+
+    /// When the command the last tick used was received, if that tick was
+    /// the first to use it (the start of the command → state latency).
+    pub fn used_command_at(&self) -> Option<Instant> {
+        self.used_command_at
+    }
+
+    fn refresh_state(&mut self, time: f64) -> Result<(), TeleopError> {
+        let robot = &self.prepared.problem.robot;
+        robot.forward_kinematics(&mut self.kin, self.live.q())?;
+        let s = &mut self.state;
+        link_poses(robot, &self.kin, &self.prepared.frames, &mut s.links);
+        s.time = time;
+        s.steps = self.live.record().steps;
+        s.gripper = self.live.gripper();
+        s.executed = self.live.record().executed.last().copied().unwrap_or([0.0; 3]);
+        s.beliefs.clear();
+        s.beliefs.extend_from_slice(self.ws.beliefs());
+        if s.status.is_empty() {
+            s.status = "nominal";
+        }
+        s.mode = self.ws.mode().as_str();
+        s.clearance = self.live.clearance();
+        s.min_clearance = self.live.record().min_clearance;
+        s.ellipsoid = if s.steps > 0 { tick_ellipsoid(&self.ws, self.ws.mode()) } else { [[0.0; 3]; 3] };
+        s.outcome = self.outcome.map(|o| o.as_str());
+        Ok(())
+    }
+
+    /// Ends the episode (as `failed` when it was still running: the person
+    /// stopped it) and saves it to the record directory when it has ticks,
+    /// once. Returns the file written.
+    ///
+    /// # Errors
+    /// Writing the recording.
+    pub fn finish(&mut self) -> Result<Option<PathBuf>, TeleopError> {
+        let outcome = *self.outcome.get_or_insert(Outcome::Failed);
+        self.state.outcome = Some(outcome.as_str());
+        let (Some(dir), true, false) = (&self.settings.record_dir, self.live.record().steps > 0, self.saved) else {
+            return Ok(None);
+        };
+        self.saved = true;
+        let p = &self.prepared;
+        let mode = self.ws.mode();
+        let mut record = self.live.record().clone();
+        record.outcome = outcome;
+        let label = format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed);
+        std::fs::create_dir_all(dir).map_err(|source| crate::data::DataError::Io { path: dir.clone(), source })?;
+        let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());
+        let path = dir.join(format!("teleop-{}-{stamp}-{}.parquet", p.task.as_str(), self.episode));
+        crate::data::write_episodes(&path, &[(label, &record, p.arbiter.settings().period)])?;
+        Ok(Some(path))
+    }
+
+    /// Starts a new episode: on the same prepared task when `task` and
+    /// `seed` are unchanged (instant), else after preparing the new one.
+    /// Call [`Self::finish`] first to keep the old episode.
+    ///
+    /// # Errors
+    /// Preparing the new task.
+    pub fn restart(&mut self, task: TeleopTask, seed: u64) -> Result<(), TeleopError> {
+        let mode = self.ws.mode();
+        if task != self.prepared.task || seed != self.prepared.seed {
+            self.prepared = prepare(&self.settings, task, seed)?;
+            self.ws = self.prepared.arbiter.workspace();
+            self.judges = self.prepared.goals.iter().map(TaskJudge::new).collect();
+            self.kin = KinematicsWorkspace::new(&self.prepared.problem.robot);
+        }
+        if self.prepared.modes.contains(&mode) {
+            self.ws.set_mode(mode);
+        }
+        self.live = LiveEpisode::new(&self.prepared.arbiter, &mut self.ws, &self.prepared.problem.start, true)?;
+        self.outcome = None;
+        self.saved = false;
+        self.command = [0.0; 3];
+        self.command_at = None;
+        self.episode += 1;
+        self.state.status = "nominal";
+        self.refresh_state(0.0)
+    }
+}

@@ -1,0 +1,232 @@
+//! `tandem serve`: the teleoperation session (commands, NaN, stale
+//! commands, modes, recordings in the simulator's Parquet layout) and the
+//! WebSocket server under abuse (malformed, binary and oversized frames,
+//! 10,000 messages a second, abrupt disconnects), which must keep serving.
+
+use futures_util::{SinkExt, StreamExt};
+use std::time::{Duration, Instant};
+use tandem::teleop::{ServeSettings, Server, SessionSettings, TeleopSession, TeleopTask};
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio_tungstenite::tungstenite::Message;
+
+fn planar(record: Option<std::path::PathBuf>) -> TeleopSession {
+    let settings = SessionSettings { record_dir: record, ..SessionSettings::default() };
+    TeleopSession::prepare(&settings, TeleopTask::Planar, 0).expect("the planar task prepares")
+}
+
+fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+}
+
+#[test]
+fn a_person_driving_toward_a_cylinder_gets_there_and_the_episode_is_recorded() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut session = planar(Some(dir.path().into()));
+    let scene = session.scene();
+    assert_eq!(scene.task, "planar");
+    assert_eq!(scene.goals.len(), 2);
+    assert!(scene.goals.iter().all(|g| g.reference.len() > 10), "each goal's reference is drawn");
+    assert!(!scene.links.is_empty() && session.state().links.len() == scene.links.len());
+    let goal = scene.goals[0].position;
+    let start = session.state().gripper;
+    let mut now = Instant::now();
+    for _ in 0..600 {
+        let g = session.state().gripper;
+        let d = distance(goal, g).max(1e-9);
+        session.set_command([0.08 * (goal[0] - g[0]) / d, 0.08 * (goal[1] - g[1]) / d, 0.0], now);
+        session.tick(now).unwrap();
+        now += Duration::from_millis(33);
+        if session.outcome().is_some() {
+            break;
+        }
+    }
+    let state = session.state().clone();
+    assert_eq!(state.outcome, Some("success"), "driving straight at a cylinder succeeds: {state:?}");
+    assert!(state.min_clearance >= 0.0);
+    assert!(state.beliefs[0] > state.beliefs[1], "the beliefs follow the driven goal: {:?}", state.beliefs);
+    assert!(distance(state.gripper, goal) < distance(start, goal));
+    let file = session.finish().unwrap().expect("the episode is saved");
+    assert!(session.finish().unwrap().is_none(), "an episode is saved once");
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let reader = SerializedFileReader::new(std::fs::File::open(&file).unwrap()).unwrap();
+    assert_eq!(reader.metadata().file_metadata().num_rows() as usize, state.steps);
+    let columns: Vec<String> = reader
+        .metadata()
+        .file_metadata()
+        .schema_descr()
+        .root_schema()
+        .get_fields()
+        .iter()
+        .map(|f| f.name().to_string())
+        .collect();
+    let layout = ["episode", "step", "time", "q", "qdot", "human", "executed", "robot", "beliefs", "status", "outcome"];
+    assert_eq!(columns, layout, "the simulator's episode layout");
+}
+
+#[test]
+fn nan_and_stale_commands_hold_the_arm_and_fast_ones_are_clamped() {
+    let mut session = planar(None);
+    let t0 = Instant::now();
+    session.set_command([0.05, 0.0, 0.0], t0);
+    session.tick(t0).unwrap();
+    let moved = session.state().clone();
+    assert_eq!(moved.status, "nominal");
+    assert!(moved.executed.iter().any(|v| v.abs() > 1e-3));
+    session.set_command([f64::NAN, 0.0, 0.0], t0);
+    session.tick(t0).unwrap();
+    let held = session.state().clone();
+    assert_eq!(held.status, "invalid_command");
+    assert!(distance(held.gripper, moved.gripper) < 1e-12 && held.executed == [0.0; 3]);
+    // A command older than the timeout (0.5 s) is not executed.
+    session.set_command([0.05, 0.0, 0.0], t0);
+    session.tick(t0 + Duration::from_secs(1)).unwrap();
+    let stale = session.state().clone();
+    assert!(stale.stale_command && stale.human == [0.0; 3]);
+    assert!(stale.executed.iter().all(|v| v.abs() < 1e-9), "{:?}", stale.executed);
+    // 10 m/s becomes the speed limit.
+    session.set_command([10.0, 0.0, 0.0], t0);
+    session.tick(t0).unwrap();
+    assert!((session.state().human[0] - SessionSettings::default().max_speed).abs() < 1e-12);
+    assert_eq!(session.state().commands, 4);
+}
+
+#[test]
+fn modes_switch_and_unknown_or_unavailable_ones_are_refused() {
+    let mut session = planar(None);
+    assert_eq!(session.scene().modes.len(), 8, "every mode but learned, which needs an actor");
+    for name in session.scene().modes {
+        session.set_mode(name).unwrap();
+        session.set_command([0.03, 0.02, 0.0], Instant::now());
+        session.tick(Instant::now()).unwrap();
+        assert_eq!(session.state().mode, name);
+    }
+    assert!(session.set_mode("fly").unwrap_err().contains("fly"));
+    assert!(session.set_mode("learned").unwrap_err().contains("--arbiter"));
+    session.restart(TeleopTask::Planar, 0).unwrap();
+    assert_eq!(session.state().steps, 0);
+    assert_eq!(session.state().mode, "sos", "a restart keeps the last mode");
+}
+
+// ------------------------------------------------------------------ server
+
+async fn start() -> (std::net::SocketAddr, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let settings = ServeSettings {
+        address: "127.0.0.1:0".parse().unwrap(),
+        session: SessionSettings { record_dir: Some(dir.path().into()), ..SessionSettings::default() },
+        task: TeleopTask::Planar,
+        ..ServeSettings::default()
+    };
+    let server = Server::bind(settings).await.unwrap();
+    let address = server.local_addr().unwrap();
+    tokio::spawn(server.run());
+    (address, dir)
+}
+
+async fn stats(address: std::net::SocketAddr) -> serde_json::Value {
+    let mut stream = tokio::net::TcpStream::connect(address).await.unwrap();
+    stream.write_all(b"GET /stats HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n").await.unwrap();
+    let mut response = String::new();
+    stream.read_to_string(&mut response).await.unwrap();
+    let body = response.split("\r\n\r\n").nth(1).expect("an HTTP body");
+    serde_json::from_str(body).unwrap_or_else(|e| panic!("{e}: {response}"))
+}
+
+type Client = tokio_tungstenite::WebSocketStream<tokio_tungstenite::MaybeTlsStream<tokio::net::TcpStream>>;
+
+async fn connect(address: std::net::SocketAddr) -> Client {
+    tokio_tungstenite::connect_async(format!("ws://{address}/ws")).await.unwrap().0
+}
+
+/// Reads until a message of type `kind` (the messages before it returned too).
+async fn until(client: &mut Client, kind: &str) -> Vec<serde_json::Value> {
+    let mut seen = vec![];
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
+    loop {
+        let message = tokio::time::timeout_at(deadline, client.next()).await.expect("in time").expect("open").unwrap();
+        if let Message::Text(text) = message {
+            let value: serde_json::Value = serde_json::from_str(&text).unwrap();
+            let done = value["type"] == kind;
+            seen.push(value);
+            if done {
+                return seen;
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_server_survives_garbage_floods_and_disconnects() {
+    let (address, _dir) = start().await;
+    let mut client = connect(address).await;
+    let opening = until(&mut client, "state").await;
+    let kinds: Vec<&str> = opening.iter().filter_map(|m| m["type"].as_str()).collect();
+    assert_eq!(&kinds[..3], ["hello", "preparing", "scene"]);
+
+    // Malformed and binary frames: an error each, the session goes on.
+    for bad in ["not json", r#"{"type":"command","linear":[1]}"#, r#"{"type":"reset","task":"juggle"}"#] {
+        client.send(Message::Text(bad.into())).await.unwrap();
+        let error = until(&mut client, "error").await.pop().unwrap();
+        assert!(!error["message"].as_str().unwrap().is_empty());
+    }
+    client.send(Message::Binary(vec![0, 159, 146, 150].into())).await.unwrap();
+    assert!(until(&mut client, "error").await.pop().unwrap()["message"].as_str().unwrap().contains("binary"));
+
+    // 10,000 commands a second for 3 s, half with NaN; the states keep coming.
+    let began = Instant::now();
+    let mut sent = 0u64;
+    while began.elapsed() < Duration::from_secs(3) {
+        for k in 0..100 {
+            let x = if k % 2 == 0 { "0.02" } else { "null" };
+            client.feed(Message::Text(format!(r#"{{"type":"command","linear":[{x},0.01,0]}}"#).into())).await.unwrap();
+        }
+        client.flush().await.unwrap();
+        sent += 100;
+        let target = Duration::from_micros(sent * 100);
+        if let Some(wait) = target.checked_sub(began.elapsed()) {
+            tokio::time::sleep(wait).await;
+        }
+    }
+    assert!(sent >= 25_000, "the flood reached {sent} messages");
+    // The states queued while the client only wrote come first; the
+    // session counted every command.
+    let mut state = serde_json::Value::Null;
+    while state["commands"].as_u64().unwrap_or(0) < sent {
+        state = until(&mut client, "state").await.pop().unwrap();
+    }
+    assert_eq!(state["rejected"], 4, "{state}");
+    assert!(matches!(state["status"].as_str(), Some("nominal" | "invalid_command" | "constrained")), "{state}");
+    let health = stats(address).await;
+    assert!(health["messages"].as_u64().unwrap() >= sent, "{health}");
+    assert_eq!(health["sessions_open"], 1);
+
+    // An oversized frame closes that connection with 1009.
+    client.send(Message::Text("x".repeat(10_000).into())).await.unwrap();
+    let mut code = None;
+    while let Some(Ok(message)) = client.next().await {
+        if let Message::Close(Some(frame)) = message {
+            code = Some(u16::from(frame.code));
+        }
+    }
+    assert_eq!(code, Some(1009));
+
+    // A client that vanishes mid-flood, without a close frame.
+    let mut rude = connect(address).await;
+    until(&mut rude, "scene").await;
+    for _ in 0..1000 {
+        rude.feed(Message::Text(r#"{"type":"command","linear":[0.01,0,0]}"#.into())).await.unwrap();
+    }
+    rude.flush().await.unwrap();
+    drop(rude);
+
+    // Still serving: a new page gets its scene and states, and the ended
+    // sessions were saved and closed.
+    let mut fresh = connect(address).await;
+    until(&mut fresh, "state").await;
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let health = stats(address).await;
+    assert_eq!(health["sessions_open"], 1, "{health}");
+    assert_eq!(health["closed_oversized"], 1, "{health}");
+    assert!(health["episodes_saved"].as_u64().unwrap() >= 2, "{health}");
+    assert!(health["tick_us"]["count"].as_u64().unwrap() > 50, "{health}");
+}
