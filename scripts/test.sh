@@ -92,16 +92,16 @@ TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:ca
 echo "== teleoperation page in headless Chromium (web/tests)"
 if [ ! -x /usr/bin/chromium ]; then
   echo "   installing Debian's chromium"
-  sudo_cmd=""; [ "$(id -u)" -ne 0 ] && sudo_cmd="sudo"
-  $sudo_cmd apt-get install -y -q chromium > /dev/null \
-    || { $sudo_cmd apt-get update -q > /dev/null && $sudo_cmd apt-get install -y -q chromium > /dev/null; } \
+  apt() { if [ "$(id -u)" -eq 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get "$@"; else sudo DEBIAN_FRONTEND=noninteractive apt-get "$@"; fi; }
+  apt install -y -q chromium > /dev/null \
+    || { apt update -q > /dev/null && apt install -y -q chromium > /dev/null; } \
     || { echo "error: could not install chromium (apt-get); the browser tests need /usr/bin/chromium" >&2; exit 1; }
 fi
 (cd web && npm ci --no-audit --no-fund --loglevel=error)
 (cd web && node build.mjs node_modules/.app-check.js)
 cmp -s web/dist/app.js web/node_modules/.app-check.js \
   || { echo "error: web/dist/app.js is not built from web/src: run 'npm run build' in web/ and commit it" >&2; exit 1; }
-(cd web && node tests/teleop.test.mjs --bin "$PWD/../target/debug/tandem")
+(cd web && node tests/teleop.test.mjs --bin ../target/debug/tandem --python "../$venv/bin/python")
 disk "browser tests done"
 
 # Every fuzz target for a few seconds (a fresh build of fuzz/ is part of

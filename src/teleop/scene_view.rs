@@ -107,6 +107,8 @@ pub struct SceneView {
     pub modes: Vec<&'static str>,
     /// The current mode.
     pub mode: &'static str,
+    /// The active joints, the order of [`StateView::q`].
+    pub joints: Vec<String>,
     /// Control rate (Hz).
     pub rate_hz: f64,
     /// Whether the arm moves in the horizontal plane only (a top view suits it).
@@ -129,6 +131,8 @@ pub struct StateView {
     pub time: f64,
     /// Ticks run.
     pub steps: usize,
+    /// The configuration (rad or m, [`SceneView::joints`] order).
+    pub q: Vec<f64>,
     /// World poses of [`SceneView::links`].
     pub links: Vec<[f64; 7]>,
     /// Gripper position (m).
@@ -261,6 +265,7 @@ impl SceneView {
             seed: parts.seed,
             modes: parts.modes.iter().map(ArbitrationMode::as_str).collect(),
             mode: parts.mode.as_str(),
+            joints: parts.problem.robot.joint_names().to_vec(),
             rate_hz: 1.0 / parts.arbiter.settings().period,
             planar: parts.task == "planar",
             links: parts.links,

@@ -303,6 +303,8 @@ impl TeleopSession {
         link_poses(robot, &self.kin, &self.prepared.frames, &mut s.links);
         s.time = time;
         s.steps = self.live.record().steps;
+        s.q.clear();
+        s.q.extend_from_slice(self.live.q());
         s.gripper = self.live.gripper();
         s.executed = self.live.record().executed.last().copied().unwrap_or([0.0; 3]);
         s.beliefs.clear();

@@ -14,7 +14,7 @@ const GOAL_COLORS = [0xe67e22, 0x16a085, 0xc0392b, 0x8e44ad];
 // State the browser tests read (window.tandem): the last messages and counts.
 const page = {
   scene: null, state: null, episodes: [], errors: [], connected: false, fps: 0,
-  scenesReceived: 0, statesReceived: 0, closeCode: null, closeReason: '', sendCommands: true,
+  trace: [], scenesReceived: 0, statesReceived: 0, closeCode: null, closeReason: '', sendCommands: true,
 };
 window.tandem = page;
 
@@ -284,6 +284,7 @@ function receive(message) {
       $('busy').style.display = 'none';
       page.scene = message;
       page.scenesReceived += 1;
+      page.trace = [];
       page.state = null;
       $('task').value = message.task;
       $('mode').innerHTML = message.modes.map((m) => `<option>${m}</option>`).join('');
@@ -295,6 +296,7 @@ function receive(message) {
     case 'state':
       page.state = message;
       page.statesReceived += 1;
+      if (page.trace.length < 100000) page.trace.push(message.q); // every configuration shown, for the tests
       if ($('mode').value !== message.mode) $('mode').value = message.mode;
       drawState(message);
       showState(message);

@@ -2,14 +2,17 @@
 // /usr/bin/chromium, driven by playwright-core): the page loads and draws,
 // a scripted keyboard drives the gripper toward the box under every mode
 // without a collision, each episode is recorded, and NaN, malformed and
-// oversized messages from the page leave the server healthy.
+// oversized messages from the page leave the server healthy. Every
+// configuration the page was shown is judged independently of tandem's
+// sphere model: example-robot-data's Panda meshes against the box, through
+// Pinocchio and coal (python_ref/grasp_mesh_check.py).
 //
-//   node tests/teleop.test.mjs [--bin PATH] [--screenshot FILE]
+//   node tests/teleop.test.mjs [--bin PATH] [--python PATH] [--screenshot FILE]
 //
 // Exit status 0 when every check passed; each failure is printed.
 
 import { chromium } from 'playwright-core';
-import { spawn } from 'node:child_process';
+import { spawn, spawnSync } from 'node:child_process';
 import { mkdtempSync, readdirSync, existsSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
@@ -19,6 +22,34 @@ const option = (name, fallback) => { const i = args.indexOf(name); return i >= 0
 const bin = resolve(option('--bin', '../target/debug/tandem'));
 const screenshot = option('--screenshot', join(tmpdir(), 'tandem-teleop.png'));
 const browserPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
+const python = resolve(option('--python', '../python_ref/.venv/bin/python'));
+
+// Rotation matrix (rows) of a unit quaternion [qx, qy, qz, qw].
+function rotation([x, y, z, w]) {
+  return [
+    [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+    [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+    [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+  ];
+}
+
+// Clearances of the hand, arm, fingers and pads to the box over every
+// configuration, with example-robot-data's meshes (coal).
+function meshClearances(joints, box, configurations) {
+  const pose = box.shape.pose;
+  const request = {
+    joints,
+    margin: 0,
+    grasps: configurations.map((q) => ({
+      q,
+      final: false,
+      box: { half_extents: box.shape.size.map((v) => v / 2), translation: pose.slice(0, 3), rotation: rotation(pose.slice(3)) },
+    })),
+  };
+  const run = spawnSync(python, [resolve('../python_ref/grasp_mesh_check.py')], { input: JSON.stringify(request), maxBuffer: 1 << 28 });
+  if (run.status !== 0) throw new Error(`grasp_mesh_check.py failed (${python}): ${run.stderr}`);
+  return JSON.parse(run.stdout).worst_motion;
+}
 
 const failures = [];
 function check(condition, what) {
@@ -120,6 +151,7 @@ async function main() {
     check(colours > 20, `the 3-D view renders the scene (${colours} distinct colours)`);
 
     // Every mode: reset, drive toward the box, no collision.
+    const shown = [];
     for (const mode of scene.modes) {
       const scenes = await page.evaluate(() => window.tandem.scenesReceived);
       await page.selectOption('#mode', mode);
@@ -135,7 +167,12 @@ async function main() {
       const minClearance = Math.min(...seen.map((s) => (s.min_clearance == null ? Infinity : s.min_clearance)));
       check(d1 < 0.5 * d0, `${mode}: the gripper came from ${(d0 * 100).toFixed(1)} cm to ${(d1 * 100).toFixed(1)} cm of the box (${last.outcome ?? 'running'})`);
       check(!collided && minClearance >= 0, `${mode}: no collision (closest ${(minClearance * 1000).toFixed(1)} mm)`);
+      shown.push(...(await page.evaluate(() => window.tandem.trace)));
     }
+    const box = scene.objects.find((o) => o.name === 'box');
+    const worst = meshClearances(scene.joints, box, shown);
+    const parts = Object.entries(worst).map(([k, v]) => `${k} ${(v * 1000).toFixed(1)} mm`).join(', ');
+    check(Object.values(worst).every((v) => v >= 0), `every configuration shown (${shown.length}) keeps clear of the box with the real meshes (coal: ${parts})`);
     console.log(`screenshot (sum-of-squares, while driving): ${screenshot}`);
     const fps = await page.evaluate(() => window.tandem.fps);
     console.log(`page frame rate in headless Chromium: ${fps.toFixed(1)} Hz`);
