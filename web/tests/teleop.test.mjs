@@ -129,6 +129,11 @@ async function main() {
     const consoleErrors = [];
     page.on('pageerror', (e) => consoleErrors.push(String(e)));
     page.on('console', (m) => { if (m.type() === 'error') consoleErrors.push(m.text()); });
+    // A stand-in gamepad the test can move (headless Chromium has none).
+    await page.addInitScript(() => {
+      window.testPad = null;
+      navigator.getGamepads = () => [window.testPad];
+    });
     await page.goto(base);
     await waitFor(page, () => window.tandem.scene && window.tandem.state);
     const scene = await page.evaluate(() => window.tandem.scene);
@@ -183,6 +188,14 @@ async function main() {
     await sleep(1000);
     const files = readdirSync(recordDir).filter((f) => f.endsWith('.parquet'));
     check(files.length >= scene.modes.length, `each driven episode was saved as Parquet (${files.length} files)`);
+
+    // The gamepad: the left stick pushed forward commands +x at the slider's speed.
+    await page.evaluate(() => { window.testPad = { id: 'test pad', connected: true, axes: [0, -1, 0, 0], buttons: [] }; });
+    await waitFor(page, () => window.tandem.state.human[0] > 0.05, undefined, 5000).catch(() => {});
+    const pad = await page.evaluate(() => [window.tandem.state.human, document.getElementById('device').textContent]);
+    check(Math.abs(pad[0][0] - 0.1) < 1e-9 && Math.abs(pad[0][1]) < 1e-9 && pad[1].includes('test pad'),
+      `the gamepad's left stick drives +x (command ${pad[0].map((v) => v.toFixed(3)).join(', ')} m/s; ${pad[1]})`);
+    await page.evaluate(() => { window.testPad = null; });
 
     // NaN from the page: the arbiter holds and says so.
     await page.evaluate(() => {
