@@ -1,7 +1,7 @@
 //! `tandem serve`: the browser teleoperation page.
 
 use crate::arbitration::ArbitrationMode;
-use crate::teleop::{ServeSettings, SessionSettings, TeleopTask, serve};
+use crate::teleop::{ServeSettings, SessionSettings, TeleopSession, TeleopTask, serve};
 use std::io::Write;
 use std::net::{IpAddr, SocketAddr};
 use std::path::PathBuf;
@@ -84,6 +84,8 @@ pub fn run(args: &ServeArgs) -> Result<(), Box<dyn std::error::Error>> {
         task,
         seed: args.seed,
     };
+    // A problem the task cannot use fails here, not in the first page.
+    TeleopSession::prepare(&settings.session, task, args.seed)?;
     let record = settings.session.record_dir.clone();
     serve(settings, |address| {
         println!("tandem serve: open http://{address}/ in a browser (Ctrl-C stops)");

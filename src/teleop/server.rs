@@ -252,7 +252,7 @@ struct Connection {
     states: watch::Sender<Option<String>>,
     errors_sent: (Instant, u32),
     last_state_sent: Option<Instant>,
-    /// When the oldest command not yet reflected in a sent state arrived.
+    /// When the newest command not yet reflected in a sent state arrived.
     unanswered_command: Option<Instant>,
 }
 
@@ -468,8 +468,9 @@ fn tick(conn: &mut Connection, session: &mut TeleopSession, now: Instant) {
         Err(e) => conn.error(&format!("the simulator failed: {e}")),
     }
     let ended = was_running && session.outcome().is_some();
+    // The state carries the newest command: its latency is the one measured.
     if let (true, Some(at)) = (was_running, session.used_command_at()) {
-        conn.unanswered_command.get_or_insert(at);
+        conn.unanswered_command = Some(at);
     }
     conn.publish(session.state(), ended);
     if ended {
