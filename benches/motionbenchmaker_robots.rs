@@ -37,6 +37,9 @@ fn main() {
     let only = args.iter().position(|a| a == "--robot").and_then(|i| args.get(i + 1));
     for robot in ROBOTS.iter().filter(|r| only.is_none_or(|name| name == r.name)) {
         let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
+        // Where planning time goes: the RRT search (its iterations, and the
+        // time per iteration) against the rest (goal IK, setup).
+        let (mut search, mut iterations, mut per_iteration) = (Vec::new(), Vec::new(), Vec::new());
         let mut not_generated = Vec::new();
         let mut nq = 0;
         for family in FAMILIES {
@@ -53,6 +56,10 @@ fn main() {
                     let p = report.planning_time.as_secs_f64();
                     planning.push(p);
                     total.push(p + report.simplify_time.as_secs_f64());
+                    let searched = report.result.time.as_secs_f64();
+                    search.push(searched);
+                    iterations.push(report.result.iterations as f64);
+                    per_iteration.push(searched / report.result.iterations.max(1) as f64);
                 } else {
                     failed.push(format!("{family} {k}: {}", report.result.status.name()));
                 }
@@ -65,6 +72,15 @@ fn main() {
         println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
         let p = row("planning time", &mut planning);
         let t = row("planning + simplification", &mut total);
+        let r = row("of which the RRT search", &mut search);
+        let median = |v: &mut Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+        };
+        let (its, us) = (median(&mut iterations), median(&mut per_iteration) * 1e6);
+        let mean_its = iterations.iter().sum::<f64>() / iterations.len().max(1) as f64;
+        println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
+        println!("| time per RRT iteration | {us:.1} µs | | |");
         let count = per_family as usize * FAMILIES.len() - not_generated.len();
         println!("| solved | {} of {count} | | |", planning.len());
         if !not_generated.is_empty() {
@@ -76,7 +92,8 @@ fn main() {
         results.insert(
             robot.name.to_string(),
             serde_json::json!({"group": robot.group, "joints": nq, "problems": count, "solved": planning.len(),
-                "planning": p, "total": t, "unsolved": failed, "not_generated": not_generated,
+                "planning": p, "total": t, "search": r,
+                "iterations": {"median": its, "mean": mean_its}, "us_per_iteration": us, "unsolved": failed, "not_generated": not_generated,
                 "time_limit_s": time_limit}),
         );
     }
