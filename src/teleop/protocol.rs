@@ -3,9 +3,16 @@
 
 use serde::Deserialize;
 
-/// The longest text frame the server reads (bytes); a longer one closes the
+/// The longest message a session accepts (bytes); a longer one closes the
 /// connection with code 1009 ("message too big").
 pub const MAX_MESSAGE_BYTES: usize = 4096;
+
+/// The longest frame the WebSocket layer reads in full (bytes). Messages
+/// between [`MAX_MESSAGE_BYTES`] and this are read and then refused with a
+/// clean closing handshake; a longer one is cut off mid-frame, and the
+/// page may see an abnormal close (1006) when the kernel resets a socket
+/// that still holds unread bytes.
+pub const MAX_FRAME_BYTES: usize = 1 << 20;
 
 /// One message from the page.
 #[derive(Debug, Clone, PartialEq)]

@@ -5,7 +5,7 @@
 //! slow page never delays the control loop, and a flood of commands only
 //! overwrites the latest one.
 
-use super::protocol::{ClientMessage, MAX_MESSAGE_BYTES, parse_client_message};
+use super::protocol::{ClientMessage, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES, parse_client_message};
 use super::session::{SessionSettings, TeleopSession, TeleopTask};
 use super::{StateView, TeleopError};
 use axum::Router;
@@ -191,8 +191,8 @@ async fn stats_page(State(shared): State<Arc<Shared>>) -> Response {
 }
 
 async fn upgrade(ws: WebSocketUpgrade, State(shared): State<Arc<Shared>>) -> Response {
-    ws.max_message_size(MAX_MESSAGE_BYTES)
-        .max_frame_size(MAX_MESSAGE_BYTES)
+    ws.max_message_size(MAX_FRAME_BYTES)
+        .max_frame_size(MAX_FRAME_BYTES)
         .on_upgrade(move |socket| run_session(socket, shared))
 }
 
@@ -383,6 +383,12 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
             incoming = stream.next() => {
                 let Some(incoming) = incoming else { break };
                 stats.messages.fetch_add(1, Ordering::Relaxed);
+                if incoming.as_ref().is_ok_and(|m| payload_bytes(m) > MAX_MESSAGE_BYTES) {
+                    stats.closed_oversized.fetch_add(1, Ordering::Relaxed);
+                    let _ = conn.control.try_send(Outgoing::Close(1009, OVERSIZED));
+                    close_handshake(&mut stream).await;
+                    break;
+                }
                 match incoming {
                     Ok(Message::Text(text)) => {
                         if let Some((task, seed)) = handle_text(&mut conn, session.as_mut(), &text) {
@@ -409,10 +415,10 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
                     Ok(Message::Ping(_) | Message::Pong(_)) => {}
                     Err(e) => {
                         // The only read errors that leave a reason to give:
-                        // a frame over the size limit (code 1009).
+                        // a frame over the WebSocket layer's limit (1009).
                         if format!("{e:?}").contains("Capacity") || format!("{e}").contains("too long") {
                             stats.closed_oversized.fetch_add(1, Ordering::Relaxed);
-                            let _ = conn.control.try_send(Outgoing::Close(1009, "message larger than 4096 bytes"));
+                            let _ = conn.control.try_send(Outgoing::Close(1009, OVERSIZED));
                         }
                         break;
                     }
@@ -426,6 +432,31 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
     drop(conn);
     let _ = writer.await;
     stats.sessions_open.fetch_sub(1, Ordering::Relaxed);
+}
+
+const OVERSIZED: &str = "message larger than 4096 bytes";
+
+fn payload_bytes(message: &Message) -> usize {
+    match message {
+        Message::Text(text) => text.len(),
+        Message::Binary(bytes) => bytes.len(),
+        _ => 0,
+    }
+}
+
+/// Reads (and drops) what the page still sends until it answers our close
+/// frame, for at most two seconds. Closing the socket while unread bytes
+/// sit in its buffer makes the kernel reset it, and the page would see an
+/// abnormal close (1006) instead of our code.
+async fn close_handshake(stream: &mut futures_util::stream::SplitStream<WebSocket>) {
+    let drain = async {
+        while let Some(Ok(message)) = stream.next().await {
+            if matches!(message, Message::Close(_)) {
+                break;
+            }
+        }
+    };
+    let _ = tokio::time::timeout(Duration::from_secs(2), drain).await;
 }
 
 /// Ends the session's episode, saves it, and tells the page where.
