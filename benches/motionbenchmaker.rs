@@ -5,18 +5,22 @@
 //! per problem, in the layout of the reference table of the benchmark's
 //! README. Problem loading and collision-model building are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker [-- --time-limit SECONDS]
+//!   cargo bench --bench motionbenchmaker [-- --time-limit SECONDS --plain]
 //!
-//! Writes target/peers/motionbenchmaker.json.
+//! `--plain`: plain RRT-Connect (step 0.5 rad, no balancing, no
+//! dynamic-domain sampling), the planner before those were added.
+//!
+//! Writes target/peers/motionbenchmaker.json (motionbenchmaker_plain.json with `--plain`).
 
 #[path = "support/mbm.rs"]
 mod mbm;
 
-use mbm::{Benchmark, FAMILIES, full_run, row};
+use mbm::{Benchmark, FAMILIES, full_run, make_plain, row};
 use tandem::plan::{PlanStatus, ProblemPlanner, path_length};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    let plain = args.iter().any(|a| a == "--plain");
     // `cargo test --all-targets` runs bench targets without `--bench`: a
     // smoke run of one problem per family then, not the whole benchmark.
     let per_family = if full_run() { 100 } else { 1 };
@@ -35,6 +39,9 @@ fn main() {
             let mut problem = benchmark.problem(family, k);
             problem.planner.time_limit = time_limit;
             let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
+            if plain {
+                make_plain(&mut planner);
+            }
             let report = planner.run(0).expect("plan");
             if report.result.status == PlanStatus::Solved && report.certified {
                 let p = report.planning_time.as_secs_f64();
@@ -63,5 +70,9 @@ fn main() {
     }
     let peers = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
     std::fs::create_dir_all(&peers).expect("target/peers");
-    std::fs::write(peers.join("motionbenchmaker.json"), out.to_string()).expect("write results");
+    std::fs::write(
+        peers.join(if plain { "motionbenchmaker_plain.json" } else { "motionbenchmaker.json" }),
+        out.to_string(),
+    )
+    .expect("write results");
 }

@@ -8,9 +8,12 @@
 //! simplification, one seed per problem, as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --plain]
 //!
-//! Writes target/peers/motionbenchmaker_robots.json.
+//! `--plain`: plain RRT-Connect (step 0.5 rad, no balancing, no
+//! dynamic-domain sampling), the planner before those were added.
+//!
+//! Writes target/peers/motionbenchmaker_robots.json (motionbenchmaker_robots_plain.json with `--plain`).
 
 #[allow(dead_code)]
 #[path = "support/mbm.rs"]
@@ -18,7 +21,7 @@ mod mbm;
 #[path = "support/robots.rs"]
 mod robots;
 
-use mbm::{full_run, row};
+use mbm::{full_run, make_plain, row};
 use robots::{FAMILIES, ROBOTS};
 use tandem::plan::{PlanStatus, ProblemPlanner};
 
@@ -28,6 +31,7 @@ fn option(args: &[String], name: &str) -> Option<f64> {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
+    let plain = args.iter().any(|a| a == "--plain");
     // `cargo test --all-targets` runs bench targets without `--bench`: one
     // problem per family and robot then.
     let per_family = if full_run() { option(&args, "--per-family").unwrap_or(100.0) as u64 } else { 1 };
@@ -51,6 +55,9 @@ fn main() {
                 nq = problem.robot.nq();
                 problem.planner.time_limit = time_limit;
                 let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
+                if plain {
+                    make_plain(&mut planner);
+                }
                 let report = planner.run(0).expect("plan");
                 if report.result.status == PlanStatus::Solved && report.certified {
                     let p = report.planning_time.as_secs_f64();
@@ -102,6 +109,9 @@ fn main() {
     }
     let peers = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
     std::fs::create_dir_all(&peers).expect("target/peers");
-    std::fs::write(peers.join("motionbenchmaker_robots.json"), serde_json::Value::Object(results).to_string())
-        .expect("write results");
+    std::fs::write(
+        peers.join(if plain { "motionbenchmaker_robots_plain.json" } else { "motionbenchmaker_robots.json" }),
+        serde_json::Value::Object(results).to_string(),
+    )
+    .expect("write results");
 }

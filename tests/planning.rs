@@ -218,3 +218,33 @@ fn problem_files_bound_planner_settings() {
     let p = load("resolution = 0.005", "resolution = 0.00001\nclearance = 0.0").unwrap();
     assert_eq!((p.resolution, p.clearance), (MIN_RESOLUTION, 0.0));
 }
+
+/// Dynamic-domain sampling with a domain so small that every blocked node
+/// rejects nearly every sample: the rejection cap keeps the trees
+/// extending, and the plan is still found, free and deterministic. The
+/// plain alternating planner (no domain, no balancing) solves it too.
+#[test]
+fn dynamic_domain_and_balancing_never_starve_a_tree() {
+    use tandem::plan::DynamicDomain;
+    let (problem, start, goal) = wall();
+    let model = problem.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    let edge = EdgeCheck::Certified { clearance: 1e-3 };
+    let tiny = DynamicDomain { radius: 1e-9, min_radius: 1e-9, ..DynamicDomain::default() };
+    let variants = [
+        RrtSettings { edge, dynamic_domain: Some(tiny), ..RrtSettings::default() },
+        RrtSettings { edge, dynamic_domain: None, balance: false, ..RrtSettings::default() },
+        RrtSettings { edge, ..RrtSettings::default() },
+    ];
+    for settings in &variants {
+        for seed in 0..5 {
+            let settings = RrtSettings { seed, ..settings.clone() };
+            let result = rrt_connect(&model, &mut ws, &start, std::slice::from_ref(&goal), &settings).unwrap();
+            assert_eq!(result.status, PlanStatus::Solved, "{settings:?}");
+            assert_valid(&problem, &result.path, std::slice::from_ref(&goal));
+            let again = rrt_connect(&model, &mut ws, &start, std::slice::from_ref(&goal), &settings).unwrap();
+            assert_eq!(result.path, again.path, "same seed, same path");
+            assert_eq!(result.iterations, again.iterations);
+        }
+    }
+}

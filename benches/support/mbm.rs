@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use tandem::plan::ProblemPlanner;
 use tandem::scene::Problem;
 
 pub const FAMILIES: [&str; 7] =
@@ -62,4 +63,14 @@ pub fn row(label: &str, times: &mut [f64]) -> serde_json::Value {
         (percentile(times, 0.5), times.iter().sum::<f64>() / times.len() as f64, percentile(times, 0.95));
     println!("| {label} | {:.2} ms | {:.2} ms | {:.2} ms |", ms(median), ms(mean), ms(p95));
     serde_json::json!({"median_ms": ms(median), "mean_ms": ms(mean), "p95_ms": ms(p95)})
+}
+
+/// `--plain`: RRT-Connect as before balancing and dynamic-domain sampling
+/// (step 0.5 rad, trees alternating, every sample used), for comparison.
+#[allow(dead_code)] // not every bench compares with the plain planner
+pub fn make_plain(planner: &mut ProblemPlanner) {
+    let settings = planner.search_settings_mut();
+    settings.step = 0.5;
+    settings.dynamic_domain = None;
+    settings.balance = false;
 }

@@ -18,7 +18,7 @@ mod rrt;
 
 pub use ik::{IkError, IkSettings, IkTarget, solve_ik};
 pub use postprocess::{MIN_GAIN, path_length, resample, shortcut};
-pub use rrt::{EdgeCheck, PlanResult, PlanStatus, RrtSettings, rrt_connect};
+pub use rrt::{DynamicDomain, EdgeCheck, PlanResult, PlanStatus, RrtSettings, rrt_connect};
 
 use crate::collision::{CollisionError, CollisionModel, CollisionWorkspace};
 use crate::robot::RobotError;
@@ -142,6 +142,13 @@ impl ProblemPlanner {
         let goals = goal_configurations(problem, &model, &mut ws, settings.seed)?;
         let (start, clearance) = (problem.start.clone(), problem.planner.clearance);
         Ok(ProblemPlanner { model, ws, search, search_ws, start, goals, settings, clearance })
+    }
+
+    /// The search's settings, to tune before [`run`](Self::run) (for
+    /// instance dynamic-domain sampling or balancing off, as plain
+    /// RRT-Connect); the seed and edge check are set by `run`.
+    pub fn search_settings_mut(&mut self) -> &mut RrtSettings {
+        &mut self.settings
     }
 
     /// The goal configurations the planner aims at.

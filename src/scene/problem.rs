@@ -104,7 +104,7 @@ impl Default for PlannerSettings {
     fn default() -> Self {
         PlannerSettings {
             seed: 0,
-            step: 0.5,
+            step: 1.0,
             resolution: 0.005,
             clearance: 0.001,
             time_limit: 1.0,
