@@ -7,7 +7,8 @@ use crate::robot::RobotError;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-fn distance(a: &[f64], b: &[f64]) -> f64 {
+/// Euclidean distance between two configurations (rad or m).
+pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 

@@ -8,6 +8,7 @@
 //! they cut the mean planning time several times over (README).
 
 use super::nearest::NearestNeighbors;
+use super::postprocess::distance;
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::robot::RobotError;
 use rand::{RngExt, SeedableRng};
@@ -144,13 +145,13 @@ impl From<&crate::scene::PlannerSettings> for RrtSettings {
     fn from(p: &crate::scene::PlannerSettings) -> Self {
         RrtSettings {
             step: p.step,
-            dynamic_domain: Some(DynamicDomain::default()),
-            balance: true,
             edge: EdgeCheck::Resolution(p.resolution),
             // Problem files bound it; a larger one from Rust code never runs out.
             time_limit: Duration::try_from_secs_f64(p.time_limit).unwrap_or(Duration::MAX),
             max_iterations: p.max_iterations,
             seed: p.seed,
+            // Problem files do not set how the search samples.
+            ..RrtSettings::default()
         }
     }
 }
@@ -390,10 +391,6 @@ pub fn rrt_connect(
         }
     }
     Ok(done(PlanStatus::IterationLimit, Vec::new(), settings.max_iterations, a.parent.len() + b.parent.len()))
-}
-
-fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>().sqrt()
 }
 
 /// The start-to-goal path from two branches that end at the same

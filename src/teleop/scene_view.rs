@@ -28,31 +28,31 @@ pub struct ShapeView {
 pub enum GeometryView {
     /// Full side lengths.
     Box {
-        /// x, y, z sizes.
+        /// Full side lengths along x, y, z (m).
         size: [f64; 3],
     },
     /// A sphere.
     Sphere {
-        /// Radius.
+        /// Radius (m).
         radius: f64,
     },
-    /// A cylinder.
+    /// A cylinder along its z axis.
     Cylinder {
-        /// Radius.
+        /// Radius (m).
         radius: f64,
-        /// Full length.
+        /// Full length (m).
         length: f64,
     },
-    /// A capsule (the cylinder part's length).
+    /// A capsule along its z axis (the cylinder part's length).
     Capsule {
-        /// Radius.
+        /// Radius (m).
         radius: f64,
-        /// Full length of the cylinder part.
+        /// Full length of the cylinder part (m).
         length: f64,
     },
     /// A triangle mesh: xyz triples and index triples.
     Mesh {
-        /// Vertex coordinates.
+        /// Vertex coordinates (m, shape frame).
         vertices: Vec<f32>,
         /// Triangle vertex indices.
         indices: Vec<u32>,
