@@ -8,12 +8,16 @@
 //! simplification, one seed per problem, as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --plain]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --plain --joint-goals]
+//!
+//! `--joint-goals`: goals drawn in joint space near home rather than
+//! grasps solved by IK (`robots::Goals::Joint`, the first generator).
 //!
 //! `--plain`: plain RRT-Connect (step 0.5 rad, no balancing, no
 //! dynamic-domain sampling), the planner before those were added.
 //!
-//! Writes target/peers/motionbenchmaker_robots.json (motionbenchmaker_robots_plain.json with `--plain`).
+//! Writes target/peers/motionbenchmaker_robots.json (`_plain` and
+//! `_joint_goals` added to the name with those options).
 
 #[allow(dead_code)]
 #[path = "support/mbm.rs"]
@@ -22,7 +26,7 @@ mod mbm;
 mod robots;
 
 use mbm::{full_run, make_plain, row};
-use robots::{FAMILIES, ROBOTS};
+use robots::{FAMILIES, Goals, ROBOTS};
 use tandem::plan::{PlanStatus, ProblemPlanner};
 
 fn option(args: &[String], name: &str) -> Option<f64> {
@@ -32,6 +36,7 @@ fn option(args: &[String], name: &str) -> Option<f64> {
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let plain = args.iter().any(|a| a == "--plain");
+    let goals = if args.iter().any(|a| a == "--joint-goals") { Goals::Joint } else { Goals::Grasp };
     // `cargo test --all-targets` runs bench targets without `--bench`: one
     // problem per family and robot then.
     let per_family = if full_run() { option(&args, "--per-family").unwrap_or(100.0) as u64 } else { 1 };
@@ -48,7 +53,7 @@ fn main() {
         let mut nq = 0;
         for family in FAMILIES {
             for k in 1..=per_family {
-                let Some(mut problem) = robots::problem(robot, family, k, dir.path()) else {
+                let Some(mut problem) = robots::problem(robot, family, k, goals, dir.path()) else {
                     not_generated.push(format!("{family} {k}"));
                     continue;
                 };
@@ -110,7 +115,11 @@ fn main() {
     let peers = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
     std::fs::create_dir_all(&peers).expect("target/peers");
     std::fs::write(
-        peers.join(if plain { "motionbenchmaker_robots_plain.json" } else { "motionbenchmaker_robots.json" }),
+        peers.join(format!(
+            "motionbenchmaker_robots{}{}.json",
+            if plain { "_plain" } else { "" },
+            if goals == Goals::Joint { "_joint_goals" } else { "" }
+        )),
         serde_json::Value::Object(results).to_string(),
     )
     .expect("write results");

@@ -16,6 +16,7 @@ use common::random_configurations;
 use nalgebra::IsometryMatrix3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use robots::Goals;
 use std::sync::Arc;
 use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
 use tandem::plan::{PlanStatus, ProblemPlanner};
@@ -92,9 +93,9 @@ fn prismatic_joints_are_certified_on_the_sphere_fast_path() {
 #[test]
 fn benchmark_problems_of_every_robot_and_family_plan_certified() {
     let dir = tempfile::tempdir().unwrap();
-    for robot in &robots::ROBOTS {
+    for (robot, goals) in robots::ROBOTS.iter().flat_map(|r| [(r, Goals::Grasp), (r, Goals::Joint)]) {
         for family in robots::FAMILIES {
-            let problem = robots::problem(robot, family, 1, dir.path()).expect("a start and a goal");
+            let problem = robots::problem(robot, family, 1, goals, dir.path()).expect("a start and a goal");
             assert!(problem.warnings.is_empty(), "{:?}", problem.warnings);
             let model = problem.collision_model().unwrap();
             assert!(model.has_fast_path(), "{} {family}", robot.name);

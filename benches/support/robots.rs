@@ -9,22 +9,28 @@
 //! table with clutter, the goal just above it), `shelf` (a bookshelf, the
 //! goal inside a bin) and `cage` (a box cage open at the front, the goal
 //! inside). Obstacle placement is jittered per problem. Start and goal are
-//! seeded rejection samples: 1 mm clear of everything, every frame above the robot's
-//! mount, the start within 0.4 rad per joint of the robot's home pose (as
-//! MotionBenchMaker starts from a ready pose) with its tool(s) outside the
-//! goal region, the goal within 1.6 rad per joint of home (one IK branch,
-//! as a MotionBenchMaker goal seeded from the ready pose) with the tool
-//! frame(s) inside the region (for the dual arm, the left tool in the left half and
-//! the right tool in the right half), and the straight line between them in
-//! collision when one of 50 starts gives that.
+//! seeded samples, 1 mm clear of everything, every frame above the robot's
+//! mount. The start lies within 0.4 rad per joint of the robot's home pose
+//! (as MotionBenchMaker starts from a ready pose) with its tool(s) outside
+//! the goal region. The goal is a grasp, as MotionBenchMaker's are: a tool
+//! position drawn in the region (for the dual arm, the left tool in the
+//! left half and the right tool in the right half), the tool's approach
+//! axis within 0.5 rad of pointing down onto the table or forward into the
+//! shelf and cage, any roll, solved by IK from a seed near home (one
+//! descent per grasp, as a MotionBenchMaker goal is solved from its ready
+//! pose). The straight line between start and goal is in collision when
+//! one of 50 starts gives that. [`Goals::Joint`] draws goals in joint
+//! space instead (the first generator, kept for comparison).
 //! Everything follows from (robot, family, index): same problems on every
 //! machine.
 
+use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tandem::collision::CollisionWorkspace;
+use tandem::plan::{IkSettings, IkTarget, solve_ik};
 use tandem::robot::{KinematicsWorkspace, RobotModel};
 use tandem::scene::Problem;
 
@@ -40,6 +46,9 @@ pub struct BenchRobot {
     /// Tool frames whose position the goal region constrains, with the side
     /// (y sign) each must be on: 0 for either.
     tools: &'static [(&'static str, f64)],
+    /// The tool frames' approach axis (0 = x, 1 = y, 2 = z): the one a
+    /// grasp points at the object.
+    tool_axis: usize,
     /// Joints outside the group, held at these values (rad or m).
     held: &'static [(&'static str, f64)],
     /// The work point in front of the robot (m, URDF root frame) and the
@@ -63,6 +72,7 @@ pub const ROBOTS: [BenchRobot; 3] = [
         name: "ur5",
         group: "manipulator",
         tools: &[("tool0", 0.0)],
+        tool_axis: 2,
         held: &[],
         work: [0.5, 0.0, 0.0],
         scale: 1.0,
@@ -81,6 +91,7 @@ pub const ROBOTS: [BenchRobot; 3] = [
         name: "tiago",
         group: "arm_torso",
         tools: &[("arm_tool_link", 0.0)],
+        tool_axis: 0,
         held: &[("head_1_joint", 0.0), ("head_2_joint", 0.0)],
         work: [0.6, -0.15, 0.8],
         scale: 1.0,
@@ -101,6 +112,7 @@ pub const ROBOTS: [BenchRobot; 3] = [
         name: "baxter",
         group: "both_arms",
         tools: &[("left_gripper", 1.0), ("right_gripper", -1.0)],
+        tool_axis: 2,
         held: &[],
         work: [0.65, 0.0, 0.0],
         scale: 1.3,
@@ -242,9 +254,36 @@ fn request_yaml(group: &str, start: &[(String, f64)], goal: &[(String, f64)]) ->
     out
 }
 
-/// How far (rad or m per joint) starts and goals may lie from the home pose.
+/// How far (rad or m per joint) starts may lie from the home pose, and
+/// joint-space goals (one IK branch, as the ready pose would seed).
 const START_SPREAD: f64 = 0.4;
 const GOAL_SPREAD: f64 = 1.6;
+
+/// How goals are drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Goals {
+    /// A grasp solved by IK, as MotionBenchMaker's are (the default).
+    Grasp,
+    /// Uniform within 1.6 rad per joint of home with the tool(s) in the
+    /// region: any orientation, so often a contorted pose in a pocket
+    /// (the benchmark's first generator, kept for comparison).
+    Joint,
+}
+
+/// How far (rad or m per joint) from home a goal's IK starts.
+const IK_SEED_SPREAD: f64 = 0.3;
+
+/// Largest angle (rad) between a grasp's approach and its family's direction.
+const APPROACH_TILT: f64 = 0.5;
+
+/// Grasps tried for a goal before the scene is drawn again.
+const GOAL_DRAWS: usize = 400;
+
+/// The direction a grasp approaches its object in `family`: from above on
+/// the table, from the front into the shelf and the cage.
+fn approach(family: &str) -> Vector3<f64> {
+    if family == "table" { -Vector3::z() } else { Vector3::x() }
+}
 
 /// Rejection sampler of start and goal configurations.
 struct Sampler<'a> {
@@ -254,6 +293,7 @@ struct Sampler<'a> {
     ws: CollisionWorkspace,
     kin: KinematicsWorkspace,
     tools: Vec<(tandem::robot::FrameId, f64)>,
+    tool_axis: usize,
     home: Vec<f64>,
     min_height: f64,
 }
@@ -292,13 +332,61 @@ impl Sampler<'_> {
             && self.model.min_distance(&mut self.ws, q).expect("distance").is_none_or(|d| d.signed.distance >= 1e-3)
     }
 
-    /// A free configuration with every tool inside `region` (`inside`) or
-    /// none inside.
-    fn sample(&mut self, rng: &mut ChaCha8Rng, region: &Region, inside: bool) -> Option<Vec<f64>> {
+    /// A free start: within [`START_SPREAD`] of home, no tool inside `region`.
+    fn start(&mut self, rng: &mut ChaCha8Rng, region: &Region) -> Option<Vec<f64>> {
         for _ in 0..200_000 {
-            let q = self.random(rng, if inside { GOAL_SPREAD } else { START_SPREAD });
-            let (all, any) = self.tools_in(&q, region);
-            if (inside && all || !inside && !any) && self.free(&q) {
+            let q = self.random(rng, START_SPREAD);
+            if !self.tools_in(&q, region).1 && self.free(&q) {
+                return Some(q);
+            }
+        }
+        None
+    }
+
+    /// A free joint-space goal (see [`Goals::Joint`]).
+    fn joint_goal(&mut self, rng: &mut ChaCha8Rng, region: &Region) -> Option<Vec<f64>> {
+        for _ in 0..200_000 {
+            let q = self.random(rng, GOAL_SPREAD);
+            if self.tools_in(&q, region).0 && self.free(&q) {
+                return Some(q);
+            }
+        }
+        None
+    }
+
+    /// A free goal as MotionBenchMaker makes one: each tool's grasp (a
+    /// point of its side of `region`, the tool's approach axis along
+    /// `approach`, any roll) solved by IK from a seed near home, tools one
+    /// after the other.
+    fn goal(&mut self, rng: &mut ChaCha8Rng, region: &Region, approach: Vector3<f64>) -> Option<Vec<f64>> {
+        let mid = 0.5 * (region.0[1] + region.1[1]);
+        'draw: for _ in 0..GOAL_DRAWS {
+            let mut q = self.random(rng, IK_SEED_SPREAD);
+            for (frame, side) in self.tools.clone() {
+                let (lo_y, hi_y) = match side {
+                    s if s > 0.0 => (mid + 0.05, region.1[1]),
+                    s if s < 0.0 => (region.0[1], mid - 0.05),
+                    _ => (region.0[1], region.1[1]),
+                };
+                let y = rng.random_range(lo_y..=hi_y);
+                let [x, z] = [0, 2].map(|i| rng.random_range(region.0[i]..=region.1[i]));
+                // Grasps vary around an object: the approach tilts up to
+                // APPROACH_TILT off the family's direction.
+                let tilt = Vector3::from_fn(|_, _| rng.random_range(-1.0..=1.0)) * APPROACH_TILT.tan();
+                let direction = (approach + tilt - approach * approach.dot(&tilt)).normalize();
+                let target = IkTarget {
+                    frame,
+                    position: Vector3::new(x, y, z),
+                    orientation: None,
+                    axis_alignment: Some((self.tool_axis, direction)),
+                };
+                let settings = IkSettings { restarts: 1, ..IkSettings::default() };
+                match solve_ik(&self.model, &mut self.ws, &target, &q, 1, &settings) {
+                    Ok(mut solutions) => q = solutions.swap_remove(0),
+                    Err(_) => continue 'draw,
+                }
+            }
+            if self.tools_in(&q, region).0 && self.free(&q) {
                 return Some(q);
             }
         }
@@ -306,9 +394,9 @@ impl Sampler<'_> {
     }
 }
 
-/// Problem `k` of `family` for `robot`, written into `dir` and loaded;
+/// Problem `k` of `family` for `robot` with `goals`, written into `dir` and loaded;
 /// `None` when 20 draws of the scene gave no start and goal.
-pub fn problem(robot: &BenchRobot, family: &str, k: u64, dir: &Path) -> Option<Problem> {
+pub fn problem(robot: &BenchRobot, family: &str, k: u64, goals: Goals, dir: &Path) -> Option<Problem> {
     let family_index = FAMILIES.iter().position(|f| *f == family).expect("family") as u64;
     let robot_index = ROBOTS.iter().position(|r| r.name == robot.name).expect("robot") as u64;
     let mut rng = ChaCha8Rng::seed_from_u64(0x7a6d_0000 + robot_index * 1_000_000 + family_index * 10_000 + k);
@@ -344,6 +432,7 @@ pub fn problem(robot: &BenchRobot, family: &str, k: u64, dir: &Path) -> Option<P
             model: collision,
             kin: KinematicsWorkspace::new(&model),
             tools,
+            tool_axis: robot.tool_axis,
             home: model
                 .joint_names()
                 .iter()
@@ -351,13 +440,17 @@ pub fn problem(robot: &BenchRobot, family: &str, k: u64, dir: &Path) -> Option<P
                 .collect(),
             min_height: robot.min_height,
         };
-        let Some(goal) = sampler.sample(&mut rng, &region, true) else { continue };
+        let goal = match goals {
+            Goals::Grasp => sampler.goal(&mut rng, &region, approach(family)),
+            Goals::Joint => sampler.joint_goal(&mut rng, &region),
+        };
+        let Some(goal) = goal else { continue };
         // A start the straight line to the goal does not reach, if one of
         // 50 draws is; else the last (a direct problem, as some of
         // MotionBenchMaker's are).
         let mut found = None;
         for _ in 0..50 {
-            let Some(start) = sampler.sample(&mut rng, &region, false) else { break };
+            let Some(start) = sampler.start(&mut rng, &region) else { break };
             let mut ws = CollisionWorkspace::new(&sampler.model);
             let direct = sampler.model.motion_free(&mut ws, &start, &goal, 0.01).expect("motion check");
             found = Some(start);
