@@ -34,6 +34,8 @@ fn main() {
     let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
     // Joint-space length of the simplified paths (rad): what simplification buys.
     let mut lengths = Vec::new();
+    // Extension rounds of the search: what the sampling strategy costs.
+    let mut iterations = Vec::new();
     for family in FAMILIES {
         for k in 1..=per_family {
             let mut problem = benchmark.problem(family, k);
@@ -48,6 +50,7 @@ fn main() {
                 planning.push(p);
                 total.push(p + report.simplify_time.as_secs_f64());
                 lengths.push(path_length(&report.path));
+                iterations.push(report.result.iterations as f64);
             } else {
                 failed.push(format!("{family} {k}: {}", report.result.status.name()));
             }
@@ -57,6 +60,10 @@ fn main() {
     println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
     let p = row("planning time", &mut planning);
     let t = row("planning + simplification", &mut total);
+    iterations.sort_by(f64::total_cmp);
+    let its = iterations.get(iterations.len() / 2).copied().unwrap_or(f64::NAN);
+    let mean_its = iterations.iter().sum::<f64>() / iterations.len().max(1) as f64;
+    println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
     println!("| solved | {} of {} | | |", planning.len(), per_family * FAMILIES.len());
     let mean_length = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
     println!("mean path length after simplification: {mean_length:.4} rad");
@@ -64,7 +71,8 @@ fn main() {
         println!("unsolved: {f}");
     }
     let out = serde_json::json!({"solved": planning.len(), "planning": p, "total": t, "unsolved": failed,
-        "time_limit_s": time_limit, "mean_path_length_rad": mean_length});
+        "time_limit_s": time_limit, "mean_path_length_rad": mean_length,
+        "iterations": {"median": its, "mean": mean_its}});
     if per_family < 100 {
         return;
     }
