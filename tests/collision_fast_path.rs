@@ -213,6 +213,10 @@ fn certified_motions(robot: &RobotModel, pair: Pair) -> Vec<bool> {
         let q1: Vec<f64> = q0.iter().map(|v| v + rng.random_range(-0.4..0.4)).collect();
         let ok = fast.motion_free_certified(&mut fast_ws, &q0, &q1, clearance).unwrap();
         verdicts.push(ok);
+        // What the workspace remembers of earlier motions (the pair that
+        // failed last, a plain probe after a failure) changes no verdict.
+        let fresh = fast.motion_free_certified(&mut CollisionWorkspace::new(&fast), &q0, &q1, clearance).unwrap();
+        assert_eq!(ok, fresh, "{q0:?} -> {q1:?}");
         let reference = general.motion_free_certified(&mut general_ws, &q0, &q1, clearance).unwrap();
         total += 1;
         agree += usize::from(ok == reference);

@@ -58,6 +58,9 @@ pub(crate) struct SphereWorkspace {
     /// The pair that last failed, checked first: successive checks (the
     /// steps of a search, a shortcut tried again) tend to fail on it.
     last_failure: Option<Pair>,
+    /// The last certification failed: probe the next motion plainly
+    /// first (see `SphereModel::certify`).
+    pub(super) probe_next: bool,
 }
 
 /// A pair of the model: a group and a static shape, or a self pair.
@@ -100,6 +103,7 @@ impl SphereWorkspace {
             room: [0.0; LANES],
             intervals: std::collections::VecDeque::with_capacity(256),
             last_failure: None,
+            probe_next: false,
         }
     }
 }
