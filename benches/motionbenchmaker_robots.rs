@@ -8,7 +8,11 @@
 //! simplification, one seed per problem, as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --plain --joint-goals]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --plain --joint-goals --komo]
+//!
+//! `--komo`: also plans and optimizes every problem (T = 50, as
+//! `motionbenchmaker_komo` does the Panda's) and reports how many the
+//! optimizer solves and the total time.
 //!
 //! `--joint-goals`: goals drawn in joint space near home rather than
 //! grasps solved by IK (`robots::Goals::Joint`, the first generator).
@@ -27,16 +31,31 @@ mod robots;
 
 use mbm::{full_run, make_plain, row};
 use robots::{FAMILIES, Goals, ROBOTS};
+use tandem::komo::{SolveOptions, solve_problem};
 use tandem::plan::{PlanStatus, ProblemPlanner};
 
 fn option(args: &[String], name: &str) -> Option<f64> {
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
 }
 
+/// Plans and optimizes `problem` (T = 50, default objectives) as
+/// `motionbenchmaker_komo` does the Panda's: solved when the optimizer
+/// converged, every slice is within limits and the motion between slices
+/// is collision-free at the validation resolution.
+fn optimize(problem: &tandem::scene::Problem, name: &str, times: &mut Vec<f64>, failed: &mut Vec<String>) {
+    let options = SolveOptions { seed: Some(0), ..SolveOptions::default() };
+    match solve_problem(problem, &options) {
+        Ok(s) if s.converged() => times.push(s.total_time.as_secs_f64()),
+        Ok(s) => failed.push(format!("{name}: {}", s.status())),
+        Err(e) => failed.push(format!("{name}: {e}")),
+    }
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let plain = args.iter().any(|a| a == "--plain");
     let goals = if args.iter().any(|a| a == "--joint-goals") { Goals::Joint } else { Goals::Grasp };
+    let komo = args.iter().any(|a| a == "--komo");
     // `cargo test --all-targets` runs bench targets without `--bench`: one
     // problem per family and robot then.
     let per_family = if full_run() { option(&args, "--per-family").unwrap_or(100.0) as u64 } else { 1 };
@@ -50,6 +69,7 @@ fn main() {
         // time per iteration) against the rest (goal IK, setup).
         let (mut search, mut iterations, mut per_iteration) = (Vec::new(), Vec::new(), Vec::new());
         let mut not_generated = Vec::new();
+        let (mut optimized, mut not_optimized) = (Vec::new(), Vec::new());
         let mut nq = 0;
         for family in FAMILIES {
             for k in 1..=per_family {
@@ -59,6 +79,9 @@ fn main() {
                 };
                 nq = problem.robot.nq();
                 problem.planner.time_limit = time_limit;
+                if komo {
+                    optimize(&problem, &format!("{family} {k}"), &mut optimized, &mut not_optimized);
+                }
                 let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
                 if plain {
                     make_plain(&mut planner);
@@ -101,11 +124,22 @@ fn main() {
         for f in &failed {
             println!("unsolved: {f}");
         }
+        let komo_row = if komo {
+            let row = row("with the optimizer (plan + optimize + validate)", &mut optimized);
+            println!("| optimizer solved | {} of {count} | | |", optimized.len());
+            for f in &not_optimized {
+                println!("not optimized: {f}");
+            }
+            serde_json::json!({"solved": optimized.len(), "total": row, "unsolved": not_optimized})
+        } else {
+            serde_json::Value::Null
+        };
         results.insert(
             robot.name.to_string(),
             serde_json::json!({"group": robot.group, "joints": nq, "problems": count, "solved": planning.len(),
                 "planning": p, "total": t, "search": r,
                 "iterations": {"median": its, "mean": mean_its}, "us_per_iteration": us, "unsolved": failed, "not_generated": not_generated,
+                "komo": komo_row,
                 "time_limit_s": time_limit}),
         );
     }

@@ -20,8 +20,8 @@ use robots::Goals;
 use std::sync::Arc;
 use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
 use tandem::plan::{PlanStatus, ProblemPlanner};
-use tandem::robot::{RobotDescription, RobotModel, Srdf};
-use tandem::scene::{Obstacle, Scene};
+use tandem::robot::{KinematicsWorkspace, RobotDescription, RobotModel, Srdf};
+use tandem::scene::{Goal, Obstacle, Scene};
 
 /// The TIAGo sphere model with its `arm_torso` group (torso lift + 7 arm
 /// joints), its SRDF's disabled pairs, and boxes around it.
@@ -99,9 +99,42 @@ fn benchmark_problems_of_every_robot_and_family_plan_certified() {
             assert!(problem.warnings.is_empty(), "{:?}", problem.warnings);
             let model = problem.collision_model().unwrap();
             assert!(model.has_fast_path(), "{} {family}", robot.name);
+            if goals == Goals::Grasp {
+                assert_grasp(robot, family, &problem);
+            }
             let report = ProblemPlanner::new(&problem, Some(0)).unwrap().run(0).unwrap();
             assert_eq!(report.result.status, PlanStatus::Solved, "{} {family}", robot.name);
             assert!(report.certified, "{} {family}", robot.name);
+        }
+    }
+}
+
+/// A grasp goal points each tool's approach axis within the tilt of its
+/// family's approach direction.
+fn assert_grasp(robot: &robots::BenchRobot, family: &str, problem: &tandem::scene::Problem) {
+    let Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
+    let model = &problem.robot;
+    let mut ws = KinematicsWorkspace::new(model);
+    model.forward_kinematics(&mut ws, goal).unwrap();
+    model.update_frame_placements(&mut ws);
+    for (tool, _) in robot.tools {
+        let pose = model.frame_pose(&ws, model.frame_id(tool).unwrap());
+        let axis = pose.rotation.matrix().column(robot.tool_axis).into_owned();
+        let angle = axis.angle(&robots::approach(family));
+        assert!(angle <= robots::APPROACH_TILT + 1e-3, "{} {family} {tool}: {angle} rad off", robot.name);
+    }
+}
+
+#[test]
+fn the_optimizer_solves_a_problem_of_every_robot_and_family() {
+    let dir = tempfile::tempdir().unwrap();
+    for robot in &robots::ROBOTS {
+        for family in robots::FAMILIES {
+            let problem = robots::problem(robot, family, 1, Goals::Grasp, dir.path()).expect("a start and a goal");
+            let options = tandem::komo::SolveOptions { seed: Some(0), ..Default::default() };
+            let solution = tandem::komo::solve_problem(&problem, &options).unwrap();
+            // Converged, within limits, and collision-free between slices.
+            assert!(solution.converged(), "{} {family}: {}", robot.name, solution.status());
         }
     }
 }

@@ -45,10 +45,10 @@ pub struct BenchRobot {
     pub group: &'static str,
     /// Tool frames whose position the goal region constrains, with the side
     /// (y sign) each must be on: 0 for either.
-    tools: &'static [(&'static str, f64)],
+    pub tools: &'static [(&'static str, f64)],
     /// The tool frames' approach axis (0 = x, 1 = y, 2 = z): the one a
     /// grasp points at the object.
-    tool_axis: usize,
+    pub tool_axis: usize,
     /// Joints outside the group, held at these values (rad or m).
     held: &'static [(&'static str, f64)],
     /// The work point in front of the robot (m, URDF root frame) and the
@@ -274,14 +274,27 @@ pub enum Goals {
 const IK_SEED_SPREAD: f64 = 0.3;
 
 /// Largest angle (rad) between a grasp's approach and its family's direction.
-const APPROACH_TILT: f64 = 0.5;
+pub const APPROACH_TILT: f64 = 0.5;
 
 /// Grasps tried for a goal before the scene is drawn again.
 const GOAL_DRAWS: usize = 400;
 
+/// A random offset perpendicular to the unit `approach`, at most
+/// tan([`APPROACH_TILT`]) long (uniform in that disc): added to the
+/// approach, it tilts it by at most [`APPROACH_TILT`].
+fn tilt(rng: &mut ChaCha8Rng, approach: &Vector3<f64>) -> Vector3<f64> {
+    loop {
+        let v = Vector3::from_fn(|_, _| rng.random_range(-1.0..=1.0));
+        let across = v - approach * approach.dot(&v);
+        if across.norm() <= 1.0 {
+            return across * APPROACH_TILT.tan();
+        }
+    }
+}
+
 /// The direction a grasp approaches its object in `family`: from above on
 /// the table, from the front into the shelf and the cage.
-fn approach(family: &str) -> Vector3<f64> {
+pub fn approach(family: &str) -> Vector3<f64> {
     if family == "table" { -Vector3::z() } else { Vector3::x() }
 }
 
@@ -372,8 +385,7 @@ impl Sampler<'_> {
                 let [x, z] = [0, 2].map(|i| rng.random_range(region.0[i]..=region.1[i]));
                 // Grasps vary around an object: the approach tilts up to
                 // APPROACH_TILT off the family's direction.
-                let tilt = Vector3::from_fn(|_, _| rng.random_range(-1.0..=1.0)) * APPROACH_TILT.tan();
-                let direction = (approach + tilt - approach * approach.dot(&tilt)).normalize();
+                let direction = (approach + tilt(rng, &approach)).normalize();
                 let target = IkTarget {
                     frame,
                     position: Vector3::new(x, y, z),
