@@ -15,7 +15,7 @@
 #[path = "support/mbm.rs"]
 mod mbm;
 
-use mbm::{Benchmark, FAMILIES, full_run, make_plain, row};
+use mbm::{Benchmark, FAMILIES, full_run, make_plain, median_mean, row};
 use tandem::plan::{PlanStatus, ProblemPlanner, path_length};
 
 fn main() {
@@ -60,9 +60,7 @@ fn main() {
     println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
     let p = row("planning time", &mut planning);
     let t = row("planning + simplification", &mut total);
-    iterations.sort_by(f64::total_cmp);
-    let its = iterations.get(iterations.len() / 2).copied().unwrap_or(f64::NAN);
-    let mean_its = iterations.iter().sum::<f64>() / iterations.len().max(1) as f64;
+    let (its, mean_its) = median_mean(&mut iterations);
     println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
     println!("| solved | {} of {} | | |", planning.len(), per_family * FAMILIES.len());
     let mean_length = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;

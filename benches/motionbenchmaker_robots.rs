@@ -29,7 +29,7 @@ mod mbm;
 #[path = "support/robots.rs"]
 mod robots;
 
-use mbm::{full_run, make_plain, row};
+use mbm::{full_run, make_plain, median_mean, row};
 use robots::{FAMILIES, Goals, ROBOTS};
 use tandem::komo::{SolveOptions, solve_problem};
 use tandem::plan::{PlanStatus, ProblemPlanner};
@@ -108,12 +108,8 @@ fn main() {
         let p = row("planning time", &mut planning);
         let t = row("planning + simplification", &mut total);
         let r = row("of which the RRT search", &mut search);
-        let median = |v: &mut Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-        };
-        let (its, us) = (median(&mut iterations), median(&mut per_iteration) * 1e6);
-        let mean_its = iterations.iter().sum::<f64>() / iterations.len().max(1) as f64;
+        let (its, mean_its) = median_mean(&mut iterations);
+        let us = median_mean(&mut per_iteration).0 * 1e6;
         println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
         println!("| time per RRT iteration | {us:.1} µs | | |");
         let count = per_family as usize * FAMILIES.len() - not_generated.len();

@@ -74,3 +74,11 @@ pub fn make_plain(planner: &mut ProblemPlanner) {
     settings.dynamic_domain = None;
     settings.balance = false;
 }
+
+/// Median and mean of `values` (sorted in place); NaN and 0 when empty.
+#[allow(dead_code)] // not every bench reports it
+pub fn median_mean(values: &mut [f64]) -> (f64, f64) {
+    values.sort_by(f64::total_cmp);
+    let median = values.get(values.len() / 2).copied().unwrap_or(f64::NAN);
+    (median, values.iter().sum::<f64>() / values.len().max(1) as f64)
+}

@@ -345,22 +345,14 @@ impl Sampler<'_> {
             && self.model.min_distance(&mut self.ws, q).expect("distance").is_none_or(|d| d.signed.distance >= 1e-3)
     }
 
-    /// A free start: within [`START_SPREAD`] of home, no tool inside `region`.
-    fn start(&mut self, rng: &mut ChaCha8Rng, region: &Region) -> Option<Vec<f64>> {
+    /// A free configuration within `spread` of home with every tool inside
+    /// `region` (`inside`: a joint-space goal, see [`Goals::Joint`]) or
+    /// none inside (a start).
+    fn sample(&mut self, rng: &mut ChaCha8Rng, region: &Region, spread: f64, inside: bool) -> Option<Vec<f64>> {
         for _ in 0..200_000 {
-            let q = self.random(rng, START_SPREAD);
-            if !self.tools_in(&q, region).1 && self.free(&q) {
-                return Some(q);
-            }
-        }
-        None
-    }
-
-    /// A free joint-space goal (see [`Goals::Joint`]).
-    fn joint_goal(&mut self, rng: &mut ChaCha8Rng, region: &Region) -> Option<Vec<f64>> {
-        for _ in 0..200_000 {
-            let q = self.random(rng, GOAL_SPREAD);
-            if self.tools_in(&q, region).0 && self.free(&q) {
+            let q = self.random(rng, spread);
+            let (all, any) = self.tools_in(&q, region);
+            if (inside && all || !inside && !any) && self.free(&q) {
                 return Some(q);
             }
         }
@@ -454,7 +446,7 @@ pub fn problem(robot: &BenchRobot, family: &str, k: u64, goals: Goals, dir: &Pat
         };
         let goal = match goals {
             Goals::Grasp => sampler.goal(&mut rng, &region, approach(family)),
-            Goals::Joint => sampler.joint_goal(&mut rng, &region),
+            Goals::Joint => sampler.sample(&mut rng, &region, GOAL_SPREAD, true),
         };
         let Some(goal) = goal else { continue };
         // A start the straight line to the goal does not reach, if one of
@@ -462,7 +454,7 @@ pub fn problem(robot: &BenchRobot, family: &str, k: u64, goals: Goals, dir: &Pat
         // MotionBenchMaker's are).
         let mut found = None;
         for _ in 0..50 {
-            let Some(start) = sampler.start(&mut rng, &region) else { break };
+            let Some(start) = sampler.sample(&mut rng, &region, START_SPREAD, false) else { break };
             let mut ws = CollisionWorkspace::new(&sampler.model);
             let direct = sampler.model.motion_free(&mut ws, &start, &goal, 0.01).expect("motion check");
             found = Some(start);
