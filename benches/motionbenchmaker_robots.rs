@@ -8,7 +8,11 @@
 //! simplification, one seed per problem, as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --plain --joint-goals --komo]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --problem FAMILY:K --plain --joint-goals --komo]
+//!
+//! The budget is the time limit alone, as MotionBenchMaker's and MoveIt's
+//! are: the problems' iteration cap is lifted. `--problem shelf:6` runs
+//! that one problem (of each robot chosen).
 //!
 //! `--komo`: also plans and optimizes every problem (T = 50, as
 //! `motionbenchmaker_komo` does the Panda's) and reports how many the
@@ -63,6 +67,7 @@ fn main() {
     let dir = tempfile::tempdir().expect("temp dir");
     let mut results = serde_json::Map::new();
     let only = args.iter().position(|a| a == "--robot").and_then(|i| args.get(i + 1));
+    let one = args.iter().position(|a| a == "--problem").and_then(|i| args.get(i + 1));
     for robot in ROBOTS.iter().filter(|r| only.is_none_or(|name| name == r.name)) {
         let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
         // Where planning time goes: the RRT search (its iterations, and the
@@ -73,14 +78,21 @@ fn main() {
         let mut nq = 0;
         for family in FAMILIES {
             for k in 1..=per_family {
+                if one.is_some_and(|p| *p != format!("{family}:{k}")) {
+                    continue;
+                }
                 let Some(mut problem) = robots::problem(robot, family, k, goals, dir.path()) else {
                     not_generated.push(format!("{family} {k}"));
                     continue;
                 };
                 nq = problem.robot.nq();
                 problem.planner.time_limit = time_limit;
+                problem.planner.max_iterations = usize::MAX;
                 if komo {
                     optimize(&problem, &format!("{family} {k}"), &mut optimized, &mut not_optimized);
+                }
+                if std::env::var("DUMP").is_ok() {
+                    eprintln!("{family} {k}: start {:?}\ngoal {:?}", problem.start, problem.goal);
                 }
                 let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
                 if plain {
@@ -112,10 +124,14 @@ fn main() {
         let us = median_mean(&mut per_iteration).0 * 1e6;
         println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
         println!("| time per RRT iteration | {us:.1} µs | | |");
-        let count = per_family as usize * FAMILIES.len() - not_generated.len();
+        let count = planning.len() + failed.len();
         println!("| solved | {} of {count} | | |", planning.len());
         if !not_generated.is_empty() {
-            println!("no start and goal found in 20 scene draws (not counted): {}", not_generated.join(", "));
+            println!(
+                "no start and goal found in {} scene draws (not counted): {}",
+                robots::SCENE_DRAWS,
+                not_generated.join(", ")
+            );
         }
         for f in &failed {
             println!("unsolved: {f}");

@@ -18,7 +18,9 @@
 //! axis within 0.5 rad of pointing down onto the table or forward into the
 //! shelf and cage, any roll, solved by IK from a seed near home (one
 //! descent per grasp, as a MotionBenchMaker goal is solved from its ready
-//! pose). The straight line between start and goal is in collision when
+//! pose), and kept when the tool can be withdrawn along its approach
+//! axis out of the region (an approachable grasp, its goal reachable from
+//! outside the furniture). The straight line between start and goal is in collision when
 //! one of 50 starts gives that. [`Goals::Joint`] draws goals in joint
 //! space instead (the first generator, kept for comparison).
 //! Everything follows from (robot, family, index): same problems on every
@@ -276,6 +278,16 @@ const IK_SEED_SPREAD: f64 = 0.3;
 /// Largest angle (rad) between a grasp's approach and its family's direction.
 pub const APPROACH_TILT: f64 = 0.5;
 
+/// A grasp's withdrawal (see `Sampler::withdraws`): step along the
+/// approach axis (m), largest joint motion per step (rad or m), and how
+/// far outside the goal region the tool must get (m).
+const RETREAT_STEP: f64 = 0.01;
+const RETREAT_JOINT_STEP: f64 = 0.2;
+const RETREAT_MARGIN: f64 = 0.05;
+
+/// Draws of a problem's scene before it is given up.
+pub const SCENE_DRAWS: usize = 200;
+
 /// Grasps tried for a goal before the scene is drawn again.
 const GOAL_DRAWS: usize = 400;
 
@@ -385,9 +397,17 @@ impl Sampler<'_> {
                     axis_alignment: Some((self.tool_axis, direction)),
                 };
                 let settings = IkSettings { restarts: 1, ..IkSettings::default() };
+                // MoveIt's consistency limits: a solution more than a
+                // half-turn from its seed in some joint lies on a branch
+                // the ready pose does not pick.
                 match solve_ik(&self.model, &mut self.ws, &target, &q, 1, &settings) {
-                    Ok(mut solutions) => q = solutions.swap_remove(0),
-                    Err(_) => continue 'draw,
+                    Ok(mut solutions) if within(&solutions[0], &q, std::f64::consts::PI) => {
+                        q = solutions.swap_remove(0)
+                    }
+                    _ => continue 'draw,
+                }
+                if !self.withdraws(target, &q, region) {
+                    continue 'draw;
                 }
             }
             if self.tools_in(&q, region).0 && self.free(&q) {
@@ -398,15 +418,51 @@ impl Sampler<'_> {
     }
 }
 
+/// Whether every joint of `a` is within `limit` (rad or m) of `b`'s.
+fn within(a: &[f64], b: &[f64], limit: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= limit)
+}
+
+impl Sampler<'_> {
+    /// Whether the tool of `grasp`, solved as `q`, can be withdrawn along
+    /// its approach axis until it is [`RETREAT_MARGIN`] outside `region`:
+    /// IK steps of [`RETREAT_STEP`] from the previous solution, each
+    /// collision-free and none moving a joint more than
+    /// [`RETREAT_JOINT_STEP`] (a continuous motion, not a jump to another
+    /// branch). A grasp that cannot be approached is not one a robot can
+    /// take, and a goal whose tool cannot leave its pocket without a joint
+    /// passing its limit is not reachable from outside at all.
+    fn withdraws(&mut self, grasp: IkTarget, q: &[f64], region: &Region) -> bool {
+        let Some((_, direction)) = grasp.axis_alignment else { return true };
+        let settings = IkSettings { restarts: 1, ..IkSettings::default() };
+        let (mut target, mut q) = (grasp, q.to_vec());
+        let outside = |p: &Vector3<f64>| {
+            (0..3).any(|i| p[i] < region.0[i] - RETREAT_MARGIN || p[i] > region.1[i] + RETREAT_MARGIN)
+        };
+        while !outside(&target.position) {
+            target.position -= direction * RETREAT_STEP;
+            let Ok(mut solutions) = solve_ik(&self.model, &mut self.ws, &target, &q, 1, &settings) else {
+                return false;
+            };
+            let next = solutions.swap_remove(0);
+            if !within(&next, &q, RETREAT_JOINT_STEP) {
+                return false;
+            }
+            q = next;
+        }
+        true
+    }
+}
+
 /// Problem `k` of `family` for `robot` with `goals`, written into `dir` and loaded;
-/// `None` when 20 draws of the scene gave no start and goal.
+/// `None` when [`SCENE_DRAWS`] draws of the scene gave no start and goal.
 pub fn problem(robot: &BenchRobot, family: &str, k: u64, goals: Goals, dir: &Path) -> Option<Problem> {
     let family_index = FAMILIES.iter().position(|f| *f == family).expect("family") as u64;
     let robot_index = ROBOTS.iter().position(|r| r.name == robot.name).expect("robot") as u64;
     let mut rng = ChaCha8Rng::seed_from_u64(0x7a6d_0000 + robot_index * 1_000_000 + family_index * 10_000 + k);
     let base = dir.join(format!("{}_{family}_{k:04}", robot.name));
     let (scene, request) = (base.with_extension("scene.yaml"), base.with_extension("request.yaml"));
-    for _draw in 0..20 {
+    for _draw in 0..SCENE_DRAWS {
         let (mut blocks, region) = furniture(robot, family, &mut rng);
         if let Some((size, center, _)) = robot.mount {
             blocks.push(block("mount", size, center));
