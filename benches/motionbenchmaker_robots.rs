@@ -8,11 +8,11 @@
 //! simplification, one seed per problem, as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --problem FAMILY:K --plain --joint-goals --komo]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --problem FAMILY[:K] --plain --joint-goals --komo]
 //!
 //! The budget is the time limit alone, as MotionBenchMaker's and MoveIt's
 //! are: the problems' iteration cap is lifted. `--problem shelf:6` runs
-//! that one problem (of each robot chosen).
+//! that one problem (of each robot chosen), `--problem shelf` that family.
 //!
 //! `--komo`: also plans and optimizes every problem (T = 50, as
 //! `motionbenchmaker_komo` does the Panda's) and reports how many the
@@ -78,7 +78,7 @@ fn main() {
         let mut nq = 0;
         for family in FAMILIES {
             for k in 1..=per_family {
-                if one.is_some_and(|p| *p != format!("{family}:{k}")) {
+                if one.is_some_and(|p| *p != family && *p != format!("{family}:{k}")) {
                     continue;
                 }
                 let Some(mut problem) = robots::problem(robot, family, k, goals, dir.path()) else {
