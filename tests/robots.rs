@@ -110,10 +110,20 @@ fn benchmark_problems_of_every_robot_and_family_plan_certified() {
 }
 
 /// A grasp goal points each tool's approach axis within the tilt of its
-/// family's approach direction.
+/// family's approach direction, and lies within a half-turn of its IK seed
+/// (itself near the ready pose) in every joint.
 fn assert_grasp(robot: &robots::BenchRobot, family: &str, problem: &tandem::scene::Problem) {
     let Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
     let model = &problem.robot;
+    for (name, value) in model.joint_names().iter().zip(goal) {
+        let home = robot.home_value(name).unwrap();
+        let off = (value - home).abs();
+        assert!(
+            off <= std::f64::consts::PI + robots::IK_SEED_SPREAD,
+            "{} {family} {name}: {off} from home",
+            robot.name
+        );
+    }
     let mut ws = KinematicsWorkspace::new(model);
     model.forward_kinematics(&mut ws, goal).unwrap();
     model.update_frame_placements(&mut ws);

@@ -149,6 +149,11 @@ impl BenchRobot {
         self.folder().join(format!("{}_spheres.urdf", self.name))
     }
 
+    /// The ready pose's value of joint `name` (rad or m).
+    pub fn home_value(&self, name: &str) -> Option<f64> {
+        self.home.iter().find(|(n, _)| *n == name).map(|(_, v)| *v)
+    }
+
     /// The SRDF.
     pub fn srdf(&self) -> PathBuf {
         self.folder().join(format!("{}.srdf", self.name))
@@ -273,7 +278,7 @@ pub enum Goals {
 }
 
 /// How far (rad or m per joint) from home a goal's IK starts.
-const IK_SEED_SPREAD: f64 = 0.3;
+pub const IK_SEED_SPREAD: f64 = 0.3;
 
 /// Largest angle (rad) between a grasp's approach and its family's direction.
 pub const APPROACH_TILT: f64 = 0.5;
@@ -493,11 +498,7 @@ pub fn problem(robot: &BenchRobot, family: &str, k: u64, goals: Goals, dir: &Pat
             kin: KinematicsWorkspace::new(&model),
             tools,
             tool_axis: robot.tool_axis,
-            home: model
-                .joint_names()
-                .iter()
-                .map(|n| robot.home.iter().find(|(h, _)| h == n).map(|(_, v)| *v).expect("home value"))
-                .collect(),
+            home: model.joint_names().iter().map(|n| robot.home_value(n).expect("home value")).collect(),
             min_height: robot.min_height,
         };
         let goal = match goals {
