@@ -91,9 +91,6 @@ fn main() {
                 if komo {
                     optimize(&problem, &format!("{family} {k}"), &mut optimized, &mut not_optimized);
                 }
-                if std::env::var("DUMP").is_ok() {
-                    eprintln!("{family} {k}: start {:?}\ngoal {:?}", problem.start, problem.goal);
-                }
                 let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
                 if plain {
                     make_plain(&mut planner);

@@ -18,10 +18,12 @@
 //! axis within 0.5 rad of pointing down onto the table or forward into the
 //! shelf and cage, any roll, solved by IK from a seed near home (one
 //! descent per grasp, as a MotionBenchMaker goal is solved from its ready
-//! pose), and kept when the tool can be withdrawn along its approach
-//! axis out of the region (an approachable grasp, its goal reachable from
-//! outside the furniture). The straight line between start and goal is in collision when
-//! one of 50 starts gives that. [`Goals::Joint`] draws goals in joint
+//! pose). A grasp is kept when its solution lies within a half-turn of
+//! its seed in every joint (MoveIt's consistency limits) and its tool can
+//! be withdrawn along its approach axis out of the region (an approachable
+//! grasp, its goal reachable from outside the furniture). The straight
+//! line between start and goal is in collision when one of 50 starts
+//! gives that. [`Goals::Joint`] draws goals in joint
 //! space instead (the first generator, kept for comparison).
 //! Everything follows from (robot, family, index): same problems on every
 //! machine.
@@ -315,6 +317,16 @@ pub fn approach(family: &str) -> Vector3<f64> {
     if family == "table" { -Vector3::z() } else { Vector3::x() }
 }
 
+/// Whether every joint of `a` is within `limit` (rad or m) of `b`'s.
+fn within(a: &[f64], b: &[f64], limit: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= limit)
+}
+
+/// IK settings of one damped least-squares descent from the given seed.
+fn one_descent() -> IkSettings {
+    IkSettings { restarts: 1, ..IkSettings::default() }
+}
+
 /// Rejection sampler of start and goal configurations.
 struct Sampler<'a> {
     problem: &'a Problem,
@@ -401,11 +413,10 @@ impl Sampler<'_> {
                     orientation: None,
                     axis_alignment: Some((self.tool_axis, direction)),
                 };
-                let settings = IkSettings { restarts: 1, ..IkSettings::default() };
                 // MoveIt's consistency limits: a solution more than a
                 // half-turn from its seed in some joint lies on a branch
                 // the ready pose does not pick.
-                match solve_ik(&self.model, &mut self.ws, &target, &q, 1, &settings) {
+                match solve_ik(&self.model, &mut self.ws, &target, &q, 1, &one_descent()) {
                     Ok(mut solutions) if within(&solutions[0], &q, std::f64::consts::PI) => {
                         q = solutions.swap_remove(0)
                     }
@@ -421,14 +432,7 @@ impl Sampler<'_> {
         }
         None
     }
-}
 
-/// Whether every joint of `a` is within `limit` (rad or m) of `b`'s.
-fn within(a: &[f64], b: &[f64], limit: f64) -> bool {
-    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= limit)
-}
-
-impl Sampler<'_> {
     /// Whether the tool of `grasp`, solved as `q`, can be withdrawn along
     /// its approach axis until it is [`RETREAT_MARGIN`] outside `region`:
     /// IK steps of [`RETREAT_STEP`] from the previous solution, each
@@ -439,14 +443,13 @@ impl Sampler<'_> {
     /// passing its limit is not reachable from outside at all.
     fn withdraws(&mut self, grasp: IkTarget, q: &[f64], region: &Region) -> bool {
         let Some((_, direction)) = grasp.axis_alignment else { return true };
-        let settings = IkSettings { restarts: 1, ..IkSettings::default() };
         let (mut target, mut q) = (grasp, q.to_vec());
         let outside = |p: &Vector3<f64>| {
             (0..3).any(|i| p[i] < region.0[i] - RETREAT_MARGIN || p[i] > region.1[i] + RETREAT_MARGIN)
         };
         while !outside(&target.position) {
             target.position -= direction * RETREAT_STEP;
-            let Ok(mut solutions) = solve_ik(&self.model, &mut self.ws, &target, &q, 1, &settings) else {
+            let Ok(mut solutions) = solve_ik(&self.model, &mut self.ws, &target, &q, 1, &one_descent()) else {
                 return false;
             };
             let next = solutions.swap_remove(0);
