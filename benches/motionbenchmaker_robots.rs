@@ -50,7 +50,15 @@ fn optimize(problem: &tandem::scene::Problem, name: &str, times: &mut Vec<f64>, 
     let options = SolveOptions { seed: Some(0), ..SolveOptions::default() };
     match solve_problem(problem, &options) {
         Ok(s) if s.converged() => times.push(s.total_time.as_secs_f64()),
-        Ok(s) => failed.push(format!("{name}: {}", s.status())),
+        Ok(s) => failed.push(format!(
+            "{name}: {} (path {:.2} rad in {} waypoints; violations: equality {:.2e}, inequality {:.2e}; {} evaluations)",
+            s.status(),
+            tandem::plan::path_length(&s.plan.path),
+            s.plan.path.len(),
+            s.report.equality_violation,
+            s.report.inequality_violation,
+            s.report.evaluations
+        )),
         Err(e) => failed.push(format!("{name}: {e}")),
     }
 }

@@ -148,3 +148,18 @@ fn the_optimizer_solves_a_problem_of_every_robot_and_family() {
         }
     }
 }
+
+/// Both Baxter arms through one cage in 50 slices: the first try ends
+/// `infeasible` (the motion between two slices through the cage, which
+/// the refinement cannot undo); the stiffer second try
+/// (`stiff_solver_settings`) converges collision-free.
+#[test]
+fn the_optimizer_takes_both_baxter_arms_through_one_cage() {
+    let dir = tempfile::tempdir().unwrap();
+    let baxter = &robots::ROBOTS[2];
+    let problem = robots::problem(baxter, "cage", 14, Goals::Grasp, dir.path()).expect("a start and a goal");
+    let options = tandem::komo::SolveOptions { seed: Some(0), ..Default::default() };
+    let solution = tandem::komo::solve_problem(&problem, &options).unwrap();
+    assert!(solution.converged(), "{}", solution.status());
+    assert_eq!(solution.trajectory.len(), problem.optimizer.horizon);
+}

@@ -31,7 +31,7 @@ pub use objective::{Objective, TimeSpan, default_objectives, objective_from_spec
 pub use problem::{COLLISION_CUTOFF, Measures, TrajectoryProblem, TrajectoryWorkspace};
 pub use solve::{
     Initialization, ProblemSolution, SolveOptions, TrajectoryOptimizer, TrajectoryResult, Validation, solve_problem,
-    trajectory_solver_settings,
+    stiff_solver_settings, trajectory_solver_settings,
 };
 
 use crate::collision::CollisionError;
