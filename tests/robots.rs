@@ -150,8 +150,8 @@ fn the_optimizer_solves_a_problem_of_every_robot_and_family() {
 }
 
 /// Both Baxter arms through one cage in 50 slices: the first try ends
-/// `infeasible` (the motion between two slices through the cage, which
-/// the refinement cannot undo); the stiffer second try
+/// `infeasible` (it converges to a motion through the cage, which the
+/// refinement cannot undo); the stiffer second try
 /// (`stiff_solver_settings`) converges collision-free.
 #[test]
 fn the_optimizer_takes_both_baxter_arms_through_one_cage() {

@@ -77,11 +77,11 @@ pub fn trajectory_solver_settings() -> SolverSettings {
 /// rad, so that the collision constraints the planner's path meets stay
 /// met while the cost pulls.
 ///
-/// Why a second try: with few slices, the smoothness pull can move two
-/// slices to either side of a thin obstacle (a cage's 2–3 cm walls and
-/// bars) before the penalty has grown; the motion between them then
-/// passes through it, and the refinement with collision rows between
-/// slices cannot pull it back out. On the Baxter's `cage` problems of
+/// Why a second try: with few slices, the smoothness pull can move the
+/// motion through a thin obstacle (a cage's 2–3 cm walls and bars) before
+/// the penalty has grown: the first solve converges, the validation
+/// finds the collision, and the refinement with collision rows between
+/// slices cannot pull the motion back out. On the Baxter's `cage` problems of
 /// `motionbenchmaker_robots` (both arms in one cage, T = 50), 4 of 30
 /// ended `infeasible` that way (1.4–2.6 cm deep), and all 4 converge
 /// collision-free with these settings. They are kept
