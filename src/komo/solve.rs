@@ -79,14 +79,13 @@ pub fn trajectory_solver_settings() -> SolverSettings {
 ///
 /// Why a second try: with few slices, the smoothness pull can move the
 /// motion through a thin obstacle (a cage's 2–3 cm walls and bars) before
-/// the penalty has grown: the first solve converges, the validation
-/// finds the collision, and the refinement with collision rows between
-/// slices cannot pull the motion back out. On the Baxter's `cage` problems of
+/// the penalty has grown: the first solve converges, the validation finds
+/// the collision, and the refinement with collision rows between slices
+/// cannot pull the motion back out. On the Baxter's `cage` problems of
 /// `motionbenchmaker_robots` (both arms in one cage, T = 50), 4 of 30
 /// ended `infeasible` that way (1.4–2.6 cm deep), and all 4 converge
-/// collision-free with these settings. They are kept
-/// for the second try: where the first settings succeed, these cost more
-/// evaluations.
+/// collision-free with these settings. They are kept for the second try,
+/// so that every problem the first settings solve is solved as before.
 pub fn stiff_solver_settings(settings: &SolverSettings) -> SolverSettings {
     SolverSettings { initial_penalty: 100.0 * settings.initial_penalty, max_step: 0.25, ..settings.clone() }
 }
