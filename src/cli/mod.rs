@@ -170,7 +170,7 @@ pub enum Command {
     ///
     /// Pose and grasp goals are solved by inverse kinematics first (several
     /// collision-free solutions form the goal set). Settings come from the
-    /// problem's [planner] table; the same seed gives the same path. Exit
+    /// problem file's planner table; the same seed gives the same path. Exit
     /// status 3 when no path is found (the reason is printed).
     ///
     /// Examples:

@@ -57,7 +57,7 @@ pub fn temporary_path(path: &Path) -> PathBuf {
 
 /// Writes `outcomes` (ids `meta.ids`, in order) as the part file `path`:
 /// accepted ones as rows, rejected ones in the metadata. Atomic: written to
-/// [`temporary_path`], flushed to disk, then renamed.
+/// a hidden temporary name (`temporary_path`), flushed to disk, then renamed.
 ///
 /// # Errors
 /// I/O or encoding errors, or outcomes that do not cover `meta.ids` in order.

@@ -5,7 +5,7 @@
 //!
 //! urdf-rs reports such problems without a position; catching them here
 //! turns "missing field `parent`" into "robot.urdf:42: joint 'elbow' has no
-//! <parent link=…> element".
+//! `<parent link=…>` element".
 
 use super::error::{RobotError, SourceLocation};
 use std::collections::HashMap;
