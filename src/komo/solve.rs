@@ -292,9 +292,7 @@ impl ProblemSolution {
     /// Converged with every constraint within tolerance, collision-free at
     /// the validation resolution, within limits.
     pub fn converged(&self) -> bool {
-        self.report.termination == Termination::Converged
-            && self.validation.collision_free
-            && self.validation.within_limits
+        succeeded(&self.report, &self.validation)
     }
 
     /// `converged`, `in_collision`, `plan_failed`, or the solver's
@@ -349,6 +347,12 @@ fn combine(first: &SolveReport, last: SolveReport) -> SolveReport {
     }
 }
 
+/// Converged with every constraint within tolerance, collision-free at
+/// the validation resolution, within limits.
+fn succeeded(report: &SolveReport, validation: &Validation) -> bool {
+    report.termination == Termination::Converged && validation.collision_free && validation.within_limits
+}
+
 /// Optimizes `problem` from `init` with `settings` and validates the
 /// result; a converged result that collides between slices is re-solved
 /// from itself with collision rows between slices (1, 3, 7, then 15 per
@@ -401,23 +405,15 @@ pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<Proble
         (true, None) => Initialization::Interpolate(&problem.start),
     };
     let resolution = options.validation_resolution;
-    let (mut result, mut validation) = optimize_and_refine(&problem_t, &settings, init, resolution)?;
+    let mut tried = optimize_and_refine(&problem_t, &settings, init, resolution)?;
     // From a collision-free path, a failure is worth a second, stiffer try.
-    let valid = |r: &TrajectoryResult, v: &Validation| {
-        r.report.termination == Termination::Converged && v.collision_free && v.within_limits
-    };
-    if !valid(&result, &validation) && !plan.path.is_empty() {
-        let stiff = stiff_solver_settings(&settings);
-        let (second, second_validation) = optimize_and_refine(&problem_t, &stiff, init, resolution)?;
+    if !succeeded(&tried.0.report, &tried.1) && !plan.path.is_empty() {
+        let second = optimize_and_refine(&problem_t, &stiff_solver_settings(&settings), init, resolution)?;
+        let (kept, other) = if succeeded(&second.0.report, &second.1) { (second, tried) } else { (tried, second) };
         // Counts and time of both tries; the rest of the one kept.
-        let both = combine(&result.report, second.report.clone());
-        if valid(&second, &second_validation) {
-            (result, validation) = (second, second_validation);
-        }
-        let counts = (both.outer_iterations, both.inner_steps, both.evaluations, both.time);
-        let (outer_iterations, inner_steps, evaluations, time) = counts;
-        result.report = SolveReport { outer_iterations, inner_steps, evaluations, time, ..result.report };
+        tried = (TrajectoryResult { report: combine(&other.0.report, kept.0.report), ..kept.0 }, kept.1);
     }
+    let (result, validation) = tried;
     let total_time = began.elapsed();
     Ok(ProblemSolution {
         joints: problem.robot.joint_names().to_vec(),
