@@ -36,7 +36,10 @@ fn main() {
     let mut lengths = Vec::new();
     // Extension rounds of the search: what the sampling strategy costs.
     let mut iterations = Vec::new();
+    // Planning + simplification per family (s): where the tail lives.
+    let mut by_family = Vec::new();
     for family in FAMILIES {
+        let first = total.len();
         for k in 1..=per_family {
             let mut problem = benchmark.problem(family, k);
             problem.planner.time_limit = time_limit;
@@ -55,6 +58,7 @@ fn main() {
                 failed.push(format!("{family} {k}: {}", report.result.status.name()));
             }
         }
+        by_family.push((family, total[first..].to_vec()));
     }
     println!("MotionBenchMaker, Panda, spherized geometry, RRT-Connect (one seed per problem, {time_limit} s limit):");
     println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
@@ -67,6 +71,14 @@ fn main() {
     println!("mean path length after simplification: {mean_length:.4} rad");
     for f in &failed {
         println!("unsolved: {f}");
+    }
+    println!("planning + simplification by family:\n| family | median | mean | share of the total time |");
+    println!("| --- | --- | --- | --- |");
+    let all: f64 = total.iter().sum();
+    for (family, mut times) in by_family {
+        let share = times.iter().sum::<f64>() / all;
+        let (median, mean) = median_mean(&mut times);
+        println!("| {family} | {:.2} ms | {:.2} ms | {:.0} % |", median * 1e3, mean * 1e3, share * 100.0);
     }
     let out = serde_json::json!({"solved": planning.len(), "planning": p, "total": t, "unsolved": failed,
         "time_limit_s": time_limit, "mean_path_length_rad": mean_length,

@@ -8,8 +8,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::lanes::{
-    LANES, Lane, LanePose, box_distance_squared_local, cylinder_distance_squared, lane_distance_squared, lane_max,
-    lane_min, max, min, point_distance_squared, segment_distance_squared, sin_cos, to_local,
+    LANES, Lane, LanePose, box_approach_local, box_distance_squared_local, cylinder_approach_local,
+    cylinder_distance_squared, lane_distance_squared, lane_max, lane_min, max, min, point_approach,
+    point_distance_squared, rotate_to_local, segment_approach, segment_distance_squared, sin_cos, to_local,
 };
 use super::{SimdLevel, SphereModel, StaticKind, StaticShape, TOLERANCE};
 use crate::robot::Motion;
@@ -22,7 +23,7 @@ pub(crate) struct SphereWorkspace {
     /// Per body: its world pose in each lane (the root stays the identity).
     pub(super) poses: Vec<LanePose>,
     /// Per sphere: world centre, valid when its group is `placed`.
-    centers: Vec<[Lane; 3]>,
+    pub(super) centers: Vec<[Lane; 3]>,
     /// Per group: world centre of its bounding ball.
     group_centers: Vec<[Lane; 3]>,
     /// Per cluster: world centre of its ball, valid when its group's flag
@@ -30,7 +31,7 @@ pub(crate) struct SphereWorkspace {
     /// flag in `spheres_placed` is.
     pub(super) cluster_centers: Vec<[Lane; 3]>,
     clusters_placed: Vec<bool>,
-    spheres_placed: Vec<bool>,
+    pub(super) spheres_placed: Vec<bool>,
     /// Certification of the current motion (see `sweep.rs`): per body,
     /// its joint's `|Δq · multiplier|`; per cluster, the prefix sums
     /// of its loose sweep terms (m per unit of motion), a leading 0 first,
@@ -39,6 +40,19 @@ pub(crate) struct SphereWorkspace {
     /// cluster, the largest loose sweep; per self pair, each side's
     /// (valid when `pair_done`).
     pub(super) rates: Vec<f64>,
+    /// Per body, its joint's signed `Δq · multiplier` (rad or m per unit
+    /// of motion); per body and lane, the world angular velocity of its
+    /// frame and linear velocity of its origin along the motion (valid
+    /// when `tangent_done`); per cluster, the bound of its sphere centres'
+    /// acceleration (m per unit of motion², valid when `accel_done`).
+    pub(super) signed_rates: Vec<f64>,
+    /// Per body: some joint from the root to it moves in this motion.
+    pub(super) moving: Vec<bool>,
+    pub(super) angular: Vec<[Lane; 3]>,
+    pub(super) linear: Vec<[Lane; 3]>,
+    pub(super) tangent_done: bool,
+    pub(super) accel: Vec<f64>,
+    pub(super) accel_done: Vec<bool>,
     pub(super) prefix: Vec<f64>,
     pub(super) prefix_done: Vec<bool>,
     pub(super) pair_sweep: Vec<[f64; 2]>,
@@ -91,6 +105,13 @@ impl SphereWorkspace {
             clusters_placed: vec![false; model.groups.len()],
             spheres_placed: vec![false; model.clusters.len()],
             rates: vec![0.0; model.bodies.len()],
+            signed_rates: vec![0.0; model.bodies.len()],
+            moving: vec![false; model.bodies.len()],
+            angular: vec![[[0.0; LANES]; 3]; model.bodies.len()],
+            linear: vec![[[0.0; LANES]; 3]; model.bodies.len()],
+            tangent_done: false,
+            accel: vec![0.0; model.clusters.len()],
+            accel_done: vec![false; model.clusters.len()],
             prefix: vec![0.0; model.sweep_terms.len() + model.clusters.len()],
             prefix_done: vec![false; model.clusters.len()],
             pair_sweep: vec![[0.0; 2]; model.self_pairs.len()],
@@ -143,54 +164,107 @@ struct Flags {
     room: Lane,
 }
 
-/// Folds one pair into the flags, given each lane's squared distance `d2`
-/// (m², negative inside), what it must clear to pass (`pass`, as for
-/// [`all_beyond`]) and the distance below which it fails (`fail`, m, more
-/// than the tolerance): true when a lane certainly fails. Certification
-/// also narrows each short lane's room to what the pair keeps, from the
-/// distance `keep` (m) it must stay above and its approach speed bound
-/// `sweep` (m per unit of motion, valid over the lane's whole width).
+/// Folds one pair's plain verdicts into the flags, given each lane's
+/// squared distance `d2` (m², negative inside), what it must clear to pass
+/// (`pass`, as for [`all_beyond`]) and the distance below which it fails
+/// (`fail`, m, more than the tolerance): `None` when a lane certainly
+/// fails, else the lanes that fall short of `pass` (all false when every
+/// lane clears it).
 #[inline(always)]
-fn fails<const CERTIFY: bool>(
-    d2: &Lane,
-    pass: &Lane,
-    fail: f64,
-    (keep, sweep): (f64, &Lane),
-    flags: &mut Flags,
-) -> bool {
+fn short_lanes(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> Option<[bool; LANES]> {
+    let mut short = [false; LANES];
     if all_beyond(d2, pass) {
-        return false;
+        return Some(short);
     }
     let (near, band) = ((fail - TOLERANCE) * (fail - TOLERANCE), (fail + TOLERANCE) * (fail + TOLERANCE));
     for l in 0..LANES {
         let d = d2[l];
         if d < near {
-            return true;
+            return None;
         }
         // NaN lands here too: the exact model decides.
         flags.unsure[l] |= d <= band || d.is_nan();
-        if d <= pass[l] {
-            flags.split[l] = true;
-            if CERTIFY {
-                // d ≥ keep + room · sweep: the pair keeps `half` over the room.
-                flags.room[l] = min(flags.room[l], (max(d, 0.0).sqrt() - keep) / sweep[l]);
+        short[l] = d <= pass[l];
+    }
+    Some(short)
+}
+
+/// How one pair bounds a certification lane's room: the distance `keep`
+/// (m) it must stay above, its approach speed bound `sweep` (m per unit of
+/// motion, valid over the lane's whole width), and, at the checked
+/// configuration, its distance's rate of change `rate` (m per unit of
+/// motion, in absolute value) with the bound `accel` of its second
+/// derivative's (m per unit of motion², valid everywhere).
+struct PairBounds<'a> {
+    keep: f64,
+    sweep: &'a Lane,
+    rate: &'a Lane,
+    accel: f64,
+}
+
+/// Certification: narrows each short lane's room to what the pair keeps
+/// and flags the lanes whose room falls short of their half-width
+/// `width` for splitting. The distance is a convex function of the points
+/// (distance to a convex core, or between two centres), so along the
+/// motion it stays above its tangent line at the checked configuration
+/// minus the second-order remainder: `d(m + τ) ≥ d(m) − |τ| rate − τ²
+/// accel / 2`. Where a motion grazes an obstacle, the rate is near zero
+/// and this keeps a far wider room than the first-order `d(m) − |τ| sweep`;
+/// the larger of the two is taken (both hold).
+#[inline(always)]
+fn narrow(d2: &Lane, short: &[bool; LANES], pair: &PairBounds, width: &Lane, flags: &mut Flags) {
+    for l in 0..LANES {
+        if !short[l] {
+            continue;
+        }
+        let slack = max(d2[l], 0.0).sqrt() - pair.keep;
+        // d ≥ keep + room · sweep: the pair keeps `half` over the room.
+        let mut room = slack / pair.sweep[l];
+        if slack > 0.0 {
+            let rate = pair.rate[l];
+            let second = 2.0 * slack / (rate + (rate * rate + 2.0 * pair.accel * slack).sqrt());
+            // A NaN rate leaves the first-order room.
+            if second > room {
+                room = second;
             }
         }
+        if room < width[l] || room.is_nan() {
+            flags.split[l] = true;
+            flags.room[l] = min(flags.room[l], room);
+        }
     }
-    false
 }
 
 impl StaticShape {
     /// Squared distance (m², negative inside) from each lane's point to the
     /// shape's core, and the radius the core is swept by (m).
     #[inline(always)]
-    fn core_distance_squared(&self, p: &[Lane; 3]) -> (Lane, f64) {
+    pub(super) fn core_distance_squared(&self, p: &[Lane; 3]) -> (Lane, f64) {
         match &self.kind {
             StaticKind::Sphere { center, radius } => (point_distance_squared(p, center), *radius),
             StaticKind::Capsule { a, ab, len2, radius } => (segment_distance_squared(p, a, ab, *len2), *radius),
             StaticKind::Box { frame, half } => (box_distance_squared_local(&to_local(p, frame), half), 0.0),
             StaticKind::Cylinder { frame, radius, half_length } => {
                 (cylinder_distance_squared(&to_local(p, frame), *radius, *half_length), 0.0)
+            }
+        }
+    }
+
+    /// Per lane, `e · v` where `e` is the offset from the core's point
+    /// nearest `p` to `p` (so `|e|` is the distance of
+    /// [`core_distance_squared`](Self::core_distance_squared)) and `v` the
+    /// point's velocity: the distance's rate of change times `|e|`.
+    /// Meaningless for points inside the core.
+    #[inline(always)]
+    pub(super) fn core_approach(&self, p: &[Lane; 3], v: &[Lane; 3]) -> Lane {
+        match &self.kind {
+            StaticKind::Sphere { center, .. } => point_approach(p, center, v),
+            StaticKind::Capsule { a, ab, len2, .. } => segment_approach(p, a, ab, *len2, v),
+            StaticKind::Box { frame, half } => {
+                box_approach_local(&to_local(p, frame), half, &rotate_to_local(v, frame))
+            }
+            StaticKind::Cylinder { frame, radius, half_length } => {
+                cylinder_approach_local(&to_local(p, frame), *radius, *half_length, &rotate_to_local(v, frame))
             }
         }
     }
@@ -276,6 +350,28 @@ impl SphereModel {
         })
     }
 
+    /// One sphere pair, `d2` apart squared (m²) with `reach` (m) to keep
+    /// and approach speed bound `sweep`, folded into the flags: `None`
+    /// when a lane fails; else the lanes a certification must narrow
+    /// (none for a plain check, which flags them for splitting).
+    #[inline(always)]
+    fn screen<const CERTIFY: bool>(
+        ws: &SphereWorkspace,
+        d2: &Lane,
+        reach: f64,
+        sweep: &Lane,
+        flags: &mut Flags,
+    ) -> Option<[bool; LANES]> {
+        let full = if CERTIFY { ws.margins.full } else { 0.0 };
+        let pass = Self::pass_limit_lanes::<CERTIFY>(ws, reach, sweep);
+        let short = short_lanes(d2, &pass, reach + full, flags)?;
+        if CERTIFY {
+            return Some(short);
+        }
+        flags.split = std::array::from_fn(|l| flags.split[l] | short[l]);
+        Some([false; LANES])
+    }
+
     #[inline(always)]
     fn check_lanes<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
         self.forward_kinematics(ws);
@@ -286,6 +382,7 @@ impl SphereModel {
         ws.spheres_placed.fill(false);
         if CERTIFY {
             ws.tight_done.fill(false);
+            ws.tangent_done = false;
         }
         let mut flags = Flags { unsure: [false; LANES], split: [false; LANES], room: [f64::INFINITY; LANES] };
         // Checked again below if it passes: the flags it sets do not change.
@@ -351,7 +448,6 @@ impl SphereModel {
         flags: &mut Flags,
     ) -> bool {
         let (group, shape, center) = (&self.groups[g], &self.statics[o], ws.group_centers[g]);
-        let full = if CERTIFY { ws.margins.full } else { 0.0 };
         let (d2, radius) = shape.core_distance_squared(&center);
         if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g])) {
             return false;
@@ -372,11 +468,16 @@ impl SphereModel {
             for s in cluster.spheres.clone() {
                 let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
                 let reach = self.spheres[s].reach + radius;
-                let pass = Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep);
-                let keep = reach + ws.margins.half + TOLERANCE;
-                if fails::<CERTIFY>(&d2, &pass, reach + full, (keep, &sweep), flags) {
-                    return true;
+                let Some(short) = Self::screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
+                if !short.contains(&true) {
+                    continue;
                 }
+                let velocity = self.sphere_velocity(ws, group.body, s);
+                let along = shape.core_approach(&ws.centers[s], &velocity);
+                let rate: Lane = std::array::from_fn(|l| (along[l] / max(d2[l], 0.0).sqrt()).abs());
+                let keep = reach + ws.margins.half + TOLERANCE;
+                let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel: self.cluster_accel(ws, c) };
+                narrow(&d2, &short, &pair, &ws.margins.width, flags);
             }
         }
         false
@@ -387,7 +488,6 @@ impl SphereModel {
     fn check_self_pair<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace, p: usize, flags: &mut Flags) -> bool {
         let [a, b] = self.self_pairs[p].map(|g| g as usize);
         let (ga, gb) = (&self.groups[a], &self.groups[b]);
-        let full = if CERTIFY { ws.margins.full } else { 0.0 };
         // Joints moving both sides leave the pair's distance unchanged.
         let depth = self.common_depth[p];
         let loose = |ws: &mut SphereWorkspace, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { 0.0 };
@@ -422,11 +522,20 @@ impl SphereModel {
                     for j in kb.spheres.clone() {
                         let d2 = lane_distance_squared(&ws.centers[i], &ws.centers[j]);
                         let reach = self.spheres[i].reach + self.spheres[j].reach;
-                        let pass = Self::pass_limit_lanes::<CERTIFY>(ws, reach, &sweep);
-                        let keep = reach + ws.margins.half + TOLERANCE;
-                        if fails::<CERTIFY>(&d2, &pass, reach + full, (keep, &sweep), flags) {
-                            return true;
+                        let Some(short) = Self::screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
+                        if !short.contains(&true) {
+                            continue;
                         }
+                        let rate = self.separation_rate(ws, (ga.body, i), (gb.body, j), &d2);
+                        let accel = self.cluster_accel(ws, ca) + self.cluster_accel(ws, cb);
+                        let keep = reach + ws.margins.half + TOLERANCE;
+                        narrow(
+                            &d2,
+                            &short,
+                            &PairBounds { keep, sweep: &sweep, rate: &rate, accel },
+                            &ws.margins.width,
+                            flags,
+                        );
                     }
                 }
             }
@@ -436,7 +545,7 @@ impl SphereModel {
 
     /// World poses of every body in every lane.
     #[inline(always)]
-    fn forward_kinematics(&self, ws: &mut SphereWorkspace) {
+    pub(super) fn forward_kinematics(&self, ws: &mut SphereWorkspace) {
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
             let q = &ws.q[body.column];
             let value: Lane = std::array::from_fn(|l| body.multiplier * q[l] + body.offset);
@@ -470,7 +579,7 @@ impl SphereModel {
 
     /// World centres of cluster `c`'s spheres, once per batch.
     #[inline(always)]
-    fn place_spheres(&self, ws: &mut SphereWorkspace, c: usize) {
+    pub(super) fn place_spheres(&self, ws: &mut SphereWorkspace, c: usize) {
         if ws.spheres_placed[c] {
             return;
         }

@@ -300,13 +300,20 @@ pub(crate) fn lane_distance_squared(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
 /// `a + ab`, with `len2 = |ab|²` (m²).
 #[inline(always)]
 pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> Lane {
-    let mut out = [0.0; LANES];
+    let e = segment_offset(p, a, ab, len2);
+    std::array::from_fn(|l| e[0][l] * e[0][l] + e[1][l] * e[1][l] + e[2][l] * e[2][l])
+}
+
+/// Per lane, `p − q` with `q` the point of the segment from `a` to
+/// `a + ab` nearest `p`, `len2 = |ab|²`.
+#[inline(always)]
+fn segment_offset(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> [Lane; 3] {
+    let mut out = [[0.0; LANES]; 3];
     let inv = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - a[0], p[1][l] - a[1], p[2][l] - a[2]);
         let t = max(min((x * ab[0] + y * ab[1] + z * ab[2]) * inv, 1.0), 0.0);
-        let (x, y, z) = (x - ab[0] * t, y - ab[1] * t, z - ab[2] * t);
-        out[l] = x * x + y * y + z * z;
+        (out[0][l], out[1][l], out[2][l]) = (x - ab[0] * t, y - ab[1] * t, z - ab[2] * t);
     }
     out
 }
@@ -385,6 +392,75 @@ pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length:
         };
     }
     out
+}
+
+/// `(a − b) · v` for lanes of points `a`, `b` and vectors `v`.
+#[inline(always)]
+pub(crate) fn offset_dot(a: &[Lane; 3], b: &[Lane; 3], v: &[Lane; 3]) -> Lane {
+    std::array::from_fn(|l| {
+        (a[0][l] - b[0][l]) * v[0][l] + (a[1][l] - b[1][l]) * v[1][l] + (a[2][l] - b[2][l]) * v[2][l]
+    })
+}
+
+/// `(p − c) · v` per lane (see `StaticShape::core_approach`).
+#[inline(always)]
+pub(crate) fn point_approach(p: &[Lane; 3], c: &[f64; 3], v: &[Lane; 3]) -> Lane {
+    offset_dot(p, &c.map(|x| [x; LANES]), v)
+}
+
+/// `(p − q) · v` per lane, with `q` the point of the segment from `a` to
+/// `a + ab` nearest `p` (as in [`segment_distance_squared`]).
+#[inline(always)]
+pub(crate) fn segment_approach(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64, v: &[Lane; 3]) -> Lane {
+    let e = segment_offset(p, a, ab, len2);
+    std::array::from_fn(|l| e[0][l] * v[0][l] + e[1][l] * v[1][l] + e[2][l] * v[2][l])
+}
+
+/// Each lane's vector in `frame`'s coordinates, `Rᵀ v`.
+#[inline(always)]
+pub(crate) fn rotate_to_local(v: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
+    let r = &frame.rotation;
+    std::array::from_fn(|i| {
+        std::array::from_fn(|l| r[3 * i] * v[0][l] + r[3 * i + 1] * v[1][l] + r[3 * i + 2] * v[2][l])
+    })
+}
+
+/// `e · v` per lane (box frame), `e` the offset from the box's point
+/// nearest `p` to `p` (as in [`box_distance_squared_local`]).
+#[inline(always)]
+pub(crate) fn box_approach_local(p: &[Lane; 3], h: &[f64; 3], v: &[Lane; 3]) -> Lane {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        for i in 0..3 {
+            let e = max(p[i][l].abs() - h[i], 0.0);
+            out[l] += e.copysign(p[i][l]) * v[i][l];
+        }
+    }
+    out
+}
+
+/// `e · v` per lane (cylinder frame), `e` the offset from the cylinder's
+/// point nearest `p` to `p` (as in [`cylinder_distance_squared`]).
+#[inline(always)]
+pub(crate) fn cylinder_approach_local(p: &[Lane; 3], radius: f64, half_length: f64, v: &[Lane; 3]) -> Lane {
+    let mut out = [0.0; LANES];
+    for l in 0..LANES {
+        let rho = (p[0][l] * p[0][l] + p[1][l] * p[1][l]).sqrt();
+        let (radial, axial) = (max(rho - radius, 0.0), max(p[2][l].abs() - half_length, 0.0));
+        // A point off the axis by `radial` moves away at the radial speed.
+        let outward = if rho > 0.0 { (p[0][l] * v[0][l] + p[1][l] * v[1][l]) / rho } else { 0.0 };
+        out[l] = radial * outward + axial.copysign(p[2][l]) * v[2][l];
+    }
+    out
+}
+
+/// Cross products `a × b` per lane.
+#[inline(always)]
+pub(crate) fn cross(a: &[Lane; 3], b: &[Lane; 3]) -> [Lane; 3] {
+    std::array::from_fn(|i| {
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        std::array::from_fn(|l| a[j][l] * b[k][l] - a[k][l] * b[j][l])
+    })
 }
 
 #[cfg(test)]

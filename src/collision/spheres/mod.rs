@@ -21,6 +21,8 @@ mod check;
 mod lanes;
 mod motion;
 mod sweep;
+#[cfg(test)]
+mod tests;
 
 pub(crate) use check::{SphereWorkspace, Verdict};
 pub use lanes::LANES;

@@ -21,7 +21,8 @@
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane, max, min};
+use super::lanes::{LANES, Lane, cross, max, min, offset_dot};
+use crate::robot::Motion;
 
 impl SphereModel {
     /// Loose sweep bounds of every cluster and their maxima per group for
@@ -30,8 +31,12 @@ impl SphereModel {
     /// a joint does not move add a zero, which changes no bit). Prefix sums
     /// and self pairs' bounds wait until a check needs them.
     pub(super) fn start_sweeps(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) {
-        for (body, rate) in self.bodies.iter().zip(&mut ws.rates) {
+        for ((body, rate), signed) in self.bodies.iter().zip(&mut ws.rates).zip(&mut ws.signed_rates) {
+            *signed = (q1[body.column] - q0[body.column]) * body.multiplier;
             *rate = (q1[body.column] - q0[body.column]).abs() * body.multiplier.abs();
+        }
+        for b in 1..self.bodies.len() {
+            ws.moving[b] = ws.moving[self.bodies[b].parent] || ws.signed_rates[b] != 0.0;
         }
         ws.cluster_sweep.fill(0.0);
         let columns = self.levers.chunks_exact(self.clusters.len().max(1));
@@ -45,6 +50,7 @@ impl SphereModel {
         }
         ws.prefix_done.fill(false);
         ws.pair_done.fill(false);
+        ws.accel_done.fill(false);
     }
 
     /// Prefix sums of cluster `c`'s loose sweep terms, once per motion.
@@ -129,5 +135,119 @@ impl SphereModel {
         let loose = self.loose_sweep(ws, c, depth);
         let (all, skipped) = (&ws.tight[slot + n], &ws.tight[slot + depth]);
         std::array::from_fn(|l| min(all[l] - skipped[l], loose))
+    }
+}
+
+/// Second-order bounds (see `narrow` in `check.rs`): the velocities of
+/// the placed configurations along the motion, and bounds of the sphere
+/// centres' accelerations.
+impl SphereModel {
+    /// Per body and lane, the world angular velocity of its frame and the
+    /// linear velocity of its origin along the motion (per unit of motion),
+    /// once per batch: a revolute joint adds its rate about its world axis
+    /// to the angular velocity; the origin moves with the parent's twist,
+    /// and a prismatic joint adds its rate along its world axis.
+    fn ensure_tangent(&self, ws: &mut SphereWorkspace) {
+        if ws.tangent_done {
+            return;
+        }
+        ws.angular[0] = [[0.0; LANES]; 3];
+        ws.linear[0] = [[0.0; LANES]; 3];
+        for (b, body) in self.bodies.iter().enumerate().skip(1) {
+            // Bodies no joint of the motion moves stand still.
+            if !ws.moving[b] {
+                ws.angular[b] = [[0.0; LANES]; 3];
+                ws.linear[b] = [[0.0; LANES]; 3];
+                continue;
+            }
+            let (pose, parent) = (&ws.poses[b], &ws.poses[body.parent]);
+            let (spin, mut linear) = (ws.angular[body.parent], ws.linear[body.parent]);
+            let arm: [Lane; 3] = std::array::from_fn(|i| std::array::from_fn(|l| pose.t[i][l] - parent.t[i][l]));
+            let carried = cross(&spin, &arm);
+            let rate = ws.signed_rates[b];
+            let axis = body.axis;
+            let along: [Lane; 3] = std::array::from_fn(|i| {
+                std::array::from_fn(|l| {
+                    rate * (pose.r[i][l] * axis[0] + pose.r[3 + i][l] * axis[1] + pose.r[6 + i][l] * axis[2])
+                })
+            });
+            let mut angular = spin;
+            let turned = if matches!(body.motion, Motion::Prismatic(_)) { &mut linear } else { &mut angular };
+            for i in 0..3 {
+                for l in 0..LANES {
+                    turned[i][l] += along[i][l];
+                }
+            }
+            for i in 0..3 {
+                for l in 0..LANES {
+                    linear[i][l] += carried[i][l];
+                }
+            }
+            ws.angular[b] = angular;
+            ws.linear[b] = linear;
+        }
+        ws.tangent_done = true;
+    }
+
+    /// World velocity along the motion (per unit of motion) of placed
+    /// sphere `s` on `body`, per lane.
+    #[inline(always)]
+    pub(super) fn sphere_velocity(&self, ws: &mut SphereWorkspace, body: usize, s: usize) -> [Lane; 3] {
+        self.ensure_tangent(ws);
+        let (center, origin) = (&ws.centers[s], &ws.poses[body].t);
+        let arm: [Lane; 3] = std::array::from_fn(|i| std::array::from_fn(|l| center[i][l] - origin[i][l]));
+        let mut v = cross(&ws.angular[body], &arm);
+        for i in 0..3 {
+            for l in 0..LANES {
+                v[i][l] += ws.linear[body][i][l];
+            }
+        }
+        v
+    }
+
+    /// Per lane, the absolute rate of change along the motion (per unit of
+    /// motion) of the distance between the centres of placed spheres `i`
+    /// and `j` (each with its body), `d2` apart squared.
+    #[inline(always)]
+    pub(super) fn separation_rate(
+        &self,
+        ws: &mut SphereWorkspace,
+        (body_i, i): (usize, usize),
+        (body_j, j): (usize, usize),
+        d2: &Lane,
+    ) -> Lane {
+        let (vi, vj) = (self.sphere_velocity(ws, body_i, i), self.sphere_velocity(ws, body_j, j));
+        let relative: [Lane; 3] = std::array::from_fn(|k| std::array::from_fn(|l| vi[k][l] - vj[k][l]));
+        let along = offset_dot(&ws.centers[i], &ws.centers[j], &relative);
+        std::array::from_fn(|l| (along[l] / max(d2[l], 0.0).sqrt()).abs())
+    }
+
+    /// A bound (m per unit of motion², valid for every configuration of
+    /// the motion) of the acceleration of cluster `c`'s sphere centres, once
+    /// per motion. With `p' = Σ_k δ_k u_k`, `u_k = a_k × (p − o_k)` for a
+    /// revolute joint and `a_k` for a prismatic one: `|u_k'| ≤ 2 Ω_k L_k +
+    /// Σ_{j≥k} ρ_j L_j` (revolute) or `Ω_k` (prismatic), where `ρ = |δ|`,
+    /// `L` the levers and `Ω_k` the sum of the rates of the revolute joints
+    /// before `k` (the angular speed of its frame).
+    #[inline(always)]
+    pub(super) fn cluster_accel(&self, ws: &mut SphereWorkspace, c: usize) -> f64 {
+        if ws.accel_done[c] {
+            return ws.accel[c];
+        }
+        let terms = &self.sweep_terms[self.clusters[c].terms.clone()];
+        let total: f64 = terms.iter().map(|t| ws.rates[t.body] * t.lever).sum();
+        let (mut spin, mut before, mut accel) = (0.0, 0.0, 0.0);
+        for term in terms {
+            let rate = ws.rates[term.body];
+            let tail = max(total - before, 0.0);
+            accel += rate * if term.slides { spin } else { 2.0 * spin * term.lever + tail };
+            before += rate * term.lever;
+            if !term.slides {
+                spin += rate;
+            }
+        }
+        ws.accel[c] = accel;
+        ws.accel_done[c] = true;
+        accel
     }
 }

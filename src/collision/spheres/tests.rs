@@ -1,0 +1,193 @@
+//! The second-order certification bound (`narrow` in `check.rs`) against
+//! the geometry it bounds: along straight motions of a Panda and of a
+//! TIAGo sliding its torso, every sphere's velocity matches finite
+//! differences of its centre, and every pair's distance stays above
+//! `d(m) − |τ| rate − τ² accel / 2` at configurations `m + τ`, measured
+//! by placing the spheres there.
+
+use super::SphereModel;
+use super::check::SphereWorkspace;
+use super::lanes::{LANES, Lane};
+use crate::collision::{CollisionModel, Shape};
+use crate::robot::{RobotDescription, RobotModel, Srdf};
+use crate::scene::{Obstacle, Scene};
+use nalgebra::{IsometryMatrix3, Rotation3};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::sync::Arc;
+
+/// One obstacle of every static kind, turned off the axes.
+fn scene() -> Scene {
+    let pose = |p: [f64; 3], rpy: [f64; 3]| {
+        IsometryMatrix3::from_parts(p.into(), Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]))
+    };
+    let mut scene = Scene::new();
+    for o in [
+        Obstacle::new("bin", Shape::cuboid([0.3, 0.25, 0.2]), pose([0.45, 0.25, 0.35], [0.3, -0.2, 0.9])),
+        Obstacle::new("globe", Shape::sphere(0.12), pose([0.35, -0.4, 0.6], [0.0; 3])),
+        Obstacle::new("pillar", Shape::cylinder(0.06, 0.9), pose([-0.35, -0.25, 0.45], [0.4, -0.3, 0.2])),
+        Obstacle::new("rail", Shape::capsule(0.03, 0.7), pose([0.1, 0.2, 0.95], [1.0, -0.5, 0.3])),
+    ] {
+        scene.add_obstacle(o).unwrap();
+    }
+    scene
+}
+
+fn robots() -> Vec<Arc<RobotModel>> {
+    let folder = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("problems/robots/tiago");
+    let desc = RobotDescription::from_urdf_file(folder.join("tiago_spheres.urdf"), &Default::default()).unwrap();
+    let srdf = Srdf::from_srdf_file(folder.join("tiago.srdf")).unwrap();
+    let selection = srdf.joint_selection("arm_torso").unwrap();
+    let tiago = RobotModel::builder(Arc::new(desc)).selection(selection).build().unwrap();
+    vec![Arc::new(RobotModel::panda()), Arc::new(tiago)]
+}
+
+/// Every sphere centre at `q0 + t (q1 − q0)`, per lane.
+fn place(model: &SphereModel, ws: &mut SphereWorkspace, (q0, q1): (&[f64], &[f64]), t: &Lane) {
+    model.set_along(ws, q0, q1, t);
+    model.forward_kinematics(ws);
+    ws.spheres_placed.fill(false);
+    ws.tangent_done = false;
+    for c in 0..model.clusters.len() {
+        model.place_spheres(ws, c);
+    }
+}
+
+/// Each sphere's cluster and body.
+fn owners(model: &SphereModel) -> Vec<(usize, usize)> {
+    let mut owners = vec![(0, 0); model.spheres.len()];
+    for (c, cluster) in model.clusters.iter().enumerate() {
+        let body = model.groups[model.cluster_group[c] as usize].body;
+        owners[cluster.spheres.clone()].fill((c, body));
+    }
+    owners
+}
+
+/// Per lane, pair distances (m) of the placed spheres: every sphere
+/// against every static shape's core, then the self pairs' spheres.
+fn distances(model: &SphereModel, ws: &SphereWorkspace) -> Vec<Lane> {
+    let mut out = Vec::new();
+    for s in 0..model.spheres.len() {
+        for shape in &model.statics {
+            out.push(shape.core_distance_squared(&ws.centers[s]).0.map(|d2| d2.max(0.0).sqrt()));
+        }
+    }
+    for_self_spheres(model, |i, j| {
+        out.push(std::array::from_fn(|l| {
+            (0..3).map(|k| (ws.centers[i][k][l] - ws.centers[j][k][l]).powi(2)).sum::<f64>().sqrt()
+        }))
+    });
+    out
+}
+
+fn for_self_spheres(model: &SphereModel, mut visit: impl FnMut(usize, usize)) {
+    for pair in &model.self_pairs {
+        let [a, b] = pair.map(|g| &model.groups[g as usize]);
+        for ca in a.clusters.clone() {
+            for cb in b.clusters.clone() {
+                for i in model.clusters[ca].spheres.clone() {
+                    for j in model.clusters[cb].spheres.clone() {
+                        visit(i, j);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Per pair (in the order of [`distances`]) and lane, the rate of
+/// change of its distance at the placed configurations, and its
+/// acceleration bound.
+fn rates(model: &SphereModel, ws: &mut SphereWorkspace) -> Vec<(Lane, f64)> {
+    let owners = owners(model);
+    let mut out = Vec::new();
+    for (s, &(c, body)) in owners.iter().enumerate() {
+        let velocity = model.sphere_velocity(ws, body, s);
+        for shape in &model.statics {
+            let d2 = shape.core_distance_squared(&ws.centers[s]).0;
+            let along = shape.core_approach(&ws.centers[s], &velocity);
+            let rate = std::array::from_fn(|l| (along[l] / d2[l].max(0.0).sqrt()).abs());
+            out.push((rate, model.cluster_accel(ws, c)));
+        }
+    }
+    let mut pairs = Vec::new();
+    for_self_spheres(model, |i, j| pairs.push((i, j)));
+    for (i, j) in pairs {
+        let ((ci, bi), (cj, bj)) = (owners[i], owners[j]);
+        let d2 = std::array::from_fn(|l| (0..3).map(|k| (ws.centers[i][k][l] - ws.centers[j][k][l]).powi(2)).sum());
+        let rate = model.separation_rate(ws, (bi, i), (bj, j), &d2);
+        out.push((rate, model.cluster_accel(ws, ci) + model.cluster_accel(ws, cj)));
+    }
+    out
+}
+
+#[test]
+fn sphere_velocities_match_finite_differences() {
+    for robot in robots() {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene()).build().unwrap();
+        let fast = model.spheres.as_ref().expect("sphere fast path");
+        let mut ws = SphereWorkspace::new(fast, robot.nq());
+        let owners = owners(fast);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for _ in 0..20 {
+            let (q0, q1) = (random(&robot, &mut rng), random(&robot, &mut rng));
+            fast.start_sweeps(&mut ws, &q0, &q1);
+            let m: Lane = std::array::from_fn(|_| rng.random_range(0.1..0.9));
+            let h = 1e-6;
+            let mut ahead = Vec::new();
+            for sign in [1.0, -1.0] {
+                place(fast, &mut ws, (&q0, &q1), &m.map(|t| t + sign * h));
+                ahead.push(ws.centers.clone());
+            }
+            place(fast, &mut ws, (&q0, &q1), &m);
+            for (s, &(_, body)) in owners.iter().enumerate() {
+                let v = fast.sphere_velocity(&mut ws, body, s);
+                for k in 0..3 {
+                    for l in 0..LANES {
+                        let fd = (ahead[0][s][k][l] - ahead[1][s][k][l]) / (2.0 * h);
+                        assert!((v[k][l] - fd).abs() < 1e-6 * (1.0 + fd.abs()), "sphere {s}: {} vs {fd}", v[k][l]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn pair_distances_stay_above_the_second_order_bound() {
+    let (mut checked, mut tightest) = (0usize, f64::INFINITY);
+    for robot in robots() {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene()).build().unwrap();
+        let fast = model.spheres.as_ref().expect("sphere fast path");
+        let mut ws = SphereWorkspace::new(fast, robot.nq());
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        for _ in 0..20 {
+            let (q0, q1) = (random(&robot, &mut rng), random(&robot, &mut rng));
+            fast.start_sweeps(&mut ws, &q0, &q1);
+            let m: Lane = std::array::from_fn(|_| rng.random_range(0.2..0.8));
+            place(fast, &mut ws, (&q0, &q1), &m);
+            let (at_m, bounds) = (distances(fast, &ws), rates(fast, &mut ws));
+            for tau in [-0.2, -0.05, -0.01, -1e-3, 1e-3, 0.01, 0.05, 0.2] {
+                place(fast, &mut ws, (&q0, &q1), &m.map(|t| t + tau));
+                for ((d, d_m), (rate, accel)) in distances(fast, &ws).iter().zip(&at_m).zip(&bounds) {
+                    for l in (0..LANES).filter(|&l| d_m[l] > 0.0) {
+                        let bound = d_m[l] - tau.abs() * rate[l] - tau * tau * accel / 2.0;
+                        assert!(d[l] >= bound - 1e-12, "{} m below the bound {bound} m at τ = {tau}", bound - d[l]);
+                        if *accel > 0.0 {
+                            tightest = tightest.min((d[l] - bound) / (tau * tau * accel / 2.0));
+                        }
+                        checked += 1;
+                    }
+                }
+            }
+        }
+    }
+    // How much of the second-order allowance the closest distance left.
+    println!("{checked} distances checked; at the closest, {tightest:.3} of τ² accel / 2 was left");
+    assert!(checked > 100_000);
+}
+
+/// A configuration drawn uniformly within the joint limits.
+fn random(robot: &RobotModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
+    robot.limits().iter().map(|l| rng.random_range(l.lower..l.upper)).collect()
+}
