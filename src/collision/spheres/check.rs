@@ -9,7 +9,7 @@
 
 use super::lanes::{
     LANES, Lane, LanePose, box_approach_local, box_distance_squared_local, cylinder_approach_local,
-    cylinder_distance_squared, lane_distance_squared, lane_max, lane_min, max, min, point_approach,
+    cylinder_distance_squared, distance_rate, lane_distance_squared, lane_max, lane_min, max, min, point_approach,
     point_distance_squared, rotate_to_local, segment_approach, segment_distance_squared, sin_cos, to_local,
 };
 use super::{SimdLevel, SphereModel, StaticKind, StaticShape, TOLERANCE};
@@ -46,8 +46,6 @@ pub(crate) struct SphereWorkspace {
     /// when `tangent_done`); per cluster, the bound of its sphere centres'
     /// acceleration (m per unit of motion², valid when `accel_done`).
     pub(super) signed_rates: Vec<f64>,
-    /// Per body: some joint from the root to it moves in this motion.
-    pub(super) moving: Vec<bool>,
     pub(super) angular: Vec<[Lane; 3]>,
     pub(super) linear: Vec<[Lane; 3]>,
     pub(super) tangent_done: bool,
@@ -106,7 +104,6 @@ impl SphereWorkspace {
             spheres_placed: vec![false; model.clusters.len()],
             rates: vec![0.0; model.bodies.len()],
             signed_rates: vec![0.0; model.bodies.len()],
-            moving: vec![false; model.bodies.len()],
             angular: vec![[[0.0; LANES]; 3]; model.bodies.len()],
             linear: vec![[[0.0; LANES]; 3]; model.bodies.len()],
             tangent_done: false,
@@ -212,12 +209,12 @@ struct PairBounds<'a> {
 /// and this keeps a far wider room than the first-order `d(m) − |τ| sweep`;
 /// the larger of the two is taken (both hold).
 #[inline(always)]
-fn narrow(d2: &Lane, short: &[bool; LANES], pair: &PairBounds, width: &Lane, flags: &mut Flags) {
+fn narrow(distance: &Lane, short: &[bool; LANES], pair: &PairBounds, width: &Lane, flags: &mut Flags) {
     for l in 0..LANES {
         if !short[l] {
             continue;
         }
-        let slack = max(d2[l], 0.0).sqrt() - pair.keep;
+        let slack = distance[l] - pair.keep;
         // d ≥ keep + room · sweep: the pair keeps `half` over the room.
         let mut room = slack / pair.sweep[l];
         if slack > 0.0 {
@@ -472,12 +469,12 @@ impl SphereModel {
                 if !short.contains(&true) {
                     continue;
                 }
+                let distance = d2.map(|d| max(d, 0.0).sqrt());
                 let velocity = self.sphere_velocity(ws, group.body, s);
-                let along = shape.core_approach(&ws.centers[s], &velocity);
-                let rate: Lane = std::array::from_fn(|l| (along[l] / max(d2[l], 0.0).sqrt()).abs());
+                let rate = distance_rate(&shape.core_approach(&ws.centers[s], &velocity), &distance);
                 let keep = reach + ws.margins.half + TOLERANCE;
                 let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel: self.cluster_accel(ws, c) };
-                narrow(&d2, &short, &pair, &ws.margins.width, flags);
+                narrow(&distance, &short, &pair, &ws.margins.width, flags);
             }
         }
         false
@@ -526,16 +523,12 @@ impl SphereModel {
                         if !short.contains(&true) {
                             continue;
                         }
-                        let rate = self.separation_rate(ws, (ga.body, i), (gb.body, j), &d2);
+                        let distance = d2.map(|d| max(d, 0.0).sqrt());
+                        let rate = self.separation_rate(ws, (ga.body, i), (gb.body, j), &distance);
                         let accel = self.cluster_accel(ws, ca) + self.cluster_accel(ws, cb);
                         let keep = reach + ws.margins.half + TOLERANCE;
-                        narrow(
-                            &d2,
-                            &short,
-                            &PairBounds { keep, sweep: &sweep, rate: &rate, accel },
-                            &ws.margins.width,
-                            flags,
-                        );
+                        let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel };
+                        narrow(&distance, &short, &pair, &ws.margins.width, flags);
                     }
                 }
             }

@@ -402,6 +402,13 @@ pub(crate) fn offset_dot(a: &[Lane; 3], b: &[Lane; 3], v: &[Lane; 3]) -> Lane {
     })
 }
 
+/// Per lane, the absolute rate of change of a distance `distance` (m)
+/// whose offset `e` has `e · v = along`: `|along| / distance`.
+#[inline(always)]
+pub(crate) fn distance_rate(along: &Lane, distance: &Lane) -> Lane {
+    std::array::from_fn(|l| (along[l] / distance[l]).abs())
+}
+
 /// `(p − c) · v` per lane (see `StaticShape::core_approach`).
 #[inline(always)]
 pub(crate) fn point_approach(p: &[Lane; 3], c: &[f64; 3], v: &[Lane; 3]) -> Lane {

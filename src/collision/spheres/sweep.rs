@@ -21,7 +21,7 @@
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane, cross, max, min, offset_dot};
+use super::lanes::{LANES, Lane, cross, distance_rate, max, min, offset_dot};
 use crate::robot::Motion;
 
 impl SphereModel {
@@ -34,9 +34,6 @@ impl SphereModel {
         for ((body, rate), signed) in self.bodies.iter().zip(&mut ws.rates).zip(&mut ws.signed_rates) {
             *signed = (q1[body.column] - q0[body.column]) * body.multiplier;
             *rate = (q1[body.column] - q0[body.column]).abs() * body.multiplier.abs();
-        }
-        for b in 1..self.bodies.len() {
-            ws.moving[b] = ws.moving[self.bodies[b].parent] || ws.signed_rates[b] != 0.0;
         }
         ws.cluster_sweep.fill(0.0);
         let columns = self.levers.chunks_exact(self.clusters.len().max(1));
@@ -154,12 +151,6 @@ impl SphereModel {
         ws.angular[0] = [[0.0; LANES]; 3];
         ws.linear[0] = [[0.0; LANES]; 3];
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
-            // Bodies no joint of the motion moves stand still.
-            if !ws.moving[b] {
-                ws.angular[b] = [[0.0; LANES]; 3];
-                ws.linear[b] = [[0.0; LANES]; 3];
-                continue;
-            }
             let (pose, parent) = (&ws.poses[b], &ws.poses[body.parent]);
             let (spin, mut linear) = (ws.angular[body.parent], ws.linear[body.parent]);
             let arm: [Lane; 3] = std::array::from_fn(|i| std::array::from_fn(|l| pose.t[i][l] - parent.t[i][l]));
@@ -207,19 +198,18 @@ impl SphereModel {
 
     /// Per lane, the absolute rate of change along the motion (per unit of
     /// motion) of the distance between the centres of placed spheres `i`
-    /// and `j` (each with its body), `d2` apart squared.
+    /// and `j` (each with its body), `distance` apart (m).
     #[inline(always)]
     pub(super) fn separation_rate(
         &self,
         ws: &mut SphereWorkspace,
         (body_i, i): (usize, usize),
         (body_j, j): (usize, usize),
-        d2: &Lane,
+        distance: &Lane,
     ) -> Lane {
         let (vi, vj) = (self.sphere_velocity(ws, body_i, i), self.sphere_velocity(ws, body_j, j));
         let relative: [Lane; 3] = std::array::from_fn(|k| std::array::from_fn(|l| vi[k][l] - vj[k][l]));
-        let along = offset_dot(&ws.centers[i], &ws.centers[j], &relative);
-        std::array::from_fn(|l| (along[l] / max(d2[l], 0.0).sqrt()).abs())
+        distance_rate(&offset_dot(&ws.centers[i], &ws.centers[j], &relative), distance)
     }
 
     /// A bound (m per unit of motion², valid for every configuration of
@@ -234,14 +224,16 @@ impl SphereModel {
         if ws.accel_done[c] {
             return ws.accel[c];
         }
-        let terms = &self.sweep_terms[self.clusters[c].terms.clone()];
-        let total: f64 = terms.iter().map(|t| ws.rates[t.body] * t.lever).sum();
-        let (mut spin, mut before, mut accel) = (0.0, 0.0, 0.0);
-        for term in terms {
+        // The tails Σ_{j≥k} ρ_j L_j from the loose sweep's prefix sums.
+        self.ensure_prefix(ws, c);
+        let cluster = &self.clusters[c];
+        let prefix = &ws.prefix[cluster.slot..=cluster.slot + cluster.terms.len()];
+        let total = prefix[cluster.terms.len()];
+        let (mut spin, mut accel) = (0.0, 0.0);
+        for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
             let rate = ws.rates[term.body];
-            let tail = max(total - before, 0.0);
+            let tail = max(total - prefix[k], 0.0);
             accel += rate * if term.slides { spin } else { 2.0 * spin * term.lever + tail };
-            before += rate * term.lever;
             if !term.slides {
                 spin += rate;
             }

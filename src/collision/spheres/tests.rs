@@ -7,7 +7,7 @@
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane};
+use super::lanes::{LANES, Lane, distance_rate};
 use crate::collision::{CollisionModel, Shape};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::{Obstacle, Scene};
@@ -104,9 +104,8 @@ fn rates(model: &SphereModel, ws: &mut SphereWorkspace) -> Vec<(Lane, f64)> {
     for (s, &(c, body)) in owners.iter().enumerate() {
         let velocity = model.sphere_velocity(ws, body, s);
         for shape in &model.statics {
-            let d2 = shape.core_distance_squared(&ws.centers[s]).0;
-            let along = shape.core_approach(&ws.centers[s], &velocity);
-            let rate = std::array::from_fn(|l| (along[l] / d2[l].max(0.0).sqrt()).abs());
+            let distance = shape.core_distance_squared(&ws.centers[s]).0.map(|d2| d2.max(0.0).sqrt());
+            let rate = distance_rate(&shape.core_approach(&ws.centers[s], &velocity), &distance);
             out.push((rate, model.cluster_accel(ws, c)));
         }
     }
@@ -114,8 +113,10 @@ fn rates(model: &SphereModel, ws: &mut SphereWorkspace) -> Vec<(Lane, f64)> {
     for_self_spheres(model, |i, j| pairs.push((i, j)));
     for (i, j) in pairs {
         let ((ci, bi), (cj, bj)) = (owners[i], owners[j]);
-        let d2 = std::array::from_fn(|l| (0..3).map(|k| (ws.centers[i][k][l] - ws.centers[j][k][l]).powi(2)).sum());
-        let rate = model.separation_rate(ws, (bi, i), (bj, j), &d2);
+        let distance = std::array::from_fn(|l| {
+            (0..3).map(|k| (ws.centers[i][k][l] - ws.centers[j][k][l]).powi(2)).sum::<f64>().sqrt()
+        });
+        let rate = model.separation_rate(ws, (bi, i), (bj, j), &distance);
         out.push((rate, model.cluster_accel(ws, ci) + model.cluster_accel(ws, cj)));
     }
     out
