@@ -20,12 +20,17 @@ use crate::robot::Motion;
 pub(crate) struct SphereWorkspace {
     /// Per active joint: its value in each lane.
     q: Vec<Lane>,
-    /// Per body: its world pose in each lane (the root stays the identity).
+    /// Per body: its world pose in each lane (the root stays the identity);
+    /// the first `posed` are valid this batch (see
+    /// [`SphereModel::pose_up_to`]).
     pub(super) poses: Vec<LanePose>,
+    pub(super) posed: usize,
     /// Per sphere: world centre, valid when its group is `placed`.
     pub(super) centers: Vec<[Lane; 3]>,
-    /// Per group: world centre of its bounding ball.
+    /// Per group: world centre of its bounding ball, valid when its flag
+    /// in `centered` is set.
     group_centers: Vec<[Lane; 3]>,
+    centered: Vec<bool>,
     /// Per cluster: world centre of its ball, valid when its group's flag
     /// in `clusters_placed` is set; the sphere centres are valid when its
     /// flag in `spheres_placed` is.
@@ -97,8 +102,10 @@ impl SphereWorkspace {
         SphereWorkspace {
             q: vec![[0.0; LANES]; nq],
             poses: vec![LanePose::IDENTITY; model.bodies.len()],
+            posed: 1,
             centers: vec![[[0.0; LANES]; 3]; model.spheres.len()],
             group_centers: vec![[[0.0; LANES]; 3]; model.groups.len()],
+            centered: vec![false; model.groups.len()],
             cluster_centers: vec![[[0.0; LANES]; 3]; model.clusters.len()],
             clusters_placed: vec![false; model.groups.len()],
             spheres_placed: vec![false; model.clusters.len()],
@@ -371,11 +378,12 @@ impl SphereModel {
 
     #[inline(always)]
     fn check_lanes<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
-        self.forward_kinematics(ws);
-        for (g, group) in self.groups.iter().enumerate() {
-            ws.group_centers[g] = ws.poses[group.body].point(&group.center);
-            ws.clusters_placed[g] = false;
-        }
+        // Poses and centres are placed as pairs need them: a check that
+        // fails on the pair that failed last (a blocked search's usual
+        // check) needs only that group's chain.
+        ws.posed = 1;
+        ws.centered.fill(false);
+        ws.clusters_placed.fill(false);
         ws.spheres_placed.fill(false);
         if CERTIFY {
             ws.tight_done.fill(false);
@@ -385,7 +393,10 @@ impl SphereModel {
         // Checked again below if it passes: the flags it sets do not change.
         let failed = match ws.last_failure {
             Some(Pair::Environment(g, o)) => self.check_shape::<CERTIFY>(ws, g, o, &mut flags),
-            Some(Pair::Robot(p)) => self.check_self_pair::<CERTIFY>(ws, p, &mut flags),
+            Some(Pair::Robot(p)) => {
+                self.self_pair_centers(ws, p);
+                self.check_self_pair::<CERTIFY>(ws, p, &mut flags)
+            }
             None => false,
         };
         if failed {
@@ -414,7 +425,7 @@ impl SphereModel {
         // The box around the group's balls in every lane, grown by the
         // limit: shapes whose boxes it misses are cleared in every lane.
         let reach = lane_max(&Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g])).sqrt();
-        let center = ws.group_centers[g];
+        let center = *self.group_center(ws, g);
         let lo: [f64; 3] = std::array::from_fn(|i| lane_min(&center[i]) - reach);
         let hi: [f64; 3] = std::array::from_fn(|i| lane_max(&center[i]) + reach);
         for chunk in &self.env[group.env.clone()] {
@@ -444,7 +455,7 @@ impl SphereModel {
         o: usize,
         flags: &mut Flags,
     ) -> bool {
-        let (group, shape, center) = (&self.groups[g], &self.statics[o], ws.group_centers[g]);
+        let (group, shape, center) = (&self.groups[g], &self.statics[o], *self.group_center(ws, g));
         let (d2, radius) = shape.core_distance_squared(&center);
         if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g])) {
             return false;
@@ -480,11 +491,20 @@ impl SphereModel {
         false
     }
 
-    /// Self pair `p`: true when a lane fails.
+    /// Places the centres of self pair `p`'s groups (every group's is
+    /// placed once the environment pairs have been checked).
+    fn self_pair_centers(&self, ws: &mut SphereWorkspace, p: usize) {
+        for g in self.self_pairs[p] {
+            self.group_center(ws, g as usize);
+        }
+    }
+
+    /// Self pair `p`, its groups' centres placed: true when a lane fails.
     #[inline(always)]
     fn check_self_pair<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace, p: usize, flags: &mut Flags) -> bool {
         let [a, b] = self.self_pairs[p].map(|g| g as usize);
         let (ga, gb) = (&self.groups[a], &self.groups[b]);
+        debug_assert!(ws.centered[a] && ws.centered[b], "self pair checked before its centres were placed");
         // Joints moving both sides leave the pair's distance unchanged.
         let depth = self.common_depth[p];
         let loose = |ws: &mut SphereWorkspace, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { 0.0 };
@@ -537,12 +557,20 @@ impl SphereModel {
     }
 
     /// World poses of every body in every lane.
-    #[inline(always)]
+    #[cfg(test)]
     pub(super) fn forward_kinematics(&self, ws: &mut SphereWorkspace) {
-        for (b, body) in self.bodies.iter().enumerate().skip(1) {
+        ws.posed = 1;
+        self.pose_up_to(ws, self.bodies.len() - 1);
+    }
+
+    /// World poses of bodies up to `last` (bodies come after their
+    /// parents, so its chain is among them), once per batch.
+    #[inline(always)]
+    pub(super) fn pose_up_to(&self, ws: &mut SphereWorkspace, last: usize) {
+        for b in ws.posed..=last {
+            let body = &self.bodies[b];
             let q = &ws.q[body.column];
             let value: Lane = std::array::from_fn(|l| body.multiplier * q[l] + body.offset);
-            // Bodies come after their parents.
             let (done, rest) = ws.poses.split_at_mut(b);
             let (parent, pose) = (&done[body.parent], &mut rest[0]);
             let placement = (&body.rotation, &body.translation);
@@ -554,6 +582,19 @@ impl SphereModel {
                 }
             }
         }
+        ws.posed = ws.posed.max(last + 1);
+    }
+
+    /// World centre of group `g`'s bounding ball, once per batch.
+    #[inline(always)]
+    fn group_center<'w>(&self, ws: &'w mut SphereWorkspace, g: usize) -> &'w [Lane; 3] {
+        if !ws.centered[g] {
+            let group = &self.groups[g];
+            self.pose_up_to(ws, group.body);
+            ws.group_centers[g] = ws.poses[group.body].point(&group.center);
+            ws.centered[g] = true;
+        }
+        &ws.group_centers[g]
     }
 
     /// World centres of group `g`'s clusters, once per batch.
@@ -563,6 +604,7 @@ impl SphereModel {
             return;
         }
         let group = &self.groups[g];
+        self.pose_up_to(ws, group.body);
         let pose = &ws.poses[group.body];
         for c in group.clusters.clone() {
             ws.cluster_centers[c] = pose.point(&self.clusters[c].center);
@@ -577,7 +619,9 @@ impl SphereModel {
             return;
         }
         let cluster = &self.clusters[c];
-        let pose = &ws.poses[self.groups[self.cluster_group[c] as usize].body];
+        let body = self.groups[self.cluster_group[c] as usize].body;
+        self.pose_up_to(ws, body);
+        let pose = &ws.poses[body];
         for s in cluster.spheres.clone() {
             ws.centers[s] = pose.point(&self.spheres[s].center);
         }

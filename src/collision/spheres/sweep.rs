@@ -148,6 +148,7 @@ impl SphereModel {
         if ws.tangent_done {
             return;
         }
+        self.pose_up_to(ws, self.bodies.len() - 1);
         ws.angular[0] = [[0.0; LANES]; 3];
         ws.linear[0] = [[0.0; LANES]; 3];
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
