@@ -604,7 +604,8 @@ impl SphereModel {
             return;
         }
         let group = &self.groups[g];
-        self.pose_up_to(ws, group.body);
+        // Its centre was placed first, which posed its chain.
+        debug_assert!(ws.centered[g], "clusters placed before their group's centre");
         let pose = &ws.poses[group.body];
         for c in group.clusters.clone() {
             ws.cluster_centers[c] = pose.point(&self.clusters[c].center);
@@ -620,7 +621,7 @@ impl SphereModel {
         }
         let cluster = &self.clusters[c];
         let body = self.groups[self.cluster_group[c] as usize].body;
-        self.pose_up_to(ws, body);
+        debug_assert!(ws.posed > body, "spheres placed before their body was posed");
         let pose = &ws.poses[body];
         for s in cluster.spheres.clone() {
             ws.centers[s] = pose.point(&self.spheres[s].center);
