@@ -219,6 +219,46 @@ fn problem_files_bound_planner_settings() {
     assert_eq!((p.resolution, p.clearance), (MIN_RESOLUTION, 0.0));
 }
 
+/// Lazy certification: the trees grow on discrete checks of the padded
+/// shapes, and the path's edges are certified when the trees meet. With
+/// discrete checks far too coarse to see the wall, edges through it are
+/// searched, fail certification and are cut, and the search still ends
+/// with a path whose every edge is certified, the same for the same seed.
+#[test]
+fn lazy_certification_cuts_failed_branches_and_certifies_the_path() {
+    use tandem::plan::{LazySearch, rrt_connect_lazy};
+    let (problem, start, goal) = wall();
+    let clearance = 1e-3;
+    let model = problem.collision_model().unwrap();
+    let padded = problem.collision_model_padded(clearance).unwrap();
+    let (mut ws, mut padded_ws) = (CollisionWorkspace::new(&model), CollisionWorkspace::new(&padded));
+    let goals = std::slice::from_ref(&goal);
+    let mut cut = 0;
+    for resolution in [0.1, 1.0] {
+        for seed in 0..6 {
+            let settings = RrtSettings { edge: EdgeCheck::Certified { clearance }, seed, ..RrtSettings::default() };
+            let plan = |ws: &mut CollisionWorkspace, padded_ws: &mut CollisionWorkspace| {
+                let lazy = LazySearch { padded: &padded, ws: padded_ws, resolution };
+                rrt_connect_lazy(&model, ws, lazy, &start, goals, &settings).unwrap()
+            };
+            let result = plan(&mut ws, &mut padded_ws);
+            assert_eq!(result.status, PlanStatus::Solved, "resolution {resolution}, seed {seed}");
+            assert_valid(&problem, &result.path, goals);
+            for w in result.path.windows(2) {
+                assert!(model.motion_free_certified(&mut ws, &w[0], &w[1], clearance / 2.0).unwrap());
+            }
+            let again = plan(&mut ws, &mut padded_ws);
+            assert_eq!((result.path, result.cut), (again.path, again.cut), "same seed, same path");
+            cut += result.cut;
+        }
+    }
+    assert!(cut > 0, "no branch was ever cut: the test does not reach the repair");
+    let settings = RrtSettings { edge: EdgeCheck::Certified { clearance }, ..RrtSettings::default() };
+    let lazy = LazySearch { padded: &padded, ws: &mut padded_ws, resolution: 0.0 };
+    let e = rrt_connect_lazy(&model, &mut ws, lazy, &start, goals, &settings).unwrap_err();
+    assert!(matches!(e, RobotError::InvalidSetting { name: "resolution", .. }), "{e}");
+}
+
 /// Dynamic-domain sampling with a domain so small that every blocked node
 /// rejects nearly every sample: the rejection cap keeps the trees
 /// extending, and the plan is still found, free and deterministic. The

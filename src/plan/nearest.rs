@@ -25,6 +25,11 @@ pub(crate) struct NearestNeighbors {
     /// Children of each node (u32::MAX: none).
     left: Vec<u32>,
     right: Vec<u32>,
+    /// Points removed: never the answer of a query (the k-d tree still
+    /// routes through them).
+    removed: Vec<bool>,
+    /// Points not removed.
+    alive: usize,
     /// Explicit stack of the search, kept to avoid allocating per query.
     stack: Vec<(u32, u32, f64)>,
 }
@@ -39,6 +44,8 @@ impl NearestNeighbors {
             blocks: Vec::new(),
             left: Vec::new(),
             right: Vec::new(),
+            removed: Vec::new(),
+            alive: 0,
             stack: Vec::new(),
         }
     }
@@ -64,6 +71,8 @@ impl NearestNeighbors {
         }
         self.left.push(NONE);
         self.right.push(NONE);
+        self.removed.push(false);
+        self.alive += 1;
         if index == 0 {
             return 0;
         }
@@ -81,9 +90,24 @@ impl NearestNeighbors {
         }
     }
 
-    /// Index of the point nearest to `q` (Euclidean); `None` when empty.
+    /// Removes point `i` from the answers of later queries (its index
+    /// stays taken).
+    pub(crate) fn remove(&mut self, i: usize) {
+        if std::mem::replace(&mut self.removed[i], true) {
+            return;
+        }
+        self.alive -= 1;
+        let (block, lane) = (i / BLOCK, i % BLOCK);
+        for k in 0..self.dim {
+            // Infinitely far: the linear scan never picks it.
+            self.blocks[(block * self.dim + k) * BLOCK + lane] = f64::INFINITY;
+        }
+    }
+
+    /// Index of the point nearest to `q` (Euclidean) among those not
+    /// removed; `None` when there is none.
     pub(crate) fn nearest(&mut self, q: &[f64]) -> Option<usize> {
-        if self.len() == 0 {
+        if self.alive == 0 {
             return None;
         }
         if self.len() <= LINEAR_SCAN {
@@ -100,7 +124,7 @@ impl NearestNeighbors {
             let n = node as usize;
             let p = &self.points[n * self.dim..(n + 1) * self.dim];
             let d2: f64 = p.iter().zip(q).map(|(a, b)| (a - b) * (a - b)).sum();
-            if d2 < best_d2 {
+            if d2 < best_d2 && !self.removed[n] {
                 (best, best_d2) = (n, d2);
             }
             let axis = depth as usize % self.dim;
@@ -143,6 +167,39 @@ impl NearestNeighbors {
 mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
+
+    /// Removed points are never the answer, in the linear scan and in
+    /// the k-d tree (which still routes through them).
+    #[test]
+    fn removed_points_are_skipped() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+        for count in [40, 2000] {
+            let mut nn = NearestNeighbors::new(7);
+            let all: Vec<Vec<f64>> =
+                (0..count).map(|_| (0..7).map(|_| rng.random_range(-3.0..3.0)).collect()).collect();
+            for p in &all {
+                nn.insert(p);
+            }
+            let removed: Vec<bool> = (0..count).map(|i| i % 3 != 0).collect();
+            for i in (0..count).filter(|&i| removed[i]) {
+                nn.remove(i);
+                nn.remove(i);
+            }
+            for _ in 0..200 {
+                let q: Vec<f64> = (0..7).map(|_| rng.random_range(-3.5..3.5)).collect();
+                let d2 = |p: &Vec<f64>| p.iter().zip(&q).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+                let kept = (0..count).filter(|&i| !removed[i]);
+                let best = kept.min_by(|&a, &b| d2(&all[a]).total_cmp(&d2(&all[b]))).unwrap();
+                let found = nn.nearest(&q).unwrap();
+                assert!(!removed[found], "{count}: removed point {found} returned");
+                assert_eq!(d2(&all[found]), d2(&all[best]));
+            }
+        }
+        let mut nn = NearestNeighbors::new(2);
+        nn.insert(&[0.0, 0.0]);
+        nn.remove(0);
+        assert_eq!(nn.nearest(&[1.0, 1.0]), None, "every point removed");
+    }
 
     #[test]
     fn matches_a_linear_scan() {

@@ -6,6 +6,9 @@
 //! extension was blocked only takes samples near it (dynamic-domain
 //! sampling, [`DynamicDomain`]). On MotionBenchMaker's 700 Panda problems
 //! they cut the mean planning time several times over (README).
+//! [`rrt_connect_lazy`] certifies only the edges of a path found (lazy
+//! certification, as in Lazy PRM, Bohlin & Kavraki 2000), cutting any
+//! branch whose edge fails.
 
 use super::nearest::NearestNeighbors;
 use super::postprocess::distance;
@@ -194,8 +197,11 @@ pub struct PlanResult {
     pub path: Vec<Vec<f64>>,
     /// Extension rounds run (samples dynamic-domain sampling rejects are not counted).
     pub iterations: usize,
-    /// Nodes in both trees.
+    /// Nodes in both trees (those cut included).
     pub nodes: usize,
+    /// Nodes cut from the trees by lazy certification ([`rrt_connect_lazy`]):
+    /// an edge on their branch failed; 0 for [`rrt_connect`].
+    pub cut: usize,
     /// Wall-clock time of the search.
     pub time: Duration,
 }
@@ -204,6 +210,14 @@ pub struct PlanResult {
 struct Tree {
     nn: NearestNeighbors,
     parent: Vec<u32>,
+    /// Whether each node's edge from its parent passed the edge check
+    /// (roots: true); in a lazy search, edges are certified only once a
+    /// path uses them.
+    certified: Vec<bool>,
+    /// Nodes cut from the tree (an edge on their branch failed).
+    cut: Vec<bool>,
+    /// Nodes not cut.
+    alive: usize,
     /// Each node's dynamic-domain radius (infinite until an extension
     /// from it is blocked).
     radius: Vec<f64>,
@@ -213,18 +227,57 @@ struct Tree {
 
 impl Tree {
     fn new(dim: usize) -> Tree {
-        Tree { nn: NearestNeighbors::new(dim), parent: Vec::new(), radius: Vec::new(), rejected: 0 }
+        let nn = NearestNeighbors::new(dim);
+        Tree {
+            nn,
+            parent: Vec::new(),
+            certified: Vec::new(),
+            cut: Vec::new(),
+            alive: 0,
+            radius: Vec::new(),
+            rejected: 0,
+        }
     }
 
     fn len(&self) -> usize {
-        self.parent.len()
+        self.alive
     }
 
-    fn add(&mut self, q: &[f64], parent: Option<usize>) -> usize {
+    /// Adds `q` below `parent` (a root without one), its edge certified or not.
+    fn add(&mut self, q: &[f64], parent: Option<usize>, certified: bool) -> usize {
         let i = self.nn.insert(q);
         self.parent.push(parent.unwrap_or(i) as u32);
+        self.certified.push(certified || parent.is_none());
+        self.cut.push(false);
+        self.alive += 1;
         self.radius.push(f64::INFINITY);
         i
+    }
+
+    /// Cuts node `i` and every node grown from it (children come after
+    /// their parents).
+    fn cut_branch(&mut self, i: usize) {
+        for k in i..self.parent.len() {
+            if !self.cut[k] && (k == i || self.cut[self.parent[k] as usize]) {
+                self.cut[k] = true;
+                self.alive -= 1;
+                self.nn.remove(k);
+            }
+        }
+    }
+
+    /// Nodes from `i` up to its root.
+    fn lineage(&self, mut i: usize) -> impl Iterator<Item = usize> + '_ {
+        let mut done = false;
+        std::iter::from_fn(move || {
+            if done {
+                return None;
+            }
+            let here = i;
+            done = self.parent[i] as usize == i;
+            i = self.parent[i] as usize;
+            Some(here)
+        })
     }
 
     /// Adapts node `i`'s sampling radius after an extension from it.
@@ -238,13 +291,8 @@ impl Tree {
     }
 
     /// Configurations from node `i` up to its root.
-    fn branch(&self, mut i: usize) -> Vec<Vec<f64>> {
-        let mut out = vec![self.nn.point(i).to_vec()];
-        while self.parent[i] as usize != i {
-            i = self.parent[i] as usize;
-            out.push(self.nn.point(i).to_vec());
-        }
-        out
+    fn branch(&self, i: usize) -> Vec<Vec<f64>> {
+        self.lineage(i).map(|k| self.nn.point(k).to_vec()).collect()
     }
 }
 
@@ -256,10 +304,25 @@ enum Extension {
     OutOfTime,
 }
 
+/// A lazy search ([`rrt_connect_lazy`]): the trees grow on discrete edge
+/// checks of a model whose shapes are padded by the clearance, and only
+/// the edges of a path found are certified.
+pub struct LazySearch<'a> {
+    /// The model's shapes padded by the certified edge check's clearance
+    /// (m), as [`crate::scene::Problem::collision_model_padded`] builds.
+    pub padded: &'a CollisionModel,
+    /// A workspace of `padded`.
+    pub ws: &'a mut CollisionWorkspace,
+    /// Largest joint move between the configurations checked along a
+    /// searched edge (rad or m).
+    pub resolution: f64,
+}
+
 struct Planner<'a> {
     model: &'a CollisionModel,
     ws: &'a mut CollisionWorkspace,
     settings: &'a RrtSettings,
+    lazy: Option<LazySearch<'a>>,
     scratch: Vec<f64>,
     deadline: Instant,
 }
@@ -289,13 +352,42 @@ impl Planner<'_> {
         let t = if reached { 1.0 } else { self.settings.step / dist };
         self.scratch.clear();
         self.scratch.extend(from.iter().zip(target).map(|(a, b)| a + (b - a) * t));
-        match self.settings.edge.is_free_by(self.model, self.ws, (from, &self.scratch), self.deadline)? {
+        let free = match &mut self.lazy {
+            Some(lazy) => EdgeCheck::Resolution(lazy.resolution).is_free_by(
+                lazy.padded,
+                lazy.ws,
+                (from, &self.scratch),
+                self.deadline,
+            )?,
+            None => self.settings.edge.is_free_by(self.model, self.ws, (from, &self.scratch), self.deadline)?,
+        };
+        match free {
             None => return Ok(Extension::OutOfTime),
             Some(false) => return Ok(Extension::Trapped),
             Some(true) => {}
         }
-        let new = tree.add(&self.scratch, Some(near));
+        let new = tree.add(&self.scratch, Some(near), self.lazy.is_none());
         Ok(if reached { Extension::Reached(new) } else { Extension::Advanced(new) })
+    }
+
+    /// Certifies the edges not yet certified from node `i` up to its root,
+    /// root side first: `Some(false)` when one fails (its branch is then
+    /// cut from the tree), `None` when the time budget ran out.
+    fn certify_branch(&mut self, tree: &mut Tree, i: usize) -> Result<Option<bool>, RobotError> {
+        let mut todo: Vec<usize> = tree.lineage(i).filter(|&k| !tree.certified[k]).collect();
+        todo.reverse();
+        for k in todo {
+            let (from, to) = (tree.nn.point(tree.parent[k] as usize), tree.nn.point(k));
+            match self.settings.edge.is_free_by(self.model, self.ws, (from, to), self.deadline)? {
+                None => return Ok(None),
+                Some(false) => {
+                    tree.cut_branch(k);
+                    return Ok(Some(false));
+                }
+                Some(true) => tree.certified[k] = true,
+            }
+        }
+        Ok(Some(true))
     }
 
     /// Extends `tree` towards `target` until it reaches it or is blocked:
@@ -325,28 +417,69 @@ pub fn rrt_connect(
     goals: &[Vec<f64>],
     settings: &RrtSettings,
 ) -> Result<PlanResult, RobotError> {
+    search(model, ws, None, start, goals, settings)
+}
+
+/// [`rrt_connect`] with lazy certification: the trees grow on the cheap
+/// discrete checks of [`LazySearch`], and when they meet, the edges of
+/// the path are checked with `settings.edge` (root side first, each edge
+/// once); an edge that fails is cut from its tree with every node grown
+/// from it, and the search goes on. The path's edges pass
+/// `settings.edge`, as [`rrt_connect`]'s do, while the edges of branches
+/// no path takes are never certified: on MotionBenchMaker-style problems
+/// most of a search's certification work (README).
+///
+/// # Errors
+/// Configurations of the wrong length or with non-finite values, a
+/// resolution below [`crate::collision::MIN_RESOLUTION`].
+pub fn rrt_connect_lazy(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    lazy: LazySearch<'_>,
+    start: &[f64],
+    goals: &[Vec<f64>],
+    settings: &RrtSettings,
+) -> Result<PlanResult, RobotError> {
+    search(model, ws, Some(lazy), start, goals, settings)
+}
+
+fn search(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    lazy: Option<LazySearch<'_>>,
+    start: &[f64],
+    goals: &[Vec<f64>],
+    settings: &RrtSettings,
+) -> Result<PlanResult, RobotError> {
     let began = Instant::now();
     let robot = model.robot();
-    let done = |status, path, iterations, nodes| PlanResult { status, path, iterations, nodes, time: began.elapsed() };
+    let done = |status, path, iterations, (nodes, cut)| PlanResult {
+        status,
+        path,
+        iterations,
+        nodes,
+        cut,
+        time: began.elapsed(),
+    };
     if !robot.within_limits(start) || !settings.edge.is_valid(model, ws, start)? {
-        return Ok(done(PlanStatus::StartInvalid, Vec::new(), 0, 0));
+        return Ok(done(PlanStatus::StartInvalid, Vec::new(), 0, (0, 0)));
     }
     let dim = robot.nq();
     let (mut a, mut b) = (Tree::new(dim), Tree::new(dim));
-    a.add(start, None);
+    a.add(start, None, true);
     for g in goals {
         if robot.within_limits(g) && settings.edge.is_valid(model, ws, g)? {
-            b.add(g, None);
+            b.add(g, None, true);
         }
     }
     if b.parent.is_empty() {
-        return Ok(done(PlanStatus::GoalInvalid, Vec::new(), 0, 1));
+        return Ok(done(PlanStatus::GoalInvalid, Vec::new(), 0, (1, 0)));
     }
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let limits = robot.limits().to_vec();
     // Far budgets (beyond what an Instant holds) never run out.
     let deadline = began.checked_add(settings.time_limit).unwrap_or(began + Duration::from_secs(1 << 40));
-    let mut planner = Planner { model, ws, settings, scratch: Vec::with_capacity(dim), deadline };
+    let mut planner = Planner { model, ws, settings, lazy, scratch: Vec::with_capacity(dim), deadline };
     let mut sample = vec![0.0; dim];
     // Tree `a` holds the start when `a_is_start`.
     let mut a_is_start = true;
@@ -354,7 +487,7 @@ pub fn rrt_connect(
     while iteration < settings.max_iterations {
         draws += 1;
         if draws % 32 == 0 && began.elapsed() > settings.time_limit {
-            return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, a.parent.len() + b.parent.len()));
+            return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, counts(&a, &b)));
         }
         for (s, l) in sample.iter_mut().zip(&limits) {
             *s = rng.random_range(l.lower..=l.upper);
@@ -364,8 +497,7 @@ pub fn rrt_connect(
             continue;
         };
         iteration += 1;
-        let out_of_time =
-            |a: &Tree, b: &Tree| done(PlanStatus::TimeLimit, Vec::new(), iteration, a.parent.len() + b.parent.len());
+        let out_of_time = |a: &Tree, b: &Tree| done(PlanStatus::TimeLimit, Vec::new(), iteration, counts(a, b));
         let new = match extension {
             Extension::Trapped => None,
             Extension::OutOfTime => return Ok(out_of_time(&a, &b)),
@@ -374,12 +506,17 @@ pub fn rrt_connect(
         if let Some(i) = new {
             let q_new = a.nn.point(i).to_vec();
             match planner.connect(&mut b, &q_new)? {
-                Extension::Reached(j) => {
-                    let (from_a, from_b) = (a.branch(i), b.branch(j));
-                    let path = join(from_a, from_b, a_is_start);
-                    let nodes = a.parent.len() + b.parent.len();
-                    return Ok(done(PlanStatus::Solved, path, iteration, nodes));
-                }
+                Extension::Reached(j) => match certified(&mut planner, &mut a, i, &mut b, j)? {
+                    Some(true) => {
+                        let (from_a, from_b) = (a.branch(i), b.branch(j));
+                        let path = join(from_a, from_b, a_is_start);
+                        let nodes = counts(&a, &b);
+                        return Ok(done(PlanStatus::Solved, path, iteration, nodes));
+                    }
+                    // An edge failed: its branch is cut, the search goes on.
+                    Some(false) => {}
+                    None => return Ok(out_of_time(&a, &b)),
+                },
                 Extension::OutOfTime => return Ok(out_of_time(&a, &b)),
                 Extension::Trapped | Extension::Advanced(_) => {}
             }
@@ -390,7 +527,32 @@ pub fn rrt_connect(
             a_is_start = !a_is_start;
         }
     }
-    Ok(done(PlanStatus::IterationLimit, Vec::new(), settings.max_iterations, a.parent.len() + b.parent.len()))
+    Ok(done(PlanStatus::IterationLimit, Vec::new(), settings.max_iterations, counts(&a, &b)))
+}
+
+/// Nodes in both trees, and of them those cut.
+fn counts(a: &Tree, b: &Tree) -> (usize, usize) {
+    let nodes = a.parent.len() + b.parent.len();
+    (nodes, nodes - a.alive - b.alive)
+}
+
+/// Whether the edges from node `i` of `a` and node `j` of `b` to their
+/// roots all pass (always, unless the search is lazy); `None` when the
+/// time ran out.
+fn certified(
+    planner: &mut Planner,
+    a: &mut Tree,
+    i: usize,
+    b: &mut Tree,
+    j: usize,
+) -> Result<Option<bool>, RobotError> {
+    if planner.lazy.is_none() {
+        return Ok(Some(true));
+    }
+    Ok(match planner.certify_branch(a, i)? {
+        Some(true) => planner.certify_branch(b, j)?,
+        other => other,
+    })
 }
 
 /// The start-to-goal path from two branches that end at the same

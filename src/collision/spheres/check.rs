@@ -8,7 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::lanes::{
-    LANES, Lane, LanePose, box_approach_local, box_distance_squared_local, cylinder_approach_local,
+    LANES, Lane, LanePose, box_approach_local, box_distance_squared_local, build, cylinder_approach_local,
     cylinder_distance_squared, distance_rate, lane_distance_squared, lane_max, lane_min, max, min, point_approach,
     point_distance_squared, rotate_to_local, segment_approach, segment_distance_squared, sin_cos, to_local,
 };
@@ -335,7 +335,7 @@ impl SphereModel {
             return [(reach + TOLERANCE) * (reach + TOLERANCE); LANES];
         }
         let m = &ws.margins;
-        std::array::from_fn(|l| {
+        build(|l| {
             let limit = max(reach + m.half + m.width[l] * sweep, reach + m.full) + TOLERANCE;
             limit * limit
         })
@@ -348,7 +348,7 @@ impl SphereModel {
             return [(reach + TOLERANCE) * (reach + TOLERANCE); LANES];
         }
         let m = &ws.margins;
-        std::array::from_fn(|l| {
+        build(|l| {
             let limit = max(reach + m.half + m.width[l] * sweep[l], reach + m.full) + TOLERANCE;
             limit * limit
         })
@@ -372,7 +372,7 @@ impl SphereModel {
         if CERTIFY {
             return Some(short);
         }
-        flags.split = std::array::from_fn(|l| flags.split[l] | short[l]);
+        flags.split = build(|l| flags.split[l] | short[l]);
         Some([false; LANES])
     }
 
@@ -426,8 +426,8 @@ impl SphereModel {
         // limit: shapes whose boxes it misses are cleared in every lane.
         let reach = lane_max(&Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g])).sqrt();
         let center = *self.group_center(ws, g);
-        let lo: [f64; 3] = std::array::from_fn(|i| lane_min(&center[i]) - reach);
-        let hi: [f64; 3] = std::array::from_fn(|i| lane_max(&center[i]) + reach);
+        let lo: [f64; 3] = build(|i| lane_min(&center[i]) - reach);
+        let hi: [f64; 3] = build(|i| lane_max(&center[i]) + reach);
         for chunk in &self.env[group.env.clone()] {
             // Per shape, the largest gap between the boxes along an axis.
             let mut gap = [f64::NEG_INFINITY; LANES];
@@ -531,7 +531,7 @@ impl SphereModel {
                 self.place_spheres(ws, cb);
                 let sweep: Lane = if CERTIFY {
                     let (a, b) = (self.tight_sweep(ws, ca, depth), self.tight_sweep(ws, cb, depth));
-                    std::array::from_fn(|l| a[l] + b[l])
+                    build(|l| a[l] + b[l])
                 } else {
                     [0.0; LANES]
                 };
@@ -570,7 +570,7 @@ impl SphereModel {
         for b in ws.posed..=last {
             let body = &self.bodies[b];
             let q = &ws.q[body.column];
-            let value: Lane = std::array::from_fn(|l| body.multiplier * q[l] + body.offset);
+            let value: Lane = build(|l| body.multiplier * q[l] + body.offset);
             let (done, rest) = ws.poses.split_at_mut(b);
             let (parent, pose) = (&done[body.parent], &mut rest[0]);
             let placement = (&body.rotation, &body.translation);

@@ -14,6 +14,20 @@ pub const LANES: usize = 8;
 /// One value per configuration.
 pub(crate) type Lane = [f64; LANES];
 
+/// The array of `f(i)` for every index, by a plain loop:
+/// `std::array::from_fn` goes through a closure adapter that LLVM does not
+/// always inline, and when it does not, every lane of the hot checks
+/// costs a call (seen as `try_trait::Wrapped::call_mut` in profiles, 5 %
+/// of the Panda's planning instructions after an unrelated change).
+#[inline(always)]
+pub(crate) fn build<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
+    let mut out = [T::default(); N];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = f(i);
+    }
+    out
+}
+
 /// A rigid transform per lane: rotation `r` column-major (`r[3 * col + row]`)
 /// and translation `t`, mapping body coordinates to world coordinates (m).
 #[derive(Debug, Clone, Copy)]
@@ -301,7 +315,7 @@ pub(crate) fn lane_distance_squared(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
 #[inline(always)]
 pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> Lane {
     let e = segment_offset(p, a, ab, len2);
-    std::array::from_fn(|l| e[0][l] * e[0][l] + e[1][l] * e[1][l] + e[2][l] * e[2][l])
+    build(|l| e[0][l] * e[0][l] + e[1][l] * e[1][l] + e[2][l] * e[2][l])
 }
 
 /// Per lane, `p − q` with `q` the point of the segment from `a` to
@@ -397,16 +411,14 @@ pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length:
 /// `(a − b) · v` for lanes of points `a`, `b` and vectors `v`.
 #[inline(always)]
 pub(crate) fn offset_dot(a: &[Lane; 3], b: &[Lane; 3], v: &[Lane; 3]) -> Lane {
-    std::array::from_fn(|l| {
-        (a[0][l] - b[0][l]) * v[0][l] + (a[1][l] - b[1][l]) * v[1][l] + (a[2][l] - b[2][l]) * v[2][l]
-    })
+    build(|l| (a[0][l] - b[0][l]) * v[0][l] + (a[1][l] - b[1][l]) * v[1][l] + (a[2][l] - b[2][l]) * v[2][l])
 }
 
 /// Per lane, the absolute rate of change of a distance `distance` (m)
 /// whose offset `e` has `e · v = along`: `|along| / distance`.
 #[inline(always)]
 pub(crate) fn distance_rate(along: &Lane, distance: &Lane) -> Lane {
-    std::array::from_fn(|l| (along[l] / distance[l]).abs())
+    build(|l| (along[l] / distance[l]).abs())
 }
 
 /// `(p − c) · v` per lane (see `StaticShape::core_approach`).
@@ -420,16 +432,14 @@ pub(crate) fn point_approach(p: &[Lane; 3], c: &[f64; 3], v: &[Lane; 3]) -> Lane
 #[inline(always)]
 pub(crate) fn segment_approach(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64, v: &[Lane; 3]) -> Lane {
     let e = segment_offset(p, a, ab, len2);
-    std::array::from_fn(|l| e[0][l] * v[0][l] + e[1][l] * v[1][l] + e[2][l] * v[2][l])
+    build(|l| e[0][l] * v[0][l] + e[1][l] * v[1][l] + e[2][l] * v[2][l])
 }
 
 /// Each lane's vector in `frame`'s coordinates, `Rᵀ v`.
 #[inline(always)]
 pub(crate) fn rotate_to_local(v: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
     let r = &frame.rotation;
-    std::array::from_fn(|i| {
-        std::array::from_fn(|l| r[3 * i] * v[0][l] + r[3 * i + 1] * v[1][l] + r[3 * i + 2] * v[2][l])
-    })
+    build(|i| build(|l| r[3 * i] * v[0][l] + r[3 * i + 1] * v[1][l] + r[3 * i + 2] * v[2][l]))
 }
 
 /// `e · v` per lane (box frame), `e` the offset from the box's point
@@ -464,9 +474,9 @@ pub(crate) fn cylinder_approach_local(p: &[Lane; 3], radius: f64, half_length: f
 /// Cross products `a × b` per lane.
 #[inline(always)]
 pub(crate) fn cross(a: &[Lane; 3], b: &[Lane; 3]) -> [Lane; 3] {
-    std::array::from_fn(|i| {
+    build(|i| {
         let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-        std::array::from_fn(|l| a[j][l] * b[k][l] - a[k][l] * b[j][l])
+        build(|l| a[j][l] * b[k][l] - a[k][l] * b[j][l])
     })
 }
 

@@ -20,7 +20,7 @@
 
 use super::SphereModel;
 use super::check::{Margins, SphereWorkspace, Verdict};
-use super::lanes::{LANES, Lane};
+use super::lanes::{LANES, Lane, build};
 
 /// Sample indices `0..=steps` of a motion, coarse to fine: the end, the
 /// start, then the odd multiples of halving strides (every index once),
@@ -104,7 +104,7 @@ impl SphereModel {
         ks: &[usize; LANES],
         steps: usize,
     ) -> Verdict {
-        let t: Lane = std::array::from_fn(|l| ks[l] as f64 / steps as f64);
+        let t: Lane = build(|l| ks[l] as f64 / steps as f64);
         self.set_along(ws, q0, q1, &t);
         self.check::<false>(ws)
     }
@@ -135,8 +135,8 @@ impl SphereModel {
                 n += 1;
             }
             // Unused lanes repeat the first interval.
-            let mid: Lane = std::array::from_fn(|l| 0.5 * (taken[l].0 + taken[l].1));
-            ws.margins.width = std::array::from_fn(|l| (mid[l] - taken[l].0).max(taken[l].1 - mid[l]));
+            let mid: Lane = build(|l| 0.5 * (taken[l].0 + taken[l].1));
+            ws.margins.width = build(|l| (mid[l] - taken[l].0).max(taken[l].1 - mid[l]));
             self.set_along(ws, q0, q1, &mid);
             let Verdict::Free { unsure, split } = self.check::<true>(ws) else {
                 ws.probe_next = true;
@@ -174,7 +174,7 @@ impl SphereModel {
     /// cannot be certified, and the plain check costs a fraction of a
     /// certification batch, which also bounds each pair's sweep.
     fn probe_collides(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) -> bool {
-        let t: Lane = std::array::from_fn(|l| (l as f64 + 0.5) / LANES as f64);
+        let t: Lane = build(|l| (l as f64 + 0.5) / LANES as f64);
         self.set_along(ws, q0, q1, &t);
         self.check::<false>(ws) == Verdict::Collides
     }

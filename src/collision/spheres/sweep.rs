@@ -21,7 +21,7 @@
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane, cross, distance_rate, max, min, offset_dot};
+use super::lanes::{LANES, Lane, build, cross, distance_rate, max, min, offset_dot};
 use crate::robot::Motion;
 
 impl SphereModel {
@@ -131,7 +131,7 @@ impl SphereModel {
         let depth = depth.min(n);
         let loose = self.loose_sweep(ws, c, depth);
         let (all, skipped) = (&ws.tight[slot + n], &ws.tight[slot + depth]);
-        std::array::from_fn(|l| min(all[l] - skipped[l], loose))
+        build(|l| min(all[l] - skipped[l], loose))
     }
 }
 
@@ -154,14 +154,12 @@ impl SphereModel {
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
             let (pose, parent) = (&ws.poses[b], &ws.poses[body.parent]);
             let (spin, mut linear) = (ws.angular[body.parent], ws.linear[body.parent]);
-            let arm: [Lane; 3] = std::array::from_fn(|i| std::array::from_fn(|l| pose.t[i][l] - parent.t[i][l]));
+            let arm: [Lane; 3] = build(|i| build(|l| pose.t[i][l] - parent.t[i][l]));
             let carried = cross(&spin, &arm);
             let rate = ws.signed_rates[b];
             let axis = body.axis;
-            let along: [Lane; 3] = std::array::from_fn(|i| {
-                std::array::from_fn(|l| {
-                    rate * (pose.r[i][l] * axis[0] + pose.r[3 + i][l] * axis[1] + pose.r[6 + i][l] * axis[2])
-                })
+            let along: [Lane; 3] = build(|i| {
+                build(|l| rate * (pose.r[i][l] * axis[0] + pose.r[3 + i][l] * axis[1] + pose.r[6 + i][l] * axis[2]))
             });
             let mut angular = spin;
             let turned = if matches!(body.motion, Motion::Prismatic(_)) { &mut linear } else { &mut angular };
@@ -187,7 +185,7 @@ impl SphereModel {
     pub(super) fn sphere_velocity(&self, ws: &mut SphereWorkspace, body: usize, s: usize) -> [Lane; 3] {
         self.ensure_tangent(ws);
         let (center, origin) = (&ws.centers[s], &ws.poses[body].t);
-        let arm: [Lane; 3] = std::array::from_fn(|i| std::array::from_fn(|l| center[i][l] - origin[i][l]));
+        let arm: [Lane; 3] = build(|i| build(|l| center[i][l] - origin[i][l]));
         let mut v = cross(&ws.angular[body], &arm);
         for i in 0..3 {
             for l in 0..LANES {
@@ -209,7 +207,7 @@ impl SphereModel {
         distance: &Lane,
     ) -> Lane {
         let (vi, vj) = (self.sphere_velocity(ws, body_i, i), self.sphere_velocity(ws, body_j, j));
-        let relative: [Lane; 3] = std::array::from_fn(|k| std::array::from_fn(|l| vi[k][l] - vj[k][l]));
+        let relative: [Lane; 3] = build(|k| build(|l| vi[k][l] - vj[k][l]));
         distance_rate(&offset_dot(&ws.centers[i], &ws.centers[j], &relative), distance)
     }
 
