@@ -72,7 +72,7 @@ pub struct PlanReport {
 /// Resolution (rad or m) of the lazy search's discrete edge checks
 /// ([`LazySearch`]) in [`ProblemPlanner::run`]. Instructions of planning
 /// and simplification (callgrind) against certifying every edge searched:
-/// Panda's 699 −3 %, TIAGo `table` −13.5 %, Baxter `shelf` −9 % at 0.1;
+/// Panda's 699 −2 %, TIAGo `table` −13.5 %, Baxter `shelf` −9 % at 0.1;
 /// 0.07 and 0.14 saved less (finer: dearer checks; coarser: more
 /// branches cut when their edges fail certification).
 const LAZY_RESOLUTION: f64 = 0.1;
@@ -212,13 +212,8 @@ impl ProblemPlanner {
         let edge = EdgeCheck::Certified { clearance: self.clearance };
         let settings = RrtSettings { edge, seed, ..self.settings.clone() };
         let began = Instant::now();
-        let resolution: f64 = std::env::var("LAZY").map(|v| v.parse().unwrap()).unwrap_or(LAZY_RESOLUTION);
-        let lazy = LazySearch { padded: &self.search, ws: &mut self.search_ws, resolution };
-        let result = if std::env::var("NOLAZY").is_ok() {
-            rrt_connect(&self.model, &mut self.ws, &self.start, &self.goals, &settings)?
-        } else {
-            rrt_connect_lazy(&self.model, &mut self.ws, lazy, &self.start, &self.goals, &settings)?
-        };
+        let lazy = LazySearch { padded: &self.search, ws: &mut self.search_ws, resolution: LAZY_RESOLUTION };
+        let result = rrt_connect_lazy(&self.model, &mut self.ws, lazy, &self.start, &self.goals, &settings)?;
         let planning_time = began.elapsed();
         let solved = result.status == PlanStatus::Solved;
         let path =

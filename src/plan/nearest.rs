@@ -54,6 +54,16 @@ impl NearestNeighbors {
         self.left.len()
     }
 
+    /// Points not removed.
+    pub(crate) fn alive(&self) -> usize {
+        self.alive
+    }
+
+    /// Whether point `i` was removed.
+    pub(crate) fn is_removed(&self, i: usize) -> bool {
+        self.removed[i]
+    }
+
     pub(crate) fn point(&self, i: usize) -> &[f64] {
         &self.points[i * self.dim..(i + 1) * self.dim]
     }

@@ -214,10 +214,6 @@ struct Tree {
     /// (roots: true); in a lazy search, edges are certified only once a
     /// path uses them.
     certified: Vec<bool>,
-    /// Nodes cut from the tree (an edge on their branch failed).
-    cut: Vec<bool>,
-    /// Nodes not cut.
-    alive: usize,
     /// Each node's dynamic-domain radius (infinite until an extension
     /// from it is blocked).
     radius: Vec<f64>,
@@ -228,19 +224,13 @@ struct Tree {
 impl Tree {
     fn new(dim: usize) -> Tree {
         let nn = NearestNeighbors::new(dim);
-        Tree {
-            nn,
-            parent: Vec::new(),
-            certified: Vec::new(),
-            cut: Vec::new(),
-            alive: 0,
-            radius: Vec::new(),
-            rejected: 0,
-        }
+        Tree { nn, parent: Vec::new(), certified: Vec::new(), radius: Vec::new(), rejected: 0 }
     }
 
+    /// Nodes not cut (a cut node is removed from the nearest-neighbour
+    /// answers, which keep the count).
     fn len(&self) -> usize {
-        self.alive
+        self.nn.alive()
     }
 
     /// Adds `q` below `parent` (a root without one), its edge certified or not.
@@ -248,8 +238,6 @@ impl Tree {
         let i = self.nn.insert(q);
         self.parent.push(parent.unwrap_or(i) as u32);
         self.certified.push(certified || parent.is_none());
-        self.cut.push(false);
-        self.alive += 1;
         self.radius.push(f64::INFINITY);
         i
     }
@@ -258,9 +246,7 @@ impl Tree {
     /// their parents).
     fn cut_branch(&mut self, i: usize) {
         for k in i..self.parent.len() {
-            if !self.cut[k] && (k == i || self.cut[self.parent[k] as usize]) {
-                self.cut[k] = true;
-                self.alive -= 1;
+            if k == i || self.nn.is_removed(self.parent[k] as usize) {
                 self.nn.remove(k);
             }
         }
@@ -533,7 +519,7 @@ fn search(
 /// Nodes in both trees, and of them those cut.
 fn counts(a: &Tree, b: &Tree) -> (usize, usize) {
     let nodes = a.parent.len() + b.parent.len();
-    (nodes, nodes - a.alive - b.alive)
+    (nodes, nodes - a.len() - b.len())
 }
 
 /// Whether the edges from node `i` of `a` and node `j` of `b` to their

@@ -17,7 +17,7 @@ pub(crate) type Lane = [f64; LANES];
 /// The array of `f(i)` for every index, by a plain loop:
 /// `std::array::from_fn` goes through a closure adapter that LLVM does not
 /// always inline, and when it does not, every lane of the hot checks
-/// costs a call (seen as `try_trait::Wrapped::call_mut` in profiles, 5 %
+/// costs a call (seen as `try_trait::Wrapped::call_mut` in profiles, +6 %
 /// of the Panda's planning instructions after an unrelated change).
 #[inline(always)]
 pub(crate) fn build<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
