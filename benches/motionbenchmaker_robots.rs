@@ -5,10 +5,10 @@
 //! with sphere-model collision geometry, in `table`, `shelf` and `cage`
 //! scenes. Per robot: solved count (solved and every edge certified), and
 //! median / mean / 95th percentile of planning time and of planning +
-//! simplification, one seed per problem, as the `motionbenchmaker` bench
+//! simplification, one seed per problem (`--seeds`), as the `motionbenchmaker` bench
 //! reports the Panda's. Problem generation and loading are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --problem FAMILY[:K] --repeats K --no-panda --plain --joint-goals --komo]
+//!   cargo bench --bench motionbenchmaker_robots [-- --per-family N --time-limit SECONDS --robot NAME --problem FAMILY[:K] --repeats K --seeds N --no-panda --plain --joint-goals --komo]
 //!
 //! The target is a ratio, each robot's median against the Panda's on the
 //! same machine, and this VM's speed drifts by up to 2× over seconds: a
@@ -24,6 +24,12 @@
 //! The budget is the time limit alone, as MotionBenchMaker's and MoveIt's
 //! are: the problems' iteration cap is lifted. `--problem shelf:6` runs
 //! that one problem (of each robot chosen), `--problem shelf` that family.
+//!
+//! `--seeds N`: plans every problem with seeds 0 to N − 1 (default 1:
+//! seed 0 alone), each (problem, seed) a run of its own in the figures.
+//! With one seed, every problem of a family draws the same sample
+//! stream, and a family's median then rests on that stream's luck (seeds
+//! 0, 1 and 2 gave the Baxter's median 58, 119 and 96 extension rounds).
 //!
 //! `--komo`: also plans and optimizes every problem (T = 50, as
 //! `motionbenchmaker_komo` does the Panda's) and reports how many the
@@ -82,6 +88,8 @@ struct Job {
     robot: usize,
     name: String,
     planner: ProblemPlanner,
+    /// The search's seed.
+    seed: u64,
     planning: Vec<f64>,
     total: Vec<f64>,
     search: Vec<f64>,
@@ -92,7 +100,7 @@ struct Job {
 
 impl Job {
     fn run(&mut self) {
-        let report = self.planner.run(0).expect("plan");
+        let report = self.planner.run(self.seed).expect("plan");
         let p = report.planning_time.as_secs_f64();
         self.planning.push(p);
         self.total.push(p + report.simplify_time.as_secs_f64());
@@ -118,15 +126,19 @@ fn prepare(args: &[String], per_family: u64, time_limit: f64, panda: bool) -> (V
     let komo = args.iter().any(|a| a == "--komo");
     let only = args.iter().position(|a| a == "--robot").and_then(|i| args.get(i + 1));
     let one = args.iter().position(|a| a == "--problem").and_then(|i| args.get(i + 1));
+    let seeds = option(args, "--seeds").unwrap_or(1.0).max(1.0) as u64;
     let dir = tempfile::tempdir().expect("temp dir");
     let (mut jobs, mut extras) = (Vec::new(), Vec::new());
-    let add = |jobs: &mut Vec<Job>, robot, name, problem: &tandem::scene::Problem| {
-        let mut planner = ProblemPlanner::new(problem, Some(0)).expect("planner");
-        if plain {
-            make_plain(&mut planner);
+    let add = |jobs: &mut Vec<Job>, robot, name: String, problem: &tandem::scene::Problem| {
+        for seed in 0..seeds {
+            let mut planner = ProblemPlanner::new(problem, Some(seed)).expect("planner");
+            if plain {
+                make_plain(&mut planner);
+            }
+            let name = if seeds == 1 { name.clone() } else { format!("{name} seed {seed}") };
+            let (planning, total, search) = (Vec::new(), Vec::new(), Vec::new());
+            jobs.push(Job { robot, name, planner, seed, planning, total, search, outcome: None });
         }
-        let (planning, total, search) = (Vec::new(), Vec::new(), Vec::new());
-        jobs.push(Job { robot, name, planner, planning, total, search, outcome: None });
     };
     for (r, robot) in ROBOTS.iter().enumerate() {
         let mut extra = Extras::default();
@@ -176,6 +188,7 @@ fn main() {
     let repeats = if full_run() { option(&args, "--repeats").unwrap_or(3.0).max(1.0) as usize } else { 1 };
     let panda = full_run() && !args.iter().any(|a| a == "--no-panda");
     let time_limit = option(&args, "--time-limit").unwrap_or(10.0);
+    let seeds = option(&args, "--seeds").unwrap_or(1.0).max(1.0) as u64;
     let (mut jobs, extras) = prepare(&args, per_family, time_limit, panda);
     // Each round in its own seeded order: slow spells of the machine fall
     // on every robot alike.
@@ -195,13 +208,14 @@ fn main() {
         }
         let rounds = if repeats == 1 { "one round".to_string() } else { format!("median of {repeats} rounds") };
         println!(
-            "\n{} (group {}, {} joints), sphere model, RRT-Connect (one seed per problem, {time_limit} s limit, {rounds}):",
+            "\n{} (group {}, {} joints), sphere model, RRT-Connect ({seeds} seed(s) per problem, {time_limit} s limit, {rounds}):",
             robot.name, robot.group, extra.nq
         );
         let mut section = report_robot(mine, &extra, reference);
         section["group"] = robot.group.into();
         section["time_limit_s"] = time_limit.into();
         section["rounds"] = repeats.into();
+        section["seeds"] = seeds.into();
         results.insert(robot.name.to_string(), section);
     }
     if !full_run() {

@@ -14,8 +14,8 @@ use super::nearest::NearestNeighbors;
 use super::postprocess::distance;
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::robot::RobotError;
+use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use std::time::{Duration, Instant};
 
 /// How a straight joint-space motion is validated.
@@ -461,7 +461,11 @@ fn search(
     if b.parent.is_empty() {
         return Ok(done(PlanStatus::GoalInvalid, Vec::new(), 0, (1, 0)));
     }
-    let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
+    // Xoshiro256++: the search draws a sample per round and per rejection
+    // (14 values a draw on a dual arm); ChaCha8 with a uniform range per
+    // value took 6.0 % of the Baxter's `shelf` instructions, this 2.7 %.
+    // Also keeps the stream apart from the IK's, which may get the seed.
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(settings.seed);
     let limits = robot.limits().to_vec();
     // Far budgets (beyond what an Instant holds) never run out.
     let deadline = began.checked_add(settings.time_limit).unwrap_or(began + Duration::from_secs(1 << 40));
@@ -476,7 +480,9 @@ fn search(
             return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, counts(&a, &b)));
         }
         for (s, l) in sample.iter_mut().zip(&limits) {
-            *s = rng.random_range(l.lower..=l.upper);
+            // In [lower, upper): one multiply-add, without the range checks
+            // and rejection loop of a uniform distribution built per value.
+            *s = l.lower + (l.upper - l.lower) * rng.random::<f64>();
         }
         let Some(extension) = planner.extend(&mut a, &sample)? else {
             // Outside the nearest node's domain: draw again for this tree.
