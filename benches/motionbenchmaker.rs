@@ -5,7 +5,11 @@
 //! per problem, in the layout of the reference table of the benchmark's
 //! README. Problem loading and collision-model building are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker [-- --time-limit SECONDS --plain]
+//!   cargo bench --bench motionbenchmaker [-- --time-limit SECONDS --seeds N --plain]
+//!
+//! `--seeds N`: plans every problem with seeds 0 to N − 1 (default 1),
+//! each (problem, seed) a run of its own in the figures: with one seed,
+//! a family's problems all draw the same sample stream.
 //!
 //! `--plain`: plain RRT-Connect (step 0.5 rad, no balancing, no
 //! dynamic-domain sampling), the planner before those were added.
@@ -30,6 +34,13 @@ fn main() {
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse::<f64>().ok())
         .unwrap_or(10.0);
+    let seeds = args
+        .iter()
+        .position(|a| a == "--seeds")
+        .and_then(|i| args.get(i + 1))
+        .and_then(|v| v.parse::<u64>().ok())
+        .unwrap_or(1)
+        .max(1);
     let benchmark = Benchmark::unpack();
     let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
     // Joint-space length of the simplified paths (rad): what simplification buys.
@@ -40,14 +51,14 @@ fn main() {
     let mut by_family = Vec::new();
     for family in FAMILIES {
         let first = total.len();
-        for k in 1..=per_family {
+        for (k, seed) in (1..=per_family).flat_map(|k| (0..seeds).map(move |s| (k, s))) {
             let mut problem = benchmark.problem(family, k);
             problem.planner.time_limit = time_limit;
-            let mut planner = ProblemPlanner::new(&problem, Some(0)).expect("planner");
+            let mut planner = ProblemPlanner::new(&problem, Some(seed)).expect("planner");
             if plain {
                 make_plain(&mut planner);
             }
-            let report = planner.run(0).expect("plan");
+            let report = planner.run(seed).expect("plan");
             if report.result.status == PlanStatus::Solved && report.certified {
                 let p = report.planning_time.as_secs_f64();
                 planning.push(p);
@@ -55,18 +66,20 @@ fn main() {
                 lengths.push(path_length(&report.path));
                 iterations.push(report.result.iterations as f64);
             } else {
-                failed.push(format!("{family} {k}: {}", report.result.status.name()));
+                failed.push(format!("{family} {k} seed {seed}: {}", report.result.status.name()));
             }
         }
         by_family.push((family, total[first..].to_vec()));
     }
-    println!("MotionBenchMaker, Panda, spherized geometry, RRT-Connect (one seed per problem, {time_limit} s limit):");
+    println!(
+        "MotionBenchMaker, Panda, spherized geometry, RRT-Connect ({seeds} seed(s) per problem, {time_limit} s limit):"
+    );
     println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
     let p = row("planning time", &mut planning);
     let t = row("planning + simplification", &mut total);
     let (its, mean_its) = median_mean(&mut iterations);
     println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
-    println!("| solved | {} of {} | | |", planning.len(), per_family * FAMILIES.len());
+    println!("| solved | {} of {} | | |", planning.len(), per_family * seeds as usize * FAMILIES.len());
     let mean_length = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
     println!("mean path length after simplification: {mean_length:.4} rad");
     for f in &failed {
@@ -81,7 +94,7 @@ fn main() {
         println!("| {family} | {:.2} ms | {:.2} ms | {:.0} % |", median * 1e3, mean * 1e3, share * 100.0);
     }
     let out = serde_json::json!({"solved": planning.len(), "planning": p, "total": t, "unsolved": failed,
-        "time_limit_s": time_limit, "mean_path_length_rad": mean_length,
+        "time_limit_s": time_limit, "seeds": seeds, "mean_path_length_rad": mean_length,
         "iterations": {"median": its, "mean": mean_its}});
     if per_family < 100 {
         return;
