@@ -19,7 +19,7 @@
 #[path = "support/mbm.rs"]
 mod mbm;
 
-use mbm::{Benchmark, FAMILIES, full_run, make_plain, median_mean, row};
+use mbm::{Benchmark, FAMILIES, full_run, make_plain, median_mean, option, row};
 use tandem::plan::{PlanStatus, ProblemPlanner, path_length};
 
 fn main() {
@@ -28,19 +28,8 @@ fn main() {
     // `cargo test --all-targets` runs bench targets without `--bench`: a
     // smoke run of one problem per family then, not the whole benchmark.
     let per_family = if full_run() { 100 } else { 1 };
-    let time_limit = args
-        .iter()
-        .position(|a| a == "--time-limit")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .unwrap_or(10.0);
-    let seeds = args
-        .iter()
-        .position(|a| a == "--seeds")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse::<u64>().ok())
-        .unwrap_or(1)
-        .max(1);
+    let time_limit = option(&args, "--time-limit").unwrap_or(10.0);
+    let seeds = option(&args, "--seeds").unwrap_or(1.0).max(1.0) as u64;
     let benchmark = Benchmark::unpack();
     let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
     // Joint-space length of the simplified paths (rad): what simplification buys.

@@ -15,6 +15,7 @@
 //! Ada GPU) on these problem sets.
 
 #[path = "support/mbm.rs"]
+#[allow(dead_code)]
 mod mbm_common;
 
 use mbm_common::{Benchmark, FAMILIES, full_run, row};

@@ -50,16 +50,12 @@ mod mbm;
 #[path = "support/robots.rs"]
 mod robots;
 
-use mbm::{Benchmark, full_run, make_plain, median_mean, row};
+use mbm::{Benchmark, full_run, make_plain, median_mean, option, row};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use robots::{FAMILIES, Goals, ROBOTS};
 use tandem::komo::{SolveOptions, solve_problem};
 use tandem::plan::{PlanStatus, ProblemPlanner};
-
-fn option(args: &[String], name: &str) -> Option<f64> {
-    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
-}
 
 /// Plans and optimizes `problem` (T = 50, default objectives) as
 /// `motionbenchmaker_komo` does the Panda's: solved when the optimizer
@@ -120,13 +116,12 @@ struct Extras {
 }
 
 /// The robots' problems (and with `panda`, the Panda's 700), prepared.
-fn prepare(args: &[String], per_family: u64, time_limit: f64, panda: bool) -> (Vec<Job>, Vec<Extras>) {
+fn prepare(args: &[String], (per_family, seeds): (u64, u64), time_limit: f64, panda: bool) -> (Vec<Job>, Vec<Extras>) {
     let plain = args.iter().any(|a| a == "--plain");
     let goals = if args.iter().any(|a| a == "--joint-goals") { Goals::Joint } else { Goals::Grasp };
     let komo = args.iter().any(|a| a == "--komo");
     let only = args.iter().position(|a| a == "--robot").and_then(|i| args.get(i + 1));
     let one = args.iter().position(|a| a == "--problem").and_then(|i| args.get(i + 1));
-    let seeds = option(args, "--seeds").unwrap_or(1.0).max(1.0) as u64;
     let dir = tempfile::tempdir().expect("temp dir");
     let (mut jobs, mut extras) = (Vec::new(), Vec::new());
     let add = |jobs: &mut Vec<Job>, robot, name: String, problem: &tandem::scene::Problem| {
@@ -189,7 +184,7 @@ fn main() {
     let panda = full_run() && !args.iter().any(|a| a == "--no-panda");
     let time_limit = option(&args, "--time-limit").unwrap_or(10.0);
     let seeds = option(&args, "--seeds").unwrap_or(1.0).max(1.0) as u64;
-    let (mut jobs, extras) = prepare(&args, per_family, time_limit, panda);
+    let (mut jobs, extras) = prepare(&args, (per_family, seeds), time_limit, panda);
     // Each round in its own seeded order: slow spells of the machine fall
     // on every robot alike.
     let mut order: Vec<usize> = (0..jobs.len()).collect();

@@ -40,6 +40,11 @@ impl Benchmark {
     }
 }
 
+/// The number after `name` on the command line (`--seeds 3`), if any.
+pub fn option(args: &[String], name: &str) -> Option<f64> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
+}
+
 /// Whether this run is the full benchmark (`cargo bench`) rather than the
 /// smoke run `cargo test --all-targets` makes of bench targets.
 pub fn full_run() -> bool {

@@ -7,6 +7,8 @@
 //! dimensions the tree search visits most nodes of a few hundred anyway,
 //! at many times the cost per node.
 
+use crate::collision::SimdLevel;
+
 /// Points a block of the linear scan holds.
 const BLOCK: usize = 8;
 
@@ -32,15 +34,17 @@ pub(crate) struct NearestNeighbors {
     alive: usize,
     /// Explicit stack of the search, kept to avoid allocating per query.
     stack: Vec<(u32, u32, f64)>,
-    /// The CPU runs AVX2: the linear scan takes four coordinates per
-    /// instruction instead of two.
+    /// The linear scan runs compiled for AVX2 (four coordinates per
+    /// instruction instead of two).
     avx2: bool,
 }
 
 const NONE: u32 = u32::MAX;
 
 impl NearestNeighbors {
-    pub(crate) fn new(dim: usize) -> Self {
+    /// An empty set of `dim`-dimensional points whose linear scan runs at
+    /// `simd` (AVX2 from [`SimdLevel::Avx2`] up, when the CPU runs it).
+    pub(crate) fn new(dim: usize, simd: SimdLevel) -> Self {
         NearestNeighbors {
             dim,
             points: Vec::new(),
@@ -50,10 +54,7 @@ impl NearestNeighbors {
             removed: Vec::new(),
             alive: 0,
             stack: Vec::new(),
-            #[cfg(target_arch = "x86_64")]
-            avx2: std::arch::is_x86_feature_detected!("avx2"),
-            #[cfg(not(target_arch = "x86_64"))]
-            avx2: false,
+            avx2: simd >= SimdLevel::Avx2 && SimdLevel::Avx2.is_available(),
         }
     }
 
@@ -163,7 +164,7 @@ impl NearestNeighbors {
     fn scan(&self, q: &[f64]) -> usize {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            // SAFETY: `avx2` is set only when the CPU reports AVX2.
+            // SAFETY: `avx2` is set only from a level the CPU runs (AVX2 and FMA).
             return unsafe { self.scan_avx2(q) };
         }
         self.scan_portable(q)
@@ -213,7 +214,7 @@ mod tests {
     fn removed_points_are_skipped() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
         for count in [40, 2000] {
-            let mut nn = NearestNeighbors::new(7);
+            let mut nn = NearestNeighbors::new(7, SimdLevel::best_up_to(None));
             let all: Vec<Vec<f64>> =
                 (0..count).map(|_| (0..7).map(|_| rng.random_range(-3.0..3.0)).collect()).collect();
             for p in &all {
@@ -234,33 +235,32 @@ mod tests {
                 assert_eq!(d2(&all[found]), d2(&all[best]));
             }
         }
-        let mut nn = NearestNeighbors::new(2);
+        let mut nn = NearestNeighbors::new(2, SimdLevel::best_up_to(None));
         nn.insert(&[0.0, 0.0]);
         nn.remove(0);
         assert_eq!(nn.nearest(&[1.0, 1.0]), None, "every point removed");
     }
 
-    /// The AVX2 scan gives the portable scan's answers, ties included
-    /// (coordinates on a coarse grid make many), in 7 and 14 dimensions.
+    /// The best level's scan (AVX2 on CPUs with it) gives the portable
+    /// scan's answers, ties included (coordinates on a coarse grid make
+    /// many), in 7 and 14 dimensions.
     #[test]
     fn avx2_scan_answers_as_the_portable_scan() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let best = SimdLevel::best_up_to(None);
         for dim in [7, 14] {
-            let mut nn = NearestNeighbors::new(dim);
+            let mut nn = [NearestNeighbors::new(dim, SimdLevel::Baseline), NearestNeighbors::new(dim, best)];
+            assert_eq!(nn[1].avx2, SimdLevel::Avx2.is_available());
             for n in 0..300 {
                 let p: Vec<f64> = (0..dim).map(|_| f64::from(rng.random_range(-4i8..4)) * 0.5).collect();
-                nn.insert(&p);
-                if n % 7 == 0 {
-                    nn.remove(n / 2);
-                }
                 let q: Vec<f64> = (0..dim).map(|_| rng.random_range(-2.5..2.5)).collect();
-                let portable = nn.scan_portable(&q);
-                assert_eq!(nn.scan(&q), portable, "dim {dim}, {n} points");
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU reports AVX2.
-                    assert_eq!(unsafe { nn.scan_avx2(&q) }, portable, "dim {dim}, {n} points");
+                for set in &mut nn {
+                    set.insert(&p);
+                    if n % 7 == 0 {
+                        set.remove(n / 2);
+                    }
                 }
+                assert_eq!(nn[1].nearest(&q), nn[0].nearest(&q), "dim {dim}, {n} points");
             }
         }
     }
@@ -268,7 +268,7 @@ mod tests {
     #[test]
     fn matches_a_linear_scan() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
-        let mut nn = NearestNeighbors::new(7);
+        let mut nn = NearestNeighbors::new(7, SimdLevel::best_up_to(None));
         let mut all: Vec<Vec<f64>> = Vec::new();
         for n in 0..3000 {
             let p: Vec<f64> = (0..7).map(|_| rng.random_range(-3.0..3.0)).collect();

@@ -12,7 +12,7 @@
 
 use super::nearest::NearestNeighbors;
 use super::postprocess::distance;
-use crate::collision::{CollisionModel, CollisionWorkspace};
+use crate::collision::{CollisionModel, CollisionWorkspace, SimdLevel};
 use crate::robot::RobotError;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -222,8 +222,8 @@ struct Tree {
 }
 
 impl Tree {
-    fn new(dim: usize) -> Tree {
-        let nn = NearestNeighbors::new(dim);
+    fn new(dim: usize, simd: SimdLevel) -> Tree {
+        let nn = NearestNeighbors::new(dim, simd);
         Tree { nn, parent: Vec::new(), certified: Vec::new(), radius: Vec::new(), rejected: 0 }
     }
 
@@ -451,7 +451,10 @@ fn search(
         return Ok(done(PlanStatus::StartInvalid, Vec::new(), 0, (0, 0)));
     }
     let dim = robot.nq();
-    let (mut a, mut b) = (Tree::new(dim), Tree::new(dim));
+    // Nearest-neighbour scans at the collision checks' level (so
+    // `TANDEM_SIMD` and `set_simd` govern both).
+    let simd = model.simd().unwrap_or_else(|| SimdLevel::best_up_to(SimdLevel::from_environment()));
+    let (mut a, mut b) = (Tree::new(dim, simd), Tree::new(dim, simd));
     a.add(start, None, true);
     for g in goals {
         if robot.within_limits(g) && settings.edge.is_valid(model, ws, g)? {
@@ -480,8 +483,9 @@ fn search(
             return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, counts(&a, &b)));
         }
         for (s, l) in sample.iter_mut().zip(&limits) {
-            // In [lower, upper): one multiply-add, without the range checks
-            // and rejection loop of a uniform distribution built per value.
+            // Within [lower, upper] (upper only by rounding): one
+            // multiply-add, without the range checks and rejection loop of
+            // a uniform distribution built per value.
             *s = l.lower + (l.upper - l.lower) * rng.random::<f64>();
         }
         let Some(extension) = planner.extend(&mut a, &sample)? else {
