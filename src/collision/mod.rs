@@ -43,7 +43,7 @@ pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
 pub use motion::{MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
 pub use query::{CollisionWorkspace, PairDistance};
 pub use shape::{ConvexHull, Shape};
-pub use spheres::{LANES, SimdLevel};
+pub use spheres::{LANES, SimdLevel, SnappedQuarterTurns};
 
 use crate::robot::RobotError;
 use thiserror::Error;

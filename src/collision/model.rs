@@ -3,7 +3,7 @@
 
 use super::CollisionError;
 use super::shape::Shape;
-use super::spheres::{SimdLevel, SphereModel};
+use super::spheres::{SimdLevel, SnappedQuarterTurns, SphereModel};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::Scene;
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
@@ -553,6 +553,15 @@ impl CollisionModel {
         let spheres = self.spheres.as_mut()?;
         spheres.isa = SimdLevel::best_up_to(wanted);
         Some(spheres.isa)
+    }
+
+    /// Joint frames the fast path takes as exact quarter turns (URDFs'
+    /// eleven-digit π/2, a few 1e-12 rad off), with the bound (m) on how far
+    /// any sphere it places then lies from the exact model's: within a
+    /// quarter of the tolerance band inside which it defers to the exact
+    /// model, or nothing is snapped. `None` without a fast path.
+    pub fn snapped_quarter_turns(&self) -> Option<SnappedQuarterTurns> {
+        self.spheres.as_ref().map(|s| s.snapped())
     }
 
     /// The level of the fast path's checks (see [`SimdLevel`]), `None`

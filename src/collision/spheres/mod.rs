@@ -12,7 +12,9 @@
 //! closed form.
 //!
 //! The answers are the exact model's. Each lane's margin (distance minus
-//! threshold, m) is computed to within rounding (≈1e-15 m); a pair is
+//! threshold, m) is computed to within rounding (≈1e-15 m) plus, for
+//! URDFs that write π/2 to eleven digits, the bound of taking those joint
+//! frames as exact quarter turns (`quarter_turns.rs`, ≤ 2.5e-10 m); a pair is
 //! called free or colliding only when its margin clears ±[`TOLERANCE`],
 //! a million times that, and a configuration with any pair inside the band
 //! is handed to the exact model's own check.
@@ -20,6 +22,7 @@
 mod check;
 mod lanes;
 mod motion;
+mod quarter_turns;
 mod sweep;
 #[cfg(test)]
 mod tests;
@@ -27,6 +30,8 @@ mod tests;
 pub(crate) use check::{SphereWorkspace, Verdict};
 pub use lanes::LANES;
 pub(crate) use motion::{Certification, SampleOrder};
+pub use quarter_turns::SnappedQuarterTurns;
+use quarter_turns::norm;
 
 use super::distance::closer_than;
 use super::model::{CollisionModel, CollisionObject, Group, lever_chain};
@@ -306,6 +311,8 @@ pub(crate) struct SphereModel {
     common_depth: Vec<usize>,
     /// Some pair that no joint moves collides: every configuration collides.
     fixed_collision: bool,
+    /// Joint frames replaced by exact quarter turns, and the error bound.
+    snapped: SnappedQuarterTurns,
     pub(crate) isa: SimdLevel,
 }
 
@@ -351,7 +358,7 @@ impl SphereModel {
     /// sphere or some static object checked against one is a convex hull.
     pub(crate) fn compile(model: &CollisionModel) -> Option<SphereModel> {
         let robot: &RobotModel = &model.robot;
-        let bodies = robot
+        let mut bodies: Vec<LaneBody> = robot
             .bodies
             .iter()
             .map(|b| {
@@ -387,8 +394,7 @@ impl SphereModel {
             let first = clusters.len();
             cluster(&mut spheres[start..], start, &mut clusters);
             for (k, c) in clusters[first..].iter_mut().enumerate() {
-                let norm = |s: &BodySphere| s.center.iter().map(|x| x * x).sum::<f64>().sqrt();
-                let farthest = spheres[c.spheres.clone()].iter().map(norm).fold(0.0, f64::max);
+                let farthest = spheres[c.spheres.clone()].iter().map(|s| norm(&s.center)).fold(0.0, f64::max);
                 let at = sweep_terms.len();
                 sweep_terms.extend(lever_chain(robot, body, farthest).map(|(body, lever)| {
                     let slides = robot.bodies[body].motion.is_prismatic();
@@ -444,6 +450,8 @@ impl SphereModel {
         for (g, group) in groups.iter().enumerate() {
             cluster_group[group.clusters.clone()].fill(g as u32);
         }
+        let extent = extents(bodies.len(), &groups, &clusters, &spheres);
+        let snapped = quarter_turns::snap(&mut bodies, &extent);
         let mut levers = vec![0.0; robot.bodies.len() * clusters.len()];
         for (c, cluster) in clusters.iter().enumerate() {
             for term in &sweep_terms[cluster.terms.clone()] {
@@ -463,7 +471,28 @@ impl SphereModel {
             self_pairs,
             common_depth,
             fixed_collision,
+            snapped,
             isa: SimdLevel::best_up_to(SimdLevel::from_environment()),
         })
     }
+
+    /// The quarter turns the fast path snapped (see `quarter_turns.rs`).
+    pub(crate) fn snapped(&self) -> SnappedQuarterTurns {
+        self.snapped
+    }
+}
+
+/// Per body, the largest distance (m) from its origin of a point the fast
+/// path places on it: sphere, cluster and group centres.
+fn extents(bodies: usize, groups: &[SphereGroup], clusters: &[Cluster], spheres: &[BodySphere]) -> Vec<f64> {
+    let mut extent = vec![0.0f64; bodies];
+    for group in groups {
+        let e = &mut extent[group.body];
+        *e = e.max(norm(&group.center));
+        for cluster in &clusters[group.clusters.clone()] {
+            *e = e.max(norm(&cluster.center));
+            *e = spheres[cluster.spheres.clone()].iter().fold(*e, |e, s| e.max(norm(&s.center)));
+        }
+    }
+    extent
 }

@@ -192,3 +192,57 @@ fn pair_distances_stay_above_the_second_order_bound() {
 fn random(robot: &RobotModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
     robot.limits().iter().map(|l| rng.random_range(l.lower..l.upper)).collect()
 }
+
+/// A robot of problems/ with every movable joint of `group` active.
+fn spherized(urdf: &str, srdf_group: Option<(&str, &str)>) -> Arc<RobotModel> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("problems");
+    let desc = Arc::new(RobotDescription::from_urdf_file(root.join(urdf), &Default::default()).unwrap());
+    let mut builder = RobotModel::builder(desc);
+    if let Some((srdf, group)) = srdf_group {
+        builder = builder.selection(Srdf::from_srdf_file(root.join(srdf)).unwrap().joint_selection(group).unwrap());
+    }
+    Arc::new(builder.build().unwrap())
+}
+
+/// The fast path takes URDFs' eleven-digit quarter turns as exact ones
+/// (`quarter_turns.rs`): on robots written that way, every sphere centre
+/// it places lies within its stated bound of the exact model's forward
+/// kinematics, the bound within a quarter of the tolerance band.
+#[test]
+fn snapped_quarter_turns_keep_spheres_within_their_bound() {
+    let robots = [
+        spherized("motionbenchmaker/panda_spherized.urdf", None),
+        spherized("robots/baxter/baxter_spheres.urdf", Some(("robots/baxter/baxter.srdf", "both_arms"))),
+        spherized("robots/tiago/tiago_spheres.urdf", Some(("robots/tiago/tiago.srdf", "arm_torso"))),
+        spherized("robots/ur5/ur5_spheres.urdf", None),
+    ];
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    for robot in robots {
+        let collision = CollisionModel::builder(robot.clone()).build().unwrap();
+        let model = SphereModel::compile(&collision).unwrap();
+        let snapped = model.snapped();
+        assert!(snapped.frames >= 2, "{}: {snapped:?}", robot.nq());
+        assert!(snapped.error > 0.0 && snapped.error <= super::TOLERANCE / 4.0, "{snapped:?}");
+        let mut ws = SphereWorkspace::new(&model, robot.nq());
+        let mut kin = crate::robot::KinematicsWorkspace::new(&robot);
+        let owners = owners(&model);
+        let mut worst = 0.0f64;
+        for _ in 0..50 {
+            let (q0, q1) = (random(&robot, &mut rng), random(&robot, &mut rng));
+            let t: Lane = std::array::from_fn(|l| l as f64 / (LANES - 1) as f64);
+            place(&model, &mut ws, (&q0, &q1), &t);
+            for (l, &t) in t.iter().enumerate() {
+                let q: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * t).collect();
+                robot.forward_kinematics(&mut kin, &q).unwrap();
+                for (s, &(_, body)) in owners.iter().enumerate() {
+                    let exact = robot.body_pose(&kin, body) * nalgebra::Point3::from(model.spheres[s].center);
+                    let fast = nalgebra::Point3::new(ws.centers[s][0][l], ws.centers[s][1][l], ws.centers[s][2][l]);
+                    worst = worst.max((exact - fast).norm());
+                }
+            }
+        }
+        // Rounding adds ~1e-15 m on top of the snapping bound.
+        assert!(worst <= snapped.error + 1e-13, "{worst:e} m against the bound {:e} m", snapped.error);
+        assert!(worst > 1e-13, "snapping should show: {worst:e}");
+    }
+}
