@@ -50,6 +50,9 @@ struct LaneBody {
     parent: usize,
     /// Joint frame in the parent body frame at zero joint value (column-major).
     rotation: [f64; 9],
+    /// When `rotation` is a signed permutation: per column, the basis
+    /// vector it is and its sign.
+    permutation: Option<[(usize, f64); 3]>,
     translation: [f64; 3],
     motion: Motion,
     /// The joint's unit axis in its frame.
@@ -366,6 +369,7 @@ impl SphereModel {
                 LaneBody {
                     parent: b.parent,
                     rotation: column_major(&placement),
+                    permutation: None,
                     translation: vector(&placement.translation.vector),
                     motion: b.motion,
                     axis: vector(&b.motion.axis()),
@@ -452,6 +456,9 @@ impl SphereModel {
         }
         let extent = extents(bodies.len(), &groups, &clusters, &spheres);
         let snapped = quarter_turns::snap(&mut bodies, &extent);
+        for body in &mut bodies {
+            body.permutation = quarter_turns::signed_permutation(&body.rotation);
+        }
         let mut levers = vec![0.0; robot.bodies.len() * clusters.len()];
         for (c, cluster) in clusters.iter().enumerate() {
             for term in &sweep_terms[cluster.terms.clone()] {

@@ -59,6 +59,21 @@ fn nearest_signed_permutation(r: &[f64; 9]) -> Option<([f64; 9], f64)> {
     Some((p, error))
 }
 
+/// Per column of `r` (column-major), the basis vector it is and its sign,
+/// when `r` is exactly a signed permutation.
+pub(super) fn signed_permutation(r: &[f64; 9]) -> Option<[(usize, f64); 3]> {
+    let mut out = [(0, 0.0); 3];
+    for (j, o) in out.iter_mut().enumerate() {
+        let column = &r[3 * j..3 * j + 3];
+        let k = column.iter().position(|x| x.abs() == 1.0)?;
+        if column.iter().filter(|&&x| x == 0.0).count() != 2 {
+            return None;
+        }
+        *o = (k, column[k]);
+    }
+    Some(out)
+}
+
 /// Euclidean length of `v`.
 pub(super) fn norm(v: &[f64; 3]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
@@ -133,6 +148,7 @@ mod tests {
             motion,
             axis: [0.0, 0.0, 1.0],
             column: parent,
+            permutation: None,
             multiplier: 1.0,
             offset: 0.0,
         };
