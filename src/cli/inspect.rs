@@ -3,7 +3,6 @@
 //! URDF lacks, which MoveIt and tandem ignore).
 
 use super::UrdfArgs;
-use crate::collision::CollisionModel;
 use crate::robot::{Geometry, JointKind, RobotDescription, RobotModel, Srdf};
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -141,7 +140,6 @@ fn fast_path_report(desc: &RobotDescription, out: &mut String) {
              (revolute and prismatic joints, any number of chains), against sphere, capsule, box and\n  \
              cylinder obstacles (a scene with a mesh obstacle uses the general path)\n",
         );
-        quarter_turn_report(desc, out);
         return;
     }
     let _ = writeln!(
@@ -156,24 +154,6 @@ fn fast_path_report(desc: &RobotDescription, out: &mut String) {
          URDF (problem file `robot.collision_urdf`, or as --urdf for MoveIt inputs), e.g. the spherized URDFs of\n  \
          MotionBenchMaker and VAMP, or one fitted with foam (github.com/CoMMALab/foam)\n",
     );
-}
-
-/// How many joint frames the fast path takes as exact quarter turns (an
-/// eleven-digit π/2 in the URDF), and the error bound that allows it.
-fn quarter_turn_report(desc: &RobotDescription, out: &mut String) {
-    let model = RobotModel::builder(Arc::new(desc.clone()))
-        .build()
-        .ok()
-        .and_then(|robot| CollisionModel::builder(Arc::new(robot)).build().ok());
-    let Some(snapped) = model.as_ref().and_then(CollisionModel::snapped_quarter_turns) else { return };
-    if snapped.frames > 0 {
-        let _ = writeln!(
-            out,
-            "  {} joint frames a rounding error off a quarter turn (e.g. rpy=\"1.57079632679 0 0\") are taken as\n  \
-             exact quarter turns there (cheaper kinematics): every sphere stays within {:.1e} m of the exact model's",
-            snapped.frames, snapped.error
-        );
-    }
 }
 
 /// Depth beyond which the tree is no longer indented further (its level is

@@ -221,6 +221,7 @@ fn snapped_quarter_turns_keep_spheres_within_their_bound() {
         let collision = CollisionModel::builder(robot.clone()).build().unwrap();
         let model = SphereModel::compile(&collision).unwrap();
         let snapped = model.snapped();
+        assert_eq!(collision.snapped_quarter_turns(), Some(snapped));
         assert!(snapped.frames >= 2, "{}: {snapped:?}", robot.nq());
         assert!(snapped.error > 0.0 && snapped.error <= super::TOLERANCE / 4.0, "{snapped:?}");
         let mut ws = SphereWorkspace::new(&model, robot.nq());
