@@ -35,6 +35,7 @@ pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;
 pub(crate) use model::Motion;
 pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
+pub(crate) use placement::signed_permutation_near;
 pub use rotation::rotation_log;
 pub use srdf::{DisabledPair, Group, GroupState, Srdf, SrdfWarning, VirtualJoint};
 pub use urdf::MeshSearchPath;

@@ -22,6 +22,21 @@ enum RotationKind {
     General,
 }
 
+/// The signed permutation within `tolerance` of `r`, entry by entry: per
+/// column, the basis vector it is (`axis`) and its sign. `None` when some
+/// column is not one ±1 and two zeros within the tolerance.
+pub(crate) fn signed_permutation_near(r: &Matrix3<f64>, tolerance: f64) -> Option<([usize; 3], [f64; 3])> {
+    let (mut axis, mut sign) = ([0; 3], [0.0; 3]);
+    for j in 0..3 {
+        let unit = (0..3).find(|&i| (r[(i, j)].abs() - 1.0).abs() <= tolerance)?;
+        if (0..3).any(|i| i != unit && r[(i, j)].abs() > tolerance) {
+            return None;
+        }
+        (axis[j], sign[j]) = (unit, r[(unit, j)].signum());
+    }
+    Some((axis, sign))
+}
+
 /// A constant transform `(R, t)` mapping child coordinates to parent coordinates.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Placement {
@@ -34,25 +49,10 @@ pub(crate) struct Placement {
 impl Placement {
     pub(crate) fn new(iso: &IsometryMatrix3<f64>) -> Self {
         let r = *iso.rotation.matrix();
-        let mut axis = [0; 3];
-        let mut sign = [0.0; 3];
-        let mut permutation = true;
-        for j in 0..3 {
-            let unit: Vec<usize> = (0..3).filter(|&i| (r[(i, j)].abs() - 1.0).abs() < SNAP).collect();
-            let zeros = (0..3).filter(|&i| r[(i, j)].abs() < SNAP).count();
-            if unit.len() == 1 && zeros == 2 {
-                axis[j] = unit[0];
-                sign[j] = r[(unit[0], j)].signum();
-            } else {
-                permutation = false;
-            }
-        }
-        let kind = if !permutation {
-            RotationKind::General
-        } else if axis == [0, 1, 2] && sign == [1.0; 3] {
-            RotationKind::Identity
-        } else {
-            RotationKind::SignedPermutation { axis, sign }
+        let (kind, axis, sign) = match signed_permutation_near(&r, SNAP) {
+            None => (RotationKind::General, [0, 1, 2], [1.0; 3]),
+            Some(([0, 1, 2], [1.0, 1.0, 1.0])) => (RotationKind::Identity, [0, 1, 2], [1.0; 3]),
+            Some((axis, sign)) => (RotationKind::SignedPermutation { axis, sign }, axis, sign),
         };
         let rotation = match kind {
             RotationKind::General => r,

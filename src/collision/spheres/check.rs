@@ -8,7 +8,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::lanes::{
-    LANES, Lane, LanePose, Placement, box_approach_local, box_distance_squared_local, build, cylinder_approach_local,
+    LANES, Lane, LanePose, box_approach_local, box_distance_squared_local, build, cylinder_approach_local,
     cylinder_distance_squared, distance_rate, lane_distance_squared, lane_max, lane_min, max, min, point_approach,
     point_distance_squared, rotate_to_local, segment_approach, segment_distance_squared, sin_cos, to_local,
 };
@@ -573,11 +573,7 @@ impl SphereModel {
             let value: Lane = build(|l| body.multiplier * q[l] + body.offset);
             let (done, rest) = ws.poses.split_at_mut(b);
             let (parent, pose) = (&done[body.parent], &mut rest[0]);
-            let placement = Placement {
-                rotation: &body.rotation,
-                permutation: body.permutation.as_ref(),
-                translation: &body.translation,
-            };
+            let placement = (&body.rotation, &body.translation);
             match body.motion {
                 Motion::Prismatic(_) => pose.set_prismatic(parent, placement, &body.axis, &value),
                 _ => {

@@ -28,14 +28,13 @@ pub(crate) fn build<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) 
     out
 }
 
-/// A body's constant joint frame in its parent's: rotation column-major,
-/// and when it is a signed permutation, per column the parent column it
-/// takes and its sign; translation (m).
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Placement<'a> {
-    pub(crate) rotation: &'a [f64; 9],
-    pub(crate) permutation: Option<&'a [(usize, f64); 3]>,
-    pub(crate) translation: &'a [f64; 3],
+/// The rotation of a body's constant joint frame in its parent's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum FrameRotation {
+    /// Column `j` is `sign[j]` times basis vector `axis[j]`.
+    Permutation { axis: [usize; 3], sign: [f64; 3] },
+    /// Column-major.
+    General([f64; 9]),
 }
 
 /// A rigid transform per lane: rotation `r` column-major (`r[3 * col + row]`)
@@ -70,11 +69,11 @@ impl LanePose {
     pub(crate) fn set_revolute(
         &mut self,
         parent: &LanePose,
-        placement: Placement,
+        (rotation, translation): (&FrameRotation, &[f64; 3]),
         axis: &[f64; 3],
         (s, c): (&Lane, &Lane),
     ) {
-        self.set_constant(parent, placement);
+        self.set_constant(parent, rotation, translation);
         // Columns `a` and `b` turn into each other; the third stays.
         let (a, b) = match *axis {
             [1.0, 0.0, 0.0] => (1, 2),
@@ -95,8 +94,14 @@ impl LanePose {
     /// constant transform, then a translation along the body-frame `axis`
     /// by the per-lane `value` (m).
     #[inline(always)]
-    pub(crate) fn set_prismatic(&mut self, parent: &LanePose, placement: Placement, axis: &[f64; 3], value: &Lane) {
-        self.set_constant(parent, placement);
+    pub(crate) fn set_prismatic(
+        &mut self,
+        parent: &LanePose,
+        (rotation, translation): (&FrameRotation, &[f64; 3]),
+        axis: &[f64; 3],
+        value: &Lane,
+    ) {
+        self.set_constant(parent, rotation, translation);
         for i in 0..3 {
             let (r0, r1, r2) = (self.r[i], self.r[3 + i], self.r[6 + i]);
             for l in 0..LANES {
@@ -111,23 +116,25 @@ impl LanePose {
     /// offsets along one axis): adding a zero product changes no bit
     /// of the sum, so the result is that of the full product.
     #[inline(always)]
-    fn set_constant(&mut self, parent: &LanePose, placement: Placement) {
-        let Placement { rotation, permutation, translation } = placement;
-        if let Some(permutation) = permutation {
-            // Column j is ±1 times parent column k: the product `combine`
-            // would compute, without looking for the nonzero weight.
-            for (j, &(k, sign)) in permutation.iter().enumerate() {
-                for i in 0..3 {
-                    for l in 0..LANES {
-                        self.r[3 * j + i][l] = parent.r[3 * k + i][l] * sign;
+    fn set_constant(&mut self, parent: &LanePose, rotation: &FrameRotation, translation: &[f64; 3]) {
+        match rotation {
+            // Column j is ±1 times parent column axis[j]: the product
+            // `combine` would compute, without looking for the nonzero weight.
+            FrameRotation::Permutation { axis, sign } => {
+                for j in 0..3 {
+                    for i in 0..3 {
+                        for l in 0..LANES {
+                            self.r[3 * j + i][l] = parent.r[3 * axis[j] + i][l] * sign[j];
+                        }
                     }
                 }
             }
-        } else {
             // Column j of the product: Σ_k rotation(k, j) · parent column k.
-            for j in 0..3 {
-                let column = combine(&parent.r, &[rotation[3 * j], rotation[3 * j + 1], rotation[3 * j + 2]]);
-                self.r[3 * j..3 * j + 3].copy_from_slice(&column);
+            FrameRotation::General(rotation) => {
+                for j in 0..3 {
+                    let column = combine(&parent.r, &[rotation[3 * j], rotation[3 * j + 1], rotation[3 * j + 2]]);
+                    self.r[3 * j..3 * j + 3].copy_from_slice(&column);
+                }
             }
         }
         let offset = combine(&parent.r, translation);
@@ -521,33 +528,19 @@ mod tests {
         let mut parent = LanePose::IDENTITY;
         let angle: Lane = std::array::from_fn(|l| 0.3 + 0.71 * l as f64);
         let (s, c) = sin_cos(&angle);
-        parent.set_revolute(
-            &LanePose::IDENTITY,
-            Placement { rotation: &IDENTITY, permutation: None, translation: &[0.1, 0.2, 0.3] },
-            &[0.6, 0.0, 0.8],
-            (&s, &c),
-        );
-        // rpy = (π/2, 0, π/2), column-major: columns y, z, x.
-        let rotation = [0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0];
-        let permutation = [(1, 1.0), (2, 1.0), (0, 1.0)];
-        let flipped = rotation.map(|x: f64| -x);
-        let negated = permutation.map(|(k, sign)| (k, -sign));
-        for (rotation, permutation) in [(&rotation, &permutation), (&flipped, &negated)] {
+        let identity = FrameRotation::General([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+        parent.set_revolute(&LanePose::IDENTITY, (&identity, &[0.1, 0.2, 0.3]), &[0.6, 0.0, 0.8], (&s, &c));
+        // rpy = (π/2, 0, π/2), column-major: columns y, z, x; and its negative.
+        for sign in [1.0, -1.0] {
+            let general = FrameRotation::General([0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0].map(|x| x * sign));
+            let permutation = FrameRotation::Permutation { axis: [1, 2, 0], sign: [sign; 3] };
             let (mut full, mut permuted) = (LanePose::IDENTITY, LanePose::IDENTITY);
-            let placement = Placement { rotation, permutation: None, translation: &[0.0, 0.0, 0.27] };
-            full.set_revolute(&parent, placement, &[0.0, 0.0, 1.0], (&s, &c));
-            permuted.set_revolute(
-                &parent,
-                Placement { permutation: Some(permutation), ..placement },
-                &[0.0, 0.0, 1.0],
-                (&s, &c),
-            );
+            full.set_revolute(&parent, (&general, &[0.0, 0.0, 0.27]), &[0.0, 0.0, 1.0], (&s, &c));
+            permuted.set_revolute(&parent, (&permutation, &[0.0, 0.0, 0.27]), &[0.0, 0.0, 1.0], (&s, &c));
             assert_eq!(full.r.map(|x| x.map(f64::to_bits)), permuted.r.map(|x| x.map(f64::to_bits)));
             assert_eq!(full.t.map(|x| x.map(f64::to_bits)), permuted.t.map(|x| x.map(f64::to_bits)));
         }
     }
-
-    const IDENTITY: [f64; 9] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
 
     #[test]
     fn sin_cos_matches_the_standard_library() {

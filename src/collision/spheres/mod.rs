@@ -28,6 +28,7 @@ mod sweep;
 mod tests;
 
 pub(crate) use check::{SphereWorkspace, Verdict};
+use lanes::FrameRotation;
 pub use lanes::LANES;
 pub(crate) use motion::{Certification, SampleOrder};
 pub use quarter_turns::SnappedQuarterTurns;
@@ -48,11 +49,8 @@ pub(crate) const TOLERANCE: f64 = 1e-9;
 #[derive(Debug, Clone)]
 struct LaneBody {
     parent: usize,
-    /// Joint frame in the parent body frame at zero joint value (column-major).
-    rotation: [f64; 9],
-    /// When `rotation` is a signed permutation: per column, the basis
-    /// vector it is and its sign.
-    permutation: Option<[(usize, f64); 3]>,
+    /// Joint frame in the parent body frame at zero joint value.
+    rotation: FrameRotation,
     translation: [f64; 3],
     motion: Motion,
     /// The joint's unit axis in its frame.
@@ -368,8 +366,7 @@ impl SphereModel {
                 let placement = b.placement.after(&IsometryMatrix3::identity());
                 LaneBody {
                     parent: b.parent,
-                    rotation: column_major(&placement),
-                    permutation: None,
+                    rotation: FrameRotation::General(column_major(&placement)),
                     translation: vector(&placement.translation.vector),
                     motion: b.motion,
                     axis: vector(&b.motion.axis()),
@@ -456,9 +453,6 @@ impl SphereModel {
         }
         let extent = extents(bodies.len(), &groups, &clusters, &spheres);
         let snapped = quarter_turns::snap(&mut bodies, &extent);
-        for body in &mut bodies {
-            body.permutation = quarter_turns::signed_permutation(&body.rotation);
-        }
         let mut levers = vec![0.0; robot.bodies.len() * clusters.len()];
         for (c, cluster) in clusters.iter().enumerate() {
             for term in &sweep_terms[cluster.terms.clone()] {

@@ -18,8 +18,10 @@
 //! shift[b] = shift[parent] + turn[parent]·|c_b|   (c_b the joint frame's offset)
 //! ```
 
-use super::{LaneBody, TOLERANCE};
+use super::{FrameRotation, LaneBody, TOLERANCE};
 use crate::robot::Motion;
+use crate::robot::signed_permutation_near;
+use nalgebra::Matrix3;
 
 /// Entries within this of 0 or ±1 make a rotation a candidate (the budget
 /// decides): an eleven-digit π/2 is 4.9e-12 off, a four-digit one 3.7e-6.
@@ -41,37 +43,15 @@ pub struct SnappedQuarterTurns {
     pub error: f64,
 }
 
-/// The signed permutation within [`SNAP`] of `r` (column-major) per entry,
-/// with the Frobenius norm of their difference.
-fn nearest_signed_permutation(r: &[f64; 9]) -> Option<([f64; 9], f64)> {
-    let mut p = [0.0; 9];
-    let mut used = [false; 3];
-    for j in 0..3 {
-        let column = &r[3 * j..3 * j + 3];
-        let i = (0..3).find(|&i| (column[i].abs() - 1.0).abs() <= SNAP)?;
-        if used[i] || (0..3).any(|k| k != i && column[k].abs() > SNAP) {
-            return None;
-        }
-        used[i] = true;
-        p[3 * j + i] = column[i].signum();
-    }
-    let error = r.iter().zip(&p).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
-    Some((p, error))
-}
-
-/// Per column of `r` (column-major), the basis vector it is and its sign,
-/// when `r` is exactly a signed permutation.
-pub(super) fn signed_permutation(r: &[f64; 9]) -> Option<[(usize, f64); 3]> {
-    let mut out = [(0, 0.0); 3];
-    for (j, o) in out.iter_mut().enumerate() {
-        let column = &r[3 * j..3 * j + 3];
-        let k = column.iter().position(|x| x.abs() == 1.0)?;
-        if column.iter().filter(|&&x| x == 0.0).count() != 2 {
-            return None;
-        }
-        *o = (k, column[k]);
-    }
-    Some(out)
+/// The signed permutation within [`SNAP`] of the general rotation `r`
+/// (column-major) per entry, with the Frobenius norm of their difference
+/// (0 when `r` is one exactly, or already a permutation).
+fn nearest_signed_permutation(r: &FrameRotation) -> Option<(FrameRotation, f64)> {
+    let FrameRotation::General(r) = r else { return Some((*r, 0.0)) };
+    let (axis, sign) = signed_permutation_near(&Matrix3::from_column_slice(r), SNAP)?;
+    let exact: [f64; 9] = std::array::from_fn(|k| if k % 3 == axis[k / 3] { sign[k / 3] } else { 0.0 });
+    let error = r.iter().zip(&exact).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+    Some((FrameRotation::Permutation { axis, sign }, error))
 }
 
 /// Euclidean length of `v`.
@@ -92,22 +72,20 @@ pub(super) fn snap(bodies: &mut [LaneBody], extent: &[f64]) -> SnappedQuarterTur
         let (body, parent) = (&bodies[b], bodies[b].parent);
         shift[b] = shift[parent] + turn[parent] * norm(&body.translation);
         turn[b] = turn[parent] + candidates[b].map_or(0.0, |(_, e)| e);
-        if matches!(body.motion, Motion::Prismatic(_)) && turn[b] > 0.0 {
-            return SnappedQuarterTurns::default();
-        }
-        worst = worst.max(shift[b] + turn[b] * extent[b]);
+        // A slide carries its frame's error by the joint's value.
+        let slides = matches!(body.motion, Motion::Prismatic(_)) && turn[b] > 0.0;
+        worst = if slides { f64::INFINITY } else { worst.max(shift[b] + turn[b] * extent[b]) };
     }
-    if worst > BUDGET {
-        return SnappedQuarterTurns::default();
-    }
+    let snapping = worst <= BUDGET;
     let mut frames = 0;
-    for (body, candidate) in bodies.iter_mut().zip(candidates).skip(1) {
-        if let Some((p, error)) = candidate {
+    // Exact permutations compose as such whether or not the others snap.
+    for (body, (p, error)) in bodies.iter_mut().zip(candidates).filter_map(|(b, c)| Some((b, c?))) {
+        if snapping || error == 0.0 {
             frames += usize::from(error > 0.0);
             body.rotation = p;
         }
     }
-    SnappedQuarterTurns { frames, error: worst }
+    SnappedQuarterTurns { frames, error: if frames > 0 { worst } else { 0.0 } }
 }
 
 #[cfg(test)]
@@ -115,8 +93,8 @@ mod tests {
     use super::*;
     use nalgebra::Rotation3;
 
-    fn column_major(r: &Rotation3<f64>) -> [f64; 9] {
-        std::array::from_fn(|k| r.matrix()[(k % 3, k / 3)])
+    fn column_major(r: &Rotation3<f64>) -> FrameRotation {
+        FrameRotation::General(std::array::from_fn(|k| r.matrix()[(k % 3, k / 3)]))
     }
 
     #[test]
@@ -125,11 +103,8 @@ mod tests {
         let truncated = column_major(&Rotation3::from_euler_angles(1.57079632679, 0.0, 1.57079632679));
         let (p, error) = nearest_signed_permutation(&truncated).expect("a quarter turn");
         assert!(error > 0.0 && error < 1e-10, "{error:e}");
-        assert_eq!(
-            p,
-            column_major(&Rotation3::from_euler_angles(std::f64::consts::FRAC_PI_2, 0.0, std::f64::consts::FRAC_PI_2))
-                .map(f64::round)
-        );
+        // Columns y, z, x.
+        assert_eq!(p, FrameRotation::Permutation { axis: [1, 2, 0], sign: [1.0; 3] });
         for angle in [1.5708, 0.7854, 0.3] {
             assert!(
                 nearest_signed_permutation(&column_major(&Rotation3::from_euler_angles(angle, 0.0, 0.0))).is_none()
@@ -148,7 +123,6 @@ mod tests {
             motion,
             axis: [0.0, 0.0, 1.0],
             column: parent,
-            permutation: None,
             multiplier: 1.0,
             offset: 0.0,
         };
@@ -164,13 +138,14 @@ mod tests {
         let snapped = snap(&mut bodies, &[0.0, 1.0, 1.0, 1.0]);
         assert_eq!(snapped.frames, 3);
         assert!(snapped.error > 5e-12 && snapped.error < 2e-11, "{snapped:?}");
-        assert!(bodies[1..].iter().all(|b| b.rotation.iter().all(|&x| x == 0.0 || x.abs() == 1.0)));
+        assert!(bodies[1..].iter().all(|b| matches!(b.rotation, FrameRotation::Permutation { .. })));
         // 4e-10 rad per frame: each a candidate, but the chain's bound
         // exceeds the budget, so none is snapped.
         let mut bodies = chain(4e-10, &revolute);
         let before: Vec<_> = bodies.iter().map(|b| b.rotation).collect();
         assert_eq!(snap(&mut bodies, &[0.0, 1.0, 1.0, 1.0]), SnappedQuarterTurns::default());
-        assert!(bodies.iter().zip(&before).all(|(b, r)| b.rotation == *r));
+        // (The root's exact identity composes as a permutation either way.)
+        assert!(bodies[1..].iter().zip(&before[1..]).all(|(b, r)| b.rotation == *r));
         // A slide below a snapped frame would carry its error by the
         // joint's value: nothing is snapped.
         let mut bodies = chain(1e-12, &[Motion::RevoluteZ, Motion::Prismatic(nalgebra::Vector3::z())]);

@@ -34,12 +34,8 @@ fn scene() -> Scene {
 }
 
 fn robots() -> Vec<Arc<RobotModel>> {
-    let folder = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("problems/robots/tiago");
-    let desc = RobotDescription::from_urdf_file(folder.join("tiago_spheres.urdf"), &Default::default()).unwrap();
-    let srdf = Srdf::from_srdf_file(folder.join("tiago.srdf")).unwrap();
-    let selection = srdf.joint_selection("arm_torso").unwrap();
-    let tiago = RobotModel::builder(Arc::new(desc)).selection(selection).build().unwrap();
-    vec![Arc::new(RobotModel::panda()), Arc::new(tiago)]
+    let tiago = spherized("robots/tiago/tiago_spheres.urdf", Some(("robots/tiago/tiago.srdf", "arm_torso")));
+    vec![Arc::new(RobotModel::panda()), tiago]
 }
 
 /// Every sphere centre at `q0 + t (q1 − q0)`, per lane.
@@ -193,7 +189,8 @@ fn random(robot: &RobotModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
     robot.limits().iter().map(|l| rng.random_range(l.lower..l.upper)).collect()
 }
 
-/// A robot of problems/ with every movable joint of `group` active.
+/// A robot of problems/: every movable joint active, or those of an SRDF
+/// group.
 fn spherized(urdf: &str, srdf_group: Option<(&str, &str)>) -> Arc<RobotModel> {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("problems");
     let desc = Arc::new(RobotDescription::from_urdf_file(root.join(urdf), &Default::default()).unwrap());
