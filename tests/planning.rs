@@ -180,6 +180,29 @@ fn edge_checks_have_a_resolution_floor_and_never_skip_the_middle() {
 }
 
 #[test]
+fn an_extension_check_takes_its_start_as_passed() {
+    let (problem, start, goal) = wall();
+    let model = problem.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    // A configuration in the wall, on the straight line to the goal.
+    let blocked = (1..100)
+        .map(|k| start.iter().zip(&goal).map(|(a, b)| a + (b - a) * k as f64 / 100.0).collect::<Vec<f64>>())
+        .find(|q| !model.collision_free(&mut ws, q).unwrap())
+        .expect("the wall blocks the straight line");
+    // At a resolution wider than the motion only its two ends are checked:
+    // the extension check leaves out its start, so only the end counts.
+    for (from, to, whole, extension) in [(&blocked, &start, false, true), (&start, &blocked, false, false)] {
+        assert_eq!(model.motion_free_by(&mut ws, from, to, 10.0, None).unwrap(), Some(whole));
+        assert_eq!(model.extension_free_by(&mut ws, (from, to), 10.0, None).unwrap(), Some(extension));
+    }
+    // Otherwise the same verdicts: the motion through the wall is blocked.
+    for resolution in [MIN_RESOLUTION * 100.0, 0.005, 0.1] {
+        assert_eq!(model.extension_free_by(&mut ws, (&start, &goal), resolution, None).unwrap(), Some(false));
+    }
+    assert_eq!(model.extension_free_by(&mut ws, (&start, &goal), f64::NAN, None).ok(), None, "a NaN resolution");
+}
+
+#[test]
 fn the_planner_stops_at_its_time_limit_inside_edge_checks() {
     let (problem, start, goal) = wall();
     let model = problem.collision_model().unwrap();

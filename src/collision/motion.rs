@@ -229,9 +229,42 @@ impl CollisionModel {
         resolution: f64,
         deadline: Option<Instant>,
     ) -> Result<Option<bool>, RobotError> {
+        self.sampled_motion_free(ws, (q0, q1), resolution, deadline, SampleOrder::new)
+    }
+
+    /// [`motion_free_by`](Self::motion_free_by) for a motion whose start
+    /// `q0` is already known to pass (a search tree's node, say): every
+    /// configuration but that one is checked. A search's steps check
+    /// about nine configurations each, [`LANES`] at a time; leaving out
+    /// the start saves a whole batch on those that need nine
+    /// (MotionBenchMaker's Panda problems: 1.5 % of planning and
+    /// simplification's instructions, same paths).
+    ///
+    /// # Errors
+    /// As [`motion_free`](Self::motion_free).
+    pub fn extension_free_by(
+        &self,
+        ws: &mut CollisionWorkspace,
+        (q0, q1): (&[f64], &[f64]),
+        resolution: f64,
+        deadline: Option<Instant>,
+    ) -> Result<Option<bool>, RobotError> {
+        self.sampled_motion_free(ws, (q0, q1), resolution, deadline, SampleOrder::after_start)
+    }
+
+    /// The sampled check of `q0 → q1` at `resolution`, over the sample
+    /// indices `order` gives for the motion's number of steps.
+    fn sampled_motion_free(
+        &self,
+        ws: &mut CollisionWorkspace,
+        (q0, q1): (&[f64], &[f64]),
+        resolution: f64,
+        deadline: Option<Instant>,
+        order: fn(usize) -> SampleOrder,
+    ) -> Result<Option<bool>, RobotError> {
         self.check_motion(q0, q1)?;
         let steps = motion_samples(q0, q1, resolution)?;
-        let mut order = SampleOrder::new(steps);
+        let mut order = order(steps);
         if let Some(fast) = &self.spheres {
             if fast.always_collides() {
                 return Ok(Some(false));

@@ -69,6 +69,25 @@ impl EdgeCheck {
         }
     }
 
+    /// [`is_free_by`](Self::is_free_by) for a motion from a configuration
+    /// already known to pass, a search tree's node: a sampled check leaves
+    /// it out ([`CollisionModel::extension_free_by`]).
+    ///
+    /// # Errors
+    /// Bad configurations or settings.
+    pub fn extends_by(
+        self,
+        model: &CollisionModel,
+        ws: &mut CollisionWorkspace,
+        (a, b): (&[f64], &[f64]),
+        deadline: Instant,
+    ) -> Result<Option<bool>, RobotError> {
+        match self {
+            EdgeCheck::Resolution(r) => model.extension_free_by(ws, (a, b), r, Some(deadline)),
+            EdgeCheck::Certified { .. } => self.is_free_by(model, ws, (a, b), deadline),
+        }
+    }
+
     /// Whether configuration `q` may start or end a motion that passes:
     /// collision-free, and for certified motions at least the clearance
     /// away from everything.
@@ -339,13 +358,13 @@ impl Planner<'_> {
         self.scratch.clear();
         self.scratch.extend(from.iter().zip(target).map(|(a, b)| a + (b - a) * t));
         let free = match &mut self.lazy {
-            Some(lazy) => EdgeCheck::Resolution(lazy.resolution).is_free_by(
+            Some(lazy) => EdgeCheck::Resolution(lazy.resolution).extends_by(
                 lazy.padded,
                 lazy.ws,
                 (from, &self.scratch),
                 self.deadline,
             )?,
-            None => self.settings.edge.is_free_by(self.model, self.ws, (from, &self.scratch), self.deadline)?,
+            None => self.settings.edge.extends_by(self.model, self.ws, (from, &self.scratch), self.deadline)?,
         };
         match free {
             None => return Ok(Extension::OutOfTime),

@@ -31,12 +31,19 @@ pub(crate) struct SampleOrder {
     ends: u8,
     stride: usize,
     next: usize,
+    /// Index 0 is left out (a start known to pass).
+    skip_start: bool,
 }
 
 impl SampleOrder {
     pub(crate) fn new(steps: usize) -> SampleOrder {
         let stride = steps.next_power_of_two();
-        SampleOrder { steps, ends: 0, stride, next: stride / 2 }
+        SampleOrder { steps, ends: 0, stride, next: stride / 2, skip_start: false }
+    }
+
+    /// The same order without index 0.
+    pub(crate) fn after_start(steps: usize) -> SampleOrder {
+        SampleOrder { skip_start: true, ..SampleOrder::new(steps) }
     }
 }
 
@@ -44,9 +51,15 @@ impl Iterator for SampleOrder {
     type Item = usize;
 
     fn next(&mut self) -> Option<usize> {
-        if self.ends < 2 {
-            self.ends += 1;
-            return Some(if self.ends == 1 { self.steps } else { 0 });
+        if self.ends == 0 {
+            self.ends = 1;
+            return Some(self.steps);
+        }
+        if self.ends == 1 {
+            self.ends = 2;
+            if !self.skip_start {
+                return Some(0);
+            }
         }
         while self.stride > 1 {
             if self.next < self.steps {
@@ -212,6 +225,9 @@ mod tests {
             let mut sorted = order.clone();
             sorted.sort_unstable();
             assert_eq!(sorted, (0..=steps).collect::<Vec<_>>(), "{steps}");
+            // Without the start: the same order, index 0 left out.
+            let after: Vec<usize> = SampleOrder::after_start(steps).collect();
+            assert_eq!(after, order.iter().copied().filter(|&k| k != 0).collect::<Vec<_>>(), "{steps}");
         }
     }
 }
