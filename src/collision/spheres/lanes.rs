@@ -121,10 +121,13 @@ impl LanePose {
             // Column j is ±1 times parent column axis[j]: the product
             // `combine` would compute, without looking for the nonzero weight.
             FrameRotation::Permutation { axis, sign } => {
+                // By columns: one bounds check per column, not per entry.
+                let (columns, _) = parent.r.as_chunks::<3>();
                 for j in 0..3 {
+                    let column = &columns[axis[j]];
                     for i in 0..3 {
                         for l in 0..LANES {
-                            self.r[3 * j + i][l] = parent.r[3 * axis[j] + i][l] * sign[j];
+                            self.r[3 * j + i][l] = column[i][l] * sign[j];
                         }
                     }
                 }
