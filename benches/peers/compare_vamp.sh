@@ -1,0 +1,116 @@
+#!/usr/bin/env bash
+# tandem against VAMP (KavrakiLab's vector-accelerated planner) on
+# MotionBenchMaker's 700 Panda problems, on this machine: RRT-Connect plus
+# simplification, 3 runs per problem, each planner pinned to the same core,
+# in alternating rounds (VAMP, tandem, VAMP, ...) so that both see the same
+# machine. VAMP is built from its source release on PyPI (vamp-planner 0.6.4)
+# with its own compiler and flags (GCC, -O3 -march=native and the fast-math
+# subset its CMake sets) and timed by benches/peers/vamp_mbm.py, which makes
+# the calls and reads the clocks of VAMP's own scripts/evaluate_mbm.py.
+# tandem is timed by `cargo bench --bench motionbenchmaker -- --seeds 3`.
+# Prints per round and the median over rounds: planning and planning +
+# simplification, median and mean (ms), and the ratios tandem / VAMP (below
+# 1 means tandem is faster).
+#
+#   benches/peers/compare_vamp.sh [--rounds N] [--core K]   (default 5, 1)
+#
+# VAMP's build fetches its C++ dependencies (CPM.cmake, nigh, pdqsort,
+# SIMDxorshift) from GitHub. Without network access to GitHub, set
+# VAMP_DEPS to a folder holding their sources as CPM.cmake/, nigh/,
+# pdqsort/ and SIMDxorshift/ (VAMP 0.6.4 pins nigh 9713099, pdqsort b1ef26a,
+# SIMDxorshift 857c1a0): the build then takes them, and nanobind from PyPI,
+# instead (only where they come from changes, not the flags). Needs
+# Eigen 3.4 (Debian: libeigen3-dev) and a C++17 compiler.
+# Writes target/peers/vamp/ (the venv, VAMP's source and problems.pkl) and
+# target/peers/vamp_vs_tandem.json (every round).
+# Env:
+#   VAMP_VENV=path   the venv VAMP is installed in (default target/peers/vamp/venv)
+#   VAMP_DEPS=path   local sources of VAMP's C++ dependencies (see above)
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+repo="$(cd "$here/../.." && pwd)"
+die() { echo "${0##*/}: error: $*" >&2; exit 1; }
+
+rounds=5
+core=1
+while (( $# )); do
+  case "$1" in
+    --rounds) rounds="${2:?--rounds needs a value}"; shift 2 ;;
+    --core) core="${2:?--core needs a value}"; shift 2 ;;
+    *) die "unknown argument $1 (usage: compare_vamp.sh [--rounds N] [--core K])" ;;
+  esac
+done
+[[ "$rounds" =~ ^[1-9][0-9]*$ ]] || die "--rounds must be a positive integer, got $rounds"
+[[ "$core" =~ ^[0-9]+$ ]] || die "--core must be a CPU number, got $core"
+command -v taskset >/dev/null || die "taskset not found (util-linux)"
+
+out="$repo/target/peers/vamp"
+venv="${VAMP_VENV:-$out/venv}"
+src="$out/vamp_planner-0.6.4"
+mkdir -p "$out"
+if ! "$venv/bin/python" -c "import vamp" 2>/dev/null; then
+  [[ -x "$venv/bin/python" ]] || python3 -m venv "$venv" || die "cannot create the venv $venv"
+  "$venv/bin/pip" install --quiet scikit-build-core nanobind cmake ninja numpy typing_extensions pyyaml \
+    xmltodict tqdm fire || die "pip install of VAMP's build tools failed"
+  "$venv/bin/pip" download --quiet --no-deps --no-build-isolation --no-binary vamp-planner vamp-planner==0.6.4 -d "$out" \
+    || die "cannot download vamp-planner 0.6.4 from PyPI"
+  rm -rf "$src" && tar xzf "$out/vamp_planner-0.6.4.tar.gz" -C "$out"
+  defines=()
+  if [[ -n "${VAMP_DEPS:-}" ]]; then
+    for d in CPM.cmake nigh pdqsort SIMDxorshift; do
+      [[ -d "$VAMP_DEPS/$d" ]] || die "VAMP_DEPS=$VAMP_DEPS has no $d/"
+    done
+    printf 'set(CPM_USE_LOCAL_PACKAGES ON)\ninclude(%s/CPM.cmake/cmake/CPM.cmake)\n' "$VAMP_DEPS" \
+      >"$src/cmake/FetchInitCPM.cmake"
+    sed -i 's|CPMAddPackage("gh:wjakob/nanobind#[0-9a-f]*")|find_package(nanobind CONFIG REQUIRED)|' \
+      "$src/cmake/Python.cmake"
+    defines=(-Ccmake.define.CPM_nigh_SOURCE="$VAMP_DEPS/nigh" -Ccmake.define.CPM_pdqsort_SOURCE="$VAMP_DEPS/pdqsort"
+      -Ccmake.define.CPM_SIMDxorshift_SOURCE="$VAMP_DEPS/SIMDxorshift"
+      -Ccmake.define.nanobind_DIR="$("$venv/bin/python" -m nanobind --cmake_dir)")
+  fi
+  echo "== building VAMP 0.6.4 (its flags; a few minutes)" >&2
+  (cd "$src" && PATH="$venv/bin:$PATH" "$venv/bin/pip" install --quiet --no-build-isolation . "${defines[@]}" \
+    -Ccmake.define.VAMP_ROBOT_MODULES=panda -Ccmake.define.VAMP_ROBOT_STRUCTS=Panda) || die "VAMP's build failed"
+fi
+problems="$src/resources/panda/problems.pkl"
+if [[ ! -f "$problems" ]]; then
+  (cd "$src/resources" && "$venv/bin/python" problem_tar_to_pkl_json.py --robot panda >/dev/null 2>&1) \
+    || die "VAMP's problem_tar_to_pkl_json.py failed"
+fi
+
+cd "$repo"
+echo "== building tandem's bench" >&2
+cargo bench --bench motionbenchmaker --no-run >&2
+rows="$out/rounds.jsonl"
+: >"$rows"
+for r in $(seq "$rounds"); do
+  echo "== round $r of $rounds: VAMP, then tandem (core $core)" >&2
+  vamp="$(taskset -c "$core" "$venv/bin/python" "$here/vamp_mbm.py" "$problems" --trials 3)"
+  taskset -c "$core" cargo bench --bench motionbenchmaker -- --seeds 3 >/dev/null
+  echo "{\"vamp\": $vamp, \"tandem\": $(cat target/peers/motionbenchmaker.json)}" >>"$rows"
+done
+
+python3 - "$rows" "$repo/target/peers/vamp_vs_tandem.json" "$core" <<'PY'
+import json, platform, statistics, sys
+
+rounds = [json.loads(line) for line in open(sys.argv[1])]
+figures = [("planning", "median_ms"), ("planning", "mean_ms"), ("total", "median_ms"), ("total", "mean_ms")]
+names = {"planning": "planning", "total": "planning + simplification"}
+print(f"MotionBenchMaker, Panda: VAMP 0.6.4 against tandem, 3 runs per problem, core {sys.argv[3]}, "
+      f"{len(rounds)} alternating rounds ({platform.processor() or platform.machine()})")
+print("| figure | VAMP (ms) | tandem (ms) | tandem / VAMP, median of rounds | per round |")
+print("| --- | --- | --- | --- | --- |")
+for figure, stat in figures:
+    v = [r["vamp"][figure][stat] for r in rounds]
+    t = [r["tandem"][figure][stat] for r in rounds]
+    ratios = [b / a for a, b in zip(v, t)]
+    each = ", ".join(f"{x:.2f}" for x in ratios)
+    print(f"| {names[figure]}, {stat[:-3]} | {statistics.median(v):.3f} | {statistics.median(t):.3f} | "
+          f"{statistics.median(ratios):.2f} | {each} |")
+last = rounds[-1]
+print(f"solved: VAMP {last['vamp']['solved']} of {last['vamp']['runs']}, tandem {last['tandem']['solved']} "
+      f"(of 2100; table_pick 41's goal is invalid)")
+print(f"mean path length after simplification: VAMP {last['vamp']['mean_path_length_rad']:.4f} rad, "
+      f"tandem {last['tandem']['mean_path_length_rad']:.4f} rad (tandem's edges certified)")
+json.dump(rounds, open(sys.argv[2], "w"))
+PY
