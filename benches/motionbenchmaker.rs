@@ -5,32 +5,57 @@
 //! per problem, in the layout of the reference table of the benchmark's
 //! README. Problem loading and collision-model building are not timed.
 //!
-//!   cargo bench --bench motionbenchmaker [-- --time-limit SECONDS --seeds N --plain]
+//!   cargo bench --bench motionbenchmaker [-- --time-limit SECONDS --seeds N --per-family N --plain]
 //!
 //! `--seeds N`: plans every problem with seeds 0 to N − 1 (default 1),
 //! each (problem, seed) a run of its own in the figures: with one seed,
 //! a family's problems all draw the same sample stream.
 //!
+//! `--per-family N`: only the first N problems of each family.
+//!
 //! `--plain`: plain RRT-Connect (step 0.5 rad, no balancing, no
 //! dynamic-domain sampling), the planner before those were added.
 //!
-//! Writes target/peers/motionbenchmaker.json (motionbenchmaker_plain.json with `--plain`).
+//! `--set DIR --urdf FILE --srdf FILE --robot NAME`: another
+//! MotionBenchMaker set instead of the vendored Panda one: every problem of
+//! `DIR/<family>_<NAME>/{scene,request}NNNN.yaml` (VAMP ships such sets
+//! for a UR5, a Baxter and a Fetch with their sphere URDFs; see
+//! benches/peers/compare_vamp.sh). Problems that do not load count as
+//! unsolved, with the reason.
+//!
+//! Writes target/peers/motionbenchmaker.json (motionbenchmaker_plain.json
+//! with `--plain`; `--out FILE` instead).
 
 #[path = "support/mbm.rs"]
 mod mbm;
 
-use mbm::{Benchmark, FAMILIES, full_run, make_plain, median_mean, option, row};
+use mbm::{Benchmark, FAMILIES, full_run, make_plain, median_mean, option, row, text};
+use std::path::{Path, PathBuf};
 use tandem::plan::{PlanStatus, ProblemPlanner, path_length};
+
+/// The vendored Panda set (`per_family` problems of each family), or the
+/// set `--set` names (all its problems).
+fn benchmark(args: &[String], per_family: usize) -> (Benchmark, Vec<(String, usize)>, String) {
+    let Some(set) = text(args, "--set") else {
+        let families = FAMILIES.iter().map(|f| (f.to_string(), per_family)).collect();
+        return (Benchmark::unpack(), families, "Panda".into());
+    };
+    let need = |name: &str| text(args, name).unwrap_or_else(|| panic!("--set needs {name}"));
+    let (urdf, srdf, robot) = (need("--urdf"), need("--srdf"), need("--robot"));
+    let benchmark = Benchmark::from_set(Path::new(urdf), Path::new(srdf), Path::new(set), robot);
+    let families = benchmark.families().into_iter().map(|(f, n)| (f, n.min(per_family))).collect();
+    (benchmark, families, robot.to_string())
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let plain = args.iter().any(|a| a == "--plain");
     // `cargo test --all-targets` runs bench targets without `--bench`: a
     // smoke run of one problem per family then, not the whole benchmark.
-    let per_family = if full_run() { 100 } else { 1 };
+    let per_family = if full_run() { option(&args, "--per-family").map_or(usize::MAX, |n| n as usize) } else { 1 };
     let time_limit = option(&args, "--time-limit").unwrap_or(10.0);
     let seeds = option(&args, "--seeds").unwrap_or(1.0).max(1.0) as u64;
-    let benchmark = Benchmark::unpack();
+    let (benchmark, families, robot) = benchmark(&args, per_family);
     let (mut planning, mut total, mut failed) = (Vec::new(), Vec::new(), Vec::new());
     // Joint-space length of the simplified paths (rad): what simplification buys.
     let mut lengths = Vec::new();
@@ -38,10 +63,18 @@ fn main() {
     let mut iterations = Vec::new();
     // Planning + simplification per family (s): where the tail lives.
     let mut by_family = Vec::new();
-    for family in FAMILIES {
-        let first = total.len();
-        for (k, seed) in (1..=per_family).flat_map(|k| (0..seeds).map(move |s| (k, s))) {
-            let mut problem = benchmark.problem(family, k);
+    let mut runs = 0;
+    for (family, count) in &families {
+        let (family, first) = (family.as_str(), total.len());
+        for (k, seed) in (1..=*count).flat_map(|k| (0..seeds).map(move |s| (k, s))) {
+            runs += 1;
+            let mut problem = match benchmark.load(family, k) {
+                Ok(problem) => problem,
+                Err(e) => {
+                    failed.push(format!("{family} {k} seed {seed}: does not load: {e}"));
+                    continue;
+                }
+            };
             problem.planner.time_limit = time_limit;
             let mut planner = ProblemPlanner::new(&problem, Some(seed)).expect("planner");
             if plain {
@@ -61,14 +94,14 @@ fn main() {
         by_family.push((family, total[first..].to_vec()));
     }
     println!(
-        "MotionBenchMaker, Panda, spherized geometry, RRT-Connect ({seeds} seed(s) per problem, {time_limit} s limit):"
+        "MotionBenchMaker, {robot}, spherized geometry, RRT-Connect ({seeds} seed(s) per problem, {time_limit} s limit):"
     );
     println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
     let p = row("planning time", &mut planning);
     let t = row("planning + simplification", &mut total);
     let (its, mean_its) = median_mean(&mut iterations);
     println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
-    println!("| solved | {} of {} | | |", planning.len(), per_family * seeds as usize * FAMILIES.len());
+    println!("| solved | {} of {runs} | | |", planning.len());
     let mean_length = lengths.iter().sum::<f64>() / lengths.len().max(1) as f64;
     println!("mean path length after simplification: {mean_length:.4} rad");
     for f in &failed {
@@ -85,14 +118,11 @@ fn main() {
     let out = serde_json::json!({"solved": planning.len(), "planning": p, "total": t, "unsolved": failed,
         "time_limit_s": time_limit, "seeds": seeds, "mean_path_length_rad": mean_length,
         "iterations": {"median": its, "mean": mean_its}});
-    if per_family < 100 {
+    if !full_run() {
         return;
     }
-    let peers = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
+    let peers = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
     std::fs::create_dir_all(&peers).expect("target/peers");
-    std::fs::write(
-        peers.join(if plain { "motionbenchmaker_plain.json" } else { "motionbenchmaker.json" }),
-        out.to_string(),
-    )
-    .expect("write results");
+    let default = peers.join(if plain { "motionbenchmaker_plain.json" } else { "motionbenchmaker.json" });
+    std::fs::write(text(&args, "--out").map_or(default, PathBuf::from), out.to_string()).expect("write results");
 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # tandem against VAMP (KavrakiLab's vector-accelerated planner) on
-# MotionBenchMaker's 700 Panda problems, on this machine: RRT-Connect plus
+# MotionBenchMaker's 700 Panda problems (or the UR5, Baxter or Fetch sets
+# VAMP ships, with its sphere URDFs), on this machine: RRT-Connect plus
 # simplification, 3 runs per problem, each planner pinned to the same core,
 # in alternating rounds (VAMP, tandem, VAMP, ...) so that both see the same
 # machine. VAMP is built from its source release on PyPI (vamp-planner 0.6.4)
@@ -12,7 +13,12 @@
 # simplification, median and mean (ms), and the ratios tandem / VAMP (below
 # 1 means tandem is faster).
 #
-#   benches/peers/compare_vamp.sh [--rounds N] [--core K]   (default 5, 1)
+#   benches/peers/compare_vamp.sh [--rounds N] [--core K] [--robot R] [--per-family N]
+#
+# Defaults: 5 rounds, core 1, the Panda, every problem. --robot ur5, baxter
+# or fetch plans VAMP's set for that robot on both sides (tandem through
+# `motionbenchmaker -- --set`); --per-family N takes the first N problems of
+# each family on both sides (the Baxter's 1,800 take minutes per round).
 #
 # VAMP's build fetches its C++ dependencies (CPM.cmake, nigh, pdqsort,
 # SIMDxorshift) from GitHub. Without network access to GitHub, set
@@ -21,8 +27,8 @@
 # SIMDxorshift 857c1a0): the build then takes them, and nanobind from PyPI,
 # instead (only where they come from changes, not the flags). Needs
 # Eigen 3.4 (Debian: libeigen3-dev) and a C++17 compiler.
-# Writes target/peers/vamp/ (the venv, VAMP's source and problems.pkl) and
-# target/peers/vamp_vs_tandem.json (every round).
+# Writes target/peers/vamp/ (the venv, VAMP's source and problem sets) and
+# target/peers/vamp_vs_tandem_<robot>.json (every round).
 # Env:
 #   VAMP_VENV=path   the venv VAMP is installed in (default target/peers/vamp/venv)
 #   VAMP_DEPS=path   local sources of VAMP's C++ dependencies (see above)
@@ -33,22 +39,28 @@ die() { echo "${0##*/}: error: $*" >&2; exit 1; }
 
 rounds=5
 core=1
+robot=panda
+per_family=""
 while (( $# )); do
   case "$1" in
     --rounds) rounds="${2:?--rounds needs a value}"; shift 2 ;;
     --core) core="${2:?--core needs a value}"; shift 2 ;;
-    *) die "unknown argument $1 (usage: compare_vamp.sh [--rounds N] [--core K])" ;;
+    --robot) robot="${2:?--robot needs a value}"; shift 2 ;;
+    --per-family) per_family="${2:?--per-family needs a value}"; shift 2 ;;
+    *) die "unknown argument $1 (usage: compare_vamp.sh [--rounds N] [--core K] [--robot R] [--per-family N])" ;;
   esac
 done
 [[ "$rounds" =~ ^[1-9][0-9]*$ ]] || die "--rounds must be a positive integer, got $rounds"
 [[ "$core" =~ ^[0-9]+$ ]] || die "--core must be a CPU number, got $core"
+[[ "$robot" =~ ^(panda|ur5|baxter|fetch)$ ]] || die "--robot must be panda, ur5, baxter or fetch, got $robot"
+[[ -z "$per_family" || "$per_family" =~ ^[1-9][0-9]*$ ]] || die "--per-family must be a positive integer"
 command -v taskset >/dev/null || die "taskset not found (util-linux)"
 
 out="$repo/target/peers/vamp"
 venv="${VAMP_VENV:-$out/venv}"
 src="$out/vamp_planner-0.6.4"
 mkdir -p "$out"
-if ! "$venv/bin/python" -c "import vamp" 2>/dev/null; then
+if ! "$venv/bin/python" -c "import vamp; vamp.$robot" 2>/dev/null; then
   [[ -x "$venv/bin/python" ]] || python3 -m venv "$venv" || die "cannot create the venv $venv"
   "$venv/bin/pip" install --quiet scikit-build-core nanobind cmake ninja numpy typing_extensions pyyaml \
     xmltodict tqdm fire || die "pip install of VAMP's build tools failed"
@@ -70,12 +82,26 @@ if ! "$venv/bin/python" -c "import vamp" 2>/dev/null; then
   fi
   echo "== building VAMP 0.6.4 (its flags; a few minutes)" >&2
   (cd "$src" && PATH="$venv/bin:$PATH" "$venv/bin/pip" install --quiet --no-build-isolation . "${defines[@]}" \
-    -Ccmake.define.VAMP_ROBOT_MODULES=panda -Ccmake.define.VAMP_ROBOT_STRUCTS=Panda) || die "VAMP's build failed"
+    "-Ccmake.define.VAMP_ROBOT_MODULES=panda;ur5;baxter;fetch" \
+    "-Ccmake.define.VAMP_ROBOT_STRUCTS=Panda;UR5;Baxter;Fetch") || die "VAMP's build failed"
 fi
-problems="$src/resources/panda/problems.pkl"
+resources="$src/resources/$robot"
+problems="$resources/problems.pkl"
 if [[ ! -f "$problems" ]]; then
-  (cd "$src/resources" && "$venv/bin/python" problem_tar_to_pkl_json.py --robot panda >/dev/null 2>&1) \
+  (cd "$src/resources" && "$venv/bin/python" problem_tar_to_pkl_json.py --robot "$robot" >/dev/null 2>&1) \
     || die "VAMP's problem_tar_to_pkl_json.py failed"
+fi
+# tandem plans the vendored Panda set (the same 700 problems), or VAMP's set.
+tandem_args=(--seeds 3 --out "$out/tandem_$robot.json")
+vamp_args=(--robot "$robot" --trials 3)
+if [[ -n "$per_family" ]]; then
+  tandem_args+=(--per-family "$per_family")
+  vamp_args+=(--per-family "$per_family")
+fi
+if [[ "$robot" != panda ]]; then
+  mkdir -p "$out/$robot" && tar xjf "$resources/problems.tar.bz2" -C "$out/$robot"
+  tandem_args+=(--set "$out/$robot/problems" --urdf "$resources/${robot}_spherized.urdf"
+    --srdf "$resources/$robot.srdf" --robot "$robot")
 fi
 
 cd "$repo"
@@ -85,18 +111,18 @@ rows="$out/rounds.jsonl"
 : >"$rows"
 for r in $(seq "$rounds"); do
   echo "== round $r of $rounds: VAMP, then tandem (core $core)" >&2
-  vamp="$(taskset -c "$core" "$venv/bin/python" "$here/vamp_mbm.py" "$problems" --trials 3)"
-  taskset -c "$core" cargo bench --bench motionbenchmaker -- --seeds 3 >/dev/null
-  echo "{\"vamp\": $vamp, \"tandem\": $(cat target/peers/motionbenchmaker.json)}" >>"$rows"
+  vamp="$(taskset -c "$core" "$venv/bin/python" "$here/vamp_mbm.py" "$problems" "${vamp_args[@]}")"
+  taskset -c "$core" cargo bench --bench motionbenchmaker -- "${tandem_args[@]}" >/dev/null
+  echo "{\"vamp\": $vamp, \"tandem\": $(cat "$out/tandem_$robot.json")}" >>"$rows"
 done
 
-python3 - "$rows" "$repo/target/peers/vamp_vs_tandem.json" "$core" <<'PY'
+python3 - "$rows" "$repo/target/peers/vamp_vs_tandem_$robot.json" "$core" "$robot" <<'PY'
 import json, platform, statistics, sys
 
 rounds = [json.loads(line) for line in open(sys.argv[1])]
 figures = [("planning", "median_ms"), ("planning", "mean_ms"), ("total", "median_ms"), ("total", "mean_ms")]
 names = {"planning": "planning", "total": "planning + simplification"}
-print(f"MotionBenchMaker, Panda: VAMP 0.6.4 against tandem, 3 runs per problem, core {sys.argv[3]}, "
+print(f"MotionBenchMaker, {sys.argv[4]}: VAMP 0.6.4 against tandem, 3 runs per problem, core {sys.argv[3]}, "
       f"{len(rounds)} alternating rounds ({platform.processor() or platform.machine()})")
 print("| figure | VAMP (ms) | tandem (ms) | tandem / VAMP, median of rounds | per round |")
 print("| --- | --- | --- | --- | --- |")
@@ -108,8 +134,15 @@ for figure, stat in figures:
     print(f"| {names[figure]}, {stat[:-3]} | {statistics.median(v):.3f} | {statistics.median(t):.3f} | "
           f"{statistics.median(ratios):.2f} | {each} |")
 last = rounds[-1]
-print(f"solved: VAMP {last['vamp']['solved']} of {last['vamp']['runs']}, tandem {last['tandem']['solved']} "
-      f"(of 2100; table_pick 41's goal is invalid)")
+unsolved = last["tandem"]["unsolved"]
+print(f"solved: VAMP {last['vamp']['solved']} of the {last['vamp']['runs']} runs of problems it finds valid, "
+      f"tandem {last['tandem']['solved']} of {last['tandem']['solved'] + len(unsolved)} runs")
+reasons = {}
+for u in unsolved:
+    reason = u.split(": ", 1)[1].split(":")[0]
+    reasons[reason] = reasons.get(reason, 0) + 1
+if reasons:
+    print("tandem's unsolved runs: " + ", ".join(f"{n} {r}" for r, n in sorted(reasons.items())))
 print(f"mean path length after simplification: VAMP {last['vamp']['mean_path_length_rad']:.4f} rad, "
       f"tandem {last['tandem']['mean_path_length_rad']:.4f} rad (tandem's edges certified)")
 json.dump(rounds, open(sys.argv[2], "w"))

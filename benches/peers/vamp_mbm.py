@@ -7,7 +7,7 @@ one JSON object: per figure (planning, simplification, total) the median,
 mean and 95th percentile in ms, per family the total's, and the mean
 joint-space length of the simplified paths (rad, VAMP's `path.cost()`).
 
-    vamp_mbm.py PROBLEMS.pkl [--robot panda] [--trials 3]
+    vamp_mbm.py PROBLEMS.pkl [--robot panda] [--trials 3] [--per-family N]
 
 PROBLEMS.pkl is VAMP's dataset (its resources/<robot>/problem_tar_to_pkl_json.py
 writes it from the problems.tar.bz2 VAMP ships); compare_vamp.sh makes it.
@@ -33,6 +33,7 @@ def main():
     parser.add_argument("problems", help="VAMP's problems.pkl")
     parser.add_argument("--robot", default="panda")
     parser.add_argument("--trials", type=int, default=3, help="runs per problem (default 3)")
+    parser.add_argument("--per-family", type=int, default=None, help="only the first N problems of each family")
     args = parser.parse_args()
     with open(args.problems, "rb") as f:
         problems = pickle.load(f)["problems"]
@@ -41,7 +42,7 @@ def main():
     times = {"planning": [], "simplification": [], "total": []}
     by_family, unsolved, valid, lengths = {}, [], 0, []
     for family, instances in problems.items():
-        for i, data in enumerate(instances):
+        for i, data in enumerate(instances[: args.per_family]):
             if not data["valid"]:
                 continue
             valid += 1

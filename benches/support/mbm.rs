@@ -14,6 +14,8 @@ pub struct Benchmark {
     urdf: PathBuf,
     srdf: PathBuf,
     problems: PathBuf,
+    /// The problem folders' suffix after the family (`_panda`).
+    robot: String,
 }
 
 impl Benchmark {
@@ -29,20 +31,61 @@ impl Benchmark {
             urdf: mbm.join("panda_spherized.urdf"),
             srdf: mbm.join("panda.srdf"),
             problems: dir.join("problems"),
+            robot: "panda".into(),
         }
     }
 
-    /// Problem `k` (1-based) of `family`.
+    /// Another MotionBenchMaker set: `problems` holds one folder per
+    /// family, `<family>_<robot>/{scene,request}NNNN.yaml` (NNNN from 0001),
+    /// for the robot of `urdf` and `srdf`.
+    #[allow(dead_code)] // only the Panda bench takes other sets
+    pub fn from_set(urdf: &Path, srdf: &Path, problems: &Path, robot: &str) -> Benchmark {
+        let (urdf, srdf, problems) = (urdf.to_path_buf(), srdf.to_path_buf(), problems.to_path_buf());
+        Benchmark { urdf, srdf, problems, robot: robot.into() }
+    }
+
+    /// The set's families and their number of problems, by name.
+    #[allow(dead_code)] // only the Panda bench takes other sets
+    pub fn families(&self) -> Vec<(String, usize)> {
+        let suffix = format!("_{}", self.robot);
+        let entries = std::fs::read_dir(&self.problems).expect("the problem folder");
+        let mut families: Vec<(String, usize)> = entries
+            .filter_map(|e| e.ok()?.file_name().into_string().ok())
+            .filter_map(|name| Some(name.strip_suffix(&suffix)?.to_string()))
+            .map(|family| {
+                let count = (1..).take_while(|&k| self.file(&family, "scene", k).exists()).count();
+                (family, count)
+            })
+            .collect();
+        families.sort();
+        families
+    }
+
+    fn file(&self, family: &str, kind: &str, k: usize) -> PathBuf {
+        self.problems.join(format!("{family}_{}", self.robot)).join(format!("{kind}{k:04}.yaml"))
+    }
+
+    /// Problem `k` (1-based) of `family`, or why it does not load.
+    pub fn load(&self, family: &str, k: usize) -> Result<Problem, String> {
+        let at = |kind: &str| self.file(family, kind, k);
+        Problem::from_moveit(&self.urdf, &self.srdf, &at("scene"), &at("request")).map_err(|e| e.to_string())
+    }
+
+    /// Problem `k` (1-based) of `family`, which must load.
+    #[allow(dead_code)] // the Panda bench takes other sets, which may not
     pub fn problem(&self, family: &str, k: usize) -> Problem {
-        let folder: &Path = &self.problems.join(format!("{family}_panda"));
-        let at = |f: &str| folder.join(format!("{f}{k:04}.yaml"));
-        Problem::from_moveit(&self.urdf, &self.srdf, &at("scene"), &at("request")).expect("valid problem")
+        self.load(family, k).expect("valid problem")
     }
 }
 
 /// The number after `name` on the command line (`--seeds 3`), if any.
 pub fn option(args: &[String], name: &str) -> Option<f64> {
-    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok())
+    text(args, name).and_then(|v| v.parse().ok())
+}
+
+/// The word after `name` on the command line (`--set DIR`), if any.
+pub fn text<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(String::as_str)
 }
 
 /// Whether this run is the full benchmark (`cargo bench`) rather than the
