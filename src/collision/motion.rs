@@ -234,10 +234,10 @@ impl CollisionModel {
 
     /// [`motion_free_by`](Self::motion_free_by) for a motion whose start
     /// `q0` is already known to pass (a search tree's node, say): every
-    /// configuration but that one is checked. A search's steps check
-    /// about nine configurations each, [`LANES`] at a time; leaving out
-    /// the start saves a whole batch on those that need nine
-    /// (MotionBenchMaker's Panda problems: 1.5 % of planning and
+    /// configuration but that one is checked. A search's steps check up
+    /// to about nine configurations each, [`LANES`] at a time; leaving
+    /// out the start saves a whole batch on those that need nine
+    /// (MotionBenchMaker's Panda problems: 2.1 % of planning and
     /// simplification's instructions, same paths).
     ///
     /// # Errors
