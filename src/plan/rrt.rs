@@ -69,25 +69,6 @@ impl EdgeCheck {
         }
     }
 
-    /// [`is_free_by`](Self::is_free_by) for a motion from a configuration
-    /// already known to pass, a search tree's node: a sampled check leaves
-    /// it out ([`CollisionModel::extension_free_by`]).
-    ///
-    /// # Errors
-    /// Bad configurations or settings.
-    pub fn extends_by(
-        self,
-        model: &CollisionModel,
-        ws: &mut CollisionWorkspace,
-        (a, b): (&[f64], &[f64]),
-        deadline: Instant,
-    ) -> Result<Option<bool>, RobotError> {
-        match self {
-            EdgeCheck::Resolution(r) => model.extension_free_by(ws, (a, b), r, Some(deadline)),
-            EdgeCheck::Certified { .. } => self.is_free_by(model, ws, (a, b), deadline),
-        }
-    }
-
     /// Whether configuration `q` may start or end a motion that passes:
     /// collision-free, and for certified motions at least the clearance
     /// away from everything.
@@ -357,22 +338,27 @@ impl Planner<'_> {
         let t = if reached { 1.0 } else { self.settings.step / dist };
         self.scratch.clear();
         self.scratch.extend(from.iter().zip(target).map(|(a, b)| a + (b - a) * t));
-        let free = match &mut self.lazy {
-            Some(lazy) => EdgeCheck::Resolution(lazy.resolution).extends_by(
-                lazy.padded,
-                lazy.ws,
-                (from, &self.scratch),
-                self.deadline,
-            )?,
-            None => self.settings.edge.extends_by(self.model, self.ws, (from, &self.scratch), self.deadline)?,
-        };
-        match free {
+        match self.step_free(from)? {
             None => return Ok(Extension::OutOfTime),
             Some(false) => return Ok(Extension::Trapped),
             Some(true) => {}
         }
         let new = tree.add(&self.scratch, Some(near), self.lazy.is_none());
         Ok(if reached { Extension::Reached(new) } else { Extension::Advanced(new) })
+    }
+
+    /// Whether the motion from tree node `from` to the step's end in
+    /// `scratch` passes (`None`: out of time). A sampled check leaves out
+    /// `from`, which passed when it joined the tree
+    /// ([`CollisionModel::extension_free_by`]).
+    fn step_free(&mut self, from: &[f64]) -> Result<Option<bool>, RobotError> {
+        let motion = (from, self.scratch.as_slice());
+        let deadline = Some(self.deadline);
+        match (&mut self.lazy, self.settings.edge) {
+            (Some(lazy), _) => lazy.padded.extension_free_by(lazy.ws, motion, lazy.resolution, deadline),
+            (None, EdgeCheck::Resolution(r)) => self.model.extension_free_by(self.ws, motion, r, deadline),
+            (None, edge) => edge.is_free_by(self.model, self.ws, motion, self.deadline),
+        }
     }
 
     /// Certifies the edges not yet certified from node `i` up to its root,
