@@ -174,7 +174,11 @@ fn fast_path_matches_on_motionbenchmaker_scenes() {
             for (padding, level) in
                 [0.0, problem.planner.clearance].into_iter().flat_map(|p| levels().into_iter().map(move |l| (p, l)))
             {
-                let mut pair = Pair::at(problem.collision_model_padded(padding).unwrap(), level);
+                let model = problem.collision_model_padded(padding).unwrap();
+                // Single-precision checks first, within a band of about 0.1 mm.
+                let band = model.single_precision_band().expect("single precision on MotionBenchMaker scenes");
+                assert!(band > 1e-6 && band < 1e-3, "{band:e}");
+                let mut pair = Pair::at(model, level);
                 let (f, c) = pair.compare(&problem.robot, goal, 300, k);
                 pair.motion(&problem.start, goal, 0.005);
                 free += f;

@@ -551,7 +551,7 @@ impl CollisionModel {
     /// fast path. Answers do not change; speed does.
     pub fn set_simd(&mut self, wanted: Option<SimdLevel>) -> Option<SimdLevel> {
         let spheres = self.spheres.as_mut()?;
-        spheres.isa = SimdLevel::best_up_to(wanted);
+        spheres.set_isa(SimdLevel::best_up_to(wanted));
         Some(spheres.isa)
     }
 
@@ -562,6 +562,16 @@ impl CollisionModel {
     /// model, or nothing is snapped. `None` without a fast path.
     pub fn snapped_quarter_turns(&self) -> Option<SnappedQuarterTurns> {
         self.spheres.as_ref().map(|s| s.snapped())
+    }
+
+    /// The band (m) of the fast path's single-precision plain check: it
+    /// answers a boolean check when every pair clears its threshold, or
+    /// some pair misses it, by more than this, and hands the rest to the
+    /// f64 check, so answers do not change. `None` without a fast path, or
+    /// when the scene's extent makes the band too wide to be worth it
+    /// (over 1 mm). About 0.1 mm for the benchmark robots.
+    pub fn single_precision_band(&self) -> Option<f64> {
+        self.spheres.as_ref()?.single_precision_band()
     }
 
     /// The level of the fast path's checks (see [`SimdLevel`]), `None`

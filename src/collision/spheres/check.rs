@@ -8,33 +8,33 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::lanes::{
-    LANES, Lane, LanePose, box_approach_local, box_distance_squared_local, build, cylinder_approach_local,
+    LANES, Lane, LanePose, Real, box_approach_local, box_distance_squared_local, build, cylinder_approach_local,
     cylinder_distance_squared, distance_rate, lane_distance_squared, lane_max, lane_min, max, min, point_approach,
-    point_distance_squared, rotate_to_local, segment_approach, segment_distance_squared, sin_cos, to_local,
+    point_distance_squared, rotate_to_local, segment_approach, segment_distance_squared, to_local,
 };
-use super::{SimdLevel, SphereModel, StaticKind, StaticShape, TOLERANCE};
+use super::{SimdLevel, SphereModel, StaticKind, StaticShape};
 use crate::robot::Motion;
 
 /// Per-thread scratch of the sphere checks.
 #[derive(Debug, Clone)]
-pub(crate) struct SphereWorkspace {
+pub(crate) struct SphereWorkspace<T = f64> {
     /// Per active joint: its value in each lane.
-    q: Vec<Lane>,
+    pub(super) q: Vec<Lane>,
     /// Per body: its world pose in each lane (the root stays the identity);
     /// the first `posed` are valid this batch (see
     /// [`SphereModel::pose_up_to`]).
-    pub(super) poses: Vec<LanePose>,
+    pub(super) poses: Vec<LanePose<T>>,
     pub(super) posed: usize,
     /// Per sphere: world centre, valid when its group is `placed`.
-    pub(super) centers: Vec<[Lane; 3]>,
+    pub(super) centers: Vec<[Lane<T>; 3]>,
     /// Per group: world centre of its bounding ball, valid when its flag
     /// in `centered` is set.
-    group_centers: Vec<[Lane; 3]>,
+    group_centers: Vec<[Lane<T>; 3]>,
     centered: Vec<bool>,
     /// Per cluster: world centre of its ball, valid when its group's flag
     /// in `clusters_placed` is set; the sphere centres are valid when its
     /// flag in `spheres_placed` is.
-    pub(super) cluster_centers: Vec<[Lane; 3]>,
+    pub(super) cluster_centers: Vec<[Lane<T>; 3]>,
     clusters_placed: Vec<bool>,
     pub(super) spheres_placed: Vec<bool>,
     /// Certification of the current motion (see `sweep.rs`): per body,
@@ -44,32 +44,32 @@ pub(crate) struct SphereWorkspace {
     /// terms per lane (valid when `tight_done`); per group and per
     /// cluster, the largest loose sweep; per self pair, each side's
     /// (valid when `pair_done`).
-    pub(super) rates: Vec<f64>,
+    pub(super) rates: Vec<T>,
     /// Per body, its joint's signed `Δq · multiplier` (rad or m per unit
     /// of motion); per body and lane, the world angular velocity of its
     /// frame and linear velocity of its origin along the motion (valid
     /// when `tangent_done`); per cluster, the bound of its sphere centres'
     /// acceleration (m per unit of motion², valid when `accel_done`).
-    pub(super) signed_rates: Vec<f64>,
-    pub(super) angular: Vec<[Lane; 3]>,
-    pub(super) linear: Vec<[Lane; 3]>,
+    pub(super) signed_rates: Vec<T>,
+    pub(super) angular: Vec<[Lane<T>; 3]>,
+    pub(super) linear: Vec<[Lane<T>; 3]>,
     pub(super) tangent_done: bool,
-    pub(super) accel: Vec<f64>,
+    pub(super) accel: Vec<T>,
     pub(super) accel_done: Vec<bool>,
-    pub(super) prefix: Vec<f64>,
+    pub(super) prefix: Vec<T>,
     pub(super) prefix_done: Vec<bool>,
-    pub(super) pair_sweep: Vec<[f64; 2]>,
+    pub(super) pair_sweep: Vec<[T; 2]>,
     pub(super) pair_done: Vec<bool>,
-    pub(super) tight: Vec<Lane>,
+    pub(super) tight: Vec<Lane<T>>,
     pub(super) tight_done: Vec<bool>,
-    pub(super) group_sweep: Vec<f64>,
-    pub(super) cluster_sweep: Vec<f64>,
-    pub(super) margins: Margins,
+    pub(super) group_sweep: Vec<T>,
+    pub(super) cluster_sweep: Vec<T>,
+    pub(super) margins: Margins<T>,
     /// Per lane, after a certification check that found it free: the
     /// half-width around its configuration over which every pair keeps
     /// `half` (at least its width when the lane was not split; NaN or
     /// negative means none).
-    pub(super) room: Lane,
+    pub(super) room: Lane<T>,
     /// Intervals of the motion still to certify.
     pub(crate) intervals: std::collections::VecDeque<(f64, f64)>,
     /// The pair that last failed, checked first: successive checks (the
@@ -78,6 +78,8 @@ pub(crate) struct SphereWorkspace {
     /// The last certification failed: probe the next motion plainly
     /// first (see `SphereModel::certify`).
     pub(super) probe_next: bool,
+    /// The single-precision check's scratch (see `single.rs`).
+    pub(super) single: Option<Box<SphereWorkspace<f32>>>,
 }
 
 /// A pair of the model: a group and a static shape, or a self pair.
@@ -91,44 +93,45 @@ enum Pair {
 /// at the checked configurations, and `half` apart over `width` (fraction
 /// of the motion) on either side of them.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Margins {
-    pub(super) half: f64,
-    pub(super) full: f64,
-    pub(super) width: Lane,
+pub(super) struct Margins<T = f64> {
+    pub(super) half: T,
+    pub(super) full: T,
+    pub(super) width: Lane<T>,
 }
 
-impl SphereWorkspace {
-    pub(crate) fn new(model: &SphereModel, nq: usize) -> SphereWorkspace {
+impl<T: Real> SphereWorkspace<T> {
+    pub(crate) fn new(model: &SphereModel<T>, nq: usize) -> SphereWorkspace<T> {
         SphereWorkspace {
             q: vec![[0.0; LANES]; nq],
             poses: vec![LanePose::IDENTITY; model.bodies.len()],
             posed: 1,
-            centers: vec![[[0.0; LANES]; 3]; model.spheres.len()],
-            group_centers: vec![[[0.0; LANES]; 3]; model.groups.len()],
+            centers: vec![[[T::ZERO; LANES]; 3]; model.spheres.len()],
+            group_centers: vec![[[T::ZERO; LANES]; 3]; model.groups.len()],
             centered: vec![false; model.groups.len()],
-            cluster_centers: vec![[[0.0; LANES]; 3]; model.clusters.len()],
+            cluster_centers: vec![[[T::ZERO; LANES]; 3]; model.clusters.len()],
             clusters_placed: vec![false; model.groups.len()],
             spheres_placed: vec![false; model.clusters.len()],
-            rates: vec![0.0; model.bodies.len()],
-            signed_rates: vec![0.0; model.bodies.len()],
-            angular: vec![[[0.0; LANES]; 3]; model.bodies.len()],
-            linear: vec![[[0.0; LANES]; 3]; model.bodies.len()],
+            rates: vec![T::ZERO; model.bodies.len()],
+            signed_rates: vec![T::ZERO; model.bodies.len()],
+            angular: vec![[[T::ZERO; LANES]; 3]; model.bodies.len()],
+            linear: vec![[[T::ZERO; LANES]; 3]; model.bodies.len()],
             tangent_done: false,
-            accel: vec![0.0; model.clusters.len()],
+            accel: vec![T::ZERO; model.clusters.len()],
             accel_done: vec![false; model.clusters.len()],
-            prefix: vec![0.0; model.sweep_terms.len() + model.clusters.len()],
+            prefix: vec![T::ZERO; model.sweep_terms.len() + model.clusters.len()],
             prefix_done: vec![false; model.clusters.len()],
-            pair_sweep: vec![[0.0; 2]; model.self_pairs.len()],
+            pair_sweep: vec![[T::ZERO; 2]; model.self_pairs.len()],
             pair_done: vec![false; model.self_pairs.len()],
-            tight: vec![[0.0; LANES]; model.sweep_terms.len() + model.clusters.len()],
+            tight: vec![[T::ZERO; LANES]; model.sweep_terms.len() + model.clusters.len()],
             tight_done: vec![false; model.clusters.len()],
-            group_sweep: vec![0.0; model.groups.len()],
-            cluster_sweep: vec![0.0; model.clusters.len()],
-            margins: Margins { half: 0.0, full: 0.0, width: [0.0; LANES] },
-            room: [0.0; LANES],
+            group_sweep: vec![T::ZERO; model.groups.len()],
+            cluster_sweep: vec![T::ZERO; model.clusters.len()],
+            margins: Margins { half: T::ZERO, full: T::ZERO, width: [T::ZERO; LANES] },
+            room: [T::ZERO; LANES],
             intervals: std::collections::VecDeque::with_capacity(256),
             last_failure: None,
             probe_next: false,
+            single: model.single.as_ref().map(|s| Box::new(SphereWorkspace::new(&s.model, nq))),
         }
     }
 }
@@ -150,7 +153,7 @@ pub(crate) enum Verdict {
 /// ((limit + tolerance)², see [`SphereModel::pass_limit`]): the limits are
 /// certainly cleared.
 #[inline(always)]
-fn all_beyond(d2: &Lane, pass: &Lane) -> bool {
+fn all_beyond<T: Real>(d2: &Lane<T>, pass: &Lane<T>) -> bool {
     let mut all = true;
     for l in 0..LANES {
         all &= d2[l] > pass[l];
@@ -159,28 +162,33 @@ fn all_beyond(d2: &Lane, pass: &Lane) -> bool {
 }
 
 /// Lane flags gathered over a batch.
-struct Flags {
+struct Flags<T> {
     unsure: [bool; LANES],
     split: [bool; LANES],
     /// Certification: per lane, the half-width (fraction of the motion)
     /// around the checked configuration over which every pair met so far
     /// keeps `half` (+∞ until a pair falls short of the lane's width).
-    room: Lane,
+    room: Lane<T>,
 }
 
 /// Folds one pair's plain verdicts into the flags, given each lane's
 /// squared distance `d2` (m², negative inside), what it must clear to pass
 /// (`pass`, as for [`all_beyond`]) and the distance below which it fails
-/// (`fail`, m, more than the tolerance): `None` when a lane certainly
+/// (`fail`, m, more than the `tolerance`): `None` when a lane certainly
 /// fails, else the lanes that fall short of `pass` (all false when every
 /// lane clears it).
 #[inline(always)]
-fn short_lanes(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> Option<[bool; LANES]> {
+fn short_lanes<T: Real>(
+    d2: &Lane<T>,
+    pass: &Lane<T>,
+    (fail, tolerance): (T, T),
+    flags: &mut Flags<T>,
+) -> Option<[bool; LANES]> {
     let mut short = [false; LANES];
     if all_beyond(d2, pass) {
         return Some(short);
     }
-    let (near, band) = ((fail - TOLERANCE) * (fail - TOLERANCE), (fail + TOLERANCE) * (fail + TOLERANCE));
+    let (near, band) = ((fail - tolerance) * (fail - tolerance), (fail + tolerance) * (fail + tolerance));
     for l in 0..LANES {
         let d = d2[l];
         if d < near {
@@ -199,11 +207,11 @@ fn short_lanes(d2: &Lane, pass: &Lane, fail: f64, flags: &mut Flags) -> Option<[
 /// configuration, its distance's rate of change `rate` (m per unit of
 /// motion, in absolute value) with the bound `accel` of its second
 /// derivative's (m per unit of motion², valid everywhere).
-struct PairBounds<'a> {
-    keep: f64,
-    sweep: &'a Lane,
-    rate: &'a Lane,
-    accel: f64,
+struct PairBounds<'a, T> {
+    keep: T,
+    sweep: &'a Lane<T>,
+    rate: &'a Lane<T>,
+    accel: T,
 }
 
 /// Certification: narrows each short lane's room to what the pair keeps
@@ -216,7 +224,13 @@ struct PairBounds<'a> {
 /// and this keeps a far wider room than the first-order `d(m) − |τ| sweep`;
 /// the larger of the two is taken (both hold).
 #[inline(always)]
-fn narrow(distance: &Lane, short: &[bool; LANES], pair: &PairBounds, width: &Lane, flags: &mut Flags) {
+fn narrow<T: Real>(
+    distance: &Lane<T>,
+    short: &[bool; LANES],
+    pair: &PairBounds<T>,
+    width: &Lane<T>,
+    flags: &mut Flags<T>,
+) {
     for l in 0..LANES {
         if !short[l] {
             continue;
@@ -224,9 +238,10 @@ fn narrow(distance: &Lane, short: &[bool; LANES], pair: &PairBounds, width: &Lan
         let slack = distance[l] - pair.keep;
         // d ≥ keep + room · sweep: the pair keeps `half` over the room.
         let mut room = slack / pair.sweep[l];
-        if slack > 0.0 {
+        if slack > T::ZERO {
             let rate = pair.rate[l];
-            let second = 2.0 * slack / (rate + (rate * rate + 2.0 * pair.accel * slack).sqrt());
+            let two = T::of(2.0);
+            let second = two * slack / (rate + (rate * rate + two * pair.accel * slack).sqrt());
             // A NaN rate leaves the first-order room.
             if second > room {
                 room = second;
@@ -239,17 +254,17 @@ fn narrow(distance: &Lane, short: &[bool; LANES], pair: &PairBounds, width: &Lan
     }
 }
 
-impl StaticShape {
+impl<T: Real> StaticShape<T> {
     /// Squared distance (m², negative inside) from each lane's point to the
     /// shape's core, and the radius the core is swept by (m).
     #[inline(always)]
-    pub(super) fn core_distance_squared(&self, p: &[Lane; 3]) -> (Lane, f64) {
+    pub(super) fn core_distance_squared(&self, p: &[Lane<T>; 3]) -> (Lane<T>, T) {
         match &self.kind {
             StaticKind::Sphere { center, radius } => (point_distance_squared(p, center), *radius),
             StaticKind::Capsule { a, ab, len2, radius } => (segment_distance_squared(p, a, ab, *len2), *radius),
-            StaticKind::Box { frame, half } => (box_distance_squared_local(&to_local(p, frame), half), 0.0),
+            StaticKind::Box { frame, half } => (box_distance_squared_local(&to_local(p, frame), half), T::ZERO),
             StaticKind::Cylinder { frame, radius, half_length } => {
-                (cylinder_distance_squared(&to_local(p, frame), *radius, *half_length), 0.0)
+                (cylinder_distance_squared(&to_local(p, frame), *radius, *half_length), T::ZERO)
             }
         }
     }
@@ -260,7 +275,7 @@ impl StaticShape {
     /// point's velocity: the distance's rate of change times `|e|`.
     /// Meaningless for points inside the core.
     #[inline(always)]
-    pub(super) fn core_approach(&self, p: &[Lane; 3], v: &[Lane; 3]) -> Lane {
+    pub(super) fn core_approach(&self, p: &[Lane<T>; 3], v: &[Lane<T>; 3]) -> Lane<T> {
         match &self.kind {
             StaticKind::Sphere { center, .. } => point_approach(p, center, v),
             StaticKind::Capsule { a, ab, len2, .. } => segment_approach(p, a, ab, *len2, v),
@@ -274,23 +289,15 @@ impl StaticShape {
     }
 }
 
-impl SphereModel {
+impl<T: Real> SphereModel<T> {
     /// Some pair that no joint moves collides: no configuration is free.
     pub(crate) fn always_collides(&self) -> bool {
         self.fixed_collision
     }
 
-    /// Checks configuration `q` (length already validated).
-    pub(crate) fn check_one(&self, ws: &mut SphereWorkspace, q: &[f64]) -> Verdict {
-        for (lane, &v) in ws.q.iter_mut().zip(q) {
-            *lane = [v; LANES];
-        }
-        self.check::<false>(ws)
-    }
-
     /// Sets lane `l` to `q0 + (q1 − q0) t[l]` (the exact model's
     /// interpolation, to the bit).
-    pub(super) fn set_along(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64], t: &Lane) {
+    pub(super) fn set_along(&self, ws: &mut SphereWorkspace<T>, q0: &[f64], q1: &[f64], t: &Lane) {
         for ((lane, a), b) in ws.q.iter_mut().zip(q0).zip(q1) {
             for (v, &t) in lane.iter_mut().zip(t) {
                 *v = a + (b - a) * t;
@@ -300,7 +307,7 @@ impl SphereModel {
 
     /// Runs the plain (`CERTIFY` false) or certification check on the
     /// configurations in the workspace.
-    pub(super) fn check<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
+    pub(super) fn check<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace<T>) -> Verdict {
         match self.isa {
             // SAFETY: levels are only set through `SimdLevel::best_up_to`,
             // which checked every enabled feature on this CPU.
@@ -315,13 +322,13 @@ impl SphereModel {
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
-    fn check_avx512<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
+    fn check_avx512<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace<T>) -> Verdict {
         self.check_lanes::<CERTIFY>(ws)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn check_avx2<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
+    fn check_avx2<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace<T>) -> Verdict {
         self.check_lanes::<CERTIFY>(ws)
     }
 
@@ -330,26 +337,28 @@ impl SphereModel {
     /// also the margins, with `sweep` the pair's approach speed bound (m per
     /// unit of motion).
     #[inline(always)]
-    fn pass_limit<const CERTIFY: bool>(ws: &SphereWorkspace, reach: f64, sweep: f64) -> Lane {
+    fn pass_limit<const CERTIFY: bool>(&self, ws: &SphereWorkspace<T>, reach: T, sweep: T) -> Lane<T> {
+        let tolerance = self.tolerance;
         if !CERTIFY {
-            return [(reach + TOLERANCE) * (reach + TOLERANCE); LANES];
+            return [(reach + tolerance) * (reach + tolerance); LANES];
         }
         let m = &ws.margins;
         build(|l| {
-            let limit = max(reach + m.half + m.width[l] * sweep, reach + m.full) + TOLERANCE;
+            let limit = max(reach + m.half + m.width[l] * sweep, reach + m.full) + tolerance;
             limit * limit
         })
     }
 
-    /// [`pass_limit`](Self::pass_limit) with a sweep bound per lane.
+    /// [`pass_limit`](self.pass_limit) with a sweep bound per lane.
     #[inline(always)]
-    fn pass_limit_lanes<const CERTIFY: bool>(ws: &SphereWorkspace, reach: f64, sweep: &Lane) -> Lane {
+    fn pass_limit_lanes<const CERTIFY: bool>(&self, ws: &SphereWorkspace<T>, reach: T, sweep: &Lane<T>) -> Lane<T> {
+        let tolerance = self.tolerance;
         if !CERTIFY {
-            return [(reach + TOLERANCE) * (reach + TOLERANCE); LANES];
+            return [(reach + tolerance) * (reach + tolerance); LANES];
         }
         let m = &ws.margins;
         build(|l| {
-            let limit = max(reach + m.half + m.width[l] * sweep[l], reach + m.full) + TOLERANCE;
+            let limit = max(reach + m.half + m.width[l] * sweep[l], reach + m.full) + tolerance;
             limit * limit
         })
     }
@@ -360,15 +369,16 @@ impl SphereModel {
     /// (none for a plain check, which flags them for splitting).
     #[inline(always)]
     fn screen<const CERTIFY: bool>(
-        ws: &SphereWorkspace,
-        d2: &Lane,
-        reach: f64,
-        sweep: &Lane,
-        flags: &mut Flags,
+        &self,
+        ws: &SphereWorkspace<T>,
+        d2: &Lane<T>,
+        reach: T,
+        sweep: &Lane<T>,
+        flags: &mut Flags<T>,
     ) -> Option<[bool; LANES]> {
-        let full = if CERTIFY { ws.margins.full } else { 0.0 };
-        let pass = Self::pass_limit_lanes::<CERTIFY>(ws, reach, sweep);
-        let short = short_lanes(d2, &pass, reach + full, flags)?;
+        let full = if CERTIFY { ws.margins.full } else { T::ZERO };
+        let pass = self.pass_limit_lanes::<CERTIFY>(ws, reach, sweep);
+        let short = short_lanes(d2, &pass, (reach + full, self.tolerance), flags)?;
         if CERTIFY {
             return Some(short);
         }
@@ -377,7 +387,7 @@ impl SphereModel {
     }
 
     #[inline(always)]
-    fn check_lanes<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace) -> Verdict {
+    fn check_lanes<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace<T>) -> Verdict {
         // Poses and centres are placed as pairs need them: a check that
         // fails on the pair that failed last (a blocked search's usual
         // check) needs only that group's chain.
@@ -389,7 +399,7 @@ impl SphereModel {
             ws.tight_done.fill(false);
             ws.tangent_done = false;
         }
-        let mut flags = Flags { unsure: [false; LANES], split: [false; LANES], room: [f64::INFINITY; LANES] };
+        let mut flags = Flags { unsure: [false; LANES], split: [false; LANES], room: [T::INFINITY; LANES] };
         // Checked again below if it passes: the flags it sets do not change.
         let failed = match ws.last_failure {
             Some(Pair::Environment(g, o)) => self.check_shape::<CERTIFY>(ws, g, o, &mut flags),
@@ -420,23 +430,36 @@ impl SphereModel {
 
     /// Group `g` against the static shapes: true when a lane fails.
     #[inline(always)]
-    fn check_environment<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace, g: usize, flags: &mut Flags) -> bool {
+    fn check_environment<const CERTIFY: bool>(
+        &self,
+        ws: &mut SphereWorkspace<T>,
+        g: usize,
+        flags: &mut Flags<T>,
+    ) -> bool {
         let group = &self.groups[g];
         // The box around the group's balls in every lane, grown by the
         // limit: shapes whose boxes it misses are cleared in every lane.
-        let reach = lane_max(&Self::pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g])).sqrt();
+        let reach = lane_max(&self.pass_limit::<CERTIFY>(ws, group.radius, ws.group_sweep[g])).sqrt();
         let center = *self.group_center(ws, g);
-        let lo: [f64; 3] = build(|i| lane_min(&center[i]) - reach);
-        let hi: [f64; 3] = build(|i| lane_max(&center[i]) + reach);
+        let lo: [T; 3] = build(|i| lane_min(&center[i]) - reach);
+        let hi: [T; 3] = build(|i| lane_max(&center[i]) + reach);
         for chunk in &self.env[group.env.clone()] {
             // Per shape, the largest gap between the boxes along an axis.
-            let mut gap = [f64::NEG_INFINITY; LANES];
+            let mut gap = [T::NEG_INFINITY; LANES];
             for i in 0..3 {
                 for k in 0..LANES {
                     gap[k] = max(gap[k], max(lo[i] - chunk.hi[i][k], chunk.lo[i][k] - hi[i]));
                 }
             }
-            for (&o, _) in chunk.shapes[..chunk.count].iter().zip(gap).filter(|(_, gap)| *gap <= 0.0) {
+            // The shapes whose boxes meet, as bits (empty slots never do),
+            // visited in order.
+            let mut meet = 0u32;
+            for k in 0..LANES {
+                meet |= u32::from(gap[k] <= T::ZERO) << k;
+            }
+            while meet != 0 {
+                let o = chunk.shapes[meet.trailing_zeros() as usize];
+                meet &= meet - 1;
                 if self.check_shape::<CERTIFY>(ws, g, o as usize, flags) {
                     ws.last_failure = Some(Pair::Environment(g, o as usize));
                     return true;
@@ -450,40 +473,40 @@ impl SphereModel {
     #[inline(always)]
     fn check_shape<const CERTIFY: bool>(
         &self,
-        ws: &mut SphereWorkspace,
+        ws: &mut SphereWorkspace<T>,
         g: usize,
         o: usize,
-        flags: &mut Flags,
+        flags: &mut Flags<T>,
     ) -> bool {
         let (group, shape, center) = (&self.groups[g], &self.statics[o], *self.group_center(ws, g));
         let (d2, radius) = shape.core_distance_squared(&center);
-        if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g])) {
+        if all_beyond(&d2, &self.pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g])) {
             return false;
         }
         self.place_clusters(ws, g);
         for c in group.clusters.clone() {
             let cluster = &self.clusters[c];
             let (d2, radius) = shape.core_distance_squared(&ws.cluster_centers[c]);
-            if all_beyond(&d2, &Self::pass_limit::<CERTIFY>(ws, cluster.radius + radius, ws.cluster_sweep[c])) {
+            if all_beyond(&d2, &self.pass_limit::<CERTIFY>(ws, cluster.radius + radius, ws.cluster_sweep[c])) {
                 continue;
             }
-            let sweep = if CERTIFY { self.tight_sweep(ws, c, 0) } else { [0.0; LANES] };
+            let sweep = if CERTIFY { self.tight_sweep(ws, c, 0) } else { [T::ZERO; LANES] };
             // The cluster again, with the tighter bound.
-            if CERTIFY && all_beyond(&d2, &Self::pass_limit_lanes::<CERTIFY>(ws, cluster.radius + radius, &sweep)) {
+            if CERTIFY && all_beyond(&d2, &self.pass_limit_lanes::<CERTIFY>(ws, cluster.radius + radius, &sweep)) {
                 continue;
             }
             self.place_spheres(ws, c);
             for s in cluster.spheres.clone() {
                 let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
                 let reach = self.spheres[s].reach + radius;
-                let Some(short) = Self::screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
+                let Some(short) = self.screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
                 if !short.contains(&true) {
                     continue;
                 }
-                let distance = d2.map(|d| max(d, 0.0).sqrt());
+                let distance = d2.map(|d| max(d, T::ZERO).sqrt());
                 let velocity = self.sphere_velocity(ws, group.body, s);
                 let rate = distance_rate(&shape.core_approach(&ws.centers[s], &velocity), &distance);
-                let keep = reach + ws.margins.half + TOLERANCE;
+                let keep = reach + ws.margins.half + self.tolerance;
                 let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel: self.cluster_accel(ws, c) };
                 narrow(&distance, &short, &pair, &ws.margins.width, flags);
             }
@@ -493,7 +516,7 @@ impl SphereModel {
 
     /// Places the centres of self pair `p`'s groups (every group's is
     /// placed once the environment pairs have been checked).
-    fn self_pair_centers(&self, ws: &mut SphereWorkspace, p: usize) {
+    fn self_pair_centers(&self, ws: &mut SphereWorkspace<T>, p: usize) {
         for g in self.self_pairs[p] {
             self.group_center(ws, g as usize);
         }
@@ -501,15 +524,21 @@ impl SphereModel {
 
     /// Self pair `p`, its groups' centres placed: true when a lane fails.
     #[inline(always)]
-    fn check_self_pair<const CERTIFY: bool>(&self, ws: &mut SphereWorkspace, p: usize, flags: &mut Flags) -> bool {
+    fn check_self_pair<const CERTIFY: bool>(
+        &self,
+        ws: &mut SphereWorkspace<T>,
+        p: usize,
+        flags: &mut Flags<T>,
+    ) -> bool {
         let [a, b] = self.self_pairs[p].map(|g| g as usize);
         let (ga, gb) = (&self.groups[a], &self.groups[b]);
         debug_assert!(ws.centered[a] && ws.centered[b], "self pair checked before its centres were placed");
         // Joints moving both sides leave the pair's distance unchanged.
         let depth = self.common_depth[p];
-        let loose = |ws: &mut SphereWorkspace, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { 0.0 };
-        let [sweep_a, sweep_b] = if CERTIFY { self.pair_sweep(ws, p) } else { [0.0; 2] };
-        let limit = Self::pass_limit::<CERTIFY>(ws, ga.radius + gb.radius, sweep_a + sweep_b);
+        let loose =
+            |ws: &mut SphereWorkspace<T>, c: usize| if CERTIFY { self.loose_sweep(ws, c, depth) } else { T::ZERO };
+        let [sweep_a, sweep_b] = if CERTIFY { self.pair_sweep(ws, p) } else { [T::ZERO; 2] };
+        let limit = self.pass_limit::<CERTIFY>(ws, ga.radius + gb.radius, sweep_a + sweep_b);
         if all_beyond(&lane_distance_squared(&ws.group_centers[a], &ws.group_centers[b]), &limit) {
             return false;
         }
@@ -517,36 +546,36 @@ impl SphereModel {
         self.place_clusters(ws, b);
         for ca in ga.clusters.clone() {
             let (ka, sweep_ka) = (&self.clusters[ca], loose(ws, ca));
-            let limit = Self::pass_limit::<CERTIFY>(ws, ka.radius + gb.radius, sweep_ka + sweep_b);
+            let limit = self.pass_limit::<CERTIFY>(ws, ka.radius + gb.radius, sweep_ka + sweep_b);
             if all_beyond(&lane_distance_squared(&ws.cluster_centers[ca], &ws.group_centers[b]), &limit) {
                 continue;
             }
             for cb in gb.clusters.clone() {
                 let (kb, sweep_kb) = (&self.clusters[cb], loose(ws, cb));
-                let limit = Self::pass_limit::<CERTIFY>(ws, ka.radius + kb.radius, sweep_ka + sweep_kb);
+                let limit = self.pass_limit::<CERTIFY>(ws, ka.radius + kb.radius, sweep_ka + sweep_kb);
                 if all_beyond(&lane_distance_squared(&ws.cluster_centers[ca], &ws.cluster_centers[cb]), &limit) {
                     continue;
                 }
                 self.place_spheres(ws, ca);
                 self.place_spheres(ws, cb);
-                let sweep: Lane = if CERTIFY {
+                let sweep: Lane<T> = if CERTIFY {
                     let (a, b) = (self.tight_sweep(ws, ca, depth), self.tight_sweep(ws, cb, depth));
                     build(|l| a[l] + b[l])
                 } else {
-                    [0.0; LANES]
+                    [T::ZERO; LANES]
                 };
                 for i in ka.spheres.clone() {
                     for j in kb.spheres.clone() {
                         let d2 = lane_distance_squared(&ws.centers[i], &ws.centers[j]);
                         let reach = self.spheres[i].reach + self.spheres[j].reach;
-                        let Some(short) = Self::screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
+                        let Some(short) = self.screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
                         if !short.contains(&true) {
                             continue;
                         }
-                        let distance = d2.map(|d| max(d, 0.0).sqrt());
+                        let distance = d2.map(|d| max(d, T::ZERO).sqrt());
                         let rate = self.separation_rate(ws, (ga.body, i), (gb.body, j), &distance);
                         let accel = self.cluster_accel(ws, ca) + self.cluster_accel(ws, cb);
-                        let keep = reach + ws.margins.half + TOLERANCE;
+                        let keep = reach + ws.margins.half + self.tolerance;
                         let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel };
                         narrow(&distance, &short, &pair, &ws.margins.width, flags);
                     }
@@ -558,7 +587,7 @@ impl SphereModel {
 
     /// World poses of every body in every lane.
     #[cfg(test)]
-    pub(super) fn forward_kinematics(&self, ws: &mut SphereWorkspace) {
+    pub(super) fn forward_kinematics(&self, ws: &mut SphereWorkspace<T>) {
         ws.posed = 1;
         self.pose_up_to(ws, self.bodies.len() - 1);
     }
@@ -566,7 +595,7 @@ impl SphereModel {
     /// World poses of bodies up to `last` (bodies come after their
     /// parents, so its chain is among them), once per batch.
     #[inline(always)]
-    pub(super) fn pose_up_to(&self, ws: &mut SphereWorkspace, last: usize) {
+    pub(super) fn pose_up_to(&self, ws: &mut SphereWorkspace<T>, last: usize) {
         for b in ws.posed..=last {
             let body = &self.bodies[b];
             let q = &ws.q[body.column];
@@ -575,9 +604,9 @@ impl SphereModel {
             let (parent, pose) = (&done[body.parent], &mut rest[0]);
             let placement = (&body.rotation, &body.translation);
             match body.motion {
-                Motion::Prismatic(_) => pose.set_prismatic(parent, placement, &body.axis, &value),
+                Motion::Prismatic(_) => pose.set_prismatic(parent, placement, &body.axis, &value.map(T::of)),
                 _ => {
-                    let (s, c) = sin_cos(&value);
+                    let (s, c) = T::lane_sin_cos(&value);
                     pose.set_revolute(parent, placement, &body.axis, (&s, &c));
                 }
             }
@@ -587,7 +616,7 @@ impl SphereModel {
 
     /// World centre of group `g`'s bounding ball, once per batch.
     #[inline(always)]
-    fn group_center<'w>(&self, ws: &'w mut SphereWorkspace, g: usize) -> &'w [Lane; 3] {
+    fn group_center<'w>(&self, ws: &'w mut SphereWorkspace<T>, g: usize) -> &'w [Lane<T>; 3] {
         if !ws.centered[g] {
             let group = &self.groups[g];
             self.pose_up_to(ws, group.body);
@@ -599,7 +628,7 @@ impl SphereModel {
 
     /// World centres of group `g`'s clusters, once per batch.
     #[inline(always)]
-    fn place_clusters(&self, ws: &mut SphereWorkspace, g: usize) {
+    fn place_clusters(&self, ws: &mut SphereWorkspace<T>, g: usize) {
         if ws.clusters_placed[g] {
             return;
         }
@@ -615,7 +644,7 @@ impl SphereModel {
 
     /// World centres of cluster `c`'s spheres, once per batch.
     #[inline(always)]
-    pub(super) fn place_spheres(&self, ws: &mut SphereWorkspace, c: usize) {
+    pub(super) fn place_spheres(&self, ws: &mut SphereWorkspace<T>, c: usize) {
         if ws.spheres_placed[c] {
             return;
         }

@@ -3,7 +3,8 @@
 //! the lanes so the compiler turns it into vector instructions (SSE2
 //! always; AVX2 or AVX-512 in the builds `check.rs` dispatches to). All
 //! functions are `#[inline(always)]` so they take the vector width of
-//! their caller.
+//! their caller, and generic over the scalar ([`Real`]: f64, or f32 for
+//! the single-precision plain check).
 // Lane loops index several arrays by the lane on purpose: that is the
 // shape the vectoriser recognises.
 #![allow(clippy::needless_range_loop)]
@@ -12,7 +13,161 @@
 pub const LANES: usize = 8;
 
 /// One value per configuration.
-pub(crate) type Lane = [f64; LANES];
+pub(crate) type Lane<T = f64> = [T; LANES];
+
+/// The scalar the lanes compute in: `f64` for certification and the
+/// checks a caller sees, `f32` for the single-precision plain check that
+/// answers most of a search's checks first (see `single.rs`).
+pub(crate) trait Real:
+    Copy
+    + Default
+    + PartialOrd
+    + std::fmt::Debug
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Div<Output = Self>
+    + std::ops::Neg<Output = Self>
+    + std::ops::AddAssign
+{
+    const ZERO: Self;
+    const ONE: Self;
+    const INFINITY: Self;
+    const NEG_INFINITY: Self;
+    /// `x`, rounded to this type.
+    fn of(x: f64) -> Self;
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+    fn copysign(self, sign: Self) -> Self;
+    fn is_nan(self) -> bool;
+    /// Sine and cosine of `r`, |r| ≤ π/4 (rad), by a kernel polynomial.
+    fn sin_cos_kernel(r: f64) -> (Self, Self);
+    /// Sine and cosine of every lane's angle (rad), see [`sin_cos`].
+    fn lane_sin_cos(x: &Lane) -> (Lane<Self>, Lane<Self>);
+}
+
+/// The [`Real`] items both precisions write the same way.
+macro_rules! real_basics {
+    ($t:ident) => {
+        const ZERO: $t = 0.0;
+        const ONE: $t = 1.0;
+        const INFINITY: $t = $t::INFINITY;
+        const NEG_INFINITY: $t = $t::NEG_INFINITY;
+        #[inline(always)]
+        fn of(x: f64) -> $t {
+            x as $t
+        }
+        #[inline(always)]
+        fn sqrt(self) -> $t {
+            $t::sqrt(self)
+        }
+        #[inline(always)]
+        fn abs(self) -> $t {
+            $t::abs(self)
+        }
+        #[inline(always)]
+        fn copysign(self, sign: $t) -> $t {
+            $t::copysign(self, sign)
+        }
+        #[inline(always)]
+        fn is_nan(self) -> bool {
+            $t::is_nan(self)
+        }
+    };
+}
+
+impl Real for f64 {
+    real_basics!(f64);
+    /// fdlibm's kernel polynomials.
+    #[inline(always)]
+    fn sin_cos_kernel(r: f64) -> (f64, f64) {
+        const S: [f64; 6] = [
+            f64::from_bits(0xBFC5_5555_5555_5549),
+            f64::from_bits(0x3F81_1111_1110_F8A6),
+            f64::from_bits(0xBF2A_01A0_19C1_61D5),
+            f64::from_bits(0x3EC7_1DE3_57B1_FE7D),
+            f64::from_bits(0xBE5A_E5E6_8A2B_9CEB),
+            f64::from_bits(0x3DE5_D93A_5ACF_D57C),
+        ];
+        const C: [f64; 6] = [
+            f64::from_bits(0x3FA5_5555_5555_554C),
+            f64::from_bits(0xBF56_C16C_16C1_5177),
+            f64::from_bits(0x3EFA_01A0_19CB_1590),
+            f64::from_bits(0xBE92_7E4F_809C_52AD),
+            f64::from_bits(0x3E21_EE9E_BDB4_B1C4),
+            f64::from_bits(0xBDA8_FAE9_BE88_38D4),
+        ];
+        let z = r * r;
+        let ps = S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5]))));
+        let pc = C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5]))));
+        (r + r * z * ps, (1.0 - 0.5 * z) + z * z * pc)
+    }
+    #[inline(always)]
+    fn lane_sin_cos(x: &Lane) -> (Lane, Lane) {
+        sin_cos(x)
+    }
+}
+
+impl Real for f32 {
+    real_basics!(f32);
+    #[inline(always)]
+    fn sin_cos_kernel(r: f64) -> (f32, f32) {
+        single_kernel(r as f32)
+    }
+    #[inline(always)]
+    fn lane_sin_cos(x: &Lane) -> (Lane<f32>, Lane<f32>) {
+        single_sin_cos(x)
+    }
+}
+
+/// Cephes' single-precision kernels (`sinf`, `cosf`), a few units in the
+/// last place of f32 on [−π/4, π/4].
+#[inline(always)]
+fn single_kernel(r: f32) -> (f32, f32) {
+    let z = r * r;
+    let s = ((-1.951_529_6e-4 * z + 8.332_161e-3) * z - 1.666_665_5e-1) * z * r + r;
+    let c = ((2.443_315_7e-5 * z - 1.388_731_6e-3) * z + 4.166_664_6e-2) * z * z - 0.5 * z + 1.0;
+    (s, c)
+}
+
+/// Up to this |angle| (rad), f32 lanes reduce their argument in f32: the
+/// angle's rounding to f32 costs at most `u · 8` rad (`u` the unit
+/// roundoff of f32, see `single.rs`). Joint ranges within ±2π fit.
+pub(crate) const SINGLE_REDUCTION_LIMIT: f32 = 8.0;
+
+/// [`sin_cos`] in f32, the argument reduced in f32 when every lane's angle
+/// is within [`SINGLE_REDUCTION_LIMIT`] (one register per operation with
+/// AVX2), else in f64.
+#[inline(always)]
+fn single_sin_cos(x: &Lane) -> (Lane<f32>, Lane<f32>) {
+    // 1.5 · 2^23 (see `sin_cos`), and π/2 in three parts (Cephes' π/4
+    // parts, doubled): the first two have few bits, so their products
+    // with the small quadrant numbers here are exact.
+    const SHIFT: f32 = 12_582_912.0;
+    const PIO2_1: f32 = 1.570_312_5;
+    const PIO2_2: f32 = 4.837_513e-4;
+    const PIO2_3: f32 = 7.549_79e-8;
+    let xf: Lane<f32> = build(|l| x[l] as f32);
+    let mut within = true;
+    for l in 0..LANES {
+        within &= xf[l].abs() <= SINGLE_REDUCTION_LIMIT;
+    }
+    if !within {
+        return sin_cos(x);
+    }
+    let (mut sin, mut cos) = ([0.0; LANES], [0.0; LANES]);
+    for l in 0..LANES {
+        let shifted = xf[l] * std::f32::consts::FRAC_2_PI + SHIFT;
+        let n = shifted - SHIFT;
+        let quadrant = shifted.to_bits() & 3;
+        let r = ((xf[l] - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
+        let (s, c) = single_kernel(r);
+        let (s, c) = if quadrant & 1 == 0 { (s, c) } else { (c, -s) };
+        sin[l] = if quadrant & 2 == 0 { s } else { -s };
+        cos[l] = if quadrant & 2 == 0 { c } else { -c };
+    }
+    (sin, cos)
+}
 
 /// The array of `f(i)` for every index, by a plain loop:
 /// `std::array::from_fn` goes through a closure adapter that LLVM does not
@@ -30,35 +185,40 @@ pub(crate) fn build<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) 
 
 /// The rotation of a body's constant joint frame in its parent's.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum FrameRotation {
+pub(crate) enum FrameRotation<T = f64> {
     /// Column `j` is `sign[j]` times basis vector `axis[j]`.
-    Permutation { axis: [usize; 3], sign: [f64; 3] },
+    Permutation { axis: [usize; 3], sign: [T; 3] },
     /// Column-major.
-    General([f64; 9]),
+    General([T; 9]),
+}
+
+impl FrameRotation {
+    /// The same rotation in single precision.
+    pub(crate) fn single(&self) -> FrameRotation<f32> {
+        match *self {
+            FrameRotation::Permutation { axis, sign } => FrameRotation::Permutation { axis, sign: single(&sign) },
+            FrameRotation::General(r) => FrameRotation::General(single(&r)),
+        }
+    }
+}
+
+/// `values` rounded to f32.
+pub(crate) fn single<const N: usize>(values: &[f64; N]) -> [f32; N] {
+    values.map(|x| x as f32)
 }
 
 /// A rigid transform per lane: rotation `r` column-major (`r[3 * col + row]`)
 /// and translation `t`, mapping body coordinates to world coordinates (m).
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct LanePose {
-    pub(crate) r: [Lane; 9],
-    pub(crate) t: [Lane; 3],
+pub(crate) struct LanePose<T = f64> {
+    pub(crate) r: [Lane<T>; 9],
+    pub(crate) t: [Lane<T>; 3],
 }
 
-impl LanePose {
-    pub(crate) const IDENTITY: LanePose = LanePose {
-        r: [
-            [1.0; LANES],
-            [0.0; LANES],
-            [0.0; LANES],
-            [0.0; LANES],
-            [1.0; LANES],
-            [0.0; LANES],
-            [0.0; LANES],
-            [0.0; LANES],
-            [1.0; LANES],
-        ],
-        t: [[0.0; LANES]; 3],
+impl<T: Real> LanePose<T> {
+    pub(crate) const IDENTITY: LanePose<T> = {
+        let (one, zero) = ([T::ONE; LANES], [T::ZERO; LANES]);
+        LanePose { r: [one, zero, zero, zero, one, zero, zero, zero, one], t: [zero; 3] }
     };
 
     /// `parent ∘ (rotation, translation) ∘ joint`, written into `self`:
@@ -68,17 +228,18 @@ impl LanePose {
     #[inline(always)]
     pub(crate) fn set_revolute(
         &mut self,
-        parent: &LanePose,
-        (rotation, translation): (&FrameRotation, &[f64; 3]),
-        axis: &[f64; 3],
-        (s, c): (&Lane, &Lane),
+        parent: &LanePose<T>,
+        (rotation, translation): (&FrameRotation<T>, &[T; 3]),
+        axis: &[T; 3],
+        (s, c): (&Lane<T>, &Lane<T>),
     ) {
         self.set_constant(parent, rotation, translation);
         // Columns `a` and `b` turn into each other; the third stays.
+        let (o, z) = (T::ONE, T::ZERO);
         let (a, b) = match *axis {
-            [1.0, 0.0, 0.0] => (1, 2),
-            [0.0, 1.0, 0.0] => (2, 0),
-            [0.0, 0.0, 1.0] => (0, 1),
+            x if x == [o, z, z] => (1, 2),
+            x if x == [z, o, z] => (2, 0),
+            x if x == [z, z, o] => (0, 1),
             _ => return self.rotate_about(axis, s, c),
         };
         for i in 0..3 {
@@ -96,10 +257,10 @@ impl LanePose {
     #[inline(always)]
     pub(crate) fn set_prismatic(
         &mut self,
-        parent: &LanePose,
-        (rotation, translation): (&FrameRotation, &[f64; 3]),
-        axis: &[f64; 3],
-        value: &Lane,
+        parent: &LanePose<T>,
+        (rotation, translation): (&FrameRotation<T>, &[T; 3]),
+        axis: &[T; 3],
+        value: &Lane<T>,
     ) {
         self.set_constant(parent, rotation, translation);
         for i in 0..3 {
@@ -116,7 +277,7 @@ impl LanePose {
     /// offsets along one axis): adding a zero product changes no bit
     /// of the sum, so the result is that of the full product.
     #[inline(always)]
-    fn set_constant(&mut self, parent: &LanePose, rotation: &FrameRotation, translation: &[f64; 3]) {
+    fn set_constant(&mut self, parent: &LanePose<T>, rotation: &FrameRotation<T>, translation: &[T; 3]) {
         match rotation {
             // Column j is ±1 times parent column axis[j]: the product
             // `combine` would compute, without looking for the nonzero weight.
@@ -151,12 +312,12 @@ impl LanePose {
     /// Right-multiplies the rotation by a per-lane rotation about the unit
     /// `axis` (body coordinates) by the angle with sine `s` and cosine `c`.
     #[inline(always)]
-    fn rotate_about(&mut self, axis: &[f64; 3], s: &Lane, c: &Lane) {
+    fn rotate_about(&mut self, axis: &[T; 3], s: &Lane<T>, c: &Lane<T>) {
         let [x, y, z] = *axis;
         let old = self.r;
         for l in 0..LANES {
             let (s, c) = (s[l], c[l]);
-            let v = 1.0 - c;
+            let v = T::ONE - c;
             // Rodrigues, column-major.
             let m = [
                 c + x * x * v,
@@ -180,7 +341,7 @@ impl LanePose {
 
     /// World position of a point given in body coordinates (m).
     #[inline(always)]
-    pub(crate) fn point(&self, p: &[f64; 3]) -> [Lane; 3] {
+    pub(crate) fn point(&self, p: &[T; 3]) -> [Lane<T>; 3] {
         let mut out = self.t;
         for (i, o) in out.iter_mut().enumerate() {
             for l in 0..LANES {
@@ -194,9 +355,9 @@ impl LanePose {
 /// `Σ_k weights[k] · column k of r` (rotation column-major), the sum
 /// taken in order of k over the nonzero weights only.
 #[inline(always)]
-fn combine(r: &[Lane; 9], weights: &[f64; 3]) -> [Lane; 3] {
-    let mut sum = [[0.0; LANES]; 3];
-    let Some(first) = weights.iter().position(|&w| w != 0.0) else { return sum };
+fn combine<T: Real>(r: &[Lane<T>; 9], weights: &[T; 3]) -> [Lane<T>; 3] {
+    let mut sum = [[T::ZERO; LANES]; 3];
+    let Some(first) = weights.iter().position(|&w| w != T::ZERO) else { return sum };
     let w = weights[first];
     for i in 0..3 {
         let column = &r[3 * first + i];
@@ -206,7 +367,7 @@ fn combine(r: &[Lane; 9], weights: &[f64; 3]) -> [Lane; 3] {
     }
     for k in first + 1..3 {
         let w = weights[k];
-        if w == 0.0 {
+        if w == T::ZERO {
             continue;
         }
         for i in 0..3 {
@@ -223,45 +384,26 @@ fn combine(r: &[Lane; 9], weights: &[f64; 3]) -> [Lane; 3] {
 /// trusted and the lanes go through the standard library.
 const REDUCTION_LIMIT: f64 = 1.0e5;
 
-/// Sine and cosine of every lane, within a few units in the last place of
-/// the standard library's: argument reduction by π/2 in three parts
-/// (fdlibm's constants) and fdlibm's kernel polynomials on [−π/4, π/4].
+/// Sine and cosine of every lane (angles in f64, rad), within a few units
+/// in the last place of `T`: argument reduction by π/2 in three parts
+/// (fdlibm's constants) in f64, then `T`'s kernel polynomials on
+/// [−π/4, π/4]. For f64, within a few units in the last place of the
+/// standard library's.
 #[inline(always)]
-pub(crate) fn sin_cos(x: &Lane) -> (Lane, Lane) {
+pub(crate) fn sin_cos<T: Real>(x: &Lane) -> (Lane<T>, Lane<T>) {
     // 1.5 · 2^52: adding it rounds to an integer kept in the low mantissa bits.
     const SHIFT: f64 = 6_755_399_441_055_744.0;
-    // fdlibm's constants, by their bits: π/2 in three 33-bit parts and
-    // the kernel polynomials of sin and cos.
+    // fdlibm's π/2 in three 33-bit parts, by their bits.
     const PIO2_1: f64 = f64::from_bits(0x3FF9_21FB_5440_0000);
     const PIO2_2: f64 = f64::from_bits(0x3DD0_B461_1A60_0000);
     const PIO2_3: f64 = f64::from_bits(0x3BA3_198A_2E00_0000);
-    const S: [f64; 6] = [
-        f64::from_bits(0xBFC5_5555_5555_5549),
-        f64::from_bits(0x3F81_1111_1110_F8A6),
-        f64::from_bits(0xBF2A_01A0_19C1_61D5),
-        f64::from_bits(0x3EC7_1DE3_57B1_FE7D),
-        f64::from_bits(0xBE5A_E5E6_8A2B_9CEB),
-        f64::from_bits(0x3DE5_D93A_5ACF_D57C),
-    ];
-    const C: [f64; 6] = [
-        f64::from_bits(0x3FA5_5555_5555_554C),
-        f64::from_bits(0xBF56_C16C_16C1_5177),
-        f64::from_bits(0x3EFA_01A0_19CB_1590),
-        f64::from_bits(0xBE92_7E4F_809C_52AD),
-        f64::from_bits(0x3E21_EE9E_BDB4_B1C4),
-        f64::from_bits(0xBDA8_FAE9_BE88_38D4),
-    ];
-    let (mut sin, mut cos) = ([0.0; LANES], [0.0; LANES]);
+    let (mut sin, mut cos) = ([T::ZERO; LANES], [T::ZERO; LANES]);
     for l in 0..LANES {
         let shifted = x[l] * std::f64::consts::FRAC_2_PI + SHIFT;
         let n = shifted - SHIFT;
         let quadrant = shifted.to_bits() & 3;
         let r = ((x[l] - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
-        let z = r * r;
-        let ps = S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * S[5]))));
-        let pc = C[0] + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * C[5]))));
-        let s = r + r * z * ps;
-        let c = (1.0 - 0.5 * z) + z * z * pc;
+        let (s, c) = T::sin_cos_kernel(r);
         let (s, c) = if quadrant & 1 == 0 { (s, c) } else { (c, -s) };
         sin[l] = if quadrant & 2 == 0 { s } else { -s };
         cos[l] = if quadrant & 2 == 0 { c } else { -c };
@@ -269,7 +411,8 @@ pub(crate) fn sin_cos(x: &Lane) -> (Lane, Lane) {
     if x.iter().any(|v| v.abs() > REDUCTION_LIMIT) {
         for l in 0..LANES {
             if x[l].abs() > REDUCTION_LIMIT {
-                (sin[l], cos[l]) = x[l].sin_cos();
+                let (s, c) = x[l].sin_cos();
+                (sin[l], cos[l]) = (T::of(s), T::of(c));
             }
         }
     }
@@ -279,32 +422,32 @@ pub(crate) fn sin_cos(x: &Lane) -> (Lane, Lane) {
 /// The larger of `a` and `b`: one instruction, unlike `f64::max`, whose
 /// NaN handling costs several (inputs here are finite).
 #[inline(always)]
-pub(crate) fn max(a: f64, b: f64) -> f64 {
+pub(crate) fn max<T: Real>(a: T, b: T) -> T {
     if a > b { a } else { b }
 }
 
 /// The smaller of `a` and `b` (see [`max`]).
 #[inline(always)]
-pub(crate) fn min(a: f64, b: f64) -> f64 {
+pub(crate) fn min<T: Real>(a: T, b: T) -> T {
     if a < b { a } else { b }
 }
 
 /// The largest lane, by halving (shuffles, not a scalar loop).
 #[inline(always)]
-pub(crate) fn lane_max(x: &Lane) -> f64 {
+pub(crate) fn lane_max<T: Real>(x: &Lane<T>) -> T {
     lane_reduce(x, max)
 }
 
 /// The smallest lane (see [`lane_max`]).
 #[inline(always)]
-pub(crate) fn lane_min(x: &Lane) -> f64 {
+pub(crate) fn lane_min<T: Real>(x: &Lane<T>) -> T {
     lane_reduce(x, min)
 }
 
 /// `pick` over the lanes by halving: the two halves combined lane by lane
 /// until one is left.
 #[inline(always)]
-fn lane_reduce(x: &Lane, pick: impl Fn(f64, f64) -> f64) -> f64 {
+fn lane_reduce<T: Real>(x: &Lane<T>, pick: impl Fn(T, T) -> T) -> T {
     let (mut v, mut n) = (*x, LANES);
     while n > 1 {
         n /= 2;
@@ -317,8 +460,8 @@ fn lane_reduce(x: &Lane, pick: impl Fn(f64, f64) -> f64) -> f64 {
 
 /// Squared distance from each lane's point to a fixed point (m²).
 #[inline(always)]
-pub(crate) fn point_distance_squared(p: &[Lane; 3], c: &[f64; 3]) -> Lane {
-    let mut out = [0.0; LANES];
+pub(crate) fn point_distance_squared<T: Real>(p: &[Lane<T>; 3], c: &[T; 3]) -> Lane<T> {
+    let mut out = [T::ZERO; LANES];
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - c[0], p[1][l] - c[1], p[2][l] - c[2]);
         out[l] = x * x + y * y + z * z;
@@ -328,8 +471,8 @@ pub(crate) fn point_distance_squared(p: &[Lane; 3], c: &[f64; 3]) -> Lane {
 
 /// Squared distance between two lanes of points (m²).
 #[inline(always)]
-pub(crate) fn lane_distance_squared(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
-    let mut out = [0.0; LANES];
+pub(crate) fn lane_distance_squared<T: Real>(p: &[Lane<T>; 3], q: &[Lane<T>; 3]) -> Lane<T> {
+    let mut out = [T::ZERO; LANES];
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - q[0][l], p[1][l] - q[1][l], p[2][l] - q[2][l]);
         out[l] = x * x + y * y + z * z;
@@ -340,7 +483,7 @@ pub(crate) fn lane_distance_squared(p: &[Lane; 3], q: &[Lane; 3]) -> Lane {
 /// Squared distance from each lane's point to the segment from `a` to
 /// `a + ab`, with `len2 = |ab|²` (m²).
 #[inline(always)]
-pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> Lane {
+pub(crate) fn segment_distance_squared<T: Real>(p: &[Lane<T>; 3], a: &[T; 3], ab: &[T; 3], len2: T) -> Lane<T> {
     let e = segment_offset(p, a, ab, len2);
     build(|l| e[0][l] * e[0][l] + e[1][l] * e[1][l] + e[2][l] * e[2][l])
 }
@@ -348,12 +491,12 @@ pub(crate) fn segment_distance_squared(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3
 /// Per lane, `p − q` with `q` the point of the segment from `a` to
 /// `a + ab` nearest `p`, `len2 = |ab|²`.
 #[inline(always)]
-fn segment_offset(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> [Lane; 3] {
-    let mut out = [[0.0; LANES]; 3];
-    let inv = if len2 > 0.0 { 1.0 / len2 } else { 0.0 };
+fn segment_offset<T: Real>(p: &[Lane<T>; 3], a: &[T; 3], ab: &[T; 3], len2: T) -> [Lane<T>; 3] {
+    let mut out = [[T::ZERO; LANES]; 3];
+    let inv = if len2 > T::ZERO { T::ONE / len2 } else { T::ZERO };
     for l in 0..LANES {
         let (x, y, z) = (p[0][l] - a[0], p[1][l] - a[1], p[2][l] - a[2]);
-        let t = max(min((x * ab[0] + y * ab[1] + z * ab[2]) * inv, 1.0), 0.0);
+        let t = max(min((x * ab[0] + y * ab[1] + z * ab[2]) * inv, T::ONE), T::ZERO);
         (out[0][l], out[1][l], out[2][l]) = (x - ab[0] * t, y - ab[1] * t, z - ab[2] * t);
     }
     out
@@ -362,9 +505,9 @@ fn segment_offset(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64) -> [Lan
 /// A fixed pose (rotation column-major); `upright` when it turns about z
 /// only (MotionBenchMaker's boxes), whose zero entries [`to_local`] skips.
 #[derive(Debug, Clone)]
-pub(crate) struct Frame {
-    pub(crate) rotation: [f64; 9],
-    pub(crate) translation: [f64; 3],
+pub(crate) struct Frame<T = f64> {
+    pub(crate) rotation: [T; 9],
+    pub(crate) translation: [T; 3],
     upright: bool,
 }
 
@@ -373,15 +516,20 @@ impl Frame {
         let upright = [rotation[2], rotation[5], rotation[6], rotation[7]] == [0.0; 4];
         Frame { rotation, translation, upright }
     }
+
+    /// The same frame in single precision (zero entries stay zero).
+    pub(crate) fn single(&self) -> Frame<f32> {
+        Frame { rotation: single(&self.rotation), translation: single(&self.translation), upright: self.upright }
+    }
 }
 
 /// Each lane's point in `frame`, i.e. `Rᵀ (p − t)`. Upright frames skip
 /// the products with zero, which change at most the sign of a zero
 /// coordinate (the distances below take absolute values).
 #[inline(always)]
-pub(crate) fn to_local(p: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
+pub(crate) fn to_local<T: Real>(p: &[Lane<T>; 3], frame: &Frame<T>) -> [Lane<T>; 3] {
     let (rotation, translation) = (&frame.rotation, &frame.translation);
-    let mut out = [[0.0; LANES]; 3];
+    let mut out = [[T::ZERO; LANES]; 3];
     if frame.upright {
         for l in 0..LANES {
             let (x, y) = (p[0][l] - translation[0], p[1][l] - translation[1]);
@@ -402,15 +550,16 @@ pub(crate) fn to_local(p: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
 
 /// Squared distance from each lane's point (box frame) to a box of half
 /// extents `h` (m²), or −1 for points inside it (and for those outside
-/// by less than 1e-154 m, whose square is 0: any pair limit fails them).
+/// by less than the square root of the smallest positive value, whose
+/// square is 0: any pair limit fails them).
 #[inline(always)]
-pub(crate) fn box_distance_squared_local(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
-    let mut out = [0.0; LANES];
+pub(crate) fn box_distance_squared_local<T: Real>(p: &[Lane<T>; 3], h: &[T; 3]) -> Lane<T> {
+    let mut out = [T::ZERO; LANES];
     for l in 0..LANES {
         let e = [p[0][l].abs() - h[0], p[1][l].abs() - h[1], p[2][l].abs() - h[2]];
-        let (x, y, z) = (max(e[0], 0.0), max(e[1], 0.0), max(e[2], 0.0));
+        let (x, y, z) = (max(e[0], T::ZERO), max(e[1], T::ZERO), max(e[2], T::ZERO));
         let d2 = x * x + y * y + z * z;
-        out[l] = if d2 > 0.0 { d2 } else { -1.0 };
+        out[l] = if d2 > T::ZERO { d2 } else { -T::ONE };
     }
     out
 }
@@ -418,18 +567,18 @@ pub(crate) fn box_distance_squared_local(p: &[Lane; 3], h: &[f64; 3]) -> Lane {
 /// Squared distance from each lane's point (cylinder frame) to a cylinder
 /// along z of `radius` and `half_length` (m²), or −1 for points inside it.
 #[inline(always)]
-pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length: f64) -> Lane {
-    let mut out = [0.0; LANES];
+pub(crate) fn cylinder_distance_squared<T: Real>(p: &[Lane<T>; 3], radius: T, half_length: T) -> Lane<T> {
+    let mut out = [T::ZERO; LANES];
     for l in 0..LANES {
         let rho = (p[0][l] * p[0][l] + p[1][l] * p[1][l]).sqrt();
         let (dr, dz) = (rho - radius, p[2][l].abs() - half_length);
         let side = max(dr, dz);
-        out[l] = if dr > 0.0 && dz > 0.0 {
+        out[l] = if dr > T::ZERO && dz > T::ZERO {
             dr * dr + dz * dz
-        } else if side > 0.0 {
+        } else if side > T::ZERO {
             side * side
         } else {
-            -1.0
+            -T::ONE
         };
     }
     out
@@ -437,34 +586,40 @@ pub(crate) fn cylinder_distance_squared(p: &[Lane; 3], radius: f64, half_length:
 
 /// `(a − b) · v` for lanes of points `a`, `b` and vectors `v`.
 #[inline(always)]
-pub(crate) fn offset_dot(a: &[Lane; 3], b: &[Lane; 3], v: &[Lane; 3]) -> Lane {
+pub(crate) fn offset_dot<T: Real>(a: &[Lane<T>; 3], b: &[Lane<T>; 3], v: &[Lane<T>; 3]) -> Lane<T> {
     build(|l| (a[0][l] - b[0][l]) * v[0][l] + (a[1][l] - b[1][l]) * v[1][l] + (a[2][l] - b[2][l]) * v[2][l])
 }
 
 /// Per lane, the absolute rate of change of a distance `distance` (m)
 /// whose offset `e` has `e · v = along`: `|along| / distance`.
 #[inline(always)]
-pub(crate) fn distance_rate(along: &Lane, distance: &Lane) -> Lane {
+pub(crate) fn distance_rate<T: Real>(along: &Lane<T>, distance: &Lane<T>) -> Lane<T> {
     build(|l| (along[l] / distance[l]).abs())
 }
 
 /// `(p − c) · v` per lane (see `StaticShape::core_approach`).
 #[inline(always)]
-pub(crate) fn point_approach(p: &[Lane; 3], c: &[f64; 3], v: &[Lane; 3]) -> Lane {
+pub(crate) fn point_approach<T: Real>(p: &[Lane<T>; 3], c: &[T; 3], v: &[Lane<T>; 3]) -> Lane<T> {
     offset_dot(p, &c.map(|x| [x; LANES]), v)
 }
 
 /// `(p − q) · v` per lane, with `q` the point of the segment from `a` to
 /// `a + ab` nearest `p` (as in [`segment_distance_squared`]).
 #[inline(always)]
-pub(crate) fn segment_approach(p: &[Lane; 3], a: &[f64; 3], ab: &[f64; 3], len2: f64, v: &[Lane; 3]) -> Lane {
+pub(crate) fn segment_approach<T: Real>(
+    p: &[Lane<T>; 3],
+    a: &[T; 3],
+    ab: &[T; 3],
+    len2: T,
+    v: &[Lane<T>; 3],
+) -> Lane<T> {
     let e = segment_offset(p, a, ab, len2);
     build(|l| e[0][l] * v[0][l] + e[1][l] * v[1][l] + e[2][l] * v[2][l])
 }
 
 /// Each lane's vector in `frame`'s coordinates, `Rᵀ v`.
 #[inline(always)]
-pub(crate) fn rotate_to_local(v: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
+pub(crate) fn rotate_to_local<T: Real>(v: &[Lane<T>; 3], frame: &Frame<T>) -> [Lane<T>; 3] {
     let r = &frame.rotation;
     build(|i| build(|l| r[3 * i] * v[0][l] + r[3 * i + 1] * v[1][l] + r[3 * i + 2] * v[2][l]))
 }
@@ -472,11 +627,11 @@ pub(crate) fn rotate_to_local(v: &[Lane; 3], frame: &Frame) -> [Lane; 3] {
 /// `e · v` per lane (box frame), `e` the offset from the box's point
 /// nearest `p` to `p` (as in [`box_distance_squared_local`]).
 #[inline(always)]
-pub(crate) fn box_approach_local(p: &[Lane; 3], h: &[f64; 3], v: &[Lane; 3]) -> Lane {
-    let mut out = [0.0; LANES];
+pub(crate) fn box_approach_local<T: Real>(p: &[Lane<T>; 3], h: &[T; 3], v: &[Lane<T>; 3]) -> Lane<T> {
+    let mut out = [T::ZERO; LANES];
     for l in 0..LANES {
         for i in 0..3 {
-            let e = max(p[i][l].abs() - h[i], 0.0);
+            let e = max(p[i][l].abs() - h[i], T::ZERO);
             out[l] += e.copysign(p[i][l]) * v[i][l];
         }
     }
@@ -486,13 +641,18 @@ pub(crate) fn box_approach_local(p: &[Lane; 3], h: &[f64; 3], v: &[Lane; 3]) -> 
 /// `e · v` per lane (cylinder frame), `e` the offset from the cylinder's
 /// point nearest `p` to `p` (as in [`cylinder_distance_squared`]).
 #[inline(always)]
-pub(crate) fn cylinder_approach_local(p: &[Lane; 3], radius: f64, half_length: f64, v: &[Lane; 3]) -> Lane {
-    let mut out = [0.0; LANES];
+pub(crate) fn cylinder_approach_local<T: Real>(
+    p: &[Lane<T>; 3],
+    radius: T,
+    half_length: T,
+    v: &[Lane<T>; 3],
+) -> Lane<T> {
+    let mut out = [T::ZERO; LANES];
     for l in 0..LANES {
         let rho = (p[0][l] * p[0][l] + p[1][l] * p[1][l]).sqrt();
-        let (radial, axial) = (max(rho - radius, 0.0), max(p[2][l].abs() - half_length, 0.0));
+        let (radial, axial) = (max(rho - radius, T::ZERO), max(p[2][l].abs() - half_length, T::ZERO));
         // A point off the axis by `radial` moves away at the radial speed.
-        let outward = if rho > 0.0 { (p[0][l] * v[0][l] + p[1][l] * v[1][l]) / rho } else { 0.0 };
+        let outward = if rho > T::ZERO { (p[0][l] * v[0][l] + p[1][l] * v[1][l]) / rho } else { T::ZERO };
         out[l] = radial * outward + axial.copysign(p[2][l]) * v[2][l];
     }
     out
@@ -500,7 +660,7 @@ pub(crate) fn cylinder_approach_local(p: &[Lane; 3], radius: f64, half_length: f
 
 /// Cross products `a × b` per lane.
 #[inline(always)]
-pub(crate) fn cross(a: &[Lane; 3], b: &[Lane; 3]) -> [Lane; 3] {
+pub(crate) fn cross<T: Real>(a: &[Lane<T>; 3], b: &[Lane<T>; 3]) -> [Lane<T>; 3] {
     build(|i| {
         let (j, k) = ((i + 1) % 3, (i + 2) % 3);
         build(|l| a[j][l] * b[k][l] - a[k][l] * b[j][l])
@@ -530,7 +690,7 @@ mod tests {
     fn permuted_placements_compose_as_the_full_product() {
         let mut parent = LanePose::IDENTITY;
         let angle: Lane = std::array::from_fn(|l| 0.3 + 0.71 * l as f64);
-        let (s, c) = sin_cos(&angle);
+        let (s, c) = sin_cos::<f64>(&angle);
         let identity = FrameRotation::General([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
         parent.set_revolute(&LanePose::IDENTITY, (&identity, &[0.1, 0.2, 0.3]), &[0.6, 0.0, 0.8], (&s, &c));
         // rpy = (π/2, 0, π/2), column-major: columns y, z, x; and its negative.
@@ -546,19 +706,35 @@ mod tests {
     }
 
     #[test]
-    fn sin_cos_matches_the_standard_library() {
-        let mut worst = 0.0f64;
+    fn sin_cos_matches_the_standard_library_in_both_precisions() {
+        let (mut worst, mut worst32) = (0.0f64, 0.0f64);
         for k in -20000..20000 {
             let base = k as f64 * 7.3e-4;
             let x: Lane = std::array::from_fn(|l| base * (1.0 + l as f64) + [0.0, 1e-300, -0.0, 1e5][l % 4]);
-            let (s, c) = sin_cos(&x);
+            let (s, c) = sin_cos::<f64>(&x);
+            let (s32, c32) = sin_cos::<f32>(&x);
             for l in 0..LANES {
                 let (es, ec) = x[l].sin_cos();
+                worst32 = worst32.max((s32[l] as f64 - es).abs()).max((c32[l] as f64 - ec).abs());
                 worst = worst.max((s[l] - es).abs()).max((c[l] - ec).abs());
             }
         }
         assert!(worst < 4.0 * f64::EPSILON, "{worst:e}");
-        let (s, c) = sin_cos(&[1e6, -3e7, 1e300, 0.5, 1.0, 2.0, 3.0, 4.0]);
+        // Single precision: the kernel's error, the argument reduced in f64.
+        assert!(worst32 < 2.0 * f32::EPSILON as f64, "{worst32:e}");
+        // Reduced in f32: the angle's rounding to f32 adds up to u·|x|.
+        let mut worst_small = 0.0f64;
+        for k in -20000..=20000 {
+            let x: Lane = std::array::from_fn(|l| (k as f64 * 4e-4 + l as f64 * 1e-5).clamp(-8.0, 8.0));
+            let (s, c) = f32::lane_sin_cos(&x);
+            for l in 0..LANES {
+                let (es, ec) = x[l].sin_cos();
+                let allowed = f32::EPSILON as f64 * (2.0 + 0.5 * x[l].abs());
+                worst_small = worst_small.max(((s[l] as f64 - es).abs()).max((c[l] as f64 - ec).abs()) / allowed);
+            }
+        }
+        assert!(worst_small <= 1.0, "{worst_small}");
+        let (s, c) = sin_cos::<f64>(&[1e6, -3e7, 1e300, 0.5, 1.0, 2.0, 3.0, 4.0]);
         assert_eq!((s[0], c[1]), (1e6f64.sin(), (-3e7f64).cos()));
         assert!(s[2].is_finite() && c[2].is_finite());
     }

@@ -18,11 +18,18 @@
 //! called free or colliding only when its margin clears ±[`TOLERANCE`],
 //! a million times that, and a configuration with any pair inside the band
 //! is handed to the exact model's own check.
+//!
+//! Plain checks run first in single precision (`single.rs`): eight f32
+//! lanes per AVX2 register instead of four f64 ones. A batch with any pair
+//! within that check's rounding band (about 0.1 mm) of its threshold goes
+//! to the f64 check, so the answers stay the f64 check's, bit for bit.
+//! Certification runs in f64.
 
 mod check;
 mod lanes;
 mod motion;
 mod quarter_turns;
+mod single;
 mod sweep;
 #[cfg(test)]
 mod tests;
@@ -47,14 +54,14 @@ pub(crate) const TOLERANCE: f64 = 1e-9;
 
 /// One moving body of the kinematic chain, as constants.
 #[derive(Debug, Clone)]
-struct LaneBody {
+struct LaneBody<T = f64> {
     parent: usize,
     /// Joint frame in the parent body frame at zero joint value.
-    rotation: FrameRotation,
-    translation: [f64; 3],
+    rotation: FrameRotation<T>,
+    translation: [T; 3],
     motion: Motion,
     /// The joint's unit axis in its frame.
-    axis: [f64; 3],
+    axis: [T; 3],
     column: usize,
     multiplier: f64,
     offset: f64,
@@ -62,13 +69,13 @@ struct LaneBody {
 
 /// The spheres of one moving group (a link or an attached object).
 #[derive(Debug, Clone)]
-struct SphereGroup {
+struct SphereGroup<T = f64> {
     body: usize,
     /// Into [`SphereModel::clusters`]: the group's spheres in small balls.
     clusters: Range<usize>,
     /// Bounding ball in the body frame; the radius includes the padding (m).
-    center: [f64; 3],
-    radius: f64,
+    center: [T; 3],
+    radius: T,
     /// Into [`SphereModel::env`]: the static shapes checked against this
     /// group, [`LANES`](lanes::LANES) at a time.
     env: Range<usize>,
@@ -77,10 +84,10 @@ struct SphereGroup {
 /// A few neighbouring spheres of a group, and a ball around them in the
 /// body frame (the radius includes their reach, m).
 #[derive(Debug, Clone)]
-struct Cluster {
+struct Cluster<T = f64> {
     spheres: Range<usize>,
-    center: [f64; 3],
-    radius: f64,
+    center: [T; 3],
+    radius: T,
     /// Into [`SphereModel::sweep_terms`]: the joints moving the cluster,
     /// root first.
     terms: Range<usize>,
@@ -127,9 +134,9 @@ fn ball(spheres: &[BodySphere]) -> ([f64; 3], f64) {
 /// A sphere on a body: centre in the body frame and the distance its
 /// centre must keep from other shapes, radius plus padding (m).
 #[derive(Debug, Clone)]
-struct BodySphere {
-    center: [f64; 3],
-    reach: f64,
+struct BodySphere<T = f64> {
+    center: [T; 3],
+    reach: T,
 }
 
 /// One joint's share of how fast the sphere centres of a cluster can
@@ -138,41 +145,41 @@ struct BodySphere {
 /// to them for every q (m); a prismatic joint moves them exactly as fast
 /// as it slides (`slides`, lever 1).
 #[derive(Debug, Clone, Copy)]
-struct SweepTerm {
+struct SweepTerm<T = f64> {
     body: usize,
-    lever: f64,
+    lever: T,
     slides: bool,
 }
 
 /// A static shape in world coordinates (m), with its world bounding box.
 #[derive(Debug, Clone)]
-struct StaticShape {
-    kind: StaticKind,
-    lo: [f64; 3],
-    hi: [f64; 3],
+struct StaticShape<T = f64> {
+    kind: StaticKind<T>,
+    lo: [T; 3],
+    hi: [T; 3],
 }
 
 #[derive(Debug, Clone)]
-enum StaticKind {
+enum StaticKind<T = f64> {
     Sphere {
-        center: [f64; 3],
-        radius: f64,
+        center: [T; 3],
+        radius: T,
     },
     /// Segment from `a` to `a + ab`, `len2 = |ab|²`, swept by `radius`.
     Capsule {
-        a: [f64; 3],
-        ab: [f64; 3],
-        len2: f64,
-        radius: f64,
+        a: [T; 3],
+        ab: [T; 3],
+        len2: T,
+        radius: T,
     },
     Box {
-        frame: lanes::Frame,
-        half: [f64; 3],
+        frame: lanes::Frame<T>,
+        half: [T; 3],
     },
     Cylinder {
-        frame: lanes::Frame,
-        radius: f64,
-        half_length: f64,
+        frame: lanes::Frame<T>,
+        radius: T,
+        half_length: T,
     },
 }
 
@@ -180,11 +187,10 @@ enum StaticKind {
 /// against, with their world boxes side by side (empty slots: inverted
 /// boxes, which nothing meets).
 #[derive(Debug, Clone)]
-struct EnvChunk {
-    lo: [lanes::Lane; 3],
-    hi: [lanes::Lane; 3],
+struct EnvChunk<T = f64> {
+    lo: [lanes::Lane<T>; 3],
+    hi: [lanes::Lane<T>; 3],
     shapes: [u32; lanes::LANES],
-    count: usize,
 }
 
 impl EnvChunk {
@@ -193,7 +199,6 @@ impl EnvChunk {
             lo: [[f64::INFINITY; lanes::LANES]; 3],
             hi: [[f64::NEG_INFINITY; lanes::LANES]; 3],
             shapes: [0; lanes::LANES],
-            count: shapes.len(),
         };
         for (k, &o) in shapes.iter().enumerate() {
             for i in 0..3 {
@@ -292,19 +297,19 @@ impl SimdLevel {
 /// The spheres of a [`CollisionModel`] as flat arrays for lane-parallel
 /// boolean checks; see the [module documentation](self).
 #[derive(Debug, Clone)]
-pub(crate) struct SphereModel {
-    bodies: Vec<LaneBody>,
-    spheres: Vec<BodySphere>,
-    groups: Vec<SphereGroup>,
-    clusters: Vec<Cluster>,
+pub(crate) struct SphereModel<T = f64> {
+    bodies: Vec<LaneBody<T>>,
+    spheres: Vec<BodySphere<T>>,
+    groups: Vec<SphereGroup<T>>,
+    clusters: Vec<Cluster<T>>,
     /// The group of each cluster.
     cluster_group: Vec<u32>,
-    statics: Vec<StaticShape>,
-    env: Vec<EnvChunk>,
-    sweep_terms: Vec<SweepTerm>,
+    statics: Vec<StaticShape<T>>,
+    env: Vec<EnvChunk<T>>,
+    sweep_terms: Vec<SweepTerm<T>>,
     /// The sweep terms' levers by body then cluster (zero where the body's
     /// joint does not move the cluster).
-    levers: Vec<f64>,
+    levers: Vec<T>,
     /// Pairs of moving groups (indices into `groups`).
     self_pairs: Vec<[u32; 2]>,
     /// Per self pair: the joints moving both sides (the first ones of each
@@ -315,6 +320,13 @@ pub(crate) struct SphereModel {
     /// Joint frames replaced by exact quarter turns, and the error bound.
     snapped: SnappedQuarterTurns,
     pub(crate) isa: SimdLevel,
+    /// Width (m) of the band around each pair's threshold inside which a
+    /// check defers: [`TOLERANCE`] in f64; in f32, the bound of its
+    /// rounding (see `single.rs`).
+    tolerance: T,
+    /// The single-precision plain check, when its error bound is small
+    /// enough to be worth it (f64 models only).
+    single: Option<Box<single::SinglePrecision>>,
 }
 
 fn column_major(pose: &IsometryMatrix3<f64>) -> [f64; 9] {
@@ -474,6 +486,12 @@ impl SphereModel {
             fixed_collision,
             snapped,
             isa: SimdLevel::best_up_to(SimdLevel::from_environment()),
+            tolerance: TOLERANCE,
+            single: None,
+        })
+        .map(|mut fast| {
+            fast.single = single::SinglePrecision::new(&fast, robot).map(Box::new);
+            fast
         })
     }
 

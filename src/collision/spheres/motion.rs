@@ -119,7 +119,7 @@ impl SphereModel {
     ) -> Verdict {
         let t: Lane = build(|l| ks[l] as f64 / steps as f64);
         self.set_along(ws, q0, q1, &t);
-        self.check::<false>(ws)
+        self.check_plain(ws)
     }
 
     /// Certifies the motion from `q0` to `q1` for margins `half` and `full`
@@ -189,7 +189,7 @@ impl SphereModel {
     fn probe_collides(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) -> bool {
         let t: Lane = build(|l| (l as f64 + 0.5) / LANES as f64);
         self.set_along(ws, q0, q1, &t);
-        self.check::<false>(ws) == Verdict::Collides
+        self.check_plain(ws) == Verdict::Collides
     }
 
     /// Sweep bounds for the motion from `q0` to `q1`, the margins (m), and

@@ -21,29 +21,29 @@
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane, build, cross, distance_rate, max, min, offset_dot};
+use super::lanes::{LANES, Lane, Real, build, cross, distance_rate, max, min, offset_dot};
 use crate::robot::Motion;
 
-impl SphereModel {
+impl<T: Real> SphereModel<T> {
     /// Loose sweep bounds of every cluster and their maxima per group for
     /// the motion from `q0` to `q1`: a pass over the moving joints, all
     /// clusters at once (root first, as the prefix sums add them; clusters
     /// a joint does not move add a zero, which changes no bit). Prefix sums
     /// and self pairs' bounds wait until a check needs them.
-    pub(super) fn start_sweeps(&self, ws: &mut SphereWorkspace, q0: &[f64], q1: &[f64]) {
+    pub(super) fn start_sweeps(&self, ws: &mut SphereWorkspace<T>, q0: &[f64], q1: &[f64]) {
         for ((body, rate), signed) in self.bodies.iter().zip(&mut ws.rates).zip(&mut ws.signed_rates) {
-            *signed = (q1[body.column] - q0[body.column]) * body.multiplier;
-            *rate = (q1[body.column] - q0[body.column]).abs() * body.multiplier.abs();
+            *signed = T::of((q1[body.column] - q0[body.column]) * body.multiplier);
+            *rate = T::of((q1[body.column] - q0[body.column]).abs() * body.multiplier.abs());
         }
-        ws.cluster_sweep.fill(0.0);
+        ws.cluster_sweep.fill(T::ZERO);
         let columns = self.levers.chunks_exact(self.clusters.len().max(1));
-        for (&rate, levers) in ws.rates.iter().zip(columns).filter(|(rate, _)| **rate != 0.0) {
+        for (&rate, levers) in ws.rates.iter().zip(columns).filter(|(rate, _)| **rate != T::ZERO) {
             for (sweep, &lever) in ws.cluster_sweep.iter_mut().zip(levers) {
                 *sweep += rate * lever;
             }
         }
         for (g, group) in self.groups.iter().enumerate() {
-            ws.group_sweep[g] = ws.cluster_sweep[group.clusters.clone()].iter().fold(0.0, |a, &b| a.max(b));
+            ws.group_sweep[g] = ws.cluster_sweep[group.clusters.clone()].iter().fold(T::ZERO, |a, &b| max(a, b));
         }
         ws.prefix_done.fill(false);
         ws.pair_done.fill(false);
@@ -52,13 +52,13 @@ impl SphereModel {
 
     /// Prefix sums of cluster `c`'s loose sweep terms, once per motion.
     #[inline(always)]
-    fn ensure_prefix(&self, ws: &mut SphereWorkspace, c: usize) {
+    fn ensure_prefix(&self, ws: &mut SphereWorkspace<T>, c: usize) {
         if ws.prefix_done[c] {
             return;
         }
         let cluster = &self.clusters[c];
         let prefix = &mut ws.prefix[cluster.slot..=cluster.slot + cluster.terms.len()];
-        prefix[0] = 0.0;
+        prefix[0] = T::ZERO;
         for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
             prefix[k + 1] = prefix[k] + ws.rates[term.body] * term.lever;
         }
@@ -67,7 +67,7 @@ impl SphereModel {
 
     /// Loose sweep bound of cluster `c` without its first `depth` joints.
     #[inline(always)]
-    pub(super) fn loose_sweep(&self, ws: &mut SphereWorkspace, c: usize, depth: usize) -> f64 {
+    pub(super) fn loose_sweep(&self, ws: &mut SphereWorkspace<T>, c: usize, depth: usize) -> T {
         if depth == 0 {
             return ws.cluster_sweep[c];
         }
@@ -79,11 +79,11 @@ impl SphereModel {
     /// Per side of self pair `p`, the largest loose sweep bound of its
     /// clusters without the joints moving both sides, once per motion.
     #[inline(always)]
-    pub(super) fn pair_sweep(&self, ws: &mut SphereWorkspace, p: usize) -> [f64; 2] {
+    pub(super) fn pair_sweep(&self, ws: &mut SphereWorkspace<T>, p: usize) -> [T; 2] {
         if !ws.pair_done[p] {
             let depth = self.common_depth[p];
             for (side, g) in self.self_pairs[p].into_iter().enumerate() {
-                let mut largest = 0.0;
+                let mut largest = T::ZERO;
                 for c in self.groups[g as usize].clusters.clone() {
                     largest = max(largest, self.loose_sweep(ws, c, depth));
                 }
@@ -98,13 +98,13 @@ impl SphereModel {
     /// cluster `c` without its first `depth` joints, over the lanes'
     /// intervals (tight sums computed once per batch).
     #[inline(always)]
-    pub(super) fn tight_sweep(&self, ws: &mut SphereWorkspace, c: usize, depth: usize) -> Lane {
+    pub(super) fn tight_sweep(&self, ws: &mut SphereWorkspace<T>, c: usize, depth: usize) -> Lane<T> {
         let cluster = &self.clusters[c];
         let (slot, n) = (cluster.slot, cluster.terms.len());
         if !ws.tight_done[c] {
             self.ensure_prefix(ws, c);
             let (center, total) = (ws.cluster_centers[c], ws.prefix[slot + n]);
-            ws.tight[slot] = [0.0; LANES];
+            ws.tight[slot] = [T::ZERO; LANES];
             for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
                 let (origin, rate) = (ws.poses[term.body].t, ws.rates[term.body]);
                 let mut next = ws.tight[slot + k];
@@ -138,27 +138,27 @@ impl SphereModel {
 /// Second-order bounds (see `narrow` in `check.rs`): the velocities of
 /// the placed configurations along the motion, and bounds of the sphere
 /// centres' accelerations.
-impl SphereModel {
+impl<T: Real> SphereModel<T> {
     /// Per body and lane, the world angular velocity of its frame and the
     /// linear velocity of its origin along the motion (per unit of motion),
     /// once per batch: a revolute joint adds its rate about its world axis
     /// to the angular velocity; the origin moves with the parent's twist,
     /// and a prismatic joint adds its rate along its world axis.
-    fn ensure_tangent(&self, ws: &mut SphereWorkspace) {
+    fn ensure_tangent(&self, ws: &mut SphereWorkspace<T>) {
         if ws.tangent_done {
             return;
         }
         self.pose_up_to(ws, self.bodies.len() - 1);
-        ws.angular[0] = [[0.0; LANES]; 3];
-        ws.linear[0] = [[0.0; LANES]; 3];
+        ws.angular[0] = [[T::ZERO; LANES]; 3];
+        ws.linear[0] = [[T::ZERO; LANES]; 3];
         for (b, body) in self.bodies.iter().enumerate().skip(1) {
             let (pose, parent) = (&ws.poses[b], &ws.poses[body.parent]);
             let (spin, mut linear) = (ws.angular[body.parent], ws.linear[body.parent]);
-            let arm: [Lane; 3] = build(|i| build(|l| pose.t[i][l] - parent.t[i][l]));
+            let arm: [Lane<T>; 3] = build(|i| build(|l| pose.t[i][l] - parent.t[i][l]));
             let carried = cross(&spin, &arm);
             let rate = ws.signed_rates[b];
             let axis = body.axis;
-            let along: [Lane; 3] = build(|i| {
+            let along: [Lane<T>; 3] = build(|i| {
                 build(|l| rate * (pose.r[i][l] * axis[0] + pose.r[3 + i][l] * axis[1] + pose.r[6 + i][l] * axis[2]))
             });
             let mut angular = spin;
@@ -182,10 +182,10 @@ impl SphereModel {
     /// World velocity along the motion (per unit of motion) of placed
     /// sphere `s` on `body`, per lane.
     #[inline(always)]
-    pub(super) fn sphere_velocity(&self, ws: &mut SphereWorkspace, body: usize, s: usize) -> [Lane; 3] {
+    pub(super) fn sphere_velocity(&self, ws: &mut SphereWorkspace<T>, body: usize, s: usize) -> [Lane<T>; 3] {
         self.ensure_tangent(ws);
         let (center, origin) = (&ws.centers[s], &ws.poses[body].t);
-        let arm: [Lane; 3] = build(|i| build(|l| center[i][l] - origin[i][l]));
+        let arm: [Lane<T>; 3] = build(|i| build(|l| center[i][l] - origin[i][l]));
         let mut v = cross(&ws.angular[body], &arm);
         for i in 0..3 {
             for l in 0..LANES {
@@ -201,13 +201,13 @@ impl SphereModel {
     #[inline(always)]
     pub(super) fn separation_rate(
         &self,
-        ws: &mut SphereWorkspace,
+        ws: &mut SphereWorkspace<T>,
         (body_i, i): (usize, usize),
         (body_j, j): (usize, usize),
-        distance: &Lane,
-    ) -> Lane {
+        distance: &Lane<T>,
+    ) -> Lane<T> {
         let (vi, vj) = (self.sphere_velocity(ws, body_i, i), self.sphere_velocity(ws, body_j, j));
-        let relative: [Lane; 3] = build(|k| build(|l| vi[k][l] - vj[k][l]));
+        let relative: [Lane<T>; 3] = build(|k| build(|l| vi[k][l] - vj[k][l]));
         distance_rate(&offset_dot(&ws.centers[i], &ws.centers[j], &relative), distance)
     }
 
@@ -219,7 +219,7 @@ impl SphereModel {
     /// `L` the levers and `Ω_k` the sum of the rates of the revolute joints
     /// before `k` (the angular speed of its frame).
     #[inline(always)]
-    pub(super) fn cluster_accel(&self, ws: &mut SphereWorkspace, c: usize) -> f64 {
+    pub(super) fn cluster_accel(&self, ws: &mut SphereWorkspace<T>, c: usize) -> T {
         if ws.accel_done[c] {
             return ws.accel[c];
         }
@@ -228,11 +228,11 @@ impl SphereModel {
         let cluster = &self.clusters[c];
         let prefix = &ws.prefix[cluster.slot..=cluster.slot + cluster.terms.len()];
         let total = prefix[cluster.terms.len()];
-        let (mut spin, mut accel) = (0.0, 0.0);
+        let (mut spin, mut accel) = (T::ZERO, T::ZERO);
         for (k, term) in self.sweep_terms[cluster.terms.clone()].iter().enumerate() {
             let rate = ws.rates[term.body];
-            let tail = max(total - prefix[k], 0.0);
-            accel += rate * if term.slides { spin } else { 2.0 * spin * term.lever + tail };
+            let tail = max(total - prefix[k], T::ZERO);
+            accel += rate * if term.slides { spin } else { T::of(2.0) * spin * term.lever + tail };
             if !term.slides {
                 spin += rate;
             }

@@ -3,11 +3,14 @@
 //! TIAGo sliding its torso, every sphere's velocity matches finite
 //! differences of its centre, and every pair's distance stays above
 //! `d(m) − |τ| rate − τ² accel / 2` at configurations `m + τ`, measured
-//! by placing the spheres there.
+//! by placing the spheres there. The single-precision plain check
+//! (`single.rs`) stays within its rounding band of the f64 placements and
+//! distances, and gives the f64 check's verdicts, close calls included.
 
 use super::SphereModel;
 use super::check::SphereWorkspace;
-use super::lanes::{LANES, Lane, distance_rate};
+use super::check::Verdict;
+use super::lanes::{LANES, Lane, Real, distance_rate, lane_distance_squared};
 use crate::collision::{CollisionModel, Shape};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::{Obstacle, Scene};
@@ -39,7 +42,7 @@ fn robots() -> Vec<Arc<RobotModel>> {
 }
 
 /// Every sphere centre at `q0 + t (q1 − q0)`, per lane.
-fn place(model: &SphereModel, ws: &mut SphereWorkspace, (q0, q1): (&[f64], &[f64]), t: &Lane) {
+fn place<T: Real>(model: &SphereModel<T>, ws: &mut SphereWorkspace<T>, (q0, q1): (&[f64], &[f64]), t: &Lane) {
     model.set_along(ws, q0, q1, t);
     model.forward_kinematics(ws);
     ws.spheres_placed.fill(false);
@@ -61,22 +64,20 @@ fn owners(model: &SphereModel) -> Vec<(usize, usize)> {
 
 /// Per lane, pair distances (m) of the placed spheres: every sphere
 /// against every static shape's core, then the self pairs' spheres.
-fn distances(model: &SphereModel, ws: &SphereWorkspace) -> Vec<Lane> {
+/// Computed in `T`, as the checks do.
+fn distances<T: Real + Into<f64>>(model: &SphereModel<T>, ws: &SphereWorkspace<T>) -> Vec<Lane> {
+    let root = |d2: T| -> f64 { super::lanes::max(d2, T::ZERO).sqrt().into() };
     let mut out = Vec::new();
     for s in 0..model.spheres.len() {
         for shape in &model.statics {
-            out.push(shape.core_distance_squared(&ws.centers[s]).0.map(|d2| d2.max(0.0).sqrt()));
+            out.push(shape.core_distance_squared(&ws.centers[s]).0.map(root));
         }
     }
-    for_self_spheres(model, |i, j| {
-        out.push(std::array::from_fn(|l| {
-            (0..3).map(|k| (ws.centers[i][k][l] - ws.centers[j][k][l]).powi(2)).sum::<f64>().sqrt()
-        }))
-    });
+    for_self_spheres(model, |i, j| out.push(lane_distance_squared(&ws.centers[i], &ws.centers[j]).map(root)));
     out
 }
 
-fn for_self_spheres(model: &SphereModel, mut visit: impl FnMut(usize, usize)) {
+fn for_self_spheres<T>(model: &SphereModel<T>, mut visit: impl FnMut(usize, usize)) {
     for pair in &model.self_pairs {
         let [a, b] = pair.map(|g| &model.groups[g as usize]);
         for ca in a.clusters.clone() {
@@ -243,4 +244,120 @@ fn snapped_quarter_turns_keep_spheres_within_their_bound() {
         assert!(worst <= snapped.error + 1e-13, "{worst:e} m against the bound {:e} m", snapped.error);
         assert!(worst > 1e-13, "snapping should show: {worst:e}");
     }
+}
+
+/// The four robots of the benchmarks, each with the scene of every static kind.
+fn benchmark_robots() -> Vec<(Arc<RobotModel>, CollisionModel)> {
+    [
+        spherized("motionbenchmaker/panda_spherized.urdf", None),
+        spherized("robots/baxter/baxter_spheres.urdf", Some(("robots/baxter/baxter.srdf", "both_arms"))),
+        spherized("robots/tiago/tiago_spheres.urdf", Some(("robots/tiago/tiago.srdf", "arm_torso"))),
+        spherized("robots/ur5/ur5_spheres.urdf", None),
+    ]
+    .into_iter()
+    .map(|robot| {
+        let model = CollisionModel::builder(robot.clone()).scene(&scene()).build().unwrap();
+        (robot, model)
+    })
+    .collect()
+}
+
+/// The single-precision placements and pair distances lie within an
+/// eighth of the band the check assumes, on every benchmark robot.
+#[test]
+fn single_precision_stays_well_within_its_band() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    for (robot, model) in benchmark_robots() {
+        let fast = model.spheres.as_ref().expect("sphere fast path");
+        let single = fast.single.as_deref().expect("single precision");
+        let band = single.band();
+        assert!(band > 0.0 && band < 1e-3, "{band:e}");
+        let (mut ws, mut ws32) =
+            (SphereWorkspace::new(fast, robot.nq()), SphereWorkspace::new(&single.model, robot.nq()));
+        let (mut worst_center, mut worst_distance) = (0.0f64, 0.0f64);
+        for _ in 0..200 {
+            let (q0, q1) = (random(&robot, &mut rng), random(&robot, &mut rng));
+            let t: Lane = std::array::from_fn(|_| rng.random_range(0.0..1.0));
+            place(fast, &mut ws, (&q0, &q1), &t);
+            place(&single.model, &mut ws32, (&q0, &q1), &t);
+            for (a, b) in ws.centers.iter().zip(&ws32.centers) {
+                for l in 0..LANES {
+                    let e = (0..3).map(|k| (a[k][l] - b[k][l] as f64).powi(2)).sum::<f64>().sqrt();
+                    worst_center = worst_center.max(e);
+                }
+            }
+            for (a, b) in distances(fast, &ws).iter().zip(distances(&single.model, &ws32)) {
+                for l in (0..LANES).filter(|&l| a[l] > 0.0) {
+                    worst_distance = worst_distance.max((a[l] - b[l]).abs());
+                }
+            }
+        }
+        println!(
+            "nq {}: band {band:.2e} m, worst centre {worst_center:.2e} m, worst distance {worst_distance:.2e} m",
+            robot.nq()
+        );
+        assert!(worst_center > 0.0 && worst_center <= band / 8.0, "{worst_center:e} against {band:e}");
+        assert!(worst_distance <= band / 8.0, "{worst_distance:e} against {band:e}");
+    }
+}
+
+/// The plain check's verdict, single precision first, is the f64 check's
+/// for every batch: random ones, and batches a few nanometres to a
+/// millimetre of motion around the configurations where the f64 verdict
+/// changes (found by bisection), where the single-precision check must
+/// defer.
+#[test]
+fn single_precision_checks_give_the_f64_verdicts() {
+    let mut rng = ChaCha8Rng::seed_from_u64(22);
+    let (mut deferred, mut decided) = (0usize, 0usize);
+    for (robot, model) in benchmark_robots() {
+        let fast = model.spheres.as_ref().expect("sphere fast path");
+        let single = fast.single.as_deref().expect("single precision");
+        let mut ws = SphereWorkspace::new(fast, robot.nq());
+        let mut ws32 = SphereWorkspace::new(&single.model, robot.nq());
+        let mut ws_one = SphereWorkspace::new(fast, robot.nq());
+        let mut compare = |q0: &[f64], q1: &[f64], t: &Lane| {
+            fast.set_along(&mut ws, q0, q1, t);
+            let exact = fast.check::<false>(&mut ws);
+            assert_eq!(fast.check_plain(&mut ws), exact, "at t = {t:?}");
+            single.model.set_along(&mut ws32, q0, q1, t);
+            match single.model.check::<false>(&mut ws32) {
+                Verdict::Free { unsure, .. } if unsure.contains(&true) => deferred += 1,
+                _ => decided += 1,
+            }
+        };
+        for _ in 0..300 {
+            let (q0, q1) = (random(&robot, &mut rng), random(&robot, &mut rng));
+            compare(&q0, &q1, &std::array::from_fn(|_| rng.random_range(0.0..1.0)));
+            // Where the verdict of one configuration changes along the motion.
+            let mut one = |t: f64| {
+                fast.set_along(&mut ws_one, &q0, &q1, &[t; LANES]);
+                fast.check::<false>(&mut ws_one) == Verdict::Collides
+            };
+            let (Some(mut free), Some(mut hit)) = (
+                (0..=16).map(|k| k as f64 / 16.0).find(|&t| !one(t)),
+                (0..=16).map(|k| k as f64 / 16.0).find(|&t| one(t)),
+            ) else {
+                continue;
+            };
+            for _ in 0..50 {
+                let mid = 0.5 * (free + hit);
+                if one(mid) { hit = mid } else { free = mid }
+            }
+            for scale in [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8] {
+                let t: Lane = std::array::from_fn(|l| (free + (l as f64 - 3.5) * scale).clamp(0.0, 1.0));
+                compare(&q0, &q1, &t);
+                compare(&q0, &q1, &[free + scale; LANES]);
+                compare(&q0, &q1, &[free - scale; LANES]);
+            }
+        }
+        // Beyond the limits (a slide's, the bound's assumption): f64 decides.
+        let beyond: Vec<f64> = robot.limits().iter().map(|l| l.upper + 0.5).collect();
+        let slides = fast.bodies.iter().any(|b| b.motion.is_prismatic());
+        fast.set_along(&mut ws_one, &beyond, &beyond, &[0.0; LANES]);
+        assert_eq!(single.covers(&ws_one.q), !slides);
+        compare(&beyond, &beyond, &[0.0; LANES]);
+    }
+    println!("{decided} batches decided in single precision, {deferred} deferred to f64");
+    assert!(deferred > 20 && decided > 1000, "{deferred} deferred, {decided} decided");
 }
