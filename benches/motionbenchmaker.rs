@@ -37,8 +37,13 @@ use tandem::plan::{PlanStatus, ProblemPlanner, path_length};
 /// set `--set` names (all its problems).
 fn benchmark(args: &[String], per_family: usize) -> (Benchmark, Vec<(String, usize)>, String) {
     let Some(set) = text(args, "--set") else {
-        let families = FAMILIES.iter().map(|f| (f.to_string(), per_family)).collect();
-        return (Benchmark::unpack(), families, "Panda".into());
+        // Counted from the files, as for other sets: the cap alone would
+        // read past the last problem forever.
+        let benchmark = Benchmark::unpack();
+        let counted = benchmark.families();
+        let count = |f: &str| counted.iter().find(|(name, n)| name == f && *n > 0).expect("every family unpacked").1;
+        let families = FAMILIES.iter().map(|f| (f.to_string(), count(f).min(per_family))).collect();
+        return (benchmark, families, "Panda".into());
     };
     let need = |name: &str| text(args, name).unwrap_or_else(|| panic!("--set needs {name}"));
     let (urdf, srdf, robot) = (need("--urdf"), need("--srdf"), need("--robot"));
