@@ -206,6 +206,9 @@ fn check_and_inspect_list_the_warnings() {
     );
     assert!(text.contains("panda_arm") && text.contains("7 joints"), "{text}");
     assert!(text.contains("every collision element is a sphere"), "{text}");
+    // The compiled fast path: the Panda's eleven-digit quarter turns and its f32 checks.
+    assert!(text.contains("joint frames within 1e-9 of a quarter turn"), "{text}");
+    assert!(text.contains("plain checks run first in single precision"), "{text}");
     // A robot with a box link: the report says what would take the fast path.
     let boxy = dir.path().join("boxy.urdf");
     std::fs::write(&boxy, "<robot name=\"boxy\"><link name=\"base\"><collision><geometry><box size=\"1 1 1\"/></geometry></collision></link></robot>").unwrap();

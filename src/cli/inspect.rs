@@ -3,6 +3,7 @@
 //! URDF lacks, which MoveIt and tandem ignore).
 
 use super::UrdfArgs;
+use crate::collision::CollisionModel;
 use crate::robot::{Geometry, JointKind, RobotDescription, RobotModel, Srdf};
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -140,6 +141,7 @@ fn fast_path_report(desc: &RobotDescription, out: &mut String) {
              (revolute and prismatic joints, any number of chains), against sphere, capsule, box and\n  \
              cylinder obstacles (a scene with a mesh obstacle uses the general path)\n",
         );
+        compiled_fast_path(desc, out);
         return;
     }
     let _ = writeln!(
@@ -154,6 +156,38 @@ fn fast_path_report(desc: &RobotDescription, out: &mut String) {
          URDF (problem file `robot.collision_urdf`, or as --urdf for MoveIt inputs), e.g. the spherized URDFs of\n  \
          MotionBenchMaker and VAMP, or one fitted with foam (github.com/CoMMALab/foam)\n",
     );
+}
+
+/// Robots with more links than this are not compiled for the report (a
+/// model's self pairs grow with the square of its links).
+const MOST_LINKS_COMPILED: usize = 256;
+
+/// What the compiled fast path makes of the robot alone (every movable
+/// joint active, no obstacles): the joint frames it takes as exact quarter
+/// turns, and whether plain checks run first in single precision.
+fn compiled_fast_path(desc: &RobotDescription, out: &mut String) {
+    if desc.links().len() > MOST_LINKS_COMPILED {
+        let _ = writeln!(out, "  (not compiled for this report: more than {MOST_LINKS_COMPILED} links)");
+        return;
+    }
+    let robot = RobotModel::builder(Arc::new(desc.clone())).build();
+    let Some(model) = robot.ok().and_then(|r| CollisionModel::builder(Arc::new(r)).build().ok()) else { return };
+    if let Some(snapped) = model.snapped_quarter_turns().filter(|s| s.frames > 0) {
+        let _ = writeln!(
+            out,
+            "  {} joint frames within 1e-9 of a quarter turn are taken as exact ones (every sphere within {:.1e} m \
+             of the exact model)",
+            snapped.frames, snapped.error
+        );
+    }
+    let _ = match model.single_precision_band() {
+        Some(band) => writeln!(
+            out,
+            "  plain checks run first in single precision and defer to f64 within {band:.1e} m of a threshold (the \
+             robot alone; a scene's extent widens the band)"
+        ),
+        None => writeln!(out, "  plain checks run in f64 (the single-precision bound would be too wide)"),
+    };
 }
 
 /// Depth beyond which the tree is no longer indented further (its level is
