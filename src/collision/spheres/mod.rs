@@ -29,6 +29,7 @@ mod check;
 mod lanes;
 mod motion;
 mod quarter_turns;
+mod real;
 mod single;
 mod sweep;
 #[cfg(test)]

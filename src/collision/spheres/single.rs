@@ -31,8 +31,9 @@
 //! more instructions.)
 
 use super::check::{SphereWorkspace, Verdict};
-use super::lanes::{LANES, Lane, SINGLE_REDUCTION_LIMIT, single};
+use super::lanes::{LANES, Lane, single};
 use super::quarter_turns::norm;
+use super::real::SINGLE_REDUCTION_LIMIT;
 use super::{
     BodySphere, Cluster, EnvChunk, LaneBody, SimdLevel, SphereGroup, SphereModel, StaticKind, StaticShape, SweepTerm,
 };
