@@ -153,11 +153,18 @@ fn single_sin_cos(x: &Lane) -> (Lane<f32>, Lane<f32>) {
         let quadrant = shifted.to_bits() & 3;
         let r = ((xf[l] - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
         let (s, c) = single_kernel(r);
-        let (s, c) = if quadrant & 1 == 0 { (s, c) } else { (c, -s) };
-        sin[l] = if quadrant & 2 == 0 { s } else { -s };
-        cos[l] = if quadrant & 2 == 0 { c } else { -c };
+        (sin[l], cos[l]) = by_quadrant(quadrant & 1 != 0, quadrant & 2 != 0, (s, c));
     }
     (sin, cos)
+}
+
+/// Sine and cosine of `r + k π/2` from those of `r`, given `k`'s two low
+/// bits (`odd`: bit 0; `negate`: bit 1). The bits are tested in each
+/// caller's own integer width, so the lanes' masks stay that width.
+#[inline(always)]
+fn by_quadrant<T: Real>(odd: bool, negate: bool, (s, c): (T, T)) -> (T, T) {
+    let (s, c) = if odd { (c, -s) } else { (s, c) };
+    if negate { (-s, -c) } else { (s, c) }
 }
 
 /// Beyond this |angle| (rad) the polynomial's argument reduction is not
@@ -184,9 +191,7 @@ pub(crate) fn sin_cos<T: Real>(x: &Lane) -> (Lane<T>, Lane<T>) {
         let quadrant = shifted.to_bits() & 3;
         let r = ((x[l] - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
         let (s, c) = T::sin_cos_kernel(r);
-        let (s, c) = if quadrant & 1 == 0 { (s, c) } else { (c, -s) };
-        sin[l] = if quadrant & 2 == 0 { s } else { -s };
-        cos[l] = if quadrant & 2 == 0 { c } else { -c };
+        (sin[l], cos[l]) = by_quadrant(quadrant & 1 != 0, quadrant & 2 != 0, (s, c));
     }
     if x.iter().any(|v| v.abs() > REDUCTION_LIMIT) {
         for l in 0..LANES {
