@@ -311,3 +311,19 @@ fn dynamic_domain_and_balancing_never_starve_a_tree() {
         }
     }
 }
+
+/// The dynamic domain's first radius is given for a 7-joint arm and grows
+/// with the square root of the joints (distances between random
+/// configurations do): the same on 7 joints, √2 times on two arms.
+#[test]
+fn dynamic_domain_radius_grows_with_the_square_root_of_the_joints() {
+    use tandem::plan::DynamicDomain;
+    let domain = DynamicDomain::default();
+    assert_eq!(DynamicDomain::REFERENCE_JOINTS, 7);
+    assert_eq!(domain.radius_for(7), domain.radius, "a 7-joint arm keeps the radius bit for bit");
+    assert!((domain.radius_for(14) - domain.radius * 2f64.sqrt()).abs() < 1e-12);
+    assert!((domain.radius_for(28) - 2.0 * domain.radius).abs() < 1e-12);
+    for joints in 1..40 {
+        assert!(domain.radius_for(joints) < domain.radius_for(joints + 1));
+    }
+}
