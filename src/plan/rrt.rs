@@ -287,12 +287,11 @@ impl Tree {
         })
     }
 
-    /// Adapts node `i`'s sampling radius after an extension from it
-    /// (`first`: the radius at a node's first blocked extension).
-    fn adapt(&mut self, i: usize, blocked: bool, domain: &DynamicDomain, first: f64) {
+    /// Adapts node `i`'s sampling radius after an extension from it.
+    fn adapt(&mut self, i: usize, blocked: bool, domain: &DynamicDomain) {
         let r = &mut self.radius[i];
         if blocked {
-            *r = if r.is_finite() { (*r * (1.0 - domain.rate)).max(domain.min_radius) } else { first };
+            *r = if r.is_finite() { (*r * (1.0 - domain.rate)).max(domain.min_radius) } else { domain.radius };
         } else if r.is_finite() {
             *r *= 1.0 + domain.rate;
         }
@@ -333,8 +332,9 @@ struct Planner<'a> {
     lazy: Option<LazySearch<'a>>,
     scratch: Vec<f64>,
     deadline: Instant,
-    /// The dynamic domain's first radius for this robot's joints.
-    first_radius: f64,
+    /// The settings' dynamic domain, its radius scaled to this robot's
+    /// joints ([`DynamicDomain::radius_for`]).
+    domain: Option<DynamicDomain>,
 }
 
 impl Planner<'_> {
@@ -343,14 +343,14 @@ impl Planner<'_> {
     /// that node's domain).
     fn extend(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Option<Extension>, RobotError> {
         let near = tree.nn.nearest(target).expect("trees are never empty");
-        let Some(domain) = self.settings.dynamic_domain else { return self.step(tree, near, target).map(Some) };
+        let Some(domain) = self.domain else { return self.step(tree, near, target).map(Some) };
         if distance(tree.nn.point(near), target) > tree.radius[near] && tree.rejected < domain.max_rejections {
             tree.rejected += 1;
             return Ok(None);
         }
         tree.rejected = 0;
         let extension = self.step(tree, near, target)?;
-        tree.adapt(near, matches!(extension, Extension::Trapped), &domain, self.first_radius);
+        tree.adapt(near, matches!(extension, Extension::Trapped), &domain);
         Ok(Some(extension))
     }
 
@@ -501,9 +501,9 @@ fn search(
     let limits = robot.limits().to_vec();
     // Far budgets (beyond what an Instant holds) never run out.
     let deadline = began.checked_add(settings.time_limit).unwrap_or(began + Duration::from_secs(1 << 40));
-    let first_radius = settings.dynamic_domain.map_or(f64::INFINITY, |d| d.radius_for(dim));
+    let domain = settings.dynamic_domain.map(|d| DynamicDomain { radius: d.radius_for(dim), ..d });
     let scratch = Vec::with_capacity(dim);
-    let mut planner = Planner { model, ws, settings, lazy, scratch, deadline, first_radius };
+    let mut planner = Planner { model, ws, settings, lazy, scratch, deadline, domain };
     let mut sample = vec![0.0; dim];
     // Tree `a` holds the start when `a_is_start`.
     let mut a_is_start = true;
