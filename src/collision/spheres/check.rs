@@ -30,7 +30,7 @@ pub(crate) struct SphereWorkspace<T = f64> {
     /// Per group: world centre of its bounding ball, valid when its flag
     /// in `centered` is set.
     group_centers: Vec<[Lane<T>; 3]>,
-    centered: Vec<bool>,
+    pub(super) centered: Vec<bool>,
     /// Per cluster: world centre of its ball, valid when its group's flag
     /// in `clusters_placed` is set; the sphere centres are valid when its
     /// flag in `spheres_placed` is.
@@ -63,6 +63,11 @@ pub(crate) struct SphereWorkspace<T = f64> {
     pub(super) tight: Vec<Lane<T>>,
     pub(super) tight_done: Vec<bool>,
     pub(super) group_sweep: Vec<T>,
+    /// Per segment (see `segments.rs`): the largest loose sweep of its
+    /// groups, and its box in each lane, valid when `boxed`.
+    pub(super) segment_sweep: Vec<T>,
+    pub(super) segment_boxes: Vec<[[Lane<T>; 3]; 2]>,
+    pub(super) boxed: Vec<bool>,
     pub(super) cluster_sweep: Vec<T>,
     pub(super) margins: Margins<T>,
     /// Per lane, after a certification check that found it free: the
@@ -125,6 +130,9 @@ impl<T: Real> SphereWorkspace<T> {
             tight: vec![[T::ZERO; LANES]; model.sweep_terms.len() + model.clusters.len()],
             tight_done: vec![false; model.clusters.len()],
             group_sweep: vec![T::ZERO; model.groups.len()],
+            segment_sweep: vec![T::ZERO; model.segments.len()],
+            segment_boxes: vec![[[[T::ZERO; LANES]; 3]; 2]; model.segments.len()],
+            boxed: vec![false; model.segments.len()],
             cluster_sweep: vec![T::ZERO; model.clusters.len()],
             margins: Margins { half: T::ZERO, full: T::ZERO, width: [T::ZERO; LANES] },
             room: [T::ZERO; LANES],
@@ -395,6 +403,7 @@ impl<T: Real> SphereModel<T> {
         ws.centered.fill(false);
         ws.clusters_placed.fill(false);
         ws.spheres_placed.fill(false);
+        ws.boxed.fill(false);
         if CERTIFY {
             ws.tight_done.fill(false);
             ws.tangent_done = false;
@@ -418,10 +427,15 @@ impl<T: Real> SphereModel<T> {
                 return Verdict::Collides;
             }
         }
-        for p in 0..self.self_pairs.len() {
-            if self.check_self_pair::<CERTIFY>(ws, p, &mut flags) {
-                ws.last_failure = Some(Pair::Robot(p));
-                return Verdict::Collides;
+        for block in &self.self_blocks {
+            if block.segments.is_some_and(|s| self.segments_apart::<CERTIFY>(ws, s)) {
+                continue;
+            }
+            for p in block.pairs.clone() {
+                if self.check_self_pair::<CERTIFY>(ws, p, &mut flags) {
+                    ws.last_failure = Some(Pair::Robot(p));
+                    return Verdict::Collides;
+                }
             }
         }
         ws.room = flags.room;
@@ -616,7 +630,7 @@ impl<T: Real> SphereModel<T> {
 
     /// World centre of group `g`'s bounding ball, once per batch.
     #[inline(always)]
-    fn group_center<'w>(&self, ws: &'w mut SphereWorkspace<T>, g: usize) -> &'w [Lane<T>; 3] {
+    pub(super) fn group_center<'w>(&self, ws: &'w mut SphereWorkspace<T>, g: usize) -> &'w [Lane<T>; 3] {
         if !ws.centered[g] {
             let group = &self.groups[g];
             self.pose_up_to(ws, group.body);

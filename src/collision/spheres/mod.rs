@@ -30,6 +30,7 @@ mod lanes;
 mod motion;
 mod quarter_turns;
 mod real;
+mod segments;
 mod single;
 mod sweep;
 #[cfg(test)]
@@ -311,8 +312,14 @@ pub(crate) struct SphereModel<T = f64> {
     /// The sweep terms' levers by body then cluster (zero where the body's
     /// joint does not move the cluster).
     levers: Vec<T>,
-    /// Pairs of moving groups (indices into `groups`).
+    /// Pairs of moving groups (indices into `groups`), block by block.
     self_pairs: Vec<[u32; 2]>,
+    /// The self pairs in blocks, and the segments (runs of groups along a
+    /// chain, as ranges into `segment_groups`) the blocks lie between
+    /// (see `segments.rs`).
+    self_blocks: Vec<segments::SelfBlock>,
+    segments: Vec<Range<usize>>,
+    segment_groups: Vec<u32>,
     /// Per self pair: the joints moving both sides (the first ones of each
     /// side's terms), which leave their distance unchanged.
     common_depth: Vec<usize>,
@@ -464,6 +471,8 @@ impl SphereModel {
         for (g, group) in groups.iter().enumerate() {
             cluster_group[group.clusters.clone()].fill(g as u32);
         }
+        let parents: Vec<usize> = bodies.iter().map(|b| b.parent).collect();
+        let blocks = segments::blocks(&groups, &parents, &mut self_pairs, &mut common_depth);
         let extent = extents(bodies.len(), &groups, &clusters, &spheres);
         let snapped = quarter_turns::snap(&mut bodies, &extent);
         let mut levers = vec![0.0; robot.bodies.len() * clusters.len()];
@@ -483,6 +492,9 @@ impl SphereModel {
             env,
             sweep_terms,
             self_pairs,
+            self_blocks: blocks.blocks,
+            segments: blocks.segments,
+            segment_groups: blocks.groups,
             common_depth,
             fixed_collision,
             snapped,
@@ -491,6 +503,7 @@ impl SphereModel {
             single: None,
         })
         .map(|mut fast| {
+            fast.keep_parting_blocks(robot.limits());
             fast.single = single::SinglePrecision::new(&fast, robot).map(Box::new);
             fast
         })

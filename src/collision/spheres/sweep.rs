@@ -45,6 +45,7 @@ impl<T: Real> SphereModel<T> {
         for (g, group) in self.groups.iter().enumerate() {
             ws.group_sweep[g] = ws.cluster_sweep[group.clusters.clone()].iter().fold(T::ZERO, |a, &b| max(a, b));
         }
+        self.start_segment_sweeps(ws);
         ws.prefix_done.fill(false);
         ws.pair_done.fill(false);
         ws.accel_done.fill(false);

@@ -247,7 +247,7 @@ fn snapped_quarter_turns_keep_spheres_within_their_bound() {
 }
 
 /// The four robots of the benchmarks, each with the scene of every static kind.
-fn benchmark_robots() -> Vec<(Arc<RobotModel>, CollisionModel)> {
+pub(super) fn benchmark_robots() -> Vec<(Arc<RobotModel>, CollisionModel)> {
     [
         spherized("motionbenchmaker/panda_spherized.urdf", None),
         spherized("robots/baxter/baxter_spheres.urdf", Some(("robots/baxter/baxter.srdf", "both_arms"))),
@@ -360,4 +360,112 @@ fn single_precision_checks_give_the_f64_verdicts() {
     }
     println!("{decided} batches decided in single precision, {deferred} deferred to f64");
     assert!(deferred > 20 && decided > 1000, "{deferred} deferred, {decided} decided");
+}
+
+/// Self pairs in blocks (`segments.rs`): the blocks hold every self pair
+/// once; segments cut the groups into runs along one chain; a culled
+/// block joins two segments; a robot without one boxes nothing. The
+/// Baxter's two arms make culled blocks.
+#[test]
+fn self_pair_blocks_hold_every_pair_between_separate_segments() {
+    for (robot, model) in benchmark_robots() {
+        let fast = model.spheres.as_ref().expect("sphere fast path");
+        let mut covered = 0;
+        for block in &fast.self_blocks {
+            assert_eq!(block.pairs.start, covered, "blocks in order, without gaps");
+            covered = block.pairs.end;
+            let Some([a, b]) = block.segments else { continue };
+            assert!(a < b && block.pairs.len() >= 10);
+            for pair in &fast.self_pairs[block.pairs.clone()] {
+                let mut sides = pair.map(|g| fast.segment_groups[fast.segments[a as usize].clone()].contains(&g));
+                sides.sort_unstable();
+                assert_eq!(sides, [false, true], "a pair of the block joins its two segments");
+            }
+        }
+        assert_eq!(covered, fast.self_pairs.len());
+        let culled = fast.self_blocks.iter().filter(|b| b.segments.is_some()).count();
+        if culled == 0 {
+            assert!(fast.segments.is_empty() && fast.self_blocks.len() <= 1, "nothing to box");
+            continue;
+        }
+        let mut members: Vec<u32> = fast.segment_groups.clone();
+        members.sort_unstable();
+        assert_eq!(members, (0..fast.groups.len() as u32).collect::<Vec<_>>(), "segments partition the groups");
+        let parents: Vec<usize> = fast.bodies.iter().map(|b| b.parent).collect();
+        let descends = |mut b: usize, a: usize| loop {
+            if b == a {
+                return true;
+            }
+            if b == 0 {
+                return false;
+            }
+            b = parents[b];
+        };
+        for range in &fast.segments {
+            let mut bodies: Vec<usize> =
+                fast.segment_groups[range.clone()].iter().map(|&g| fast.groups[g as usize].body).collect();
+            bodies.sort_unstable();
+            assert!(range.len() <= 4 && bodies.windows(2).all(|w| descends(w[1], w[0])), "one chain: {bodies:?}");
+        }
+        if robot.nq() == 14 {
+            assert!(culled >= 8, "the Baxter's arms: {culled} culled blocks");
+        }
+    }
+}
+
+/// `model` checking its self pairs one by one.
+fn every_pair<T: Real>(model: &SphereModel<T>) -> SphereModel<T> {
+    let mut model = model.clone();
+    model.self_blocks = vec![super::segments::SelfBlock { pairs: 0..model.self_pairs.len(), segments: None }];
+    model
+}
+
+/// Culling self pairs block by block changes no answer: plain and
+/// certification checks of random batches (no obstacles, so that every
+/// check reaches the self pairs) give the same verdicts, split flags and
+/// rooms as checking every pair, in f64 and in single precision.
+#[test]
+fn culling_self_pairs_in_blocks_keeps_every_verdict() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    let (mut checks, mut culled) = (0usize, 0usize);
+    for (robot, _) in benchmark_robots() {
+        let model = CollisionModel::builder(robot.clone()).build().unwrap();
+        let fast = model.spheres.as_ref().expect("sphere fast path");
+        let (unculled, single) = (every_pair(fast), fast.single.as_deref().expect("single precision"));
+        let single_unculled = every_pair(&single.model);
+        let mut ws = [SphereWorkspace::new(fast, robot.nq()), SphereWorkspace::new(fast, robot.nq())];
+        let mut ws32 =
+            [SphereWorkspace::new(&single.model, robot.nq()), SphereWorkspace::new(&single.model, robot.nq())];
+        for _ in 0..400 {
+            let (q0, q1) = (random(&robot, &mut rng), random(&robot, &mut rng));
+            let t: Lane = std::array::from_fn(|_| rng.random_range(0.0..1.0));
+            let width: Lane = std::array::from_fn(|_| rng.random_range(0.0..0.05));
+            let mut verdicts = Vec::new();
+            for (m, ws) in [fast, &unculled].into_iter().zip(&mut ws) {
+                m.set_along(ws, &q0, &q1, &t);
+                let plain = m.check::<false>(ws);
+                m.start_sweeps(ws, &q0, &q1);
+                ws.margins = super::check::Margins { half: 0.01, full: 0.02, width };
+                m.set_along(ws, &q0, &q1, &t);
+                let certified = m.check::<true>(ws);
+                verdicts.push((plain, certified, ws.room.map(f64::to_bits)));
+            }
+            assert_eq!(verdicts[0], verdicts[1], "{q0:?} -> {q1:?} at {t:?}");
+            let mut single_verdicts = Vec::new();
+            for (m, ws) in [&single.model, &single_unculled].into_iter().zip(&mut ws32) {
+                m.set_along(ws, &q0, &q1, &t);
+                single_verdicts.push(m.check::<false>(ws));
+            }
+            assert_eq!(single_verdicts[0], single_verdicts[1]);
+            checks += 1;
+            culled += fast
+                .self_blocks
+                .iter()
+                .filter_map(|b| b.segments)
+                .filter(|&s| fast.segments_apart::<false>(&mut ws[0], s))
+                .count();
+        }
+    }
+    println!("{checks} batches, {culled} blocks culled in their plain checks");
+    assert!(culled > 1000, "the test should cull: {culled}");
 }
