@@ -30,7 +30,7 @@ pub(crate) struct SphereWorkspace<T = f64> {
     /// Per group: world centre of its bounding ball, valid when its flag
     /// in `centered` is set.
     group_centers: Vec<[Lane<T>; 3]>,
-    pub(super) centered: Vec<bool>,
+    centered: Vec<bool>,
     /// Per cluster: world centre of its ball, valid when its group's flag
     /// in `clusters_placed` is set; the sphere centres are valid when its
     /// flag in `spheres_placed` is.
@@ -105,6 +105,17 @@ pub(super) struct Margins<T = f64> {
 }
 
 impl<T: Real> SphereWorkspace<T> {
+    /// Marks every pose, centre and segment box as not yet placed for the
+    /// configurations now in the lanes.
+    #[inline(always)]
+    pub(super) fn new_batch(&mut self) {
+        self.posed = 1;
+        self.centered.fill(false);
+        self.clusters_placed.fill(false);
+        self.spheres_placed.fill(false);
+        self.boxed.fill(false);
+    }
+
     pub(crate) fn new(model: &SphereModel<T>, nq: usize) -> SphereWorkspace<T> {
         SphereWorkspace {
             q: vec![[0.0; LANES]; nq],
@@ -399,11 +410,7 @@ impl<T: Real> SphereModel<T> {
         // Poses and centres are placed as pairs need them: a check that
         // fails on the pair that failed last (a blocked search's usual
         // check) needs only that group's chain.
-        ws.posed = 1;
-        ws.centered.fill(false);
-        ws.clusters_placed.fill(false);
-        ws.spheres_placed.fill(false);
-        ws.boxed.fill(false);
+        ws.new_batch();
         if CERTIFY {
             ws.tight_done.fill(false);
             ws.tangent_done = false;

@@ -250,9 +250,7 @@ impl SphereModel {
                     *v = rng.random_range(lower..=upper);
                 }
             }
-            ws.posed = 1;
-            ws.centered.fill(false);
-            ws.boxed.fill(false);
+            ws.new_batch();
             for (block, count) in self.self_blocks.iter().zip(&mut parted) {
                 if let Some(segments) = block.segments {
                     *count += self.parting_lanes::<false>(&mut ws, segments).iter().filter(|&&p| p).count();
