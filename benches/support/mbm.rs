@@ -113,13 +113,15 @@ pub fn row(label: &str, times: &mut [f64]) -> serde_json::Value {
     serde_json::json!({"median_ms": ms(median), "mean_ms": ms(mean), "p95_ms": ms(p95)})
 }
 
-/// `--plain`: RRT-Connect as before balancing and dynamic-domain sampling
-/// (step 0.5 rad, trees alternating, every sample used), for comparison.
+/// `--plain`: RRT-Connect as before balancing, dynamic-domain sampling and
+/// the root bias (step 0.5 rad, trees alternating, every sample used and
+/// uniform), for comparison.
 #[allow(dead_code)] // not every bench compares with the plain planner
 pub fn make_plain(planner: &mut ProblemPlanner) {
     let settings = planner.search_settings_mut();
     settings.step = 0.5;
     settings.dynamic_domain = None;
+    settings.root_bias = None;
     settings.balance = false;
 }
 

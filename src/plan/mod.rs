@@ -19,7 +19,7 @@ mod rrt;
 pub use ik::{IkError, IkSettings, IkTarget, solve_ik};
 pub use postprocess::{MIN_GAIN, path_length, resample, shortcut};
 pub use rrt::{
-    DynamicDomain, EdgeCheck, LazySearch, PlanResult, PlanStatus, RrtSettings, rrt_connect, rrt_connect_lazy,
+    DynamicDomain, EdgeCheck, LazySearch, PlanResult, PlanStatus, RootBias, RrtSettings, rrt_connect, rrt_connect_lazy,
 };
 
 use crate::collision::{CollisionError, CollisionModel, CollisionWorkspace};

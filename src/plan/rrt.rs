@@ -1,11 +1,13 @@
 //! RRT-Connect (Kuffner & LaValle 2000) in the active joint space: two
 //! trees, one from the start and one from the goal set, grown towards
-//! uniform samples and towards each other until they meet. Two additions
+//! uniform samples and towards each other until they meet. Three additions
 //! keep hard problems from a long tail of run times: the smaller tree is
-//! the one that takes the next sample (balancing), and a node whose
-//! extension was blocked only takes samples near it (dynamic-domain
-//! sampling, [`DynamicDomain`]). On MotionBenchMaker's 700 Panda problems
-//! they cut the mean planning time several times over (README).
+//! the one that takes the next sample (balancing), a node whose extension
+//! was blocked only takes samples near it (dynamic-domain sampling,
+//! [`DynamicDomain`]), and one sample in ten is drawn near the other
+//! tree's roots ([`RootBias`]), which leads a goal out of a pocket. On
+//! MotionBenchMaker's 700 Panda problems the first two cut the mean
+//! planning time several times over (README).
 //! [`rrt_connect_lazy`] certifies only the edges of a path found (lazy
 //! certification, as in Lazy PRM, Bohlin & Kavraki 2000), cutting any
 //! branch whose edge fails.
@@ -13,10 +15,13 @@
 use super::nearest::NearestNeighbors;
 use super::postprocess::distance;
 use crate::collision::{CollisionModel, CollisionWorkspace, SimdLevel};
-use crate::robot::RobotError;
+use crate::robot::{JointLimits, RobotError};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use std::time::{Duration, Instant};
+
+mod settings;
+pub use settings::{DynamicDomain, RootBias, RrtSettings};
 
 /// How a straight joint-space motion is validated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,103 +88,6 @@ impl EdgeCheck {
     }
 }
 
-/// Dynamic-domain sampling (Yershova et al. 2005, with the adaptive radius
-/// of Jaillet et al. 2005): a node whose extension was blocked only takes
-/// samples within a radius of it, so samples stop being spent pushing
-/// boundary nodes into obstacles and go where the tree can grow. This is
-/// what keeps narrow-passage problems (cages, shelves) from the long tail.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DynamicDomain {
-    /// Radius a node gets at its first blocked extension (rad or m,
-    /// Euclidean) on a robot of [`REFERENCE_JOINTS`](Self::REFERENCE_JOINTS)
-    /// joints; a search over `n` joints uses [`radius_for(n)`](Self::radius_for),
-    /// this times √(n / 7).
-    pub radius: f64,
-    /// Smallest radius a node shrinks to.
-    pub min_radius: f64,
-    /// Relative growth after an extension that advanced, and shrink after
-    /// one that was blocked.
-    pub rate: f64,
-    /// Samples in a row a tree may reject before it takes one whatever its
-    /// distance. In many dimensions a small tree whose every node is
-    /// blocked (a start or goal in a pocket) would otherwise almost never
-    /// accept a uniform sample again.
-    pub max_rejections: u32,
-}
-
-impl Default for DynamicDomain {
-    fn default() -> Self {
-        DynamicDomain { radius: 4.0, min_radius: 1.0, rate: 1e-4, max_rejections: 16 }
-    }
-}
-
-impl DynamicDomain {
-    /// Joints of the arm [`radius`](Self::radius) is given for (the Panda's,
-    /// on which the default was tuned).
-    pub const REFERENCE_JOINTS: usize = 7;
-
-    /// The first radius (rad or m) of a search over `joints` joints:
-    /// [`radius`](Self::radius) × √(joints / 7). Distances between random
-    /// configurations grow with the square root of the number of joints,
-    /// so a fixed radius would reject ever more samples as joints are
-    /// added. On the Baxter's two arms (14 joints; `shelf`, 30 problems ×
-    /// 3 seeds) the radius of 5.66 rather than 4 took 16 % fewer
-    /// instructions at the median; on 6 and 8 joints (UR5, TIAGo) the
-    /// change stayed within 4 % either way (README).
-    pub fn radius_for(&self, joints: usize) -> f64 {
-        self.radius * (joints as f64 / Self::REFERENCE_JOINTS as f64).sqrt()
-    }
-}
-
-/// Settings of [`rrt_connect`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct RrtSettings {
-    /// Largest joint-space step of one extension (rad, Euclidean norm).
-    pub step: f64,
-    /// Dynamic-domain sampling; `None`: every sample is used.
-    pub dynamic_domain: Option<DynamicDomain>,
-    /// Always grow the smaller tree (else the trees alternate): a goal in
-    /// a pocket gets the samples it needs to find its way out.
-    pub balance: bool,
-    /// How edges are validated.
-    pub edge: EdgeCheck,
-    /// Wall-clock budget.
-    pub time_limit: Duration,
-    /// Budget of extension rounds.
-    pub max_iterations: usize,
-    /// Seed of the sampler: the same seed gives the same path.
-    pub seed: u64,
-}
-
-impl Default for RrtSettings {
-    fn default() -> Self {
-        RrtSettings {
-            step: 1.0,
-            dynamic_domain: Some(DynamicDomain::default()),
-            balance: true,
-            edge: EdgeCheck::Resolution(0.005),
-            time_limit: Duration::from_secs(1),
-            max_iterations: 100_000,
-            seed: 0,
-        }
-    }
-}
-
-impl From<&crate::scene::PlannerSettings> for RrtSettings {
-    fn from(p: &crate::scene::PlannerSettings) -> Self {
-        RrtSettings {
-            step: p.step,
-            edge: EdgeCheck::Resolution(p.resolution),
-            // Problem files bound it; a larger one from Rust code never runs out.
-            time_limit: Duration::try_from_secs_f64(p.time_limit).unwrap_or(Duration::MAX),
-            max_iterations: p.max_iterations,
-            seed: p.seed,
-            // Problem files do not set how the search samples.
-            ..RrtSettings::default()
-        }
-    }
-}
-
 /// Why the planner stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PlanStatus {
@@ -240,12 +148,14 @@ struct Tree {
     radius: Vec<f64>,
     /// Samples rejected since this tree last extended.
     rejected: u32,
+    /// Roots, the first nodes (the start, or the valid goals).
+    roots: usize,
 }
 
 impl Tree {
     fn new(dim: usize, simd: SimdLevel) -> Tree {
         let nn = NearestNeighbors::new(dim, simd);
-        Tree { nn, parent: Vec::new(), certified: Vec::new(), radius: Vec::new(), rejected: 0 }
+        Tree { nn, parent: Vec::new(), certified: Vec::new(), radius: Vec::new(), rejected: 0, roots: 0 }
     }
 
     /// Nodes not cut (a cut node is removed from the nearest-neighbour
@@ -259,6 +169,7 @@ impl Tree {
         let i = self.nn.insert(q);
         self.parent.push(parent.unwrap_or(i) as u32);
         self.certified.push(certified || parent.is_none());
+        self.roots += usize::from(parent.is_none());
         self.radius.push(f64::INFINITY);
         i
     }
@@ -340,11 +251,12 @@ struct Planner<'a> {
 impl Planner<'_> {
     /// One step of `tree` from its node nearest to `target` towards it;
     /// `None` when dynamic-domain sampling rejects `target` (too far from
-    /// that node's domain).
-    fn extend(&mut self, tree: &mut Tree, target: &[f64]) -> Result<Option<Extension>, RobotError> {
+    /// that node's domain; never when `anyway`).
+    fn extend(&mut self, tree: &mut Tree, target: &[f64], anyway: bool) -> Result<Option<Extension>, RobotError> {
         let near = tree.nn.nearest(target).expect("trees are never empty");
         let Some(domain) = self.domain else { return self.step(tree, near, target).map(Some) };
-        if distance(tree.nn.point(near), target) > tree.radius[near] && tree.rejected < domain.max_rejections {
+        let outside = distance(tree.nn.point(near), target) > tree.radius[near];
+        if outside && !anyway && tree.rejected < domain.max_rejections {
             tree.rejected += 1;
             return Ok(None);
         }
@@ -513,13 +425,8 @@ fn search(
         if draws % 32 == 0 && began.elapsed() > settings.time_limit {
             return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, counts(&a, &b)));
         }
-        for (s, l) in sample.iter_mut().zip(&limits) {
-            // Within [lower, upper] (upper only by rounding): one
-            // multiply-add, without the range checks and rejection loop of
-            // a uniform distribution built per value.
-            *s = l.lower + (l.upper - l.lower) * rng.random::<f64>();
-        }
-        let Some(extension) = planner.extend(&mut a, &sample)? else {
+        let near_root = draw_sample(&mut rng, &limits, settings.root_bias, &b, &mut sample);
+        let Some(extension) = planner.extend(&mut a, &sample, near_root)? else {
             // Outside the nearest node's domain: draw again for this tree.
             continue;
         };
@@ -557,6 +464,35 @@ fn search(
     Ok(done(PlanStatus::IterationLimit, Vec::new(), settings.max_iterations, counts(&a, &b)))
 }
 
+/// Draws a round's sample into `sample`: with the bias's probability near
+/// one of `other`'s roots (then `true`: the tree extends towards it
+/// whatever its dynamic domain), else uniform within `limits`.
+fn draw_sample(
+    rng: &mut Xoshiro256PlusPlus,
+    limits: &[JointLimits],
+    bias: Option<RootBias>,
+    other: &Tree,
+    sample: &mut [f64],
+) -> bool {
+    if let Some(bias) = bias
+        && rng.random::<f64>() < bias.probability
+    {
+        // Roots are the first nodes, never cut.
+        let root = other.nn.point((rng.random::<f64>() * other.roots as f64) as usize % other.roots);
+        for ((s, l), r) in sample.iter_mut().zip(limits).zip(root) {
+            *s = (r + bias.spread * (2.0 * rng.random::<f64>() - 1.0)).clamp(l.lower, l.upper);
+        }
+        return true;
+    }
+    for (s, l) in sample.iter_mut().zip(limits) {
+        // Within [lower, upper] (upper only by rounding): one multiply-add,
+        // without the range checks and rejection loop of a uniform
+        // distribution built per value.
+        *s = l.lower + (l.upper - l.lower) * rng.random::<f64>();
+    }
+    false
+}
+
 /// Nodes in both trees, and of them those cut.
 fn counts(a: &Tree, b: &Tree) -> (usize, usize) {
     let nodes = a.parent.len() + b.parent.len();
@@ -592,4 +528,55 @@ fn join(mut from_a: Vec<Vec<f64>>, mut from_b: Vec<Vec<f64>>, a_is_start: bool) 
     from_a.reverse();
     from_a.extend(from_b.into_iter().skip(1));
     from_a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits() -> Vec<JointLimits> {
+        let joint = |lower, upper| JointLimits { lower, upper, velocity: 1.0, effort: 1.0 };
+        vec![joint(-2.9, 2.9), joint(-1.8, 1.8), joint(0.0, 0.35)]
+    }
+
+    /// Biased samples lie within the spread of one of the other tree's
+    /// roots and within the limits, and come in the bias's share of draws;
+    /// without a bias every sample is uniform within the limits.
+    #[test]
+    fn root_bias_draws_near_the_other_trees_roots() {
+        let limits = limits();
+        let mut other = Tree::new(3, SimdLevel::Baseline);
+        let roots = [[2.5, 0.0, 0.3], [-2.0, 1.0, 0.0]];
+        for r in &roots {
+            other.add(r, None, true);
+        }
+        other.add(&[0.0, 0.0, 0.1], Some(0), false);
+        let bias = RootBias { probability: 0.25, spread: 0.5 };
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(7);
+        let mut sample = [0.0; 3];
+        let (mut near, mut by_root, draws) = (0, [0; 2], 20_000);
+        for _ in 0..draws {
+            let biased = draw_sample(&mut rng, &limits, Some(bias), &other, &mut sample);
+            assert!(sample.iter().zip(&limits).all(|(s, l)| l.contains(*s)), "{sample:?}");
+            if biased {
+                near += 1;
+                let root = roots.iter().position(|r| r.iter().zip(&sample).all(|(r, s)| (r - s).abs() <= 0.5));
+                by_root[root.expect("a biased sample lies within the spread of a root")] += 1;
+            }
+        }
+        let share = near as f64 / draws as f64;
+        assert!((share - 0.25).abs() < 0.01, "{share}");
+        assert!(by_root.iter().all(|&n| (n as f64 / near as f64 - 0.5).abs() < 0.02), "{by_root:?}");
+        let mut spans = [(f64::INFINITY, f64::NEG_INFINITY); 3];
+        for _ in 0..draws {
+            assert!(!draw_sample(&mut rng, &limits, None, &other, &mut sample));
+            for (span, s) in spans.iter_mut().zip(sample) {
+                *span = (span.0.min(s), span.1.max(s));
+            }
+        }
+        for (span, l) in spans.iter().zip(&limits) {
+            assert!(span.0 >= l.lower && span.1 <= l.upper);
+            assert!(span.1 - span.0 > 0.99 * (l.upper - l.lower), "uniform over the range: {span:?}");
+        }
+    }
 }
