@@ -4,10 +4,11 @@
 //!
 //! ```
 //! use tandem::plan::{RootBias, RrtSettings};
-//! // Plain uniform sampling, every sample used, trees alternating:
+//! // One sample in ten aims near the other tree's roots by default:
+//! assert_eq!(RrtSettings::default().root_bias, Some(RootBias { probability: 0.1, spread: 3.0 }));
+//! // Plain RRT-Connect: uniform samples, every one used, trees alternating.
 //! let plain = RrtSettings { dynamic_domain: None, root_bias: None, balance: false, ..RrtSettings::default() };
-//! assert_eq!(RrtSettings::default().root_bias, Some(RootBias::default()));
-//! # let _ = plain;
+//! assert!(plain.root_bias.is_none() && plain.dynamic_domain.is_none());
 //! ```
 
 use super::EdgeCheck;
@@ -61,7 +62,7 @@ impl DynamicDomain {
     }
 }
 
-/// Settings of [`rrt_connect`].
+/// Settings of [`rrt_connect`](super::rrt_connect).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RrtSettings {
     /// Largest joint-space step of one extension (rad, Euclidean norm).
