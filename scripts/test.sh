@@ -4,7 +4,9 @@
 #      scipy, example-robot-data, pyarrow from PyPI), rebuilt when
 #      python_ref/requirements.txt changes, and the Python package's test
 #      environment python/.venv (pytest, ray; python/requirements-test.txt);
-#   2. formatting and lint checks (cargo fmt, cargo clippy -D warnings);
+#   2. formatting, lint and documentation checks (cargo fmt, cargo clippy
+#      -D warnings, cargo doc with rustdoc warnings as errors: broken
+#      intra-doc links);
 #   3. all Rust tests, including the live cross-checks against python_ref/;
 #   4. the Python package: `pip install .` (maturin) into python/.venv, then
 #      its pytest suite (python/tests: Pinocchio cross-checks, planning,
@@ -70,6 +72,8 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
 cargo clippy --workspace --all-targets --features osqp --quiet -- -D warnings
+echo "== cargo doc (warnings are errors)"
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp --quiet
 echo "== cargo test"
 cargo test --workspace --all-targets --features osqp --no-run --quiet
 disk "tests built"

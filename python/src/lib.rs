@@ -2,12 +2,12 @@
 //! re-exported by the `tandem` package (python/tandem/).
 //!
 //! One Rust module per box of the pipeline, mirroring the library:
-//! [`robot`] (models, kinematics), [`collision`], [`problem`] (problems,
-//! families), [`plan`] (IK, planning, optimization), [`control`] (tracking
-//! policies), [`arbitration`] (the per-tick arbiter), [`env`] (the
-//! arbitration-learning environment of `tandem.gym`), [`data`] (bulk
-//! generation); [`errors`] maps every Rust error
-//! to an exception class, [`arrays`] moves numpy data in and out. Long
+//! `robot` (models, kinematics), `collision`, `problem` (problems,
+//! families), `plan` (IK, planning, optimization), `control` (tracking
+//! policies), `arbitration` (the per-tick arbiter), `env` (the
+//! arbitration-learning environment of `tandem.gym`), `data` (bulk
+//! generation); `errors` maps every Rust error
+//! to an exception class, `arrays` moves numpy data in and out. Long
 //! calls release the GIL; sub-microsecond queries keep it.
 
 mod arbitration;
