@@ -116,10 +116,14 @@ impl From<&crate::scene::PlannerSettings> for RrtSettings {
 }
 
 /// Samples drawn near the other tree's roots: with probability
-/// [`probability`](Self::probability), a round's sample is one of the
+/// [`probability`](Self::probability), a drawn sample is one of the
 /// other tree's roots (the start, or a goal) moved by up to
 /// [`spread`](Self::spread) in each joint, and the tree extends towards
-/// it whatever its dynamic domain says. A goal deep in a pocket (a grasp
+/// it whatever its dynamic domain says. The domain rejects uniform draws
+/// and never these, so they take a larger share of the extension rounds
+/// than `probability` where it rejects many (with the default 0.1: 15 %
+/// of the rounds of the Panda's `cage`, 22 % of the UR5's `cage` of
+/// VAMP's set). A goal deep in a pocket (a grasp
 /// in a cage, 1 cm from the bars) lets almost no random step out: from
 /// MotionBenchMaker's Panda `cage` goals, 1 % of 1 rad steps in uniform
 /// directions are free, 5 % of 0.5 rad ones, while the direction towards
@@ -135,10 +139,12 @@ impl From<&crate::scene::PlannerSettings> for RrtSettings {
 /// 1.4× the Panda's; the Baxter's median stayed where it was and its
 /// mean rose (dual-arm `cage`). A spread of 2 rad did as well on the
 /// Panda and better on the TIAGo, but raised the Baxter's median 3.6 %;
-/// a chance of 0.05 or 0.2 did worse on the Panda.
+/// a chance of 0.05 or 0.2 did worse on the Panda. It slows the UR5's
+/// `cage` of VAMP's MotionBenchMaker set (median rounds 626 without it,
+/// 1,480 with it; README), and no variant measured spared that family.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RootBias {
-    /// Chance that a round's sample is drawn near a root (0 to 1; below 1,
+    /// Chance that a drawn sample is near a root (0 to 1; below 1,
     /// or a search could aim at the same blocked root forever).
     pub probability: f64,
     /// Largest move (rad or m) in each joint from the root, uniform,
