@@ -464,7 +464,8 @@ fn search(
     Ok(done(PlanStatus::IterationLimit, Vec::new(), settings.max_iterations, counts(&a, &b)))
 }
 
-/// Draws a round's sample into `sample`: with the bias's probability near
+/// Draws a sample into `sample` (a round may take several draws, as the
+/// dynamic domain rejects uniform ones): with the bias's probability near
 /// one of `other`'s roots (then `true`: the tree extends towards it
 /// whatever its dynamic domain), else uniform within `limits`.
 fn draw_sample(
