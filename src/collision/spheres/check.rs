@@ -75,8 +75,13 @@ pub(crate) struct SphereWorkspace<T = f64> {
     /// `half` (at least its width when the lane was not split; NaN or
     /// negative means none).
     pub(super) room: Lane<T>,
+    /// Per lane, after a certification check: the groups of the pairs
+    /// that fell short of its width, which its parts must check again.
+    pub(super) short: [Pending; LANES],
+    /// The pairs a certification check visits: those pending in any lane.
+    pub(super) checking: Pending,
     /// Intervals of the motion still to certify.
-    pub(crate) intervals: std::collections::VecDeque<(f64, f64)>,
+    pub(crate) intervals: std::collections::VecDeque<Interval>,
     /// The pair that last failed, checked first: successive checks (the
     /// steps of a search, a shortcut tried again) tend to fail on it.
     last_failure: Option<Pair>,
@@ -92,6 +97,60 @@ pub(crate) struct SphereWorkspace<T = f64> {
 enum Pair {
     Environment(usize, usize),
     Robot(usize),
+}
+
+/// Part `[lo, hi]` of a motion (fractions of it) still to certify, and
+/// the pairs still to certify over it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Interval {
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) pending: Pending,
+}
+
+/// Pairs of a certification as group bits (bit `g` for group `g`; groups
+/// past the 64th have none and are always pending): each group's pairs
+/// with the static shapes, and the self pairs both of whose groups are
+/// set. A pair that keeps its margin over an interval keeps it over every
+/// part of it, so an interval's parts check only the pairs that fell
+/// short on it (and, in a batch, those any other lane still needs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Pending {
+    environment: u64,
+    robot: u64,
+}
+
+impl Pending {
+    pub(super) const ALL: Pending = Pending { environment: u64::MAX, robot: u64::MAX };
+    pub(super) const NONE: Pending = Pending { environment: 0, robot: 0 };
+
+    #[inline(always)]
+    fn bit(g: usize) -> u64 {
+        if g < 64 { 1 << g } else { 0 }
+    }
+
+    /// Group `g`'s pairs with the static shapes.
+    #[inline(always)]
+    fn environment(g: usize) -> Pending {
+        Pending { environment: Pending::bit(g), robot: 0 }
+    }
+
+    /// The self pair of groups `a` and `b`.
+    #[inline(always)]
+    fn robot([a, b]: [u32; 2]) -> Pending {
+        Pending { environment: 0, robot: Pending::bit(a as usize) | Pending::bit(b as usize) }
+    }
+
+    /// Whether every pair of `part` is pending here.
+    #[inline(always)]
+    fn covers(&self, part: Pending) -> bool {
+        self.environment & part.environment == part.environment && self.robot & part.robot == part.robot
+    }
+
+    #[inline(always)]
+    pub(super) fn union(self, other: Pending) -> Pending {
+        Pending { environment: self.environment | other.environment, robot: self.robot | other.robot }
+    }
 }
 
 /// What a certification check asks of each pair (m): to stay `full` apart
@@ -147,6 +206,8 @@ impl<T: Real> SphereWorkspace<T> {
             cluster_sweep: vec![T::ZERO; model.clusters.len()],
             margins: Margins { half: T::ZERO, full: T::ZERO, width: [T::ZERO; LANES] },
             room: [T::ZERO; LANES],
+            short: [Pending::NONE; LANES],
+            checking: Pending::ALL,
             intervals: std::collections::VecDeque::with_capacity(256),
             last_failure: None,
             probe_next: false,
@@ -188,6 +249,8 @@ struct Flags<T> {
     /// around the checked configuration over which every pair met so far
     /// keeps `half` (+∞ until a pair falls short of the lane's width).
     room: Lane<T>,
+    /// Certification: per lane, the pairs that fell short of its width.
+    short: [Pending; LANES],
 }
 
 /// Folds one pair's plain verdicts into the flags, given each lane's
@@ -227,6 +290,8 @@ fn short_lanes<T: Real>(
 /// motion, in absolute value) with the bound `accel` of its second
 /// derivative's (m per unit of motion², valid everywhere).
 struct PairBounds<'a, T> {
+    /// The pair, as [`Pending`] bits.
+    pending: Pending,
     keep: T,
     sweep: &'a Lane<T>,
     rate: &'a Lane<T>,
@@ -269,6 +334,7 @@ fn narrow<T: Real>(
         if room < width[l] || room.is_nan() {
             flags.split[l] = true;
             flags.room[l] = min(flags.room[l], room);
+            flags.short[l] = flags.short[l].union(pair.pending);
         }
     }
 }
@@ -415,37 +481,61 @@ impl<T: Real> SphereModel<T> {
             ws.tight_done.fill(false);
             ws.tangent_done = false;
         }
-        let mut flags = Flags { unsure: [false; LANES], split: [false; LANES], room: [T::INFINITY; LANES] };
+        let mut flags = Flags {
+            unsure: [false; LANES],
+            split: [false; LANES],
+            room: [T::INFINITY; LANES],
+            short: [Pending::NONE; LANES],
+        };
+        // Only certification's parts of intervals leave pairs out.
+        let (checking, masked) = (ws.checking, CERTIFY && ws.checking != Pending::ALL);
+        let skip = |part: Pending| masked && !checking.covers(part);
         // Checked again below if it passes: the flags it sets do not change.
         let failed = match ws.last_failure {
-            Some(Pair::Environment(g, o)) => self.check_shape::<CERTIFY>(ws, g, o, &mut flags),
-            Some(Pair::Robot(p)) => {
+            Some(Pair::Environment(g, o)) if !skip(Pending::environment(g)) => {
+                self.check_shape::<CERTIFY>(ws, g, o, &mut flags)
+            }
+            Some(Pair::Robot(p)) if !skip(Pending::robot(self.self_pairs[p])) => {
                 self.self_pair_centers(ws, p);
                 self.check_self_pair::<CERTIFY>(ws, p, &mut flags)
             }
-            None => false,
+            _ => false,
         };
         if failed {
             return Verdict::Collides;
         }
         // Distal links first: they are the likelier to hit something.
         for g in (0..self.groups.len()).rev() {
-            if self.check_environment::<CERTIFY>(ws, g, &mut flags) {
+            if !skip(Pending::environment(g)) && self.check_environment::<CERTIFY>(ws, g, &mut flags) {
                 return Verdict::Collides;
             }
         }
         for block in &self.self_blocks {
-            if block.segments.is_some_and(|s| self.segments_apart::<CERTIFY>(ws, s)) {
-                continue;
+            if let Some(segments) = block.segments {
+                // Blocks with no pair pending are skipped before their boxes.
+                let idle = masked && block.pairs.clone().all(|p| skip(Pending::robot(self.self_pairs[p])));
+                if idle || self.segments_apart::<CERTIFY>(ws, segments) {
+                    continue;
+                }
             }
             for p in block.pairs.clone() {
+                if masked {
+                    if skip(Pending::robot(self.self_pairs[p])) {
+                        continue;
+                    }
+                    // Groups whose shapes were not checked are placed here.
+                    self.self_pair_centers(ws, p);
+                }
                 if self.check_self_pair::<CERTIFY>(ws, p, &mut flags) {
                     ws.last_failure = Some(Pair::Robot(p));
                     return Verdict::Collides;
                 }
             }
         }
-        ws.room = flags.room;
+        if CERTIFY {
+            ws.room = flags.room;
+            ws.short = flags.short;
+        }
         Verdict::Free { unsure: flags.unsure, split: flags.split }
     }
 
@@ -528,7 +618,8 @@ impl<T: Real> SphereModel<T> {
                 let velocity = self.sphere_velocity(ws, group.body, s);
                 let rate = distance_rate(&shape.core_approach(&ws.centers[s], &velocity), &distance);
                 let keep = reach + ws.margins.half + self.tolerance;
-                let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel: self.cluster_accel(ws, c) };
+                let accel = self.cluster_accel(ws, c);
+                let pair = PairBounds { pending: Pending::environment(g), keep, sweep: &sweep, rate: &rate, accel };
                 narrow(&distance, &short, &pair, &ws.margins.width, flags);
             }
         }
@@ -597,7 +688,8 @@ impl<T: Real> SphereModel<T> {
                         let rate = self.separation_rate(ws, (ga.body, i), (gb.body, j), &distance);
                         let accel = self.cluster_accel(ws, ca) + self.cluster_accel(ws, cb);
                         let keep = reach + ws.margins.half + self.tolerance;
-                        let pair = PairBounds { keep, sweep: &sweep, rate: &rate, accel };
+                        let pending = Pending::robot(self.self_pairs[p]);
+                        let pair = PairBounds { pending, keep, sweep: &sweep, rate: &rate, accel };
                         narrow(&distance, &short, &pair, &ws.margins.width, flags);
                     }
                 }
