@@ -8,8 +8,8 @@ mod common;
 use std::time::{Duration, Instant};
 use tandem::collision::{CollisionWorkspace, MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
 use tandem::plan::{
-    EdgeCheck, IkError, IkSettings, IkTarget, PlanStatus, RootBias, RrtSettings, plan_problem, resample, rrt_connect,
-    solve_ik,
+    DynamicDomain, EdgeCheck, IkError, IkSettings, IkTarget, PlanStatus, RootBias, RrtSettings, plan_problem, resample,
+    rrt_connect, solve_ik,
 };
 use tandem::robot::{KinematicsWorkspace, RobotError};
 use tandem::scene::{Goal, Problem};
@@ -251,6 +251,60 @@ fn the_planner_stops_at_its_time_limit_inside_edge_checks() {
     assert_eq!(result.status, PlanStatus::TimeLimit);
     // Generous for a loaded machine: one edge check is ~10 ms, a hang is minutes.
     assert!(began.elapsed() < Duration::from_secs(2), "{:?}", began.elapsed());
+}
+
+/// Sampling settings out of range are refused by name before the search
+/// starts: a step of 0 would add the same node forever within one round,
+/// a NaN spread would draw NaN samples.
+#[test]
+fn search_settings_out_of_range_are_refused_by_name() {
+    let (problem, start, goal) = wall();
+    let model = problem.collision_model().unwrap();
+    let mut ws = CollisionWorkspace::new(&model);
+    let base = RrtSettings::default();
+    let domain = base.dynamic_domain.unwrap();
+    let bias = base.root_bias.unwrap();
+    let mut cases: Vec<(&str, RrtSettings)> = Vec::new();
+    for step in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        cases.push(("step", RrtSettings { step, ..base.clone() }));
+    }
+    for radius in [0.0, -1.0, f64::NAN] {
+        let dynamic_domain = Some(DynamicDomain { radius, ..domain });
+        cases.push(("dynamic_domain.radius", RrtSettings { dynamic_domain, ..base.clone() }));
+    }
+    for min_radius in [-0.5, f64::NAN] {
+        let dynamic_domain = Some(DynamicDomain { min_radius, ..domain });
+        cases.push(("dynamic_domain.min_radius", RrtSettings { dynamic_domain, ..base.clone() }));
+    }
+    for rate in [1.0, -0.1, f64::NAN] {
+        let dynamic_domain = Some(DynamicDomain { rate, ..domain });
+        cases.push(("dynamic_domain.rate", RrtSettings { dynamic_domain, ..base.clone() }));
+    }
+    for probability in [1.0, -0.1, f64::NAN] {
+        let root_bias = Some(RootBias { probability, ..bias });
+        cases.push(("root_bias.probability", RrtSettings { root_bias, ..base.clone() }));
+    }
+    for spread in [-1.0, f64::NAN, f64::INFINITY] {
+        let root_bias = Some(RootBias { spread, ..bias });
+        cases.push(("root_bias.spread", RrtSettings { root_bias, ..base.clone() }));
+    }
+    for (expected, settings) in &cases {
+        assert!(settings.validate().is_err(), "{expected}");
+        let e = rrt_connect(&model, &mut ws, &start, std::slice::from_ref(&goal), settings).unwrap_err();
+        assert!(matches!(e, RobotError::InvalidSetting { name, .. } if name == *expected), "{expected}: {e}");
+        assert!(e.to_string().starts_with(expected), "{e}");
+    }
+    // The edges of each range are taken: no domain, no bias, a bias of 0.
+    let edges = [
+        RrtSettings { dynamic_domain: None, root_bias: None, ..base.clone() },
+        RrtSettings { root_bias: Some(RootBias { probability: 0.0, spread: 0.0 }), ..base.clone() },
+        RrtSettings { dynamic_domain: Some(DynamicDomain { min_radius: 0.0, rate: 0.0, ..domain }), ..base.clone() },
+    ];
+    for settings in &edges {
+        settings.validate().unwrap();
+        let result = rrt_connect(&model, &mut ws, &start, std::slice::from_ref(&goal), settings).unwrap();
+        assert_eq!(result.status, PlanStatus::Solved);
+    }
 }
 
 #[test]

@@ -336,7 +336,8 @@ impl Planner<'_> {
 /// `goals`. Same seed, same inputs: same path.
 ///
 /// # Errors
-/// Configurations of the wrong length or with non-finite values.
+/// Configurations of the wrong length or with non-finite values;
+/// settings out of range ([`RrtSettings::validate`]).
 pub fn rrt_connect(
     model: &CollisionModel,
     ws: &mut CollisionWorkspace,
@@ -358,7 +359,8 @@ pub fn rrt_connect(
 ///
 /// # Errors
 /// Configurations of the wrong length or with non-finite values, a
-/// resolution below [`crate::collision::MIN_RESOLUTION`].
+/// resolution below [`crate::collision::MIN_RESOLUTION`], settings out of
+/// range ([`RrtSettings::validate`]).
 pub fn rrt_connect_lazy(
     model: &CollisionModel,
     ws: &mut CollisionWorkspace,
@@ -378,6 +380,7 @@ fn search(
     goals: &[Vec<f64>],
     settings: &RrtSettings,
 ) -> Result<PlanResult, RobotError> {
+    settings.validate()?;
     let began = Instant::now();
     let robot = model.robot();
     let done = |status, path, iterations, (nodes, cut)| PlanResult {

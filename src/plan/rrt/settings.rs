@@ -12,6 +12,7 @@
 //! ```
 
 use super::EdgeCheck;
+use crate::robot::RobotError;
 use std::time::Duration;
 
 /// Dynamic-domain sampling (Yershova et al. 2005, with the adaptive radius
@@ -97,6 +98,36 @@ impl Default for RrtSettings {
             max_iterations: 100_000,
             seed: 0,
         }
+    }
+}
+
+impl RrtSettings {
+    /// Checks the sampling settings: a positive, finite step; a dynamic
+    /// domain with a positive radius, a non-negative smallest radius and
+    /// a rate in `[0, 1)`; a root bias with a chance in `[0, 1)` and a
+    /// finite, non-negative spread. (The edge check's resolution or
+    /// clearance is checked by the check itself.) A step of 0 would let
+    /// a tree's connection add the same node forever within one round.
+    ///
+    /// # Errors
+    /// [`RobotError::InvalidSetting`] naming the first setting out of range.
+    pub fn validate(&self) -> Result<(), RobotError> {
+        let check = |name: &'static str, value: f64, ok: bool, expected: &str| {
+            if ok { Ok(()) } else { Err(RobotError::InvalidSetting { name, value, expected: expected.into() }) }
+        };
+        check("step", self.step, self.step.is_finite() && self.step > 0.0, "a finite step above 0 (rad or m)")?;
+        if let Some(d) = &self.dynamic_domain {
+            check("dynamic_domain.radius", d.radius, d.radius > 0.0, "a radius above 0 (rad or m)")?;
+            check("dynamic_domain.min_radius", d.min_radius, d.min_radius >= 0.0, "a radius of at least 0")?;
+            check("dynamic_domain.rate", d.rate, (0.0..1.0).contains(&d.rate), "a rate in [0, 1)")?;
+        }
+        if let Some(b) = &self.root_bias {
+            let p = b.probability;
+            check("root_bias.probability", p, (0.0..1.0).contains(&p), "a chance in [0, 1)")?;
+            let spread = b.spread;
+            check("root_bias.spread", spread, spread.is_finite() && spread >= 0.0, "a finite spread of at least 0")?;
+        }
+        Ok(())
     }
 }
 
