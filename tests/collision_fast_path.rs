@@ -228,12 +228,7 @@ fn certified_motions(robot: &RobotModel, pair: Pair) -> Vec<bool> {
             continue;
         }
         certified += 1;
-        for k in 0..=300 {
-            let t = k as f64 / 300.0;
-            let q: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * t).collect();
-            let d = general.min_distance(&mut general_ws, &q).unwrap().unwrap().signed.distance;
-            assert!(d >= clearance / 2.0, "certified motion {q0:?} -> {q1:?} comes {d} m close at t = {t}");
-        }
+        common::assert_motion_keeps(&general, &mut general_ws, (&q0, &q1), clearance / 2.0, 300);
     }
     println!("{certified} of {total} motions certified; the general path agrees on {agree}");
     assert!(certified > 50 && certified < total - 50);

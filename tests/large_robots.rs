@@ -147,12 +147,7 @@ fn certified_motions_of_a_chain_past_64_groups_keep_half_the_clearance() {
             continue;
         }
         certified += 1;
-        for k in 0..=100 {
-            let t = k as f64 / 100.0;
-            let q: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| a + (b - a) * t).collect();
-            let d = general.min_distance(&mut general_ws, &q).unwrap().unwrap().signed.distance;
-            assert!(d >= clearance / 2.0, "a certified motion comes {d} m close at t = {t}");
-        }
+        common::assert_motion_keeps(&general, &mut general_ws, (&q0, &q1), clearance / 2.0, 100);
     }
     eprintln!("{certified} of {total} motions certified, the general path agrees on {agree}");
     assert!(certified >= 10 && certified + 10 <= total, "{certified} of {total}");

@@ -86,12 +86,7 @@ fn certify_random_motions(robot: &RobotModel, fast: &CollisionModel, count: usiz
             continue;
         }
         counts.certified += 1;
-        for k in 0..=200 {
-            let t = k as f64 / 200.0;
-            let qt: Vec<f64> = q.iter().zip(&q1).map(|(a, b)| a + (b - a) * t).collect();
-            let d = general.min_distance(&mut general_ws, &qt).unwrap().unwrap().signed.distance;
-            assert!(d >= clearance / 2.0, "certified motion {q:?} -> {q1:?} comes {d} m close at t = {t}");
-        }
+        common::assert_motion_keeps(&general, &mut general_ws, (&q, &q1), clearance / 2.0, 200);
     }
     counts.deferred = fast_ws.deferred_certifications();
     let Certifications { certified, total, agree, deferred } = counts;

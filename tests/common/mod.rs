@@ -9,6 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::robot::RobotModel;
 
 /// Repository root.
@@ -126,4 +127,23 @@ pub fn random_configurations(model: &RobotModel, count: usize, seed: u64) -> Vec
                 .collect()
         })
         .collect()
+}
+
+/// Asserts that `samples + 1` evenly spaced configurations of the
+/// straight motion `q0 → q1` (ends included) each keep at least `keep`
+/// (m) from everything, by `model`'s signed distances: the dense check of
+/// a certified motion, on a path other than the one that certified it.
+pub fn assert_motion_keeps(
+    model: &CollisionModel,
+    ws: &mut CollisionWorkspace,
+    (q0, q1): (&[f64], &[f64]),
+    keep: f64,
+    samples: usize,
+) {
+    for k in 0..=samples {
+        let t = k as f64 / samples as f64;
+        let q: Vec<f64> = q0.iter().zip(q1).map(|(a, b)| a + (b - a) * t).collect();
+        let d = model.min_distance(ws, &q).unwrap().unwrap().signed.distance;
+        assert!(d >= keep, "certified motion {q0:?} -> {q1:?} comes {d} m close at t = {t}");
+    }
 }
