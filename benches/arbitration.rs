@@ -23,12 +23,12 @@
 use criterion::Criterion;
 use std::hint::black_box;
 use std::time::Instant;
-use tandem::arbitration::StateLayout;
 use tandem::arbitration::{
-    Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, TickInput, problem_goals,
+    Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, StateLayout, TickInput,
+    problem_goals,
 };
 use tandem::learn::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
 
 /// One recorded tick: state, velocity, operator command.

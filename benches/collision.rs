@@ -21,9 +21,10 @@ use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::sync::Arc;
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::collision::{CollisionModel, CollisionWorkspace};
+use tandem::problem::Problem;
 use tandem::robot::{MeshSearchPath, RobotDescription, RobotModel};
-use tandem::scene::{Obstacle, Problem};
+use tandem::scene::{Obstacle, Shape};
 
 #[path = "support/large_robots.rs"]
 mod large;

@@ -10,7 +10,7 @@ use tandem::komo::{
     Initialization, SolveOptions, TrajectoryOptimizer, TrajectoryProblem, solve_problem, trajectory_solver_settings,
 };
 use tandem::plan::plan_problem;
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 use tandem_solvers::least_squares::Termination;
 
 const PROBLEMS: [&str; 3] = ["panda_reach", "panda_reach_obstacle", "panda_grasp_box"];

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use tandem::control::RobotPolicy;
 use tandem::learn::features::input_width;
 use tandem::learn::{FORMAT, FORMAT_VERSION, LearnedPolicy, PolicyMeta, PolicyNetwork};
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 
 fn network(problem: &Problem) -> PolicyNetwork {
     if let Ok(path) = std::env::var("TANDEM_POLICY") {

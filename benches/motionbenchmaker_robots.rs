@@ -61,7 +61,7 @@ use tandem::plan::{PlanStatus, ProblemPlanner};
 /// `motionbenchmaker_komo` does the Panda's: solved when the optimizer
 /// converged, every slice is within limits and the motion between slices
 /// is collision-free at the validation resolution.
-fn optimize(problem: &tandem::scene::Problem, name: &str, times: &mut Vec<f64>, failed: &mut Vec<String>) {
+fn optimize(problem: &tandem::problem::Problem, name: &str, times: &mut Vec<f64>, failed: &mut Vec<String>) {
     let options = SolveOptions { seed: Some(0), ..SolveOptions::default() };
     match solve_problem(problem, &options) {
         Ok(s) if s.converged() => times.push(s.total_time.as_secs_f64()),
@@ -124,7 +124,7 @@ fn prepare(args: &[String], (per_family, seeds): (u64, u64), time_limit: f64, pa
     let one = args.iter().position(|a| a == "--problem").and_then(|i| args.get(i + 1));
     let dir = tempfile::tempdir().expect("temp dir");
     let (mut jobs, mut extras) = (Vec::new(), Vec::new());
-    let add = |jobs: &mut Vec<Job>, robot, name: String, problem: &tandem::scene::Problem| {
+    let add = |jobs: &mut Vec<Job>, robot, name: String, problem: &tandem::problem::Problem| {
         for seed in 0..seeds {
             let mut planner = ProblemPlanner::new(problem, Some(seed)).expect("planner");
             if plain {

@@ -5,7 +5,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use tandem::plan::{PlanStatus, ProblemPlanner};
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 
 fn planning(c: &mut Criterion) {
     let mut group = c.benchmark_group("plan");

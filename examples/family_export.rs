@@ -53,7 +53,7 @@ use std::time::Instant;
 use tandem::data::{GenerateSettings, goal_miss};
 use tandem::komo::{TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
 use tandem::plan::ProblemPlanner;
-use tandem::scene::{Goal, Problem, ProblemFamily};
+use tandem::problem::{Goal, Problem, ProblemFamily};
 
 #[derive(Debug, Parser)]
 #[command(about = "Export a family's samples for the peer generator, or measure trajectories with tandem's yardstick")]

@@ -13,7 +13,7 @@
 
 use tandem::komo::{Initialization, TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
 use tandem::plan::plan_problem;
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();

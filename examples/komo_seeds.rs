@@ -57,7 +57,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 use tandem::komo::{Initialization, Measures, TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
 use tandem::plan::{PlanStatus, ProblemPlanner, resample};
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 use tandem_solvers::least_squares::{SolveReport, SolverSettings, Termination};
 use timing::{cpu_time_ms, median};
 

@@ -30,7 +30,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::plan::{PlanStatus, ProblemPlanner};
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 use timing::{cpu_time_ms, median};
 
 #[derive(Debug, Parser)]

@@ -47,6 +47,7 @@ pub mod figures;
 pub mod komo;
 pub mod learn;
 pub mod plan;
+pub mod problem;
 pub mod robot;
 pub mod scene;
 pub mod sim;

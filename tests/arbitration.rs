@@ -8,12 +8,12 @@ use tandem::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, HumanCommand, MetricSpace, TickInput,
     TickStatus,
 };
-use tandem::collision::{CollisionModel, Shape};
+use tandem::collision::CollisionModel;
 use tandem::control::{
     ControlError, GainSchedule, JointTrajectory, PolicyState, RobotPolicy, TrackingPolicy, TrackingWeights,
 };
 use tandem::robot::RobotModel;
-use tandem::scene::{Obstacle, Scene};
+use tandem::scene::{Obstacle, Scene, Shape};
 
 mod common;
 

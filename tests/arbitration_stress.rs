@@ -14,10 +14,10 @@ use std::sync::Arc;
 use tandem::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput, TickStatus,
 };
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
-use tandem::scene::{Obstacle, Scene};
+use tandem::scene::{Obstacle, Scene, Shape};
 
 const TICKS_PER_SCENE: usize = 1000;
 

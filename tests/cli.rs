@@ -221,7 +221,8 @@ fn solve_json_reports_the_documented_fields_and_writes_files() {
     let trajectory = v["trajectory"].as_array().unwrap();
     assert_eq!(trajectory.len(), 21);
     assert!(trajectory.iter().all(|q| q.as_array().unwrap().len() == 7));
-    let start = tandem::scene::Problem::from_file(common::repo().join("problems/panda_grasp_box.toml")).unwrap().start;
+    let start =
+        tandem::problem::Problem::from_file(common::repo().join("problems/panda_grasp_box.toml")).unwrap().start;
     assert_eq!(trajectory[0], serde_json::json!(start));
     assert_eq!(v["joints"].as_array().unwrap().len(), 7);
     let csv = std::fs::read_to_string(dir.path().join("trajectory.csv")).unwrap();

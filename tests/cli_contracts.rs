@@ -158,7 +158,7 @@ fn solve_writes_the_trajectory_policy_reads_back() {
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("time,panda_joint1,"), "{}", &text[..60]);
     // The start first, at time 0, as in MoveIt trajectories.
-    let start = tandem::scene::Problem::builtin("panda_reach_obstacle").unwrap().start;
+    let start = tandem::problem::Problem::builtin("panda_reach_obstacle").unwrap().start;
     let first: Vec<f64> = text.lines().nth(1).unwrap().split(',').map(|x| x.parse().unwrap()).collect();
     assert_eq!(first[0], 0.0);
     assert_eq!(first[1..], start[..]);

@@ -19,9 +19,9 @@ const WITNESS_TOLERANCE: f64 = 1e-12;
 const GJK_TOLERANCE: f64 = 1e-6;
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Vector3};
 use std::sync::Arc;
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::robot::RobotModel;
-use tandem::scene::{Obstacle, Scene};
+use tandem::scene::{Obstacle, Scene, Shape};
 
 fn pose(p: [f64; 3], rpy: [f64; 3]) -> IsometryMatrix3<f64> {
     IsometryMatrix3::from_parts(

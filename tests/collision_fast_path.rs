@@ -12,9 +12,10 @@ use nalgebra::IsometryMatrix3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::sync::Arc;
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape, SimdLevel};
+use tandem::collision::{CollisionModel, CollisionWorkspace, SimdLevel};
+use tandem::problem::{Goal, Problem};
 use tandem::robot::RobotModel;
-use tandem::scene::{Goal, Obstacle, Problem, Scene, SceneObject};
+use tandem::scene::{Obstacle, Scene, SceneObject, Shape};
 
 /// Both paths of `model` on the same queries; returns (free, colliding) counts.
 struct Pair {

@@ -14,9 +14,10 @@ use common::{random_configurations, repo, worst};
 const GRADIENT_TOLERANCE: f64 = 2e-8;
 use nalgebra::{IsometryMatrix3, Translation3, Vector3};
 use std::sync::Arc;
-use tandem::collision::{CollisionError, CollisionModel, CollisionWorkspace, Shape};
+use tandem::collision::{CollisionError, CollisionModel, CollisionWorkspace};
+use tandem::problem::Problem;
 use tandem::robot::{MeshSearchPath, RobotDescription, RobotModel, Srdf};
-use tandem::scene::{Obstacle, Problem, Scene, SceneObject};
+use tandem::scene::{Obstacle, Scene, SceneObject, Shape, ShapeError};
 
 #[global_allocator]
 static GLOBAL: CountingAllocator = CountingAllocator;
@@ -131,7 +132,7 @@ fn motion_validation_matches_dense_sampling() {
     let problem = Problem::from_file(repo().join("problems/panda_reach_obstacle.toml")).unwrap();
     let model = problem.collision_model().unwrap();
     let mut ws = CollisionWorkspace::new(&model);
-    let tandem::scene::Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
+    let tandem::problem::Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
     assert!(
         !model.motion_free(&mut ws, &problem.start, goal, 0.01).unwrap(),
         "the wall must block the straight motion"
@@ -156,7 +157,7 @@ fn padding_shifts_distances_by_the_padded_sides() {
     }
     assert!(matches!(
         CollisionModel::builder(robot).padding(-0.1).build(),
-        Err(CollisionError::InvalidShape { what: "padding", .. })
+        Err(CollisionError::Shape(ShapeError::InvalidShape { what: "padding", .. }))
     ));
 }
 

@@ -15,14 +15,13 @@ mod common;
 use common::{repo, run_python};
 use nalgebra::IsometryMatrix3;
 use serde_json::{Value, json};
-use tandem::collision::Shape;
 use tandem::data::{GenerateSettings, SampleOutcome, run_sample};
 use tandem::komo::{SolveOptions, solve_problem};
-use tandem::robot::KinematicsWorkspace;
-use tandem::scene::{
-    BUILTIN_PROBLEMS, GraspCriteria, GraspError, GraspJudge, Problem, ProblemError, ProblemFamily, SceneObject,
-    grasp_depth,
+use tandem::problem::{
+    BUILTIN_PROBLEMS, GraspCriteria, GraspError, GraspJudge, Problem, ProblemError, ProblemFamily, grasp_depth,
 };
+use tandem::robot::KinematicsWorkspace;
+use tandem::scene::{SceneObject, Shape};
 
 /// The shipped problems' collision margin (m).
 const MARGIN: f64 = 0.005;
@@ -191,7 +190,7 @@ fn grasp_depth_is_the_objects_extent_against_the_approach() {
     assert!((Shape::capsule(0.02, 0.1).support(&d) - (0.05 * 1.2 + 0.02 * d.norm())).abs() < 1e-12);
     assert!((Shape::cuboid([0.1, 0.2, 0.3]).support(&d) - (0.05 * 0.3 + 0.1 * 0.4 + 0.15 * 1.2)).abs() < 1e-12);
     let tet = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.1, 0.0], [0.0, 0.0, 0.1]].map(nalgebra::Point3::from);
-    let hull = Shape::Convex(std::sync::Arc::new(tandem::collision::ConvexHull::new(&tet).unwrap()));
+    let hull = Shape::Convex(std::sync::Arc::new(tandem::scene::ConvexHull::new(&tet).unwrap()));
     assert!((hull.support(&d) - 0.12).abs() < 1e-12);
     assert!((Shape::cylinder(0.03, 0.1).support(&d) - (0.05 * 1.2 + 0.03 * 0.5)).abs() < 1e-12);
 }

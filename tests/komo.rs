@@ -12,8 +12,8 @@ use tandem::komo::{
     Feature, FrameRef, Initialization, JOINT_LIMIT_CUTOFF, KomoError, Objective, SolveOptions, TimeSpan,
     TrajectoryOptimizer, TrajectoryProblem, TrajectoryWorkspace, solve_problem, trajectory_solver_settings,
 };
+use tandem::problem::{Goal, ObjectiveKind, Problem};
 use tandem::robot::{KinematicsWorkspace, RobotModel};
-use tandem::scene::{Goal, ObjectiveKind, Problem};
 use tandem_solvers::least_squares::{Residuals, Termination};
 
 #[global_allocator]
@@ -288,7 +288,7 @@ fn a_repeated_solve_allocates_nothing() {
 #[test]
 fn problems_without_objectives_get_the_defaults() {
     // The obstacle problem's file without its [[optimizer.objectives]].
-    let text = tandem::scene::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == "panda_reach_obstacle").unwrap().1;
+    let text = tandem::problem::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == "panda_reach_obstacle").unwrap().1;
     let cut = text.find("[[optimizer.objectives]]").unwrap();
     let problem = Problem::from_str_with(&text[..cut], "<defaults>", None).unwrap();
     assert!(problem.optimizer.objectives.is_empty());

@@ -21,12 +21,13 @@ use rand_chacha::ChaCha8Rng;
 use serde_json::{Value, json};
 use std::sync::Arc;
 use std::time::Instant;
-use tandem::collision::{CollisionModel, CollisionWorkspace, ObjectSource, Shape};
+use tandem::collision::{CollisionModel, CollisionWorkspace, ObjectSource};
 use tandem::komo::{
     COLLISION_CUTOFF, Feature, FeatureScratch, FrameRef, Objective, TimeSpan, TrajectoryProblem, TrajectoryWorkspace,
 };
+use tandem::problem::ObjectiveKind;
 use tandem::robot::{KinematicsWorkspace, RobotModel};
-use tandem::scene::{ObjectiveKind, Obstacle, Scene};
+use tandem::scene::{Obstacle, Scene, Shape};
 use tandem_solvers::finite_diff::central_jacobian;
 use tandem_solvers::least_squares::Residuals;
 

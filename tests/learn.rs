@@ -19,7 +19,7 @@ use tandem::learn::evaluate::{RolloutSettings, Task};
 use tandem::learn::{
     Demonstrations, FORMAT_VERSION, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainSettings, train_on,
 };
-use tandem::scene::ProblemFamily;
+use tandem::problem::ProblemFamily;
 
 fn family_path() -> PathBuf {
     common::repo().join("problems/panda_grasp_family.toml")
@@ -157,7 +157,7 @@ fn files_round_trip_and_bad_files_are_named() {
     assert!(matches!(&e, LearnError::TensorShape { name, .. } if name.starts_with("layers.1")), "{e}");
 
     // A policy for another robot.
-    let planar = tandem::scene::Problem::from_file(common::repo().join("problems/planar_pick.toml")).unwrap();
+    let planar = tandem::problem::Problem::from_file(common::repo().join("problems/planar_pick.toml")).unwrap();
     let e = LearnedPolicy::for_problem(Arc::new(network), &planar).unwrap_err();
     assert!(matches!(&e, LearnError::Mismatch { what, .. } if what == "active joints"), "{e}");
 }

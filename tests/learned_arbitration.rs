@@ -23,7 +23,7 @@ use tandem::learn::{
     ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta, DdpgSettings, LearnError,
     train_arbitration,
 };
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 use tandem::sim::{
     ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, PlanarUser, RewardKind, reward, sample_planar_task,
 };

@@ -6,7 +6,7 @@
 mod common;
 
 use tandem::collision::{CollisionModel, CollisionWorkspace};
-use tandem::scene::{Goal, Problem, read_moveit_request, read_moveit_scene};
+use tandem::problem::{Goal, Problem, read_moveit_request, read_moveit_scene};
 
 use common::{mbm, unpack_mbm as unpack};
 use std::path::PathBuf;

@@ -10,8 +10,8 @@ use common::{mbm, unpack_mbm as unpack};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tandem::plan::{PlanStatus, ProblemPlanner};
+use tandem::problem::Problem;
 use tandem::robot::{JointSelection, RobotDescription, RobotModel, Srdf};
-use tandem::scene::Problem;
 
 /// MotionBenchMaker's first box problem with `scene` and `srdf` text.
 fn panda_problem(dir: &Path, scene: &str, srdf: Option<&str>) -> Result<Problem, String> {

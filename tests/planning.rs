@@ -11,8 +11,8 @@ use tandem::plan::{
     DynamicDomain, EdgeCheck, IkError, IkSettings, IkTarget, PlanStatus, RootBias, RrtSettings, plan_problem, resample,
     rrt_connect, solve_ik,
 };
+use tandem::problem::{Goal, Problem};
 use tandem::robot::{KinematicsWorkspace, RobotError};
-use tandem::scene::{Goal, Problem};
 
 /// Checks a solved plan: ends, limits, collisions at resolution/4.
 fn assert_valid(problem: &Problem, path: &[Vec<f64>], goals: &[Vec<f64>]) {

@@ -4,8 +4,9 @@
 //! kind of bad file is reported with its file name, line and key.
 
 use std::path::{Path, PathBuf};
-use tandem::collision::{CollisionWorkspace, Shape};
-use tandem::scene::{BUILTIN_PROBLEMS, Goal, ObjectiveKind, Problem, ProblemError, ProblemFamily};
+use tandem::collision::CollisionWorkspace;
+use tandem::problem::{BUILTIN_PROBLEMS, Goal, ObjectiveKind, Problem, ProblemError, ProblemFamily};
+use tandem::scene::Shape;
 use tempfile::TempDir;
 
 fn repo() -> PathBuf {
@@ -301,7 +302,7 @@ fn family_samples_are_deterministic() {
     let b = family().sample(7, 3).unwrap();
     assert_eq!(a.id, 3);
     assert_eq!(a.seed, b.seed);
-    assert_eq!(a.seed, tandem::scene::sample_seed(7, 3));
+    assert_eq!(a.seed, tandem::problem::sample_seed(7, 3));
     assert_eq!(fingerprint(&a.problem), fingerprint(&b.problem));
     assert_eq!(a.problem.start, b.problem.start);
     assert_eq!(a.problem.scene.object("box").unwrap().pose, b.problem.scene.object("box").unwrap().pose);

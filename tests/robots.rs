@@ -18,10 +18,11 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robots::Goals;
 use std::sync::Arc;
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::plan::{PlanStatus, ProblemPlanner};
+use tandem::problem::Goal;
 use tandem::robot::{KinematicsWorkspace, RobotDescription, RobotModel, Srdf};
-use tandem::scene::{Goal, Obstacle, Scene};
+use tandem::scene::{Obstacle, Scene, Shape};
 
 /// The TIAGo sphere model with its `arm_torso` group (torso lift + 7 arm
 /// joints), its SRDF's disabled pairs, and boxes around it.
@@ -141,7 +142,7 @@ fn benchmark_problems_of_every_robot_and_family_plan_certified() {
 /// A grasp goal points each tool's approach axis within the tilt of its
 /// family's approach direction, and lies within a half-turn of its IK seed
 /// (itself near the ready pose) in every joint.
-fn assert_grasp(robot: &robots::BenchRobot, family: &str, problem: &tandem::scene::Problem) {
+fn assert_grasp(robot: &robots::BenchRobot, family: &str, problem: &tandem::problem::Problem) {
     let Goal::Joints(goal) = &problem.goal else { panic!("joint goal expected") };
     let model = &problem.robot;
     for (name, value) in model.joint_names().iter().zip(goal) {

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use tandem::plan::ProblemPlanner;
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 
 pub const FAMILIES: [&str; 7] =
     ["bookshelf_small", "bookshelf_tall", "bookshelf_thin", "box", "cage", "table_pick", "table_under_pick"];

@@ -35,8 +35,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use tandem::collision::CollisionWorkspace;
 use tandem::plan::{IkSettings, IkTarget, solve_ik};
+use tandem::problem::Problem;
 use tandem::robot::{KinematicsWorkspace, RobotModel};
-use tandem::scene::Problem;
 
 /// The problem families.
 pub const FAMILIES: [&str; 3] = ["table", "shelf", "cage"];

@@ -11,7 +11,7 @@
 
 use serde_json::{Map, Value, json};
 use tandem::komo::{Feature, FrameRef, TrajectoryProblem};
-use tandem::scene::{ObjectiveKind, Problem};
+use tandem::problem::{ObjectiveKind, Problem};
 
 /// The keys above for `problem` posed as `tp` (its horizon may differ from
 /// the problem file's).

@@ -13,12 +13,11 @@
 
 use libfuzzer_sys::fuzz_target;
 use std::sync::{Arc, Mutex, OnceLock};
-use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, HumanCommand};
-use tandem::arbitration::TickInput;
-use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, HumanCommand, TickInput};
+use tandem::collision::{CollisionModel, CollisionWorkspace};
+use tandem::scene::{Shape, Obstacle, Scene};
 use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
-use tandem::scene::{Obstacle, Scene};
 
 struct Setup {
     arbiter: Arbiter,

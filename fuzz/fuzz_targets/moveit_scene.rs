@@ -6,7 +6,7 @@ use libfuzzer_sys::fuzz_target;
 use std::sync::{Arc, LazyLock};
 use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::robot::{MeshSearchPath, RobotDescription, RobotModel, Srdf};
-use tandem::scene::moveit_scene_from_str;
+use tandem::problem::moveit_scene_from_str;
 
 struct Panda {
     description: Arc<RobotDescription>,

@@ -6,7 +6,7 @@
 use libfuzzer_sys::fuzz_target;
 use tandem::collision::CollisionWorkspace;
 use tandem::komo::TrajectoryProblem;
-use tandem::scene::Problem;
+use tandem::problem::Problem;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };

@@ -25,8 +25,9 @@ use tandem::control::ControlError as RustControlError;
 use tandem::data::{DataError, GenerateError};
 use tandem::komo::KomoError;
 use tandem::plan::{IkError as RustIkError, PlanError};
+use tandem::problem::ProblemError as RustProblemError;
 use tandem::robot::RobotError as RustRobotError;
-use tandem::scene::{ProblemError as RustProblemError, SceneError};
+use tandem::scene::SceneError;
 
 create_exception!(tandem, TandemError, PyException, "Base class of every error tandem raises.");
 create_exception!(tandem, RobotError, TandemError, "Robot model errors: unknown frame or joint, bad joint selection.");

@@ -9,8 +9,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 use std::sync::Arc;
-use tandem::collision::Shape;
-use tandem::scene::{BUILTIN_PROBLEMS, Goal, Problem, ProblemFamily};
+use tandem::problem::{BUILTIN_PROBLEMS, Goal, Problem, ProblemFamily};
+use tandem::scene::Shape;
 
 /// A loaded, validated motion problem: robot, scene (obstacles, graspable
 /// objects), start configuration, goal, and planner and optimizer

@@ -141,7 +141,7 @@ pub enum ArbitrationError {
     },
     /// A problem file or retargeting error.
     #[error(transparent)]
-    Problem(#[from] crate::scene::ProblemError),
+    Problem(#[from] crate::problem::ProblemError),
     /// The optimizer could not be set up.
     #[error(transparent)]
     Optimizer(#[from] crate::komo::KomoError),

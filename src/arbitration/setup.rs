@@ -5,8 +5,8 @@
 use super::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationError};
 use crate::control::{GainSchedule, TrackingPolicy, TrackingWeights};
 use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
+use crate::problem::{Goal, Problem};
 use crate::robot::KinematicsWorkspace;
-use crate::scene::{Goal, Problem};
 use std::sync::Arc;
 
 /// Which goals a problem yields.

@@ -2,7 +2,7 @@
 
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, ProblemGoal, problem_goals};
 use crate::figures::{Panel, Series, render_panels};
-use crate::scene::Problem;
+use crate::problem::Problem;
 use crate::sim::{
     Approach, Episode, EpisodeRecord, EpisodeSettings, Operator, Pace, Straightline, TaskJudge, percentiles,
 };

@@ -4,7 +4,7 @@
 use super::kinematics::parse_values;
 use super::{Outcome, ProblemArgs};
 use crate::collision::{CollisionModel, CollisionWorkspace};
-use crate::scene::{Goal, Problem, ProblemFamily};
+use crate::problem::{Goal, Problem, ProblemFamily};
 use std::path::{Path, PathBuf};
 
 /// Most family members `tandem check --samples` draws.

@@ -58,7 +58,7 @@ fn kinematics_timing(panda: &RobotModel) -> Result<(), Box<dyn std::error::Error
 /// The seed's reach-and-grasp task end to end: RRT-Connect, trajectory
 /// optimization, checks of the result, files and plots.
 fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
-    let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
+    let problem = crate::problem::Problem::builtin("panda_grasp_box")?;
     println!(
         "\nreach and grasp ({}): plan with RRT-Connect, then optimize {} slices:",
         problem.name, problem.optimizer.horizon
@@ -77,8 +77,8 @@ fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Erro
             miss * 1e3,
             tilt * 1e3
         );
-        let judge = crate::scene::GraspJudge::new(&problem)?;
-        let criteria = crate::scene::GraspCriteria::default();
+        let judge = crate::problem::GraspJudge::new(&problem)?;
+        let criteria = crate::problem::GraspCriteria::default();
         if let Some(object) = problem.scene.object("box") {
             let g = judge.judge(&mut ws, last, object, &criteria)?;
             println!(
@@ -97,7 +97,7 @@ fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Erro
 
 /// The embedded reach-and-grasp problem: clearance along the elbow sweep.
 fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
-    let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
+    let problem = crate::problem::Problem::builtin("panda_grasp_box")?;
     let model = problem.collision_model()?;
     let mut ws = crate::collision::CollisionWorkspace::new(&model);
     println!(
@@ -135,7 +135,7 @@ fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
 fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, problem_goals};
     use crate::sim::{Approach, Episode, EpisodeSettings, TaskJudge, percentiles};
-    let problem = crate::scene::Problem::builtin("panda_grasp_box")?;
+    let problem = crate::problem::Problem::builtin("panda_grasp_box")?;
     let goals = problem_goals(&problem, &GoalOptions::default())?;
     println!(
         "\nshared control: an operator who only gives the gripper's linear velocity (Approach, 10 cm/s),\n\

@@ -10,7 +10,7 @@ use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states
 use crate::learn::evaluate::{OutcomeCounts, Rollout, RolloutSettings, Task, nearest_distances};
 use crate::learn::experiment::{GoalPolicy, follow_learned, follow_lqr, sample_tasks, shared_control};
 use crate::learn::{Demonstrations, LearnOptions, PolicyNetwork, TrainSettings, figures, train_on};
-use crate::scene::ProblemFamily;
+use crate::problem::ProblemFamily;
 use crate::sim::Outcome;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -4,7 +4,7 @@ use crate::data::{
     GenerateSettings, GenerateSummary, MAX_ATTEMPTS, MAX_CHUNK_SIZE, MAX_COUNT, MAX_EVALUATIONS, MAX_THREADS, Progress,
     ShardSpec, generate,
 };
-use crate::scene::{MAX_HORIZON, MIN_HORIZON};
+use crate::problem::{MAX_HORIZON, MIN_HORIZON};
 use std::path::PathBuf;
 
 /// Arguments of `tandem generate`.

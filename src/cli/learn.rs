@@ -2,7 +2,7 @@
 //! dataset folder.
 
 use crate::learn::{Demonstrations, LearnOptions, PolicyNetwork, TrainReport, TrainSettings, figures, train_on};
-use crate::scene::ProblemFamily;
+use crate::problem::ProblemFamily;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `tandem learn`.

@@ -4,8 +4,8 @@ use super::{Outcome, ProblemArgs};
 use crate::collision::CollisionWorkspace;
 use crate::figures::{Panel, Series, render_panels};
 use crate::plan::{PlanStatus, path_length, plan_problem};
+use crate::problem::Problem;
 use crate::robot::KinematicsWorkspace;
-use crate::scene::Problem;
 use std::path::PathBuf;
 
 /// Arguments of `tandem plan`.

@@ -1,7 +1,7 @@
 //! Where a command's problem comes from: a problem file, a builtin, or
 //! MoveIt inputs. Shared by `tandem check` and `tandem plan`.
 
-use crate::scene::Problem;
+use crate::problem::Problem;
 use std::path::PathBuf;
 
 /// A problem file, `builtin:NAME`, or MoveIt inputs.
@@ -55,7 +55,7 @@ pub struct MoveItArgs {
 
 impl MoveItArgs {
     /// The problem these inputs describe, when given.
-    pub fn load(&self) -> Option<Result<Problem, crate::scene::ProblemError>> {
+    pub fn load(&self) -> Option<Result<Problem, crate::problem::ProblemError>> {
         match (&self.urdf, &self.srdf, &self.scene, &self.request) {
             (Some(u), Some(s), Some(sc), Some(r)) => Some(Problem::from_moveit(u, s, sc, r)),
             _ => None,

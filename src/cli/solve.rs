@@ -6,7 +6,7 @@ use super::{Outcome, ProblemArgs};
 use crate::data::{TrajectoryTable, write_csv, write_parquet};
 use crate::figures::{Panel, Series, render_panels};
 use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
-use crate::scene::{MAX_HORIZON, MIN_HORIZON, Problem};
+use crate::problem::{MAX_HORIZON, MIN_HORIZON, Problem};
 use std::path::{Path, PathBuf};
 
 /// Arguments of `tandem solve`.

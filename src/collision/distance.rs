@@ -5,7 +5,7 @@
 //! every other pair goes through parry3d's GJK (separated) and EPA
 //! (penetrating). All results are in world coordinates.
 
-use super::shape::Shape;
+use crate::scene::Shape;
 use nalgebra::{IsometryMatrix3, Point3, UnitQuaternion, Vector3};
 use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Capsule, Cuboid, Cylinder};

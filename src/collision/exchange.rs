@@ -3,7 +3,7 @@
 //! `benches/peers/run_coal.sh`), which rebuild the same geometry in coal.
 
 use super::model::{CollisionModel, ObjectSource};
-use super::shape::Shape;
+use crate::scene::Shape;
 use serde_json::{Value, json};
 use std::path::Path;
 

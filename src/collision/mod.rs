@@ -12,9 +12,9 @@
 //! per-thread [`CollisionWorkspace`] and allocate nothing.
 //!
 //! ```
-//! use tandem::collision::{CollisionModel, CollisionWorkspace, Shape};
+//! use tandem::collision::{CollisionModel, CollisionWorkspace};
+//! use tandem::scene::{Shape, Obstacle, Scene};
 //! use tandem::robot::RobotModel;
-//! use tandem::scene::{Obstacle, Scene};
 //! use nalgebra::IsometryMatrix3;
 //! use std::sync::Arc;
 //! let panda = Arc::new(RobotModel::panda());
@@ -35,36 +35,25 @@ mod exchange;
 mod model;
 mod motion;
 mod query;
-mod shape;
 mod spheres;
 
 pub use distance::{SignedDistance, closer_than, signed_distance};
 pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
 pub use motion::{MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
 pub use query::{CollisionWorkspace, PairDistance};
-pub use shape::{ConvexHull, Shape};
 pub use spheres::{LANES, SimdLevel, SnappedQuarterTurns};
 
 use crate::robot::RobotError;
+use crate::scene::ShapeError;
 use thiserror::Error;
 
 /// Errors building collision shapes and models.
 #[derive(Debug, Error)]
 pub enum CollisionError {
-    /// A dimension that is not finite and positive.
-    #[error("invalid {what}: {value} (must be finite and positive)")]
-    InvalidShape {
-        /// Which dimension (e.g. `box size`).
-        what: &'static str,
-        /// The offending value.
-        value: f64,
-    },
-    /// A mesh whose vertices span no volume.
-    #[error("cannot build a convex hull from {points} points (need at least 4 finite, non-coplanar points)")]
-    DegenerateHull {
-        /// How many points were given.
-        points: usize,
-    },
+    /// A shape that cannot be built (a bad dimension, a degenerate mesh
+    /// hull), or a padding that is not finite and non-negative.
+    #[error(transparent)]
+    Shape(#[from] ShapeError),
     /// A link whose collision mesh tandem cannot read.
     #[error("link '{link}' has a collision mesh in a format tandem cannot read (use STL, OBJ or COLLADA)")]
     UnreadableMesh {

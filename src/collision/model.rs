@@ -2,10 +2,9 @@
 //! the scene, grouped by rigid body, with the list of pairs to check.
 
 use super::CollisionError;
-use super::shape::Shape;
 use super::spheres::{SimdLevel, SnappedQuarterTurns, SphereModel};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
-use crate::scene::Scene;
+use crate::scene::{Scene, Shape, ShapeError};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
 use std::collections::HashSet;
 use std::ops::Range;
@@ -157,7 +156,7 @@ impl CollisionModelBuilder {
     /// obstacle or object.
     pub fn build(self) -> Result<CollisionModel, CollisionError> {
         if !(self.padding.is_finite() && self.padding >= 0.0) {
-            return Err(CollisionError::InvalidShape { what: "padding", value: self.padding });
+            return Err(ShapeError::InvalidShape { what: "padding", value: self.padding }.into());
         }
         let geometry = self.geometry.as_deref().unwrap_or(self.robot.description());
         self.check_surfaces(geometry)?;
@@ -315,7 +314,7 @@ impl Compiler<'_> {
                                 crate::robot::Geometry::Mesh { path, .. } => Some(path.clone()),
                                 _ => None,
                             },
-                            source: Box::new(e),
+                            source: Box::new(e.into()),
                         })?
                         .ok_or_else(|| CollisionError::UnreadableMesh { link: link.name.clone() })?;
                     let source = ObjectSource::RobotLink { link: li, element: k };

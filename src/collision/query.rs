@@ -375,7 +375,7 @@ impl CollisionModel {
     }
 
     /// Shape of object `object`.
-    pub fn object_shape(&self, object: usize) -> &super::Shape {
+    pub fn object_shape(&self, object: usize) -> &crate::scene::Shape {
         &self.objects[object].shape
     }
 

@@ -42,7 +42,7 @@ pub const MIN_TIME_STEP: f64 = 1e-4;
 /// Longest time step (s): 1 Hz.
 pub const MAX_TIME_STEP: f64 = 1.0;
 /// Most waypoints of a reference (`T + 1` for the largest horizon T).
-pub const MAX_WAYPOINTS: usize = crate::scene::MAX_HORIZON + 1;
+pub const MAX_WAYPOINTS: usize = crate::problem::MAX_HORIZON + 1;
 /// Most joints of a reference: the policy solves Riccati equations of
 /// twice that size (cubic cost); a humanoid has about 40.
 pub const MAX_REFERENCE_JOINTS: usize = 64;

@@ -14,7 +14,7 @@ use super::shard::{
     PartMeta, PartSummary, read_part_summary, sha256_hex, temporary_path, write_atomically, write_part,
 };
 use super::trajectory::DataError;
-use crate::scene::{ProblemError, ProblemFamily};
+use crate::problem::{ProblemError, ProblemFamily};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -286,7 +286,7 @@ fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
             s.count, s.chunk_size
         ));
     }
-    let horizons = crate::scene::MIN_HORIZON..=crate::scene::MAX_HORIZON;
+    let horizons = crate::problem::MIN_HORIZON..=crate::problem::MAX_HORIZON;
     if let Some(t) = s.horizon.filter(|t| !horizons.contains(t)) {
         return bad(format!("the horizon T must be between {} and {}, got {t}", horizons.start(), horizons.end()));
     }
@@ -328,7 +328,7 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         // A builtin base problem is hashed as its embedded text.
         let builtin = p.to_str().and_then(|s| s.strip_prefix("<builtin:")).and_then(|s| s.strip_suffix('>'));
         if let Some((_, text)) =
-            builtin.and_then(|name| crate::scene::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == name))
+            builtin.and_then(|name| crate::problem::BUILTIN_PROBLEMS.iter().find(|(n, _)| *n == name))
         {
             return Ok(sha256_hex(text.as_bytes()));
         }

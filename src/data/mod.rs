@@ -4,7 +4,7 @@
 //! ([`write_csv`], `write_parquet`), in one format ([`TrajectoryTable`]:
 //! the start configuration first) that every command reads back. With the
 //! `data` feature (on by default), bulk generation (`generate`) samples
-//! problems from a [`ProblemFamily`](crate::scene::ProblemFamily), runs IK →
+//! problems from a [`ProblemFamily`](crate::problem::ProblemFamily), runs IK →
 //! RRT-Connect → trajectory optimization → validation on every core, and
 //! streams the accepted trajectories to Parquet part files: deterministic
 //! (the dataset depends on the seed and ids only, not on the thread count),

@@ -2,11 +2,11 @@
 //! validation, and the record (or the rejection) it yields.
 
 use super::GenerateSettings;
-use crate::collision::Shape;
 use crate::komo::{KomoError, ProblemSolution, SolveOptions, solve_problem};
 use crate::plan::{IkError, PlanError, path_length};
+use crate::problem::{Goal, GraspCriteria, GraspError, GraspJudge, GraspReport, Problem, ProblemFamily, sample_seed};
 use crate::robot::KinematicsWorkspace;
-use crate::scene::{Goal, GraspCriteria, GraspError, GraspJudge, GraspReport, Problem, ProblemFamily, sample_seed};
+use crate::scene::Shape;
 use nalgebra::{IsometryMatrix3, UnitQuaternion, Vector3};
 use std::borrow::Cow;
 use std::time::{Duration, Instant};

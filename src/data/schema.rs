@@ -51,7 +51,7 @@
 //! Version 2 (grasps a gripper can make): a grasp goal lets only the finger
 //! pads near its target, the palm and the fingers' other shapes keep the
 //! collision margin, and an accepted grasp has the object between the pads
-//! and the fingertip centre within its footprint (`tandem::scene::grasp`);
+//! and the fingertip centre within its footprint (`tandem::problem::grasp`);
 //! the four grasp columns are new.
 //!
 //! ```python
@@ -61,7 +61,7 @@
 //! ```
 
 use super::sample::{PlacedShape, TrajectoryRecord};
-use crate::scene::GraspReport;
+use crate::problem::GraspReport;
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, ListBuilder, StringBuilder};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, UInt32Array, UInt64Array};
 use arrow_schema::{ArrowError, Field, Schema};

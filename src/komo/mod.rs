@@ -14,7 +14,7 @@
 //!
 //! ```
 //! use tandem::komo::{solve_problem, SolveOptions};
-//! use tandem::scene::Problem;
+//! use tandem::problem::Problem;
 //! let problem = Problem::builtin("panda_reach").unwrap();
 //! let solution = solve_problem(&problem, &SolveOptions::default()).unwrap();
 //! assert!(solution.converged() && solution.validation.collision_free);

@@ -3,8 +3,8 @@
 
 use super::KomoError;
 use super::feature::{Feature, FrameRef};
+use crate::problem::{Goal, ObjectiveKind, ObjectiveSpec, Problem, TimeRange};
 use crate::robot::RobotModel;
-use crate::scene::{Goal, ObjectiveKind, ObjectiveSpec, Problem, TimeRange};
 use nalgebra::{IsometryMatrix3, Translation3};
 
 /// When an objective applies.

@@ -6,8 +6,8 @@ use super::KomoError;
 use super::feature::{Feature, FeatureScratch};
 use super::objective::Objective;
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
+use crate::problem::ObjectiveKind;
 use crate::robot::{KinematicsWorkspace, RobotError, RobotModel};
-use crate::scene::ObjectiveKind;
 use std::sync::Arc;
 use tandem_solvers::least_squares::{LeastSquaresProblem, Residuals, RowBlock};
 
@@ -38,8 +38,8 @@ impl TrajectoryProblem {
     /// Validates and assembles a problem.
     ///
     /// # Errors
-    /// [`KomoError`] for a horizon outside [`MIN_HORIZON`](crate::scene::MIN_HORIZON)
-    /// ..= [`MAX_HORIZON`](crate::scene::MAX_HORIZON), order not 1 or 2, a
+    /// [`KomoError`] for a horizon outside [`MIN_HORIZON`](crate::problem::MIN_HORIZON)
+    /// ..= [`MAX_HORIZON`](crate::problem::MAX_HORIZON), order not 1 or 2, a
     /// non-positive duration, a bad start, an invalid objective, or a
     /// collision objective without a collision model.
     pub fn new(
@@ -51,7 +51,7 @@ impl TrajectoryProblem {
         duration: f64,
         start: Vec<f64>,
     ) -> Result<TrajectoryProblem, KomoError> {
-        let horizons = crate::scene::MIN_HORIZON..=crate::scene::MAX_HORIZON;
+        let horizons = crate::problem::MIN_HORIZON..=crate::problem::MAX_HORIZON;
         if !(horizons.contains(&horizon) && (1..=2).contains(&order) && duration.is_finite() && duration > 0.0) {
             return Err(KomoError::Settings(format!(
                 "need a horizon T from {} to {}, order 1 or 2 and a positive duration; got T = {horizon}, k = {order}, {duration} s",

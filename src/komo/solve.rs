@@ -8,7 +8,7 @@ use super::problem::{Evaluator, TrajectoryProblem, TrajectoryWorkspace};
 use crate::collision::CollisionWorkspace;
 use crate::control::{ControlError, GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
 use crate::plan::{PlanReport, PlanStatus, ProblemPlanner, resample};
-use crate::scene::{Goal, Problem};
+use crate::problem::{Goal, Problem};
 use std::time::{Duration, Instant};
 use tandem_solvers::least_squares::{AugmentedLagrangian, SolveError, SolveReport, SolverSettings, Termination};
 

@@ -11,7 +11,7 @@
 
 use super::ArbitrationActor;
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode};
-use crate::scene::Problem;
+use crate::problem::Problem;
 use crate::sim::{
     Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarUser, TaskJudge, mean_std, sample_planar_task,
 };

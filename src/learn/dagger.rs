@@ -9,7 +9,7 @@
 use super::Demonstration;
 use super::evaluate::{Rollout, RolloutOutcome};
 use crate::data::{GenerateSettings, SampleOutcome, run_problem};
-use crate::scene::{Problem, sample_seed};
+use crate::problem::{Problem, sample_seed};
 use rayon::prelude::*;
 
 /// How DAgger rounds run.

@@ -274,7 +274,7 @@ impl Pairs {
         let reference = JointTrajectory::new(joints.to_vec(), d.time_step, &d.states)?;
         let policy = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant)?;
         let mut tracking = policy.workspace();
-        let mut rng = ChaCha8Rng::seed_from_u64(crate::scene::sample_seed(augment.seed, d.id));
+        let mut rng = ChaCha8Rng::seed_from_u64(crate::problem::sample_seed(augment.seed, d.id));
         let (lo, hi) = (augment.noise.0.max(1e-9).ln(), augment.noise.1.max(augment.noise.0).max(1e-9).ln());
         let n = self.dof;
         let (mut perturbed, mut label) = (vec![0.0; n], vec![0.0; n]);
@@ -312,7 +312,7 @@ fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
 /// Whether sample `id` belongs to the validation share `fraction` (a hash
 /// of the id, so the split does not depend on file order or count).
 pub fn in_validation(id: u64, fraction: f64) -> bool {
-    let h = crate::scene::sample_seed(0x5EED_5EED, id);
+    let h = crate::problem::sample_seed(0x5EED_5EED, id);
     (h >> 11) as f64 / (1u64 << 53) as f64 <= fraction && fraction > 0.0
 }
 

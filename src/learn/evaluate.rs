@@ -6,8 +6,8 @@
 use super::LearnError;
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::control::RobotPolicy;
+use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
 use crate::robot::{FrameId, KinematicsWorkspace};
-use crate::scene::{Goal, GraspCriteria, GraspJudge, Problem};
 use rayon::prelude::*;
 use std::sync::Arc;
 

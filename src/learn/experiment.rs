@@ -9,8 +9,8 @@ use crate::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalOptions, problem_goals,
 };
 use crate::control::RobotPolicy;
+use crate::problem::ProblemFamily;
 use crate::robot::KinematicsWorkspace;
-use crate::scene::ProblemFamily;
 use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
 use rayon::prelude::*;
 use std::sync::Arc;

@@ -17,7 +17,7 @@
 //!   arbitration mode; its metric comes from its own queries.
 //! - [`evaluate`] follows a policy alone from a task's start (kinematic
 //!   steps, a collision check each step, the grasp judged by
-//!   [`GraspJudge`](crate::scene::GraspJudge)), and [`dagger`] adds expert
+//!   [`GraspJudge`](crate::problem::GraspJudge)), and [`dagger`] adds expert
 //!   trajectories where the learned policy fails.
 //!
 //! This is the only module that knows the network crate. Loading and
@@ -29,7 +29,7 @@
 //! use std::sync::Arc;
 //! use tandem::learn::{LearnedPolicy, PolicyNetwork};
 //! use tandem::control::RobotPolicy;
-//! use tandem::scene::Problem;
+//! use tandem::problem::Problem;
 //! let network = Arc::new(PolicyNetwork::load("policy.safetensors".as_ref())?);
 //! let problem = Problem::builtin("panda_grasp_box")?;
 //! let policy = LearnedPolicy::for_problem(network, &problem)?;
@@ -175,7 +175,7 @@ pub enum LearnError {
     Collision(#[from] crate::collision::CollisionError),
     /// A grasp model error.
     #[error(transparent)]
-    Grasp(#[from] crate::scene::GraspError),
+    Grasp(#[from] crate::problem::GraspError),
     /// A tracking policy error.
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),

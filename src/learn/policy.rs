@@ -5,8 +5,8 @@ use super::LearnError;
 use super::features::{GoalFeatures, ObstacleFeature, encode};
 use super::network::{NetworkScratch, PolicyNetwork};
 use crate::control::{ControlError, PolicyState, RobotPolicy};
+use crate::problem::Problem;
 use crate::robot::{FrameId, KinematicsWorkspace, RobotModel};
-use crate::scene::Problem;
 use std::sync::Arc;
 
 /// A learned robot policy for one goal: at any configuration `q`, the
@@ -132,12 +132,12 @@ impl LearnedPolicy {
 /// A joint goal, or a goal whose pose cannot be found.
 pub fn problem_goal(meta: &super::PolicyMeta, problem: &Problem) -> Result<GoalFeatures, LearnError> {
     let pose = match &problem.goal {
-        crate::scene::Goal::Grasp { .. } => problem.grasp_target(),
-        crate::scene::Goal::Pose { position, orientation, .. } => Some(nalgebra::IsometryMatrix3::from_parts(
+        crate::problem::Goal::Grasp { .. } => problem.grasp_target(),
+        crate::problem::Goal::Pose { position, orientation, .. } => Some(nalgebra::IsometryMatrix3::from_parts(
             (*position).into(),
             orientation.unwrap_or_else(nalgebra::Rotation3::identity),
         )),
-        crate::scene::Goal::Joints(_) => None,
+        crate::problem::Goal::Joints(_) => None,
     }
     .ok_or_else(|| LearnError::Mismatch {
         what: "goal".into(),

@@ -439,7 +439,7 @@ impl Default for LearnOptions {
 /// A family without a gripper, demonstrations of other joints, as [`train`].
 pub fn train_on(
     demos: &super::Demonstrations,
-    family: &crate::scene::ProblemFamily,
+    family: &crate::problem::ProblemFamily,
     options: &LearnOptions,
     initial: Option<&PolicyNetwork>,
 ) -> Result<(PolicyNetwork, TrainReport), LearnError> {

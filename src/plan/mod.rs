@@ -4,7 +4,7 @@
 //!
 //! ```
 //! use tandem::plan::plan_problem;
-//! use tandem::scene::Problem;
+//! use tandem::problem::Problem;
 //! let problem = Problem::builtin("panda_reach_obstacle").unwrap();
 //! let report = plan_problem(&problem, Some(1)).unwrap();
 //! assert_eq!(report.result.status, tandem::plan::PlanStatus::Solved);
@@ -23,8 +23,8 @@ pub use rrt::{
 };
 
 use crate::collision::{CollisionError, CollisionModel, CollisionWorkspace};
+use crate::problem::{Goal, Problem};
 use crate::robot::RobotError;
-use crate::scene::{Goal, Problem};
 use std::time::{Duration, Instant};
 use thiserror::Error;
 

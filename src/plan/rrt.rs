@@ -227,7 +227,7 @@ enum Extension {
 /// the edges of a path found are certified.
 pub struct LazySearch<'a> {
     /// The model's shapes padded by the certified edge check's clearance
-    /// (m), as [`crate::scene::Problem::collision_model_padded`] builds.
+    /// (m), as [`crate::problem::Problem::collision_model_padded`] builds.
     pub padded: &'a CollisionModel,
     /// A workspace of `padded`.
     pub ws: &'a mut CollisionWorkspace,

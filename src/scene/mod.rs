@@ -1,13 +1,12 @@
-//! The robot's surroundings: static obstacles, a table, and graspable
-//! objects with named grasp frames, each with a pose in the world (the URDF
-//! root frame). Objects can be attached to a robot frame (grasped) and
-//! detached again; problem files ([`Problem`]) describe a scene and a task;
-//! [`grasp`] says which parts of a gripper may touch what it grasps, how
-//! deep a grasp frame may lie, and judges a grasp.
+//! The robot's surroundings as geometry: collision shapes ([`Shape`]),
+//! static obstacles, a table, and graspable objects with named grasp
+//! frames, each with a pose in the world (the URDF root frame). Objects can
+//! be attached to a robot frame (grasped) and detached again. This is the
+//! ground the collision checker stands on; problems (a scene, a robot and a
+//! task) are [`crate::problem`]'s.
 //!
 //! ```
-//! use tandem::collision::Shape;
-//! use tandem::scene::{Obstacle, Scene, SceneObject};
+//! use tandem::scene::{Obstacle, Scene, SceneObject, Shape};
 //! use nalgebra::IsometryMatrix3;
 //! let mut scene = Scene::new();
 //! scene.add_obstacle(Obstacle::table("table", [0.5, 0.0, 0.3], [0.8, 1.0], 0.04)).unwrap();
@@ -18,26 +17,10 @@
 //! assert!((grasp.translation.z - 0.39).abs() < 1e-12);
 //! ```
 
-mod family;
-pub mod grasp;
-mod moveit;
-mod moveit_scene;
-mod moveit_yaml;
-mod problem;
-mod problem_file;
-mod toml_source;
+mod shape;
 
-pub use family::{FamilySample, ProblemFamily, sample_seed};
-pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
-pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, moveit_request_from_str, read_moveit_request};
-pub use moveit_scene::{MoveItScene, PLANE_EXTENT, moveit_scene_from_str, read_moveit_scene};
-pub use problem::{
-    BUILTIN_PROBLEMS, Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError,
-    RobotSpec, TimeRange,
-};
-pub use problem_file::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};
+pub use shape::{ConvexHull, Shape, ShapeError};
 
-use crate::collision::{CollisionError, Shape};
 use crate::robot::suggest_names;
 use nalgebra::{IsometryMatrix3, Rotation3, Vector3};
 use thiserror::Error;
@@ -139,7 +122,7 @@ pub enum SceneError {
         name: String,
         #[source]
         /// What is wrong with the shape.
-        source: Box<CollisionError>,
+        source: Box<ShapeError>,
     },
     /// A pose with NaN or infinite entries.
     #[error("'{0}' has a non-finite pose")]
@@ -241,6 +224,12 @@ impl Scene {
     /// The object named `name`.
     pub fn object(&self, name: &str) -> Option<&SceneObject> {
         self.objects.iter().find(|o| o.name == name)
+    }
+
+    /// The movable objects, to move in place (poses stay the caller's to
+    /// keep finite).
+    pub(crate) fn objects_mut(&mut self) -> &mut [SceneObject] {
+        &mut self.objects
     }
 
     fn object_mut(&mut self, name: &str) -> Result<&mut SceneObject, SceneError> {

@@ -48,8 +48,8 @@ use crate::arbitration::{
 };
 use crate::control::{PolicyState, RobotPolicy};
 use crate::learn::decision::{DecisionSettings, planar_modality, spatial_modality};
+use crate::problem::Problem;
 use crate::robot::{KinematicsWorkspace, ReferenceFrame};
-use crate::scene::Problem;
 use nalgebra::Matrix6xX;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -9,8 +9,8 @@
 //! gripper within 1 cm of the goal's final gripper position.
 
 use crate::arbitration::ProblemGoal;
+use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
 use crate::robot::KinematicsWorkspace;
-use crate::scene::{Goal, GraspCriteria, GraspJudge, Problem};
 
 /// Largest tilt of a successful teleoperated grasp (rad).
 pub const GRASP_MAX_TILT: f64 = 0.2;

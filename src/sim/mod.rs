@@ -4,7 +4,7 @@
 //!
 //! ```no_run
 //! use tandem::arbitration::{Arbiter, ArbiterSettings, GoalOptions, problem_goals};
-//! use tandem::scene::Problem;
+//! use tandem::problem::Problem;
 //! use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
 //! let problem = Problem::builtin("panda_grasp_box")?;
 //! let goals = problem_goals(&problem, &GoalOptions::default())?;

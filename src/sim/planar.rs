@@ -32,7 +32,7 @@ use crate::arbitration::{
     ProblemGoal, problem_goals,
 };
 use crate::collision::CollisionWorkspace;
-use crate::scene::{Goal, Problem};
+use crate::problem::{Goal, Problem};
 use nalgebra::{IsometryMatrix3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -33,8 +33,9 @@ use crate::arbitration::{
     ProblemGoal, problem_goals,
 };
 use crate::collision::{CollisionModel, CollisionWorkspace};
+use crate::problem::Problem;
 use crate::robot::KinematicsWorkspace;
-use crate::scene::{Obstacle, Problem};
+use crate::scene::Obstacle;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -5,9 +5,9 @@
 //! Poses are `[x, y, z, qx, qy, qz, qw]` (m, unit quaternion), world frame.
 
 use crate::arbitration::{Arbiter, ArbiterWorkspace, ArbitrationMode, ProblemGoal};
-use crate::collision::Shape;
+use crate::problem::Problem;
 use crate::robot::{FrameId, Geometry, KinematicsWorkspace, RobotModel};
-use crate::scene::Problem;
+use crate::scene::Shape;
 use nalgebra::{IsometryMatrix3, Matrix3, SymmetricEigen, UnitQuaternion};
 use serde::Serialize;
 

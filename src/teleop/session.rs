@@ -7,8 +7,8 @@ use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalOptions,
     HumanCommand, ProblemGoal, problem_goals,
 };
+use crate::problem::Problem;
 use crate::robot::{FrameId, KinematicsWorkspace};
-use crate::scene::Problem;
 use crate::sim::{Arm, LiveEpisode, Outcome, TaskJudge, sample_planar_task, sample_task};
 use std::path::PathBuf;
 use std::sync::Arc;

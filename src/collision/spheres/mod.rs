@@ -45,8 +45,8 @@ use quarter_turns::norm;
 
 use super::distance::closer_than;
 use super::model::{CollisionModel, CollisionObject, Group, lever_chain};
-use super::shape::Shape;
 use crate::robot::{Motion, RobotModel};
+use crate::scene::Shape;
 use nalgebra::IsometryMatrix3;
 use std::ops::Range;
 

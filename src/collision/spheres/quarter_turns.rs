@@ -19,8 +19,7 @@
 //! ```
 
 use super::{FrameRotation, LaneBody, TOLERANCE};
-use crate::robot::Motion;
-use crate::robot::signed_permutation_near;
+use crate::robot::{Motion, signed_permutation_near};
 use nalgebra::Matrix3;
 
 /// Entries within this of 0 or ±1 make a rotation a candidate (the budget

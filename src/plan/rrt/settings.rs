@@ -131,8 +131,8 @@ impl RrtSettings {
     }
 }
 
-impl From<&crate::scene::PlannerSettings> for RrtSettings {
-    fn from(p: &crate::scene::PlannerSettings) -> Self {
+impl From<&crate::problem::PlannerSettings> for RrtSettings {
+    fn from(p: &crate::problem::PlannerSettings) -> Self {
         RrtSettings {
             step: p.step,
             edge: EdgeCheck::Resolution(p.resolution),

@@ -17,7 +17,8 @@
 
 use super::hand::GraspDirection;
 use crate::plan::{PlanError, PlanStatus, plan_problem};
-use crate::scene::{Goal, Problem, ProblemError, SceneError};
+use crate::problem::{Goal, Problem, ProblemError};
+use crate::scene::SceneError;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use thiserror::Error;
 

@@ -2,14 +2,33 @@
 //!
 //! Spheres, capsules, boxes and cylinders are kept as parameters: their
 //! distances to each other are computed in closed form where one exists
-//! (see [`signed_distance`](super::signed_distance)). Meshes become their
-//! convex hull, held as a parry3d polyhedron.
+//! (see [`signed_distance`](crate::collision::signed_distance)). Meshes
+//! become their convex hull, held as a parry3d polyhedron.
 
-use super::CollisionError;
 use crate::robot::{Geometry, TriMesh};
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::shape::ConvexPolyhedron;
 use std::sync::Arc;
+use thiserror::Error;
+
+/// A shape that cannot be built.
+#[derive(Debug, Error)]
+pub enum ShapeError {
+    /// A dimension that is not finite and positive.
+    #[error("invalid {what}: {value} (must be finite and positive)")]
+    InvalidShape {
+        /// Which dimension (e.g. `box size`).
+        what: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// A mesh whose vertices span no volume.
+    #[error("cannot build a convex hull from {points} points (need at least 4 finite, non-coplanar points)")]
+    DegenerateHull {
+        /// How many points were given.
+        points: usize,
+    },
+}
 
 /// A convex collision shape in its own frame (metres). Axial shapes
 /// (capsule, cylinder) are centred on the origin along z.
@@ -56,15 +75,15 @@ impl ConvexHull {
     /// The hull of `points` (m, shape frame).
     ///
     /// # Errors
-    /// [`CollisionError::DegenerateHull`] when the points are fewer than 4,
+    /// [`ShapeError::DegenerateHull`] when the points are fewer than 4,
     /// not finite, or coplanar.
-    pub fn new(points: &[Point3<f64>]) -> Result<ConvexHull, CollisionError> {
+    pub fn new(points: &[Point3<f64>]) -> Result<ConvexHull, ShapeError> {
         let finite = points.iter().all(|p| p.coords.iter().all(|c| c.is_finite()));
         let glam: Vec<_> = points.iter().map(|p| parry3d_f64::math::Vector::new(p.x, p.y, p.z)).collect();
         let polyhedron = (finite && points.len() >= 4)
             .then(|| ConvexPolyhedron::from_convex_hull(&glam))
             .flatten()
-            .ok_or(CollisionError::DegenerateHull { points: points.len() })?;
+            .ok_or(ShapeError::DegenerateHull { points: points.len() })?;
         let radius = polyhedron.points().iter().map(|p| p.length()).fold(0.0, f64::max);
         let vertex_count = polyhedron.points().len();
         Ok(ConvexHull { polyhedron, radius, vertex_count })
@@ -106,7 +125,7 @@ impl Shape {
     ///
     /// # Errors
     /// See [`ConvexHull::new`].
-    pub fn convex_hull_of(mesh: &TriMesh) -> Result<Shape, CollisionError> {
+    pub fn convex_hull_of(mesh: &TriMesh) -> Result<Shape, ShapeError> {
         Ok(Shape::Convex(Arc::new(ConvexHull::new(&mesh.vertices)?)))
     }
 
@@ -115,7 +134,7 @@ impl Shape {
     ///
     /// # Errors
     /// A degenerate mesh hull.
-    pub fn from_geometry(geometry: &Geometry) -> Result<Option<Shape>, CollisionError> {
+    pub fn from_geometry(geometry: &Geometry) -> Result<Option<Shape>, ShapeError> {
         Ok(Some(match geometry {
             Geometry::Sphere { radius } => Shape::sphere(*radius),
             Geometry::Box { half_extents } => Shape::Box { half_extents: *half_extents },
@@ -187,10 +206,10 @@ impl Shape {
     /// Checks that every dimension is finite and positive.
     ///
     /// # Errors
-    /// [`CollisionError::InvalidShape`] naming the bad dimension.
-    pub fn validate(&self) -> Result<(), CollisionError> {
+    /// [`ShapeError::InvalidShape`] naming the bad dimension.
+    pub fn validate(&self) -> Result<(), ShapeError> {
         let check = |what: &'static str, v: f64| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(CollisionError::InvalidShape { what, value: v }) }
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(ShapeError::InvalidShape { what, value: v }) }
         };
         match self {
             Shape::Sphere { radius } => check("sphere radius", *radius),

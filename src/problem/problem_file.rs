@@ -2,14 +2,13 @@
 //! [`Problem`]. Every check names the key it rejects.
 
 use super::grasp::{GraspError, GripperGeometry};
-use super::problem::{
+use super::toml_source::KeyPath;
+use super::{
     Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec, Source,
     TimeRange,
 };
-use super::toml_source::KeyPath;
-use super::{Obstacle, Scene, SceneObject};
-use crate::collision::Shape;
 use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh, readable};
+use crate::scene::{Obstacle, Scene, SceneObject, Shape};
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -507,7 +506,7 @@ impl RawScene {
     pub(crate) fn build(&self, check: &Check, robot: &RobotModel) -> Result<Scene, ProblemError> {
         let path = KeyPath::root().key("scene");
         let mut scene = Scene::new();
-        let err = |p: &KeyPath, e: super::SceneError| check.src.error(p, e.to_string());
+        let err = |p: &KeyPath, e: crate::scene::SceneError| check.src.error(p, e.to_string());
         if let Some(t) = &self.table {
             let p = path.key("table");
             check.finite(&p.key("top"), &t.top)?;

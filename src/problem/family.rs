@@ -2,10 +2,10 @@
 //! configuration, object poses and extra obstacles, sampled reproducibly
 //! from (seed, id).
 
-use super::problem::{Problem, ProblemError, Source, SourceFile};
 use super::toml_source::KeyPath;
-use super::{Obstacle, Scene};
-use crate::collision::{CollisionModel, CollisionWorkspace, Shape, signed_distance};
+use super::{Problem, ProblemError, Source, SourceFile};
+use crate::collision::{CollisionModel, CollisionWorkspace, signed_distance};
+use crate::scene::{Obstacle, Scene, Shape};
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -218,7 +218,7 @@ impl ProblemFamily {
 }
 
 fn move_object(scene: &mut Scene, d: &ObjectDistribution, rng: &mut ChaCha8Rng) {
-    let Some(obj) = scene.objects.iter_mut().find(|o| o.name == d.object) else { return };
+    let Some(obj) = scene.objects_mut().iter_mut().find(|o| o.name == d.object) else { return };
     let mut draw = |r: &Option<Range2>| r.map(|[a, b]| rng.random_range(a..=b));
     let (x, y, yaw) = (draw(&d.x), draw(&d.y), draw(&d.yaw));
     let t = &mut obj.pose.translation.vector;

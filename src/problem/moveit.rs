@@ -8,7 +8,7 @@
 
 use super::moveit_scene::read_moveit_scene;
 use super::moveit_yaml::{Node, load, parse};
-use super::problem::{Goal, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec};
+use super::{Goal, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec};
 use crate::robot::{MeshSearchPath, RobotDescription, RobotModel, Srdf};
 use std::path::Path;
 use std::sync::Arc;

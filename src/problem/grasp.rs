@@ -32,7 +32,7 @@
 //!
 //! ```
 //! use tandem::robot::KinematicsWorkspace;
-//! use tandem::scene::{GraspCriteria, GraspJudge, Problem, grasp_depth};
+//! use tandem::problem::{GraspCriteria, GraspJudge, Problem, grasp_depth};
 //! let problem = Problem::builtin("panda_grasp_box")?;
 //! let judge = GraspJudge::new(&problem)?;
 //! let max_depth = judge.geometry().max_depth().unwrap(); // m, from the Panda's palm
@@ -44,9 +44,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{GraspFrame, Problem, SceneObject};
-use crate::collision::{CollisionError, Shape, signed_distance};
+use super::Problem;
+use crate::collision::{CollisionError, signed_distance};
 use crate::robot::{FrameId, KinematicsWorkspace, RobotError, RobotModel};
+use crate::scene::{GraspFrame, SceneObject, Shape};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Vector3};
 use thiserror::Error;
 
@@ -168,7 +169,7 @@ impl GripperGeometry {
             }
             let (mut pad_sum, mut pad_count) = (Vector3::zeros(), 0.0);
             for element in &source.collisions {
-                let Some(shape) = Shape::from_geometry(&element.geometry)? else {
+                let Some(shape) = Shape::from_geometry(&element.geometry).map_err(CollisionError::from)? else {
                     return Err(CollisionError::UnreadableMesh { link: link.name.clone() }.into());
                 };
                 let placed = PlacedShape { frame, shape, local: element.origin };

@@ -33,11 +33,10 @@
 //!   Ignored: `name`, `robot_model_name`, `object_colors`, `is_diff`,
 //!   object `type` and subframes.
 
+use super::ProblemError;
 use super::moveit_yaml::{Node, load, parse};
-use super::problem::ProblemError;
-use super::{Obstacle, Scene, SceneObject};
-use crate::collision::Shape;
 use crate::robot::{RobotDescription, Srdf, TriMesh};
+use crate::scene::{Obstacle, Scene, SceneObject, Shape};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Vector3};
 use std::path::Path;
 

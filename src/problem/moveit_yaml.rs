@@ -3,7 +3,7 @@
 //! either the list form (`[x, y, z]`) or the message form (`{x: …, y: …}`),
 //! each error naming the file and key path.
 
-use super::problem::ProblemError;
+use super::ProblemError;
 use super::toml_source::KeyPath;
 use nalgebra::{IsometryMatrix3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use std::path::Path;

@@ -1,16 +1,42 @@
-//! Problem files: a robot, a scene, a start, a goal, and the settings of
-//! the planner and optimizer, in TOML (format in `problems/README.md`).
+//! Problems: a robot, a scene, a start, a goal, and the settings of the
+//! planner and optimizer. Problem files in TOML (format in
+//! `problems/README.md`), problem families that draw many problems from
+//! one, MoveIt's scene and motion-plan request files, and grasp goals:
+//! [`grasp`] says which parts of a gripper may touch what it grasps, how
+//! deep a grasp frame may lie, and judges a grasp.
+//!
+//! ```
+//! use tandem::problem::{Goal, Problem};
+//! let problem = Problem::builtin("panda_grasp_box")?;
+//! assert!(matches!(problem.goal, Goal::Grasp { .. }));
+//! let model = problem.collision_model()?;
+//! assert!(model.pair_count() > 0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
-use super::Scene;
-use super::grasp::GraspError;
-use super::problem_file::RawProblem;
-use super::toml_source::{KeyPath, line_of, line_of_path, path_at};
+mod family;
+pub mod grasp;
+mod moveit;
+mod moveit_scene;
+mod moveit_yaml;
+mod problem_file;
+mod toml_source;
+
+pub use family::{FamilySample, ProblemFamily, sample_seed};
+pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
+pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, moveit_request_from_str, read_moveit_request};
+pub use moveit_scene::{MoveItScene, PLANE_EXTENT, moveit_scene_from_str, read_moveit_scene};
+pub use problem_file::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};
+
 use crate::collision::{CollisionError, CollisionModel};
 use crate::robot::{JointSelection, RobotDescription, RobotModel, Srdf};
+use crate::scene::Scene;
 use nalgebra::{IsometryMatrix3, Vector3};
+use problem_file::RawProblem;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use thiserror::Error;
+use toml_source::{KeyPath, line_of, line_of_path, path_at};
 
 /// Errors loading a problem (or family) file: what is wrong, in which file,
 /// at which key and line.
@@ -199,10 +225,10 @@ pub struct RobotSpec {
     pub gripper: Option<String>,
     /// Names of the collision elements that are the fingers' inner contact
     /// surfaces: the only robot geometry a grasp goal lets come close to
-    /// its target (see [`grasp`](super::grasp)).
+    /// its target (see [`grasp`]).
     pub finger_pads: Vec<String>,
     /// How deep the gripper frame may lie in an object (m); `None`: from
-    /// the palm's geometry (see [`GripperGeometry`](super::GripperGeometry)).
+    /// the palm's geometry (see [`GripperGeometry`]).
     pub max_grasp_depth: Option<f64>,
     /// Collision padding of the robot shapes (m).
     pub padding: f64,
