@@ -5,8 +5,9 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
+use tandem::trajectory::JointTrajectory;
 
 fn policy() -> TrackingPolicy {
     let ready = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];

@@ -41,9 +41,11 @@ pub mod arbitration;
 pub mod cli;
 pub mod collision;
 pub mod control;
+#[cfg(feature = "data")]
 pub mod data;
 #[cfg(feature = "experiments")]
 pub mod figures;
+pub mod files;
 pub mod komo;
 pub mod learn;
 pub mod plan;
@@ -53,3 +55,4 @@ pub mod scene;
 pub mod sim;
 #[cfg(feature = "serve")]
 pub mod teleop;
+pub mod trajectory;

@@ -9,11 +9,10 @@ use tandem::arbitration::{
     TickStatus,
 };
 use tandem::collision::CollisionModel;
-use tandem::control::{
-    ControlError, GainSchedule, JointTrajectory, PolicyState, RobotPolicy, TrackingPolicy, TrackingWeights,
-};
+use tandem::control::{ControlError, GainSchedule, PolicyState, RobotPolicy, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
 use tandem::scene::{Obstacle, Scene, Shape};
+use tandem::trajectory::JointTrajectory;
 
 mod common;
 

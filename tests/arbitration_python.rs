@@ -9,8 +9,9 @@ use tandem::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, MetricSpace, TickInput,
 };
 use tandem::collision::CollisionModel;
-use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
+use tandem::trajectory::JointTrajectory;
 
 mod common;
 

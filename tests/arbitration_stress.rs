@@ -15,9 +15,10 @@ use tandem::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput, TickStatus,
 };
 use tandem::collision::{CollisionModel, CollisionWorkspace};
-use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
 use tandem::scene::{Obstacle, Scene, Shape};
+use tandem::trajectory::JointTrajectory;
 
 const TICKS_PER_SCENE: usize = 1000;
 

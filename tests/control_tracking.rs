@@ -4,10 +4,11 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tandem::control::{
-    ControlError, GainSchedule, JointTrajectory, MAX_TIME_STEP, MIN_TIME_STEP, PolicyQuery, TrackingPolicy,
-    TrackingWeights, WEIGHT_RANGE,
+    ControlError, GainSchedule, MAX_TIME_STEP, MIN_TIME_STEP, PolicyQuery, TrackingPolicy, TrackingWeights,
+    WEIGHT_RANGE,
 };
 use tandem::robot::RobotModel;
+use tandem::trajectory::{JointTrajectory, TrajectoryError};
 
 mod common;
 
@@ -236,6 +237,12 @@ fn bad_queries_and_references_are_errors() {
     assert!(e.to_string().contains("waypoint 1"), "{e}");
     assert!(matches!(
         JointTrajectory::new(vec!["a".into()], -1.0, &[vec![0.0]]),
+        Err(TrajectoryError::InvalidTimeStep { .. })
+    ));
+    // A trajectory may be minutes apart; a tracking policy's reference may not.
+    let coarse = JointTrajectory::new(vec!["a".into()], 2.0, &[vec![0.0], vec![1.0]]).unwrap();
+    assert!(matches!(
+        TrackingPolicy::new(coarse, TrackingWeights::default(), GainSchedule::Constant),
         Err(ControlError::InvalidTimeStep { .. })
     ));
 }
@@ -245,21 +252,21 @@ fn references_load_from_csv() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ref.csv");
     std::fs::write(&path, "time, j1, j2\n0, 0, 0\n0.1, 0.1, -0.1\n0.2, 0.3, -0.2\n").unwrap();
-    let r = JointTrajectory::from_csv(&path).unwrap();
+    let r = JointTrajectory::read_csv(&path).unwrap();
     assert_eq!((r.len(), r.dof()), (3, 2));
     assert!((r.dt() - 0.1).abs() < 1e-15, "the time step is the spacing of the time column");
     assert!((r.velocity(1)[0] - 1.0).abs() < 1e-12 && r.velocity(0) == [0.0, 0.0]);
     assert!((r.acceleration(2)[0] - 10.0).abs() < 1e-9);
     std::fs::write(&path, "time,j1,j2\n0,0,0\n0.1,0.1,x\n").unwrap();
-    let e = JointTrajectory::from_csv(&path).unwrap_err();
+    let e = JointTrajectory::read_csv(&path).unwrap_err();
     assert!(e.to_string().contains("ref.csv:3") && e.to_string().contains("'x'"), "{e}");
     // A header-less file once turned its first row into joint names.
     std::fs::write(&path, "0,0,0\n0.1,0.1,0.1\n").unwrap();
-    let e = JointTrajectory::from_csv(&path).unwrap_err().to_string();
+    let e = JointTrajectory::read_csv(&path).unwrap_err().to_string();
     assert!(e.contains("ref.csv:1") && e.contains("is the header missing?"), "{e}");
     // Duplicate joint names were accepted.
     std::fs::write(&path, "time,j1,j1\n0,0,0\n0.1,0.1,0.1\n").unwrap();
-    let e = JointTrajectory::from_csv(&path).unwrap_err().to_string();
+    let e = JointTrajectory::read_csv(&path).unwrap_err().to_string();
     assert!(e.contains("joint 'j1' is named twice"), "{e}");
 }
 
@@ -267,8 +274,18 @@ fn references_load_from_csv() {
 fn references_refuse_sizes_and_values_they_cannot_hold() {
     let joints = || vec!["j1".to_string()];
     // --dt 1e-300 panicked (capacity overflow), 1e-9 aborted allocating 72 GB.
-    for dt in [1e-300, 1e-9, 5e-5, 1.5, 1e6, f64::NAN] {
+    for dt in [1e-300, 1e-9, 5e-5] {
         let e = JointTrajectory::minimum_jerk(joints(), &[0.0], &[1.0], 3.0, dt).unwrap_err();
+        assert!(matches!(e, TrajectoryError::TooManyWaypoints { .. }), "{dt}: {e}");
+    }
+    for dt in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let e = JointTrajectory::minimum_jerk(joints(), &[0.0], &[1.0], 3.0, dt).unwrap_err();
+        assert!(matches!(e, TrajectoryError::InvalidTimeStep { .. }), "{dt}: {e}");
+    }
+    // Time steps a trajectory may have but a tracking policy may not.
+    for dt in [5e-5, 1.5, 1e6] {
+        let reference = JointTrajectory::minimum_jerk(joints(), &[0.0], &[1.0], 2.0 * dt, dt).unwrap();
+        let e = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant).unwrap_err();
         assert!(matches!(e, ControlError::InvalidTimeStep { .. }), "{dt}: {e}");
     }
     let e = JointTrajectory::minimum_jerk(joints(), &[0.0], &[1.0], 1e6, 1e-4).unwrap_err();
@@ -322,6 +339,10 @@ fn a_workspace_from_another_policy_still_works() {
 #[test]
 fn references_bound_their_joints() {
     let joints: Vec<String> = (0..65).map(|k| format!("j{k}")).collect();
-    let e = JointTrajectory::new(joints, 0.01, &[vec![0.0; 65]]).unwrap_err();
+    let reference = JointTrajectory::new(joints, 0.01, &[vec![0.0; 65]]).unwrap();
+    let e = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant).unwrap_err();
     assert_eq!(e.to_string(), "the reference has 65 joints, more than 64");
+    let joints: Vec<String> = (0..1025).map(|k| format!("j{k}")).collect();
+    let e = JointTrajectory::new(joints, 0.01, &[vec![0.0; 1025]]).unwrap_err();
+    assert_eq!(e.to_string(), "the reference has 1025 joints, more than 1024");
 }

@@ -16,7 +16,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, HumanCommand, TickInput};
 use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::scene::{Shape, Obstacle, Scene};
-use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
+use tandem::trajectory::JointTrajectory;
 use tandem::robot::RobotModel;
 
 struct Setup {

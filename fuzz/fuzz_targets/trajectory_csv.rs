@@ -1,16 +1,15 @@
-//! Trajectory CSV → table → joint reference → constant-gain tracking
-//! policy → one query at the start and one rollout step.
+//! Trajectory CSV → joint trajectory → constant-gain tracking policy →
+//! one query at the start and one rollout step.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
-use tandem::data::TrajectoryTable;
+use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
+use tandem::trajectory::JointTrajectory;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else { return };
-    let Ok(table) = TrajectoryTable::from_csv_str(text, "<fuzz>") else { return };
-    let _ = table.to_csv();
-    let Ok(reference) = JointTrajectory::new(table.joints, table.time_step, &table.configurations) else { return };
+    let Ok(reference) = JointTrajectory::from_csv_str(text, "<fuzz>") else { return };
+    let _ = reference.to_csv();
     let Ok(policy) = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant) else {
         return;
     };

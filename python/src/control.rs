@@ -7,9 +7,8 @@ use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::sync::Mutex;
-use tandem::control::{
-    Feedforward, GainSchedule, JointTrajectory, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights,
-};
+use tandem::control::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights};
+use tandem::trajectory::JointTrajectory;
 
 /// An LQR policy steering the arm back onto a joint-space reference from
 /// anywhere nearby: ``a = −K (x − x_d)`` on the joint-space double

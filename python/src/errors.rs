@@ -22,7 +22,8 @@ use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use tandem::collision::CollisionError as RustCollisionError;
 use tandem::control::ControlError as RustControlError;
-use tandem::data::{DataError, GenerateError};
+use tandem::data::GenerateError;
+use tandem::files::FileError;
 use tandem::komo::KomoError;
 use tandem::plan::{IkError as RustIkError, PlanError};
 use tandem::problem::ProblemError as RustProblemError;
@@ -185,7 +186,7 @@ impl ToPyErr for GenerateError {
     }
 }
 
-impl ToPyErr for DataError {
+impl ToPyErr for FileError {
     fn to_py(self) -> PyErr {
         DatasetError::new_err(self.to_string())
     }

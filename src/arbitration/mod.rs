@@ -31,7 +31,8 @@
 //! use std::sync::Arc;
 //! use tandem::arbitration::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, HumanCommand, TickInput};
 //! use tandem::collision::CollisionModel;
-//! use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+//! use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
+//! use tandem::trajectory::JointTrajectory;
 //! use tandem::robot::RobotModel;
 //!
 //! let panda = Arc::new(RobotModel::panda());

@@ -3,12 +3,11 @@
 
 use super::Outcome;
 use crate::control::{
-    ControlError, GainSchedule, JointTrajectory, MAX_TIME_STEP, MIN_TIME_STEP, TrackingPolicy, TrackingWeights,
-    WEIGHT_RANGE,
+    ControlError, GainSchedule, MAX_TIME_STEP, MIN_TIME_STEP, TrackingPolicy, TrackingWeights, WEIGHT_RANGE,
 };
-use crate::data::TrajectoryTable;
 use crate::figures::{Panel, Series, render_panels};
 use crate::robot::{MeshSearchPath, RobotDescription, RobotModel};
+use crate::trajectory::JointTrajectory;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -82,17 +81,17 @@ fn reference(args: &PolicyArgs) -> Result<JointTrajectory, Box<dyn std::error::E
         }
         return Ok(JointTrajectory::minimum_jerk(joints, &PANDA_READY, &PANDA_GOAL, 3.0, args.dt.unwrap_or(0.01))?);
     };
-    let table = TrajectoryTable::read_csv(path)?;
-    if let Some(dt) = args.dt.filter(|dt| (dt - table.time_step).abs() > 1e-9 * dt) {
+    let table = JointTrajectory::read_csv(path)?;
+    if let Some(dt) = args.dt.filter(|dt| (dt - table.dt()).abs() > 1e-9 * dt) {
         let msg = format!(
             "--dt {dt} disagrees with the time column of {} ({} s apart): omit --dt",
             path.display(),
-            table.time_step
+            table.dt()
         );
         return Err(msg.into());
     }
     let description = robot.description();
-    for (k, name) in table.joints.iter().enumerate() {
+    for (k, name) in table.joints().iter().enumerate() {
         let joint = description.joint(name).filter(|j| j.kind.is_movable()).ok_or_else(|| {
             let names = description.joints().iter().filter(|j| j.kind.is_movable()).map(|j| j.name.as_str());
             let hint = crate::robot::did_you_mean(&crate::robot::suggest_names(name, names));
@@ -104,8 +103,8 @@ fn reference(args: &PolicyArgs) -> Result<JointTrajectory, Box<dyn std::error::E
             )
         })?;
         let limits = joint.limits;
-        if let Some(row) = table.configurations.iter().position(|q| !limits.contains(q[k])) {
-            let v = table.configurations[row][k];
+        if let Some(row) = table.positions().position(|q| !limits.contains(q[k])) {
+            let v = table.position(row)[k];
             let (lo, hi) = (limits.lower, limits.upper);
             return Err(format!(
                 "{}: row {row} (line {}): joint '{name}' = {v} is outside its limits [{lo}, {hi}]",
@@ -115,7 +114,7 @@ fn reference(args: &PolicyArgs) -> Result<JointTrajectory, Box<dyn std::error::E
             .into());
         }
     }
-    Ok(JointTrajectory::new(table.joints, table.time_step, &table.configurations)?)
+    Ok(table)
 }
 
 pub(super) fn run(args: &PolicyArgs) -> Result<Outcome, Box<dyn std::error::Error>> {

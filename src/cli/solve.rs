@@ -3,7 +3,6 @@
 
 use super::plan::gripper_path_svg;
 use super::{Outcome, ProblemArgs};
-use crate::data::{TrajectoryTable, write_csv, write_parquet};
 use crate::figures::{Panel, Series, render_panels};
 use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
 use crate::problem::{MAX_HORIZON, MIN_HORIZON, Problem};
@@ -54,11 +53,9 @@ pub(super) fn run(args: &SolveArgs) -> Result<Outcome, Box<dyn std::error::Error
 }
 
 /// The solution as a trajectory file's table: the start, then q_1 … q_T.
-pub(super) fn trajectory_table(problem: &Problem, s: &ProblemSolution) -> TrajectoryTable {
-    let mut configurations = Vec::with_capacity(s.trajectory.len() + 1);
-    configurations.push(problem.start.clone());
-    configurations.extend(s.trajectory.iter().cloned());
-    TrajectoryTable { joints: s.joints.clone(), time_step: s.time_step, configurations }
+/// The start, then `q_1 … q_T`: the rows of every trajectory tandem writes.
+fn configurations(problem: &Problem, s: &ProblemSolution) -> Vec<Vec<f64>> {
+    std::iter::once(&problem.start).chain(&s.trajectory).cloned().collect()
 }
 
 fn ms(d: std::time::Duration) -> f64 {
@@ -79,7 +76,7 @@ fn solution_json(problem: &Problem, s: &ProblemSolution) -> serde_json::Value {
         "collision_free": s.validation.collision_free,
         "T": s.trajectory.len(),
         "joints": s.joints,
-        "trajectory": trajectory_table(problem, s).configurations,
+        "trajectory": configurations(problem, s),
         "plan_ms": plan_ms,
         "optimize_ms": ms(r.time),
         "outer_iterations": r.outer_iterations,
@@ -126,26 +123,25 @@ pub(super) fn write_outputs(
     dir: &Path,
 ) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let table = trajectory_table(problem, s);
-    write_csv(&table, &dir.join("trajectory.csv"))?;
-    write_parquet(&table, &dir.join("trajectory.parquet"))?;
+    let trajectory = s.reference(&problem.start)?;
+    trajectory.write_csv(&dir.join("trajectory.csv"))?;
+    trajectory.write_parquet(&dir.join("trajectory.parquet"))?;
     let write = |name: &str, text: String| {
         let path = dir.join(name);
         std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))
     };
     write("joints.svg", joints_svg(problem, s)?)?;
-    let path = crate::plan::resample(&table.configurations, 200);
+    let path = crate::plan::resample(&configurations(problem, s), 200);
     write("path.svg", gripper_path_svg(problem, &path, "optimized path")?)?;
     Ok(())
 }
 
 /// Every joint's value over time, the start at t = 0.
 fn joints_svg(problem: &Problem, s: &ProblemSolution) -> Result<String, crate::figures::FigureError> {
-    let table = trajectory_table(problem, s);
+    let rows = configurations(problem, s);
     let mut panel = Panel::new("joint values", "time (s)", "joint value (rad or m)");
     for (k, name) in s.joints.iter().enumerate() {
-        let points: Vec<(f64, f64)> =
-            table.configurations.iter().enumerate().map(|(t, q)| (t as f64 * s.time_step, q[k])).collect();
+        let points: Vec<(f64, f64)> = rows.iter().enumerate().map(|(t, q)| (t as f64 * s.time_step, q[k])).collect();
         panel = panel.with(Series::line(name, &points, k));
     }
     render_panels(&format!("{}: joint trajectories", problem.name), &[panel], 760, 480)

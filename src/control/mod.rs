@@ -1,6 +1,7 @@
 //! LQR tracking policies: the autonomous agent of shared control.
 //!
-//! A [`TrackingPolicy`] turns a joint-space reference ([`JointTrajectory`])
+//! A [`TrackingPolicy`] turns a joint-space reference
+//! ([`JointTrajectory`](crate::trajectory::JointTrajectory))
 //! into a policy that can be queried at any configuration: it finds the
 //! closest reference waypoint, forms the error state of the joint-space
 //! double integrator, applies the LQR gain from the discrete algebraic
@@ -13,7 +14,8 @@
 //! arbiter queries; [`TrackingPolicy`] implements it.
 //!
 //! ```
-//! use tandem::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+//! use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
+//! use tandem::trajectory::JointTrajectory;
 //! let joints = vec!["j1".to_string(), "j2".to_string()];
 //! let reference = JointTrajectory::minimum_jerk(joints, &[0.0, 0.0], &[1.0, -0.5], 2.0, 0.01)?;
 //! let policy = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant)?;
@@ -28,11 +30,9 @@
 //! ```
 
 mod policy;
-mod reference;
 mod robot_policy;
 
 pub use policy::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights};
-pub use reference::JointTrajectory;
 pub use robot_policy::{PolicyState, RobotPolicy};
 
 use tandem_solvers::riccati::RiccatiError;
@@ -41,8 +41,6 @@ use tandem_solvers::riccati::RiccatiError;
 pub const MIN_TIME_STEP: f64 = 1e-4;
 /// Longest time step (s): 1 Hz.
 pub const MAX_TIME_STEP: f64 = 1.0;
-/// Most waypoints of a reference (`T + 1` for the largest horizon T).
-pub const MAX_WAYPOINTS: usize = crate::problem::MAX_HORIZON + 1;
 /// Most joints of a reference: the policy solves Riccati equations of
 /// twice that size (cubic cost); a humanoid has about 40.
 pub const MAX_REFERENCE_JOINTS: usize = 64;
@@ -60,66 +58,16 @@ pub enum ControlError {
         /// Time step (s).
         dt: f64,
     },
-    /// A duration that is not positive and finite.
-    #[error("duration {duration} s is not positive and finite")]
-    InvalidDuration {
-        /// The duration (s).
-        duration: f64,
-    },
-    /// A reference with no waypoint or no joint.
-    #[error("the reference has no waypoint or no joint")]
-    EmptyReference,
     /// A reference with more than [`MAX_REFERENCE_JOINTS`] joints.
     #[error("the reference has {count} joints, more than {MAX_REFERENCE_JOINTS}")]
     TooManyJoints {
         /// How many joints it has.
         count: usize,
     },
-    /// A reference with more than [`MAX_WAYPOINTS`] waypoints.
-    #[error("the reference would have {count} waypoints, more than {MAX_WAYPOINTS}")]
-    TooManyWaypoints {
-        /// How many waypoints it would have.
-        count: f64,
-    },
-    /// A waypoint with the wrong number of values.
-    #[error("waypoint {index} has {got} values, expected {expected}")]
-    WaypointLength {
-        /// Index of the waypoint (or vector entry).
-        index: usize,
-        /// The length it should have.
-        expected: usize,
-        /// The length it has.
-        got: usize,
-    },
-    /// A waypoint holding NaN or an infinity.
-    #[error("waypoint {index}: joint '{joint}' has non-finite value {value}")]
-    NonFiniteWaypoint {
-        /// Index of the waypoint (or vector entry).
-        index: usize,
-        /// The joint's name.
-        joint: String,
-        /// The offending value.
-        value: f64,
-    },
-    /// Waypoints so far apart that a velocity or acceleration overflows.
-    #[error(
-        "waypoint {index}: joint '{joint}' moves from {from} to {to} in {dt} s, a velocity or acceleration too large to represent"
-    )]
-    Overflow {
-        /// Index of the waypoint (or vector entry).
-        index: usize,
-        /// The joint's name.
-        joint: String,
-        /// Value at the waypoint before (rad or m).
-        from: f64,
-        /// Value at the waypoint (rad or m).
-        to: f64,
-        /// Time step (s).
-        dt: f64,
-    },
-    /// A reference file that could not be read or parsed.
+    /// A trajectory that cannot be a reference (empty, non-finite, too
+    /// long), or a reference file that cannot be read.
     #[error(transparent)]
-    File(#[from] crate::data::DataError),
+    Trajectory(#[from] crate::trajectory::TrajectoryError),
     /// A tracking weight outside [`WEIGHT_RANGE`].
     #[error(
         "the {name} weight is {}, outside [{}, {}]",

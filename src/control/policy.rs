@@ -1,6 +1,7 @@
 //! The LQR tracking policy π_R (the seed's Algorithm 1, §3.3.4).
 
-use super::{ControlError, JointTrajectory};
+use super::ControlError;
+use crate::trajectory::JointTrajectory;
 use nalgebra::DMatrix;
 use tandem_solvers::riccati::{
     DareProblem, DareSettings, LinearDynamics, double_integrator, finite_horizon_riccati, solve_dare,
@@ -132,14 +133,24 @@ impl TrackingPolicy {
     /// Builds the policy for `reference` with the given weights.
     ///
     /// # Errors
-    /// A weight outside [`WEIGHT_RANGE`](super::WEIGHT_RANGE); a Riccati
-    /// failure (not seen within the ranges of weights and time steps: the
-    /// double integrator is controllable).
+    /// A reference time step outside [`MIN_TIME_STEP`](super::MIN_TIME_STEP)
+    /// ..= [`MAX_TIME_STEP`](super::MAX_TIME_STEP), more joints than
+    /// [`MAX_REFERENCE_JOINTS`](super::MAX_REFERENCE_JOINTS), a weight
+    /// outside [`WEIGHT_RANGE`](super::WEIGHT_RANGE); a Riccati failure
+    /// (not seen within the ranges of weights and time steps: the double
+    /// integrator is controllable).
     pub fn new(
         reference: JointTrajectory,
         weights: TrackingWeights,
         schedule: GainSchedule,
     ) -> Result<Self, ControlError> {
+        let dt = reference.dt();
+        if !(super::MIN_TIME_STEP..=super::MAX_TIME_STEP).contains(&dt) {
+            return Err(ControlError::InvalidTimeStep { dt });
+        }
+        if reference.dof() > super::MAX_REFERENCE_JOINTS {
+            return Err(ControlError::TooManyJoints { count: reference.dof() });
+        }
         let w = weights;
         for (name, value) in [("position", w.position), ("velocity", w.velocity), ("control", w.control)] {
             if !super::WEIGHT_RANGE.contains(&value) {

@@ -16,7 +16,7 @@
 //! t.groupby("episode").outcome.first().value_counts()
 //! ```
 
-use super::DataError;
+use crate::files::FileError;
 use crate::sim::EpisodeRecord;
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, ListBuilder, StringBuilder};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, UInt32Array};
@@ -32,8 +32,8 @@ use std::sync::Arc;
 ///
 /// # Errors
 /// I/O or encoding errors; records of different joint counts.
-pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -> Result<(), DataError> {
-    let format = |e: &dyn std::fmt::Display| DataError::Format { path: path.into(), message: e.to_string() };
+pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -> Result<(), FileError> {
+    let format = |e: &dyn std::fmt::Display| FileError::Format { path: path.into(), message: e.to_string() };
     let n = episodes.iter().find_map(|(_, r, _)| r.q.first().map(Vec::len)).unwrap_or(0);
     if let Some((label, _, _)) = episodes.iter().find(|(_, r, _)| r.q.iter().any(|q| q.len() != n)) {
         return Err(format(&format!("episode {label} has another joint count than {n}")));
@@ -86,7 +86,7 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
     let schema = Arc::new(Schema::new(fields));
     let batch =
         RecordBatch::try_new(schema.clone(), columns.into_iter().map(|(_, a)| a).collect()).map_err(|e| format(&e))?;
-    let file = std::fs::File::create(path).map_err(|source| DataError::Io { path: path.into(), source })?;
+    let file = std::fs::File::create(path).map_err(|source| FileError::Io { path: path.into(), source })?;
     let props = WriterProperties::builder().set_compression(Compression::SNAPPY).build();
     let mut writer = ArrowWriter::try_new(file, schema, Some(props)).map_err(|e| format(&e))?;
     writer.write(&batch).map_err(|e| format(&e))?;

@@ -13,7 +13,7 @@ use super::sample::{SampleOutcome, SampleTiming, run_sample};
 use super::shard::{
     PartMeta, PartSummary, read_part_summary, sha256_hex, temporary_path, write_atomically, write_part,
 };
-use super::trajectory::DataError;
+use crate::files::FileError;
 use crate::problem::{ProblemError, ProblemFamily};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -97,7 +97,7 @@ pub enum GenerateError {
     Family(#[from] ProblemError),
     #[error(transparent)]
     /// A file cannot be written.
-    Data(#[from] DataError),
+    Data(#[from] FileError),
     #[error("generate settings: {0}")]
     /// A setting outside its bounds.
     Settings(String),
@@ -215,7 +215,7 @@ fn open_dataset(family_path: &Path, out: &Path, settings: &GenerateSettings) -> 
     let family = ProblemFamily::from_file(family_path)?;
     let parameters = parameters(family_path, &family, settings)?;
     validate_part_size(settings.chunk_size, parameters.horizon)?;
-    std::fs::create_dir_all(out.join("_timings")).map_err(|e| DataError::Io { path: out.into(), source: e })?;
+    std::fs::create_dir_all(out.join("_timings")).map_err(|e| FileError::Io { path: out.into(), source: e })?;
     check_parameters(out, &parameters)?;
     let (mut found, mut pending) = (Vec::new(), Vec::new());
     for k in shard_chunks(settings) {
@@ -421,7 +421,7 @@ fn existing_part(out: &Path, k: u64, s: &GenerateSettings) -> Result<Option<Part
                 path.display(),
                 aside.display()
             );
-            std::fs::rename(&path, &aside).map_err(|e| DataError::Io { path: path.clone(), source: e })?;
+            std::fs::rename(&path, &aside).map_err(|e| FileError::Io { path: path.clone(), source: e })?;
             Ok(None)
         }
     }
@@ -466,7 +466,7 @@ fn run_chunk(c: &RunContext<'_>, k: u64) -> Result<ChunkResult, GenerateError> {
     Ok((k, summary, timings))
 }
 
-fn write_timings(out: &Path, k: u64, outcomes: &[SampleOutcome], timings: &[SampleTiming]) -> Result<(), DataError> {
+fn write_timings(out: &Path, k: u64, outcomes: &[SampleOutcome], timings: &[SampleTiming]) -> Result<(), FileError> {
     let mut csv = String::from("id,outcome,plan_ms,optimize_ms,total_ms\n");
     for (o, t) in outcomes.iter().zip(timings) {
         let outcome = match o {

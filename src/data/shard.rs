@@ -3,7 +3,7 @@
 
 use super::sample::{Rejection, SampleOutcome, TrajectoryRecord};
 use super::schema::{SCHEMA_VERSION, record_batch};
-use super::trajectory::DataError;
+use crate::files::FileError;
 use parquet::arrow::ArrowWriter;
 use parquet::basic::Compression;
 use parquet::file::metadata::KeyValue;
@@ -40,14 +40,6 @@ pub struct PartSummary {
     pub bytes: u64,
 }
 
-fn io(path: &Path) -> impl FnOnce(std::io::Error) -> DataError + '_ {
-    move |source| DataError::Io { path: path.into(), source }
-}
-
-fn format_error(path: &Path, e: impl std::fmt::Display) -> DataError {
-    DataError::Format { path: path.into(), message: e.to_string() }
-}
-
 /// The temporary name a file is written under before the rename: hidden
 /// (a leading dot), so dataset readers such as pyarrow skip it.
 pub fn temporary_path(path: &Path) -> PathBuf {
@@ -61,9 +53,12 @@ pub fn temporary_path(path: &Path) -> PathBuf {
 ///
 /// # Errors
 /// I/O or encoding errors, or outcomes that do not cover `meta.ids` in order.
-pub fn write_part(path: &Path, meta: &PartMeta<'_>, outcomes: &[SampleOutcome]) -> Result<PartSummary, DataError> {
+pub fn write_part(path: &Path, meta: &PartMeta<'_>, outcomes: &[SampleOutcome]) -> Result<PartSummary, FileError> {
     if !outcomes.iter().map(SampleOutcome::id).eq(meta.ids[0]..meta.ids[1]) {
-        return Err(format_error(path, format!("outcomes do not cover ids {}..{} in order", meta.ids[0], meta.ids[1])));
+        return Err(FileError::format(
+            path,
+            format!("outcomes do not cover ids {}..{} in order", meta.ids[0], meta.ids[1]),
+        ));
     }
     let records: Vec<&TrajectoryRecord> = outcomes
         .iter()
@@ -79,16 +74,16 @@ pub fn write_part(path: &Path, meta: &PartMeta<'_>, outcomes: &[SampleOutcome]) 
             SampleOutcome::Accepted(_) => None,
         })
         .collect();
-    let batch = record_batch(&records, meta.joints.len(), meta.horizon).map_err(|e| format_error(path, e))?;
+    let batch = record_batch(&records, meta.joints.len(), meta.horizon).map_err(|e| FileError::format(path, e))?;
     let props = WriterProperties::builder()
         .set_compression(Compression::SNAPPY)
         .set_key_value_metadata(Some(key_values(meta, &rejected)))
         .build();
     let mut buffer = Vec::new();
     let mut writer =
-        ArrowWriter::try_new(&mut buffer, batch.schema(), Some(props)).map_err(|e| format_error(path, e))?;
-    writer.write(&batch).map_err(|e| format_error(path, e))?;
-    writer.close().map_err(|e| format_error(path, e))?;
+        ArrowWriter::try_new(&mut buffer, batch.schema(), Some(props)).map_err(|e| FileError::format(path, e))?;
+    writer.write(&batch).map_err(|e| FileError::format(path, e))?;
+    writer.close().map_err(|e| FileError::format(path, e))?;
     write_atomically(path, &buffer)?;
     Ok(PartSummary {
         ids: meta.ids,
@@ -117,13 +112,13 @@ fn key_values(meta: &PartMeta<'_>, rejected: &[Rejection]) -> Vec<KeyValue> {
 ///
 /// # Errors
 /// I/O errors, naming the file.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), DataError> {
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
     let temporary = temporary_path(path);
-    let mut file = std::fs::File::create(&temporary).map_err(io(&temporary))?;
-    file.write_all(bytes).map_err(io(&temporary))?;
-    file.sync_all().map_err(io(&temporary))?;
+    let mut file = std::fs::File::create(&temporary).map_err(FileError::io(&temporary))?;
+    file.write_all(bytes).map_err(FileError::io(&temporary))?;
+    file.sync_all().map_err(FileError::io(&temporary))?;
     drop(file);
-    std::fs::rename(&temporary, path).map_err(io(path))?;
+    std::fs::rename(&temporary, path).map_err(FileError::io(path))?;
     if let Some(folder) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         // Directory fsync makes the rename durable; not all platforms allow it.
         let _ = std::fs::File::open(folder).and_then(|d| d.sync_all());
@@ -141,30 +136,30 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// # Errors
 /// An unreadable file, not Parquet, another schema version, or metadata
 /// that does not account for every id of its range.
-pub fn read_part_summary(path: &Path) -> Result<PartSummary, DataError> {
-    let bytes = std::fs::read(path).map_err(io(path))?;
-    let handle = std::fs::File::open(path).map_err(io(path))?;
-    let reader = SerializedFileReader::new(handle).map_err(|e| format_error(path, e))?;
+pub fn read_part_summary(path: &Path) -> Result<PartSummary, FileError> {
+    let bytes = std::fs::read(path).map_err(FileError::io(path))?;
+    let handle = std::fs::File::open(path).map_err(FileError::io(path))?;
+    let reader = SerializedFileReader::new(handle).map_err(|e| FileError::format(path, e))?;
     let file = reader.metadata().file_metadata();
-    let value = |key: &str| -> Result<String, DataError> {
+    let value = |key: &str| -> Result<String, FileError> {
         file.key_value_metadata()
             .and_then(|kv| kv.iter().find(|e| e.key == key))
             .and_then(|e| e.value.clone())
-            .ok_or_else(|| format_error(path, format!("no {key} in the file metadata")))
+            .ok_or_else(|| FileError::format(path, format!("no {key} in the file metadata")))
     };
     let version = value("tandem.schema_version")?;
     if version != SCHEMA_VERSION.to_string() {
-        return Err(format_error(path, format!("schema version {version}, this tandem writes {SCHEMA_VERSION}")));
+        return Err(FileError::format(path, format!("schema version {version}, this tandem writes {SCHEMA_VERSION}")));
     }
-    let parse = |key: &str| -> Result<serde_json::Value, DataError> {
-        serde_json::from_str(&value(key)?).map_err(|e| format_error(path, format!("{key}: {e}")))
+    let parse = |key: &str| -> Result<serde_json::Value, FileError> {
+        serde_json::from_str(&value(key)?).map_err(|e| FileError::format(path, format!("{key}: {e}")))
     };
-    let ids: [u64; 2] = serde_json::from_value(parse("tandem.ids")?).map_err(|e| format_error(path, e))?;
+    let ids: [u64; 2] = serde_json::from_value(parse("tandem.ids")?).map_err(|e| FileError::format(path, e))?;
     let rejected: Vec<Rejection> =
-        serde_json::from_value(parse("tandem.rejected")?).map_err(|e| format_error(path, e))?;
+        serde_json::from_value(parse("tandem.rejected")?).map_err(|e| FileError::format(path, e))?;
     let rows = u64::try_from(file.num_rows()).unwrap_or(0);
     if rows + rejected.len() as u64 != ids[1].saturating_sub(ids[0]) {
-        return Err(format_error(
+        return Err(FileError::format(
             path,
             format!("{rows} rows + {} rejections ≠ ids {}..{}", rejected.len(), ids[0], ids[1]),
         ));

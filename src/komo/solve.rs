@@ -6,9 +6,10 @@ use super::KomoError;
 use super::objective::{Objective, default_objectives, objective_from_spec};
 use super::problem::{Evaluator, TrajectoryProblem, TrajectoryWorkspace};
 use crate::collision::CollisionWorkspace;
-use crate::control::{ControlError, GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use crate::control::{ControlError, GainSchedule, TrackingPolicy, TrackingWeights};
 use crate::plan::{PlanReport, PlanStatus, ProblemPlanner, resample};
 use crate::problem::{Goal, Problem};
+use crate::trajectory::{JointTrajectory, TrajectoryError};
 use std::time::{Duration, Instant};
 use tandem_solvers::least_squares::{AugmentedLagrangian, SolveError, SolveReport, SolverSettings, Termination};
 
@@ -314,7 +315,7 @@ impl ProblemSolution {
     ///
     /// # Errors
     /// A `start` of the wrong length or with non-finite values.
-    pub fn reference(&self, start: &[f64]) -> Result<JointTrajectory, ControlError> {
+    pub fn reference(&self, start: &[f64]) -> Result<JointTrajectory, TrajectoryError> {
         let mut waypoints = Vec::with_capacity(self.trajectory.len() + 1);
         waypoints.push(start.to_vec());
         waypoints.extend(self.trajectory.iter().cloned());

@@ -4,9 +4,10 @@
 
 use super::LearnError;
 use super::features::{GoalFeatures, ObstacleFeature, encode, input_width};
-use crate::control::{GainSchedule, JointTrajectory, TrackingPolicy, TrackingWeights};
+use crate::control::{GainSchedule, TrackingPolicy, TrackingWeights};
 use crate::data::TrajectoryRecord;
 use crate::robot::{FrameId, KinematicsWorkspace, RobotModel};
+use crate::trajectory::JointTrajectory;
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, UInt64Type};
 use arrow_array::{Array, RecordBatch};

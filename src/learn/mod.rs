@@ -179,4 +179,7 @@ pub enum LearnError {
     /// A tracking policy error.
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),
+    /// A demonstration that is not a valid trajectory.
+    #[error(transparent)]
+    Trajectory(#[from] crate::trajectory::TrajectoryError),
 }

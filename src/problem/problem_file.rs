@@ -658,7 +658,7 @@ pub const MIN_HORIZON: usize = 2;
 
 /// Most optimized configurations T of a trajectory, from a problem file,
 /// `tandem solve -T` or `tandem generate -T` alike.
-pub const MAX_HORIZON: usize = 100_000;
+pub const MAX_HORIZON: usize = crate::trajectory::MAX_WAYPOINTS - 1;
 
 /// Largest planner `time_limit` of a problem file (s): one day.
 pub const MAX_TIME_LIMIT: f64 = 86_400.0;

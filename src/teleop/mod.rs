@@ -62,5 +62,5 @@ pub enum TeleopError {
     Io(#[from] std::io::Error),
     /// Writing an episode's recording failed.
     #[error(transparent)]
-    Record(#[from] crate::data::DataError),
+    Record(#[from] crate::files::FileError),
 }

@@ -338,7 +338,7 @@ impl TeleopSession {
         let mut record = self.live.record().clone();
         record.outcome = outcome;
         let label = format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed);
-        std::fs::create_dir_all(dir).map_err(|source| crate::data::DataError::Io { path: dir.clone(), source })?;
+        std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
         let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());
         let path = dir.join(format!("teleop-{}-{stamp}-{}.parquet", p.task.as_str(), self.episode));
         crate::data::write_episodes(&path, &[(label, &record, p.arbiter.settings().period)])?;

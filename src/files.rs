@@ -1,0 +1,39 @@
+//! Errors of the files tandem writes and reads back: trajectories,
+//! datasets, episode recordings.
+
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// A file that could not be read, written or encoded.
+#[derive(Debug, Error)]
+pub enum FileError {
+    /// A file that could not be read or written.
+    #[error("cannot access {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        #[source]
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// An encoding error writing a file.
+    #[error("cannot write {path}: {message}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl FileError {
+    /// The `Io` error of `path`, to map an `std::io::Error` with.
+    pub fn io(path: &Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {
+        move |source| FileError::Io { path: path.into(), source }
+    }
+
+    /// The `Format` error of `path` for an encoder's error `e`.
+    pub fn format(path: &Path, e: impl std::fmt::Display) -> FileError {
+        FileError::Format { path: path.into(), message: e.to_string() }
+    }
+}
