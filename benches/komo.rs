@@ -6,9 +6,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use tandem::komo::{
-    Initialization, SolveOptions, TrajectoryOptimizer, TrajectoryProblem, solve_problem, trajectory_solver_settings,
-};
+use tandem::komo::{Initialization, TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
+use tandem::pipeline::{SolveSettings, solve_problem};
 use tandem::plan::plan_problem;
 use tandem::problem::Problem;
 use tandem_solvers::least_squares::Termination;
@@ -46,7 +45,8 @@ fn pipeline(c: &mut Criterion) {
             group.bench_function(format!("{name}/T{horizon}"), |b| {
                 b.iter(|| {
                     seed = (seed + 1) % 20;
-                    let options = SolveOptions { seed: Some(seed), horizon: Some(horizon), ..SolveOptions::default() };
+                    let options =
+                        SolveSettings { seed: Some(seed), horizon: Some(horizon), ..SolveSettings::default() };
                     let s = solve_problem(&problem, &options).expect("solve");
                     assert!(s.converged(), "{name} T{horizon} seed {seed}: {}", s.status());
                     black_box(s.report.cost)

@@ -19,7 +19,7 @@
 mod mbm_common;
 
 use mbm_common::{Benchmark, FAMILIES, full_run, row};
-use tandem::komo::{SolveOptions, solve_problem};
+use tandem::pipeline::{SolveSettings, solve_problem};
 
 fn main() {
     // Under `cargo test --all-targets`: one problem per family.
@@ -29,7 +29,7 @@ fn main() {
     for family in FAMILIES {
         for k in 1..=per_family {
             let problem = benchmark.problem(family, k);
-            let solution = match solve_problem(&problem, &SolveOptions { seed: Some(0), ..SolveOptions::default() }) {
+            let solution = match solve_problem(&problem, &SolveSettings { seed: Some(0), ..SolveSettings::default() }) {
                 Ok(s) => s,
                 Err(e) => {
                     failed.push(format!("{family} {k}: {e}"));

@@ -54,7 +54,7 @@ use mbm::{Benchmark, full_run, make_plain, median_mean, option, row};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use robots::{FAMILIES, Goals, ROBOTS};
-use tandem::komo::{SolveOptions, solve_problem};
+use tandem::pipeline::{SolveSettings, solve_problem};
 use tandem::plan::{PlanStatus, ProblemPlanner};
 
 /// Plans and optimizes `problem` (T = 50, default objectives) as
@@ -62,7 +62,7 @@ use tandem::plan::{PlanStatus, ProblemPlanner};
 /// converged, every slice is within limits and the motion between slices
 /// is collision-free at the validation resolution.
 fn optimize(problem: &tandem::problem::Problem, name: &str, times: &mut Vec<f64>, failed: &mut Vec<String>) {
-    let options = SolveOptions { seed: Some(0), ..SolveOptions::default() };
+    let options = SolveSettings { seed: Some(0), ..SolveSettings::default() };
     match solve_problem(problem, &options) {
         Ok(s) if s.converged() => times.push(s.total_time.as_secs_f64()),
         Ok(s) => failed.push(format!(

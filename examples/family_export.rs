@@ -50,8 +50,8 @@ use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use tandem::data::{GenerateSettings, goal_miss};
 use tandem::komo::{TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
+use tandem::pipeline::{PipelineSettings, goal_miss};
 use tandem::plan::ProblemPlanner;
 use tandem::problem::{Goal, Problem, ProblemFamily};
 
@@ -122,7 +122,7 @@ fn sample(args: &Args, family: &ProblemFamily, id: u64) -> Result<(Problem, u64,
 
 fn export(args: &Args, family: &ProblemFamily, dir: &Path) -> Result<(), Error> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let settings = GenerateSettings::default();
+    let settings = PipelineSettings::default();
     for id in 0..args.count {
         let (problem, seed, skipped) = sample(args, family, id)?;
         let tp = TrajectoryProblem::from_problem(&problem)?;
@@ -167,7 +167,7 @@ fn export(args: &Args, family: &ProblemFamily, dir: &Path) -> Result<(), Error> 
 }
 
 /// The goal as posed, with the acceptance tolerances of `tandem generate`.
-fn goal_json(problem: &Problem, settings: &GenerateSettings) -> Result<Value, Error> {
+fn goal_json(problem: &Problem, settings: &PipelineSettings) -> Result<Value, Error> {
     let tolerances = json!({"distance": settings.goal_tolerance, "angle": settings.goal_angle_tolerance});
     Ok(match &problem.goal {
         Goal::Grasp { object, grasp } => {
@@ -199,8 +199,8 @@ fn verdict(args: &Args, problem: &Problem, trajectory: &[Vec<f64>]) -> Result<se
     }
     let measures = tp.measure(trajectory)?;
     let optimizer = TrajectoryOptimizer::new(tp, trajectory_solver_settings());
-    let v = optimizer.validate(trajectory, args.resolution)?;
-    let settings = GenerateSettings::default();
+    let v = tandem::pipeline::validate(optimizer.problem(), trajectory, args.resolution)?;
+    let settings = PipelineSettings::default();
     let last = trajectory.last().ok_or("an empty trajectory")?;
     let miss = goal_miss(problem, last)?;
     let goal_reached = miss.distance <= settings.goal_tolerance && miss.angle <= settings.goal_angle_tolerance;

@@ -154,7 +154,7 @@ struct Verdict {
 impl Verdict {
     fn of(args: &Args, optimizer: &TrajectoryOptimizer, trajectory: &[Vec<f64>]) -> Result<Verdict, Error> {
         let measures = optimizer.problem().measure(trajectory)?;
-        let v = optimizer.validate(trajectory, args.resolution)?;
+        let v = tandem::pipeline::validate(optimizer.problem(), trajectory, args.resolution)?;
         Ok(Verdict {
             measures,
             collision_free: v.collision_free,
@@ -209,7 +209,7 @@ fn solve_like_solve_problem(
     let mut report = optimizer.solve_in_place(x)?;
     let solve_ms = began.elapsed().as_secs_f64() * 1e3;
     let mut trajectory: Vec<Vec<f64>> = x.chunks(n).map(<[f64]>::to_vec).collect();
-    let mut validation = optimizer.validate(&trajectory, args.resolution)?;
+    let mut validation = tandem::pipeline::validate(optimizer.problem(), &trajectory, args.resolution)?;
     let mut resolves = 0;
     for next in refined.iter_mut() {
         if validation.collision_free {
@@ -225,7 +225,7 @@ fn solve_like_solve_problem(
             ..last
         };
         trajectory = x.chunks(n).map(<[f64]>::to_vec).collect();
-        validation = next.validate(&trajectory, args.resolution)?;
+        validation = tandem::pipeline::validate(next.problem(), &trajectory, args.resolution)?;
         resolves += 1;
     }
     Ok(Solved { trajectory, report, resolves, solve_ms })

@@ -48,6 +48,7 @@ pub mod figures;
 pub mod files;
 pub mod komo;
 pub mod learn;
+pub mod pipeline;
 pub mod plan;
 pub mod problem;
 pub mod robot;

@@ -16,7 +16,7 @@ use common::{repo, run_python};
 use nalgebra::IsometryMatrix3;
 use serde_json::{Value, json};
 use tandem::data::{GenerateSettings, SampleOutcome, run_sample};
-use tandem::komo::{SolveOptions, solve_problem};
+use tandem::pipeline::{PipelineSettings, SolveSettings, solve_problem};
 use tandem::problem::{
     BUILTIN_PROBLEMS, GraspCriteria, GraspError, GraspJudge, Problem, ProblemError, ProblemFamily, grasp_depth,
 };
@@ -71,7 +71,7 @@ fn assert_good_grasp(label: &str, problem: &Problem, q: &[f64], object: &SceneOb
 #[test]
 fn shipped_grasp_passes_the_mesh_check() {
     let problem = Problem::builtin("panda_grasp_box").unwrap();
-    let solution = solve_problem(&problem, &SolveOptions::default()).unwrap();
+    let solution = solve_problem(&problem, &SolveSettings::default()).unwrap();
     assert!(solution.converged(), "{}", solution.status());
     let q = solution.trajectory.last().unwrap().clone();
     let object = problem.scene.object("box").unwrap();
@@ -83,7 +83,8 @@ fn shipped_grasp_passes_the_mesh_check() {
 #[test]
 fn family_grasps_pass_the_mesh_check() {
     let family = ProblemFamily::from_file(repo().join("problems/panda_grasp_family.toml")).unwrap();
-    let settings = GenerateSettings { seed: 7, horizon: Some(20), ..GenerateSettings::default() };
+    let pipeline = PipelineSettings { horizon: Some(20), ..PipelineSettings::default() };
+    let settings = GenerateSettings { seed: 7, pipeline, ..GenerateSettings::default() };
     let (mut problems, mut grasps) = (Vec::new(), Vec::new());
     for id in 0..12 {
         match run_sample(&family, &settings, id).0 {

@@ -9,9 +9,10 @@ use common::alloc::{CountingAllocator, allocations};
 use nalgebra::Vector3;
 use std::sync::Arc;
 use tandem::komo::{
-    Feature, FrameRef, Initialization, JOINT_LIMIT_CUTOFF, KomoError, Objective, SolveOptions, TimeSpan,
-    TrajectoryOptimizer, TrajectoryProblem, TrajectoryWorkspace, solve_problem, trajectory_solver_settings,
+    Feature, FrameRef, Initialization, JOINT_LIMIT_CUTOFF, KomoError, Objective, TimeSpan, TrajectoryOptimizer,
+    TrajectoryProblem, TrajectoryWorkspace, trajectory_solver_settings,
 };
+use tandem::pipeline::{SolveSettings, solve_problem};
 use tandem::problem::{Goal, ObjectiveKind, Problem};
 use tandem::robot::{KinematicsWorkspace, RobotModel};
 use tandem_solvers::least_squares::{Residuals, Termination};
@@ -36,7 +37,7 @@ fn shipped_problems_converge_collision_free_at_both_horizons() {
         let problem = Problem::builtin(name).unwrap();
         for horizon in [20, 50] {
             for seed in 0..3 {
-                let options = SolveOptions { seed: Some(seed), horizon: Some(horizon), ..SolveOptions::default() };
+                let options = SolveSettings { seed: Some(seed), horizon: Some(horizon), ..SolveSettings::default() };
                 let s = solve_problem(&problem, &options).unwrap();
                 let label = format!("{name} T={horizon} seed {seed}");
                 assert_eq!(s.status(), "converged", "{label}: {:?}", s.report);
@@ -90,7 +91,7 @@ fn shipped_problems_converge_collision_free_at_both_horizons() {
 #[test]
 fn grasp_passes_the_approach_point_above_the_box() {
     let problem = Problem::builtin("panda_grasp_box").unwrap();
-    let s = solve_problem(&problem, &SolveOptions::default()).unwrap();
+    let s = solve_problem(&problem, &SolveSettings::default()).unwrap();
     assert!(s.converged());
     // Slice round(0.7 T) holds the gripper at the approach frame, 15 cm above the centre.
     let slice = (0.7 * s.trajectory.len() as f64).round() as usize;
@@ -102,7 +103,7 @@ fn grasp_passes_the_approach_point_above_the_box() {
 #[test]
 fn same_seed_same_trajectory() {
     let problem = Problem::builtin("panda_reach_obstacle").unwrap();
-    let options = SolveOptions { seed: Some(4), ..SolveOptions::default() };
+    let options = SolveSettings { seed: Some(4), ..SolveSettings::default() };
     let a = solve_problem(&problem, &options).unwrap();
     let b = solve_problem(&problem, &options).unwrap();
     let bits = |t: &[Vec<f64>]| t.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
@@ -292,7 +293,7 @@ fn problems_without_objectives_get_the_defaults() {
     let cut = text.find("[[optimizer.objectives]]").unwrap();
     let problem = Problem::from_str_with(&text[..cut], "<defaults>", None).unwrap();
     assert!(problem.optimizer.objectives.is_empty());
-    let s = solve_problem(&problem, &SolveOptions::default()).unwrap();
+    let s = solve_problem(&problem, &SolveSettings::default()).unwrap();
     assert_eq!(s.status(), "converged", "{:?}", s.report);
     let Goal::Joints(goal) = &problem.goal else { unreachable!() };
     let last = s.trajectory.last().unwrap();

@@ -171,8 +171,8 @@ fn the_optimizer_solves_a_problem_of_every_robot_and_family() {
     for robot in &robots::ROBOTS {
         for family in robots::FAMILIES {
             let problem = robots::problem(robot, family, 1, Goals::Grasp, dir.path()).expect("a start and a goal");
-            let options = tandem::komo::SolveOptions { seed: Some(0), ..Default::default() };
-            let solution = tandem::komo::solve_problem(&problem, &options).unwrap();
+            let options = tandem::pipeline::SolveSettings { seed: Some(0), ..Default::default() };
+            let solution = tandem::pipeline::solve_problem(&problem, &options).unwrap();
             // Converged, within limits, and collision-free between slices.
             assert!(solution.converged(), "{} {family}: {}", robot.name, solution.status());
         }
@@ -188,8 +188,8 @@ fn the_optimizer_takes_both_baxter_arms_through_one_cage() {
     let dir = tempfile::tempdir().unwrap();
     let baxter = &robots::ROBOTS[2];
     let problem = robots::problem(baxter, "cage", 14, Goals::Grasp, dir.path()).expect("a start and a goal");
-    let options = tandem::komo::SolveOptions { seed: Some(0), ..Default::default() };
-    let solution = tandem::komo::solve_problem(&problem, &options).unwrap();
+    let options = tandem::pipeline::SolveSettings { seed: Some(0), ..Default::default() };
+    let solution = tandem::pipeline::solve_problem(&problem, &options).unwrap();
     assert!(solution.converged(), "{}", solution.status());
     assert_eq!(solution.trajectory.len(), problem.optimizer.horizon);
 }

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use tandem::data::{
     GenerateSettings, Progress, ShardSpec, generate as rust_generate, part_count, part_ids, pending_parts,
 };
+use tandem::pipeline::PipelineSettings;
 
 /// Settings of a run from the keyword arguments shared by the functions here.
 #[allow(clippy::too_many_arguments)]
@@ -32,13 +33,10 @@ fn settings(
     Ok(GenerateSettings {
         count,
         seed,
-        horizon,
         threads,
         shard,
         chunk_size,
-        attempts,
-        max_evaluations,
-        ..GenerateSettings::default()
+        pipeline: PipelineSettings { horizon, attempts, max_evaluations, ..PipelineSettings::default() },
     })
 }
 

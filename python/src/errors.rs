@@ -25,6 +25,7 @@ use tandem::control::ControlError as RustControlError;
 use tandem::data::GenerateError;
 use tandem::files::FileError;
 use tandem::komo::KomoError;
+use tandem::pipeline::PipelineError;
 use tandem::plan::{IkError as RustIkError, PlanError};
 use tandem::problem::ProblemError as RustProblemError;
 use tandem::robot::RobotError as RustRobotError;
@@ -165,8 +166,17 @@ impl ToPyErr for KomoError {
         match self {
             KomoError::Robot(e) => e.to_py(),
             KomoError::Collision(e) => e.to_py(),
-            KomoError::Plan(e) => e.to_py(),
             e => OptimizationError::new_err(e.to_string()),
+        }
+    }
+}
+
+impl ToPyErr for PipelineError {
+    fn to_py(self) -> PyErr {
+        match self {
+            PipelineError::Optimizer(e) => e.to_py(),
+            PipelineError::Plan(e) => (*e).to_py(),
+            PipelineError::Robot(e) => e.to_py(),
         }
     }
 }

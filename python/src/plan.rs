@@ -12,7 +12,7 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tandem::collision::CollisionWorkspace;
-use tandem::komo::{ProblemSolution, SolveOptions, solve_problem};
+use tandem::pipeline::{ProblemSolution, SolveSettings, solve_problem};
 use tandem::plan::{
     IkSettings, IkTarget, PlanReport, PlanStatus, goal_configurations as rust_goal_configurations, plan_problem,
     solve_ik as rust_solve_ik,
@@ -254,7 +254,7 @@ pub(crate) fn solve(
     horizon: Option<usize>,
     validation_resolution: f64,
 ) -> PyResult<PySolution> {
-    let options = SolveOptions { seed, horizon, validation_resolution };
+    let options = SolveSettings { seed, horizon, validation_resolution };
     let p = &problem.problem;
     let solution = py.detach(|| solve_problem(p, &options)).py()?;
     Ok(PySolution { solution, start: p.start.clone() })

@@ -143,9 +143,9 @@ pub enum ArbitrationError {
     /// A problem file or retargeting error.
     #[error(transparent)]
     Problem(#[from] crate::problem::ProblemError),
-    /// The optimizer could not be set up.
+    /// A goal's reference could not be planned or optimized.
     #[error(transparent)]
-    Optimizer(#[from] crate::komo::KomoError),
+    Pipeline(#[from] crate::pipeline::PipelineError),
     /// The collision model could not be built.
     #[error(transparent)]
     Collision(#[from] crate::collision::CollisionError),

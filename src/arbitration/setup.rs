@@ -4,7 +4,7 @@
 
 use super::{Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationError};
 use crate::control::{GainSchedule, TrackingPolicy, TrackingWeights};
-use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
+use crate::pipeline::{ProblemSolution, SolveSettings, solve_problem};
 use crate::problem::{Goal, Problem};
 use crate::robot::KinematicsWorkspace;
 use std::sync::Arc;
@@ -104,7 +104,7 @@ pub fn problem_goals(problem: &Problem, options: &GoalOptions) -> Result<Vec<Pro
         (Goal::Grasp { object, .. }, GoalObjects::Goal) => vec![(object.clone(), problem.clone())],
         _ => vec![(problem.name.clone(), problem.clone())],
     };
-    let solve_options = SolveOptions { seed: options.seed, horizon: options.horizon, ..SolveOptions::default() };
+    let solve_options = SolveSettings { seed: options.seed, horizon: options.horizon, ..SolveSettings::default() };
     let mut ws = KinematicsWorkspace::new(&problem.robot);
     problems
         .into_iter()

@@ -63,7 +63,7 @@ fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Erro
         "\nreach and grasp ({}): plan with RRT-Connect, then optimize {} slices:",
         problem.name, problem.optimizer.horizon
     );
-    let solution = crate::komo::solve_problem(&problem, &crate::komo::SolveOptions::default())?;
+    let solution = crate::pipeline::solve_problem(&problem, &crate::pipeline::SolveSettings::default())?;
     super::solve::print_summary(&problem, &solution, None);
     if let (Some(last), Some(target)) = (solution.trajectory.last(), problem.grasp_target()) {
         let robot = &problem.robot;

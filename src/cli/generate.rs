@@ -1,9 +1,9 @@
 //! `tandem generate`: bulk training trajectories from a problem family.
 
 use crate::data::{
-    GenerateSettings, GenerateSummary, MAX_ATTEMPTS, MAX_CHUNK_SIZE, MAX_COUNT, MAX_EVALUATIONS, MAX_THREADS, Progress,
-    ShardSpec, generate,
+    GenerateSettings, GenerateSummary, MAX_CHUNK_SIZE, MAX_COUNT, MAX_THREADS, Progress, ShardSpec, generate,
 };
+use crate::pipeline::{MAX_ATTEMPTS, MAX_EVALUATIONS, PipelineSettings};
 use crate::problem::{MAX_HORIZON, MIN_HORIZON};
 use std::path::PathBuf;
 
@@ -64,13 +64,15 @@ pub(super) fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>>
     let settings = GenerateSettings {
         count: args.count,
         seed: args.seed,
-        horizon: args.horizon,
         threads: args.threads,
         shard: args.shard,
         chunk_size: args.chunk_size,
-        attempts: args.attempts,
-        max_evaluations: args.max_evaluations,
-        ..GenerateSettings::default()
+        pipeline: PipelineSettings {
+            horizon: args.horizon,
+            attempts: args.attempts,
+            max_evaluations: args.max_evaluations,
+            ..PipelineSettings::default()
+        },
     };
     let progress = if args.quiet || args.json { Progress::quiet() } else { Progress::auto() };
     let summary = generate(&args.family, &args.out, &settings, &progress)?;

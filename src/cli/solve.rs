@@ -4,7 +4,7 @@
 use super::plan::gripper_path_svg;
 use super::{Outcome, ProblemArgs};
 use crate::figures::{Panel, Series, render_panels};
-use crate::komo::{ProblemSolution, SolveOptions, solve_problem};
+use crate::pipeline::{ProblemSolution, SolveSettings, solve_problem};
 use crate::problem::{MAX_HORIZON, MIN_HORIZON, Problem};
 use std::path::{Path, PathBuf};
 
@@ -39,7 +39,7 @@ pub struct SolveArgs {
 
 pub(super) fn run(args: &SolveArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
-    let options = SolveOptions { seed: args.seed, horizon: args.horizon, ..SolveOptions::default() };
+    let options = SolveSettings { seed: args.seed, horizon: args.horizon, ..SolveSettings::default() };
     let solution = solve_problem(&problem, &options)?;
     if let Some(dir) = &args.out {
         write_outputs(&problem, &solution, dir)?;

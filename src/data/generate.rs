@@ -14,6 +14,7 @@ use super::shard::{
     PartMeta, PartSummary, read_part_summary, sha256_hex, temporary_path, write_atomically, write_part,
 };
 use crate::files::FileError;
+use crate::pipeline::PipelineSettings;
 use crate::problem::{ProblemError, ProblemFamily};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -48,27 +49,15 @@ pub struct GenerateSettings {
     pub count: u64,
     /// Run seed.
     pub seed: u64,
-    /// Horizon T (default: the family's base problem's).
-    pub horizon: Option<usize>,
     /// Worker threads (default: all cores).
     pub threads: Option<usize>,
     /// Generate only this share of the part files (default: all).
     pub shard: Option<ShardSpec>,
     /// Ids per part file.
     pub chunk_size: u64,
-    /// IK + planning + optimization attempts per sample, each with another
-    /// planner seed, before it is rejected.
-    pub attempts: u32,
-    /// Evaluation budget of each optimizer solve (the base problem's
-    /// `optimizer.max_iterations` is replaced): a sample that needs more is
-    /// better retried with the flipped grasp than pushed on.
-    pub max_evaluations: usize,
-    /// Joint step of the final collision check between slices (rad).
-    pub validation_resolution: f64,
-    /// Acceptance: q_T within this distance (m) and angle (rad) of the goal.
-    pub goal_tolerance: f64,
-    /// Acceptance: angle (rad) of q_T from the goal orientation.
-    pub goal_angle_tolerance: f64,
+    /// How each sample is solved and accepted (horizon, attempts,
+    /// evaluation budget, validation resolution, goal tolerances).
+    pub pipeline: PipelineSettings,
 }
 
 impl Default for GenerateSettings {
@@ -76,15 +65,10 @@ impl Default for GenerateSettings {
         GenerateSettings {
             count: 1000,
             seed: 0,
-            horizon: None,
             threads: None,
             shard: None,
             chunk_size: 100,
-            attempts: 3,
-            max_evaluations: 200,
-            validation_resolution: 0.002,
-            goal_tolerance: 1e-3,
-            goal_angle_tolerance: 1e-2,
+            pipeline: PipelineSettings::default(),
         }
     }
 }
@@ -265,10 +249,6 @@ pub const MAX_PARTS: u64 = 1_000_000;
 pub const MAX_PART_SLICES: u64 = 10_000_000;
 /// Most worker threads (`--threads`).
 pub const MAX_THREADS: usize = 1024;
-/// Most attempts per sample (`--attempts`).
-pub const MAX_ATTEMPTS: u32 = 100;
-/// Largest evaluation budget of one optimizer solve (`--max-evaluations`).
-pub const MAX_EVALUATIONS: usize = 1_000_000;
 
 /// Checks every size against its bound (above), naming the setting.
 fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
@@ -286,26 +266,9 @@ fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
             s.count, s.chunk_size
         ));
     }
-    let horizons = crate::problem::MIN_HORIZON..=crate::problem::MAX_HORIZON;
-    if let Some(t) = s.horizon.filter(|t| !horizons.contains(t)) {
-        return bad(format!("the horizon T must be between {} and {}, got {t}", horizons.start(), horizons.end()));
-    }
-    if s.attempts == 0 || s.attempts > MAX_ATTEMPTS {
-        return bad(format!("--attempts must be between 1 and {MAX_ATTEMPTS}, got {}", s.attempts));
-    }
-    if s.max_evaluations == 0 || s.max_evaluations > MAX_EVALUATIONS {
-        return bad(format!("--max-evaluations must be between 1 and {MAX_EVALUATIONS}, got {}", s.max_evaluations));
-    }
+    s.pipeline.validate().map_err(GenerateError::Settings)?;
     if let Some(threads) = s.threads.filter(|t| !(1..=MAX_THREADS).contains(t)) {
         return bad(format!("--threads must be between 1 and {MAX_THREADS}, got {threads}"));
-    }
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !(s.validation_resolution >= crate::collision::MIN_RESOLUTION && s.validation_resolution.is_finite()) {
-        let min = crate::collision::MIN_RESOLUTION;
-        return bad(format!("the validation resolution must be at least {min} rad, got {}", s.validation_resolution));
-    }
-    if !(positive(s.goal_tolerance) && positive(s.goal_angle_tolerance)) {
-        return bad("the goal tolerances must be positive".into());
     }
     Ok(())
 }
@@ -344,13 +307,13 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         base_problem_sha256: hash(Path::new(&family.base.origin))?,
         seed: s.seed,
         count: s.count,
-        horizon: s.horizon.unwrap_or(family.base.optimizer.horizon),
+        horizon: s.pipeline.horizon.unwrap_or(family.base.optimizer.horizon),
         chunk_size: s.chunk_size,
-        attempts: s.attempts,
-        max_evaluations: s.max_evaluations,
-        validation_resolution: s.validation_resolution,
-        goal_tolerance: s.goal_tolerance,
-        goal_angle_tolerance: s.goal_angle_tolerance,
+        attempts: s.pipeline.attempts,
+        max_evaluations: s.pipeline.max_evaluations,
+        validation_resolution: s.pipeline.validation_resolution,
+        goal_tolerance: s.pipeline.goal_tolerance,
+        goal_angle_tolerance: s.pipeline.goal_angle_tolerance,
     })
 }
 

@@ -12,7 +12,9 @@
 //!
 //! ```no_run
 //! use tandem::data::{GenerateSettings, generate, Progress};
-//! let settings = GenerateSettings { count: 1000, seed: 7, horizon: Some(50), ..GenerateSettings::default() };
+//! use tandem::pipeline::PipelineSettings;
+//! let pipeline = PipelineSettings { horizon: Some(50), ..PipelineSettings::default() };
+//! let settings = GenerateSettings { count: 1000, seed: 7, pipeline, ..GenerateSettings::default() };
 //! let summary = generate("problems/panda_grasp_family.toml".as_ref(), "dataset".as_ref(), &settings, &Progress::quiet())?;
 //! println!("{} accepted, {} rejected", summary.manifest.accepted, summary.manifest.rejected);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -28,12 +30,10 @@ mod shard;
 
 pub use episodes::write_episodes;
 pub use generate::{
-    GenerateError, GenerateSettings, GenerateSummary, MAX_ATTEMPTS, MAX_CHUNK_SIZE, MAX_COUNT, MAX_EVALUATIONS,
-    MAX_PART_SLICES, MAX_PARTS, MAX_THREADS, ShardSpec, generate, part_count, part_ids, pending_parts,
+    GenerateError, GenerateSettings, GenerateSummary, MAX_CHUNK_SIZE, MAX_COUNT, MAX_PART_SLICES, MAX_PARTS,
+    MAX_THREADS, ShardSpec, generate, part_count, part_ids, pending_parts,
 };
 pub use manifest::{DatasetParameters, Manifest, PartEntry};
 pub use progress::Progress;
-pub use sample::{
-    GoalMiss, Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, goal_miss, run_problem, run_sample,
-};
+pub use sample::{Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, run_problem, run_sample};
 pub use shard::{PartSummary, read_part_summary, write_part};

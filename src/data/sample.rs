@@ -1,14 +1,13 @@
-//! One dataset sample: family sample → IK → RRT-Connect → optimizer →
-//! validation, and the record (or the rejection) it yields.
+//! One dataset sample: family sample → the accepted solve of the
+//! [pipeline](crate::pipeline) → the record (or the rejection) it yields.
 
 use super::GenerateSettings;
-use crate::komo::{KomoError, ProblemSolution, SolveOptions, solve_problem};
-use crate::plan::{IkError, PlanError, path_length};
-use crate::problem::{Goal, GraspCriteria, GraspError, GraspJudge, GraspReport, Problem, ProblemFamily, sample_seed};
-use crate::robot::KinematicsWorkspace;
+use crate::pipeline::{Accepted, GoalMiss, solve_accepted};
+use crate::plan::path_length;
+use crate::problem::{Goal, GraspReport, Problem, ProblemFamily};
+use crate::robot::{KinematicsWorkspace, RobotError};
 use crate::scene::Shape;
-use nalgebra::{IsometryMatrix3, UnitQuaternion, Vector3};
-use std::borrow::Cow;
+use nalgebra::{IsometryMatrix3, UnitQuaternion};
 use std::time::{Duration, Instant};
 
 /// A pose as `[x, y, z, qx, qy, qz, qw]`: position (m) and unit quaternion
@@ -48,19 +47,6 @@ pub struct RecordReport {
     pub path_length: f64,
     /// How far q_T is from the goal; see [`GoalMiss`].
     pub goal_miss: GoalMiss,
-}
-
-/// Distance of a final configuration from the goal. Pose and grasp goals:
-/// the gripper's position error (m) and the angle (rad) between its axis
-/// and the target axis (full orientation error when the goal fixes one).
-/// Joint goals: `distance` 0 and `angle` the largest joint difference
-/// (rad, or m for prismatic joints).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct GoalMiss {
-    /// Position error of the gripper at q_T (m).
-    pub distance: f64,
-    /// Angle between its axis and the goal's (rad).
-    pub angle: f64,
 }
 
 /// An accepted trajectory with its problem parameters; one dataset row.
@@ -140,28 +126,26 @@ impl SampleOutcome {
     }
 }
 
-/// Generates sample `id` of `family` for the run settings, trying up to
-/// `settings.attempts` times (odd attempts with the flipped grasp, each
-/// with another IK + planning seed): the outcome depends on
-/// (settings.seed, id, horizon, attempts, tolerances) only. Time budgets
-/// of the planner are lifted (its iteration budget bounds the work) so that
-/// machine load cannot change the dataset.
+/// Generates sample `id` of `family` for the run settings: the family's
+/// sample, then [`solve_accepted`] with `settings.pipeline`; the outcome
+/// depends on (settings.seed, id, settings.pipeline) only.
 pub fn run_sample(family: &ProblemFamily, settings: &GenerateSettings, id: u64) -> (SampleOutcome, SampleTiming) {
     let began = Instant::now();
-    let reject =
-        |reason: &str, detail: String| SampleOutcome::Rejected(Rejection { id, reason: reason.into(), detail });
     let sample = match family.sample(settings.seed, id) {
         Ok(s) => s,
-        Err(e) => return (reject("sample_failed", e.to_string()), timing(began, Duration::ZERO)),
+        Err(e) => {
+            let rejected =
+                SampleOutcome::Rejected(Rejection { id, reason: "sample_failed".into(), detail: e.to_string() });
+            return (rejected, timing(began, Duration::ZERO));
+        }
     };
     let (outcome, plan_time) = solve_sample(sample.problem, sample.seed, id, settings);
     (outcome, timing(began, plan_time))
 }
 
-/// Solves `problem` as sample `id` with random stream `seed` (IK,
-/// RRT-Connect, optimizer, validation, up to `settings.attempts` times as
-/// [`run_sample`] does): the expert of a problem that no family draws, such
-/// as a start where a learned policy failed.
+/// Solves `problem` as sample `id` with random stream `seed` (as
+/// [`run_sample`] does): the expert of a problem that no family draws,
+/// such as a start where a learned policy failed.
 pub fn run_problem(
     problem: &Problem,
     seed: u64,
@@ -173,75 +157,20 @@ pub fn run_problem(
     (outcome, timing(began, plan_time))
 }
 
-fn solve_sample(mut problem: Problem, seed: u64, id: u64, settings: &GenerateSettings) -> (SampleOutcome, Duration) {
-    let reject =
-        |reason: &str, detail: String| SampleOutcome::Rejected(Rejection { id, reason: reason.into(), detail });
-    problem.planner.time_limit = UNLIMITED_SECONDS;
-    problem.optimizer.max_iterations = settings.max_evaluations;
-    let mut plan_time = Duration::ZERO;
-    let mut outcome = reject("error", "no attempt was made".into());
-    for attempt in 0..settings.attempts.max(1) {
-        let variant = grasp_variant(&problem, attempt);
-        let (next, planned) = attempt_sample(&variant, seed, id, attempt, settings);
-        plan_time += planned;
-        outcome = next;
-        if matches!(outcome, SampleOutcome::Accepted(_)) {
-            break;
+fn solve_sample(problem: Problem, seed: u64, id: u64, settings: &GenerateSettings) -> (SampleOutcome, Duration) {
+    let (accepted, plan_time) = solve_accepted(problem, seed, &settings.pipeline);
+    let outcome = match accepted {
+        Ok(accepted) => {
+            let attempt = accepted.attempt;
+            record(seed, id, accepted).unwrap_or_else(|e| {
+                let detail = format!("attempt {}: {e}", attempt + 1);
+                SampleOutcome::Rejected(Rejection { id, reason: "error".into(), detail })
+            })
         }
-    }
+        Err(r) => SampleOutcome::Rejected(Rejection { id, reason: r.reason.into(), detail: r.detail }),
+    };
     (outcome, plan_time)
 }
-
-/// The problem of attempt `a`: odd attempts of a grasp turn the grasp frame
-/// by π about its approach axis ([`Scene::flip_grasp`](crate::scene::Scene::flip_grasp)),
-/// an equivalent grasp whose wrist motion can avoid what blocked the first.
-fn grasp_variant(problem: &Problem, attempt: u32) -> Cow<'_, Problem> {
-    match &problem.goal {
-        Goal::Grasp { object, grasp } if attempt % 2 == 1 => {
-            let mut flipped = problem.clone();
-            match flipped.scene.flip_grasp(object, grasp) {
-                Ok(()) => Cow::Owned(flipped),
-                Err(_) => Cow::Borrowed(problem),
-            }
-        }
-        _ => Cow::Borrowed(problem),
-    }
-}
-
-/// One IK + planning + optimization attempt: attempt `a` seeds IK and
-/// RRT-Connect with `sample_seed(seed, a)` (the sample's own seed for a = 0),
-/// so a retry explores another goal configuration and initial path.
-fn attempt_sample(
-    problem: &Problem,
-    seed: u64,
-    id: u64,
-    attempt: u32,
-    settings: &GenerateSettings,
-) -> (SampleOutcome, Duration) {
-    let reject = |reason: &str, detail: String| {
-        let detail = format!("attempt {}: {detail}", attempt + 1);
-        SampleOutcome::Rejected(Rejection { id, reason: reason.into(), detail })
-    };
-    let planner_seed = if attempt == 0 { seed } else { sample_seed(seed, u64::from(attempt)) };
-    let options = SolveOptions {
-        seed: Some(planner_seed),
-        horizon: settings.horizon,
-        validation_resolution: settings.validation_resolution,
-    };
-    let solution = match solve_problem(problem, &options) {
-        Ok(s) => s,
-        Err(e) => return (reject(error_reason(&e), e.to_string()), Duration::ZERO),
-    };
-    let plan_time = solution.plan.planning_time + solution.plan.simplify_time;
-    let outcome = match solution.status() {
-        "converged" => accept(problem, seed, id, attempt, &solution, settings),
-        status => Ok(reject(status, format!("the solve ended {status}: {}", describe(&solution)))),
-    };
-    (outcome.unwrap_or_else(|e| reject("error", e.to_string())), plan_time)
-}
-
-/// Planner budget used in generation (s): effectively none.
-const UNLIMITED_SECONDS: f64 = 1e6;
 
 fn timing(began: Instant, plan: Duration) -> SampleTiming {
     let total = began.elapsed();
@@ -249,52 +178,11 @@ fn timing(began: Instant, plan: Duration) -> SampleTiming {
     SampleTiming { plan_ms: ms(plan), optimize_ms: ms(total.saturating_sub(plan)), total_ms: ms(total) }
 }
 
-fn error_reason(e: &KomoError) -> &'static str {
-    match e {
-        KomoError::Plan(PlanError::Ik(IkError::Unreachable { .. })) => "ik_unreachable",
-        KomoError::Plan(PlanError::Ik(IkError::InCollision { .. })) => "ik_in_collision",
-        _ => "error",
-    }
-}
-
-fn describe(s: &ProblemSolution) -> String {
-    format!(
-        "plan {}, eq {:.1e}, ineq {:.1e}, min distance {:.2e} m",
-        s.plan.result.status.name(),
-        s.report.equality_violation,
-        s.report.inequality_violation,
-        s.validation.min_distance.unwrap_or(f64::INFINITY)
-    )
-}
-
-fn accept(
-    problem: &Problem,
-    seed: u64,
-    id: u64,
-    attempt: u32,
-    s: &ProblemSolution,
-    settings: &GenerateSettings,
-) -> Result<SampleOutcome, crate::robot::RobotError> {
-    let last = s.trajectory.last().map(Vec::as_slice).unwrap_or(&problem.start);
-    let miss = goal_miss(problem, last)?;
-    if miss.distance > settings.goal_tolerance || miss.angle > settings.goal_angle_tolerance {
-        let detail = format!("q_T misses the goal by {:.2e} m, {:.2e} rad", miss.distance, miss.angle);
-        return Ok(SampleOutcome::Rejected(Rejection { id, reason: "goal_missed".into(), detail }));
-    }
-    let grasp = match judge_grasp(problem, last, settings.goal_angle_tolerance) {
-        Ok(Some((report, criteria))) => match report.failure(&criteria) {
-            Some(why) => {
-                let detail = format!("attempt {}: at q_T {why}", attempt + 1);
-                return Ok(SampleOutcome::Rejected(Rejection { id, reason: "grasp_failed".into(), detail }));
-            }
-            None => Some(report),
-        },
-        Ok(None) => None,
-        Err(e) => {
-            let detail = format!("attempt {}: cannot judge the grasp: {e}", attempt + 1);
-            return Ok(SampleOutcome::Rejected(Rejection { id, reason: "error".into(), detail }));
-        }
-    };
+/// The dataset row of an accepted solution (of the problem of the accepted
+/// attempt: its grasp may be the flipped one).
+fn record(seed: u64, id: u64, accepted: Accepted) -> Result<SampleOutcome, RobotError> {
+    let Accepted { problem, solution: s, attempt, goal_miss: miss, grasp } = accepted;
+    let problem = &problem;
     let mut full = Vec::with_capacity(s.trajectory.len() + 1);
     full.push(problem.start.clone());
     full.extend(s.trajectory.iter().cloned());
@@ -333,33 +221,6 @@ fn accept(
     })))
 }
 
-/// What generated grasps may miss the margin of the problem's collision
-/// inequalities by (m): ten times the optimizer's constraint tolerance.
-const GRASP_CLEARANCE_TOLERANCE: f64 = 1e-4;
-
-/// The grasp at `q` and the criteria it is held to, for a grasp goal whose
-/// gripper has finger pads (`None` otherwise): the object between the pads,
-/// the fingertip centre within its footprint, the gripper within
-/// `max_tilt` of the grasp frame's approach axis, palm and fingers at
-/// least the final collision margin from it.
-fn judge_grasp(
-    problem: &Problem,
-    q: &[f64],
-    max_tilt: f64,
-) -> Result<Option<(GraspReport, GraspCriteria)>, GraspError> {
-    let (Goal::Grasp { object, .. }, false) = (&problem.goal, problem.robot_spec.finger_pads.is_empty()) else {
-        return Ok(None);
-    };
-    let (Some(criteria), Some(target)) =
-        (GraspCriteria::for_goal(problem, max_tilt, GRASP_CLEARANCE_TOLERANCE), problem.scene.object(object))
-    else {
-        return Ok(None);
-    };
-    let judge = GraspJudge::new(problem)?;
-    let mut ws = KinematicsWorkspace::new(&problem.robot);
-    Ok(Some((judge.judge(&mut ws, q, target, &criteria)?, criteria)))
-}
-
 fn saturate(n: usize) -> u32 {
     u32::try_from(n).unwrap_or(u32::MAX)
 }
@@ -388,7 +249,7 @@ fn goal_pose(problem: &Problem) -> Option<IsometryMatrix3<f64>> {
     }
 }
 
-fn gripper_poses(problem: &Problem, q: &[Vec<f64>]) -> Result<Option<Vec<PoseArray>>, crate::robot::RobotError> {
+fn gripper_poses(problem: &Problem, q: &[Vec<f64>]) -> Result<Option<Vec<PoseArray>>, RobotError> {
     let Some(gripper) = &problem.robot_spec.gripper else { return Ok(None) };
     let robot = &problem.robot;
     let frame = robot.frame_id(gripper)?;
@@ -399,46 +260,4 @@ fn gripper_poses(problem: &Problem, q: &[Vec<f64>]) -> Result<Option<Vec<PoseArr
         poses.push(pose_array(&robot.frame_pose(&ws, frame)));
     }
     Ok(Some(poses))
-}
-
-/// How far configuration `q` is from the problem's goal; see [`GoalMiss`].
-///
-/// # Errors
-/// Unknown frames or a configuration of the wrong length.
-pub fn goal_miss(problem: &Problem, q: &[f64]) -> Result<GoalMiss, crate::robot::RobotError> {
-    let robot = &problem.robot;
-    let frame_pose = |name: &str| -> Result<IsometryMatrix3<f64>, crate::robot::RobotError> {
-        let mut ws = KinematicsWorkspace::new(robot);
-        robot.forward_kinematics(&mut ws, q)?;
-        Ok(robot.frame_pose(&ws, robot.frame_id(name)?))
-    };
-    let axis_angle = |pose: &IsometryMatrix3<f64>, axis: usize, direction: &Vector3<f64>| {
-        (pose.rotation * Vector3::ith(axis, 1.0)).angle(direction)
-    };
-    Ok(match &problem.goal {
-        Goal::Joints(goal) => {
-            let angle = goal.iter().zip(q).map(|(g, v)| (g - v).abs()).fold(0.0, f64::max);
-            GoalMiss { distance: 0.0, angle }
-        }
-        Goal::Pose { frame, position, orientation, axis_alignment } => {
-            let pose = frame_pose(frame)?;
-            let angle = match (orientation, axis_alignment) {
-                (Some(r), _) => crate::robot::rotation_log(&(pose.rotation.inverse() * r)).norm(),
-                (None, Some((axis, direction))) => axis_angle(&pose, *axis, direction),
-                (None, None) => 0.0,
-            };
-            GoalMiss { distance: (pose.translation.vector - position).norm(), angle }
-        }
-        Goal::Grasp { .. } => {
-            let (Some(gripper), Some(target)) = (&problem.robot_spec.gripper, problem.grasp_target()) else {
-                return Ok(GoalMiss { distance: f64::INFINITY, angle: f64::INFINITY });
-            };
-            let pose = frame_pose(gripper)?;
-            let approach = target.rotation * Vector3::z();
-            GoalMiss {
-                distance: (pose.translation.vector - target.translation.vector).norm(),
-                angle: axis_angle(&pose, 2, &approach),
-            }
-        }
-    })
 }

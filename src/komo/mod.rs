@@ -10,15 +10,19 @@
 //! distance. Order-1 and order-2 objectives difference a feature over
 //! consecutive slices (`τ = duration / T` apart); the `k` configurations
 //! before `q_1` are the start, at rest. Objectives come from problem files
-//! ([`TrajectoryProblem::from_problem`]) or are built in Rust.
+//! ([`TrajectoryProblem::from_problem`]) or are built in Rust. Planning
+//! the initial path, validating the result and accepting it are the
+//! [pipeline](crate::pipeline)'s.
 //!
 //! ```
-//! use tandem::komo::{solve_problem, SolveOptions};
+//! use tandem::komo::{Initialization, TrajectoryOptimizer, TrajectoryProblem, trajectory_solver_settings};
 //! use tandem::problem::Problem;
-//! let problem = Problem::builtin("panda_reach").unwrap();
-//! let solution = solve_problem(&problem, &SolveOptions::default()).unwrap();
-//! assert!(solution.converged() && solution.validation.collision_free);
-//! println!("{} slices, cost {:.3}", solution.trajectory.len(), solution.report.cost);
+//! let problem = Problem::builtin("panda_reach")?;
+//! let goal = [0.5, -0.3, 0.2, -2.0, 0.1, 1.8, 0.6];
+//! let mut optimizer = TrajectoryOptimizer::new(TrajectoryProblem::from_problem(&problem)?, trajectory_solver_settings());
+//! let result = optimizer.solve(Initialization::Interpolate(&goal))?;
+//! println!("{} slices, cost {:.3}", result.trajectory.len(), result.report.cost);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 mod feature;
@@ -30,12 +34,10 @@ pub use feature::{Feature, FeatureScratch, FrameRef, JOINT_LIMIT_CUTOFF};
 pub use objective::{Objective, TimeSpan, default_objectives, objective_from_spec};
 pub use problem::{COLLISION_CUTOFF, Measures, TrajectoryProblem, TrajectoryWorkspace};
 pub use solve::{
-    Initialization, ProblemSolution, SolveOptions, TrajectoryOptimizer, TrajectoryResult, Validation, solve_problem,
-    stiff_solver_settings, trajectory_solver_settings,
+    Initialization, TrajectoryOptimizer, TrajectoryResult, stiff_solver_settings, trajectory_solver_settings,
 };
 
 use crate::collision::CollisionError;
-use crate::plan::PlanError;
 use crate::robot::RobotError;
 use thiserror::Error;
 
@@ -66,7 +68,4 @@ pub enum KomoError {
     #[error(transparent)]
     /// The collision model cannot be built.
     Collision(#[from] CollisionError),
-    #[error("planning the initial path: {0}")]
-    /// Planning the seed failed.
-    Plan(#[from] PlanError),
 }

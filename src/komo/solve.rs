@@ -1,17 +1,14 @@
-//! Running the optimizer: initialisation, the solve, validation of the
-//! result at fine resolution, and the whole plan-then-optimize pipeline
-//! for a problem file.
+//! Running the optimizer: initialisation, the solve, and the trajectory
+//! problem of a problem file. Planning the seed, validating the result and
+//! accepting it are the [pipeline](crate::pipeline)'s.
 
 use super::KomoError;
 use super::objective::{Objective, default_objectives, objective_from_spec};
 use super::problem::{Evaluator, TrajectoryProblem, TrajectoryWorkspace};
 use crate::collision::CollisionWorkspace;
-use crate::control::{ControlError, GainSchedule, TrackingPolicy, TrackingWeights};
-use crate::plan::{PlanReport, PlanStatus, ProblemPlanner, resample};
+use crate::plan::resample;
 use crate::problem::{Goal, Problem};
-use crate::trajectory::{JointTrajectory, TrajectoryError};
-use std::time::{Duration, Instant};
-use tandem_solvers::least_squares::{AugmentedLagrangian, SolveError, SolveReport, SolverSettings, Termination};
+use tandem_solvers::least_squares::{AugmentedLagrangian, SolveError, SolveReport, SolverSettings};
 
 /// Where the optimization starts.
 #[derive(Debug, Clone, Copy)]
@@ -24,22 +21,6 @@ pub enum Initialization<'a> {
     /// `q_1 … q_T` of an earlier solution (a warm start; the optimizer also
     /// keeps the multipliers of its own last solve).
     Warm(&'a [Vec<f64>]),
-}
-
-/// Checks of a trajectory beyond the solver's own measures.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Validation {
-    /// No collision on the straight joint-space motions start → q_1 → … →
-    /// q_T, checked so that no joint moves more than `resolution` between
-    /// checks.
-    pub collision_free: bool,
-    /// Smallest signed distance over the slices (m); `None` without a
-    /// collision model.
-    pub min_distance: Option<f64>,
-    /// Every slice within the joint limits.
-    pub within_limits: bool,
-    /// The resolution of the collision check (rad or m).
-    pub resolution: f64,
 }
 
 /// An optimized trajectory and how the solve went.
@@ -73,7 +54,7 @@ pub fn trajectory_solver_settings() -> SolverSettings {
     SolverSettings { max_step: 0.5, step_tolerance: 1e-5, cost_tolerance: 1e-4, ..SolverSettings::default() }
 }
 
-/// The settings of [`solve_problem`]'s second try: from `settings`, a
+/// The settings of [`solve_problem`](crate::pipeline::solve_problem)'s second try: from `settings`, a
 /// penalty 100 times stiffer from the start and steps of at most 0.25
 /// rad, so that the collision constraints the planner's path meets stay
 /// met while the cost pulls.
@@ -182,31 +163,6 @@ impl TrajectoryOptimizer {
         }
         Ok(report)
     }
-
-    /// Checks `trajectory` (`q_1 … q_T`) for collisions between slices at
-    /// `resolution` and for joint limits.
-    ///
-    /// # Errors
-    /// Configurations the model rejects; a bad resolution.
-    pub fn validate(&self, trajectory: &[Vec<f64>], resolution: f64) -> Result<Validation, KomoError> {
-        let robot = self.problem.robot();
-        let within_limits = trajectory.iter().all(|q| robot.within_limits(q));
-        let (mut collision_free, mut min_distance) = (true, None);
-        if let Some(model) = self.problem.collision_model() {
-            let mut ws = CollisionWorkspace::new(model);
-            let mut previous = self.problem.start();
-            for q in trajectory {
-                collision_free &= model.motion_free(&mut ws, previous, q, resolution)?;
-                // Only pairs closer than the closest so far matter.
-                let below = min_distance.unwrap_or(f64::INFINITY);
-                if let Some(d) = model.min_distance_below(&mut ws, q, below)? {
-                    min_distance = Some(d.signed.distance);
-                }
-                previous = q;
-            }
-        }
-        Ok(Validation { collision_free, min_distance, within_limits, resolution })
-    }
 }
 
 impl TrajectoryProblem {
@@ -251,178 +207,4 @@ impl TrajectoryProblem {
             problem.start.clone(),
         )
     }
-}
-
-/// Options of [`solve_problem`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct SolveOptions {
-    /// Seed of IK and RRT-Connect (default: the problem's planner seed).
-    pub seed: Option<u64>,
-    /// Overrides the problem's horizon T.
-    pub horizon: Option<usize>,
-    /// Joint step of the final collision check between slices (rad).
-    pub validation_resolution: f64,
-}
-
-impl Default for SolveOptions {
-    fn default() -> Self {
-        SolveOptions { seed: None, horizon: None, validation_resolution: 0.002 }
-    }
-}
-
-/// The outcome of planning and optimizing one problem.
-#[derive(Debug, Clone)]
-pub struct ProblemSolution {
-    /// The RRT-Connect run that seeded the optimizer.
-    pub plan: PlanReport,
-    /// `q_1 … q_T`.
-    pub trajectory: Vec<Vec<f64>>,
-    /// Active joint names, the order of each configuration.
-    pub joints: Vec<String>,
-    /// Seconds between slices.
-    pub time_step: f64,
-    /// How the solve went.
-    pub report: SolveReport,
-    /// Checks of the result between slices.
-    pub validation: Validation,
-    /// Preparation, planning, optimization and validation.
-    pub total_time: Duration,
-}
-
-impl ProblemSolution {
-    /// Converged with every constraint within tolerance, collision-free at
-    /// the validation resolution, within limits.
-    pub fn converged(&self) -> bool {
-        succeeded(&self.report, &self.validation)
-    }
-
-    /// `converged`, `in_collision`, `plan_failed`, or the solver's
-    /// termination (`infeasible`, `iteration_limit`, …).
-    pub fn status(&self) -> &'static str {
-        match self.report.termination {
-            Termination::Converged if !self.validation.collision_free => "in_collision",
-            Termination::Converged if !self.validation.within_limits => "outside_limits",
-            t if self.plan.result.status != PlanStatus::Solved && t != Termination::Converged => "plan_failed",
-            t => t.as_str(),
-        }
-    }
-}
-
-impl ProblemSolution {
-    /// The trajectory as a reference for tracking: `start` (the problem's
-    /// start configuration, which the optimizer holds fixed), then `q_1 …
-    /// q_T`, `time_step` apart.
-    ///
-    /// # Errors
-    /// A `start` of the wrong length or with non-finite values.
-    pub fn reference(&self, start: &[f64]) -> Result<JointTrajectory, TrajectoryError> {
-        let mut waypoints = Vec::with_capacity(self.trajectory.len() + 1);
-        waypoints.push(start.to_vec());
-        waypoints.extend(self.trajectory.iter().cloned());
-        JointTrajectory::new(self.joints.clone(), self.time_step, &waypoints)
-    }
-
-    /// An LQR tracking policy of [`reference`](Self::reference) in one call.
-    ///
-    /// # Errors
-    /// As [`reference`](Self::reference) and [`TrackingPolicy::new`].
-    pub fn tracking_policy(
-        &self,
-        start: &[f64],
-        weights: TrackingWeights,
-        schedule: GainSchedule,
-    ) -> Result<TrackingPolicy, ControlError> {
-        TrackingPolicy::new(self.reference(start)?, weights, schedule)
-    }
-}
-
-/// The report of a solve continued by another: counts and time add up,
-/// the rest is the last solve's.
-fn combine(first: &SolveReport, last: SolveReport) -> SolveReport {
-    SolveReport {
-        outer_iterations: first.outer_iterations + last.outer_iterations,
-        inner_steps: first.inner_steps + last.inner_steps,
-        evaluations: first.evaluations + last.evaluations,
-        time: first.time + last.time,
-        ..last
-    }
-}
-
-/// Converged with every constraint within tolerance, collision-free at
-/// the validation resolution, within limits.
-fn succeeded(report: &SolveReport, validation: &Validation) -> bool {
-    report.termination == Termination::Converged && validation.collision_free && validation.within_limits
-}
-
-/// Optimizes `problem` from `init` with `settings` and validates the
-/// result; a converged result that collides between slices is re-solved
-/// from itself with collision rows between slices (1, 3, 7, then 15 per
-/// interval) until it does not.
-fn optimize_and_refine(
-    problem: &TrajectoryProblem,
-    settings: &SolverSettings,
-    init: Initialization,
-    resolution: f64,
-) -> Result<(TrajectoryResult, Validation), KomoError> {
-    let mut optimizer = TrajectoryOptimizer::new(problem.clone(), settings.clone());
-    let mut result = optimizer.solve(init)?;
-    let mut validation = optimizer.validate(&result.trajectory, resolution)?;
-    // Only a converged result is worth refining; a failed solve is reported.
-    for substeps in [1, 3, 7, 15] {
-        if validation.collision_free || result.report.termination != Termination::Converged {
-            break;
-        }
-        let mut refined = TrajectoryOptimizer::new(problem.clone().with_collision_substeps(substeps), settings.clone());
-        let next = refined.solve(Initialization::Warm(&result.trajectory))?;
-        result.report = combine(&result.report, next.report);
-        result.trajectory = next.trajectory;
-        validation = refined.validate(&result.trajectory, resolution)?;
-    }
-    Ok((result, validation))
-}
-
-/// Plans `problem` with RRT-Connect, then optimizes from the shortcut path
-/// (from the straight line to the first goal configuration when planning
-/// fails), and validates the result; a result that collides between slices
-/// is re-optimized with collision checks between slices (1, 3, 7, then 15 per
-/// interval). When that fails (not converged, or still colliding) from a
-/// planned path, all of it runs once more with [`stiff_solver_settings`];
-/// the report counts the evaluations and time of both tries.
-///
-/// # Errors
-/// Objectives or goals the problem cannot resolve, unreachable IK goals.
-pub fn solve_problem(problem: &Problem, options: &SolveOptions) -> Result<ProblemSolution, KomoError> {
-    let began = Instant::now();
-    let mut problem_t = TrajectoryProblem::from_problem(problem)?;
-    if let Some(horizon) = options.horizon {
-        problem_t = problem_t.with_horizon(horizon)?;
-    }
-    let mut planner = ProblemPlanner::new(problem, options.seed)?;
-    let plan = planner.run(options.seed.unwrap_or(problem.planner.seed))?;
-    let settings = SolverSettings { max_evaluations: problem.optimizer.max_iterations, ..trajectory_solver_settings() };
-    let init = match (plan.path.is_empty(), plan.goals.first()) {
-        (false, _) => Initialization::Path(&plan.path),
-        (true, Some(goal)) => Initialization::Interpolate(goal),
-        (true, None) => Initialization::Interpolate(&problem.start),
-    };
-    let resolution = options.validation_resolution;
-    let mut tried = optimize_and_refine(&problem_t, &settings, init, resolution)?;
-    // From a collision-free path, a failure is worth a second, stiffer try.
-    if !succeeded(&tried.0.report, &tried.1) && !plan.path.is_empty() {
-        let second = optimize_and_refine(&problem_t, &stiff_solver_settings(&settings), init, resolution)?;
-        let (kept, other) = if succeeded(&second.0.report, &second.1) { (second, tried) } else { (tried, second) };
-        // Counts and time of both tries; the rest of the one kept.
-        tried = (TrajectoryResult { report: combine(&other.0.report, kept.0.report), ..kept.0 }, kept.1);
-    }
-    let (result, validation) = tried;
-    let total_time = began.elapsed();
-    Ok(ProblemSolution {
-        joints: problem.robot.joint_names().to_vec(),
-        time_step: problem_t.time_step(),
-        trajectory: result.trajectory,
-        report: result.report,
-        validation,
-        total_time,
-        plan,
-    })
 }

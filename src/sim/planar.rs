@@ -178,7 +178,7 @@ pub fn sample_planar_task(base: &Problem, seed: u64, index: usize) -> Result<Pla
     for _ in 0..20 {
         match try_task(base, &mut rng, index) {
             Ok(task) => return Ok(task),
-            Err(e @ (ArbitrationError::GoalNotReached { .. } | ArbitrationError::Optimizer(_))) => last = Some(e),
+            Err(e @ (ArbitrationError::GoalNotReached { .. } | ArbitrationError::Pipeline(_))) => last = Some(e),
             Err(e) => return Err(e),
         }
     }

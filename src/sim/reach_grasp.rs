@@ -288,7 +288,7 @@ pub fn sample_task(base: &Problem, arm: Arm, seed: u64, index: usize) -> Result<
         let options = GoalOptions { seed: Some(rng.random()), objects: GoalObjects::Goal, ..GoalOptions::default() };
         match problem_goals(&problem, &options) {
             Ok(mut goals) => return Ok(Task { arm, index, goal: goals.remove(0), resampled }),
-            Err(ArbitrationError::GoalNotReached { .. } | ArbitrationError::Optimizer(_)) => continue,
+            Err(ArbitrationError::GoalNotReached { .. } | ArbitrationError::Pipeline(_)) => continue,
             Err(e) => return Err(e),
         }
     }
