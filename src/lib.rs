@@ -44,6 +44,8 @@ pub mod control;
 #[cfg(feature = "data")]
 pub mod data;
 #[cfg(feature = "experiments")]
+pub mod experiments;
+#[cfg(feature = "experiments")]
 pub mod figures;
 pub mod files;
 pub mod komo;

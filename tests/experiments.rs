@@ -9,9 +9,8 @@ mod common;
 
 use std::process::Command;
 use tandem::arbitration::ArbitrationMode;
-use tandem::sim::{
-    Arm, Method, OperatorKind, Outcome, PlanarSettings, PlanarUser, ReachGraspSettings, run_planar, run_reach_grasp,
-};
+use tandem::experiments::{Method, PlanarSettings, ReachGraspSettings, run_planar, run_reach_grasp};
+use tandem::sim::{Arm, OperatorKind, Outcome, PlanarUser};
 
 fn in_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool").install(f)
@@ -40,7 +39,7 @@ fn reach_grasp_is_deterministic_safe_and_assistance_helps() {
     let settings = reach_grasp_settings();
     let run = |threads| in_pool(threads, || run_reach_grasp(&settings, &|| {}).expect("experiment runs"));
     let (one, two) = (run(1), run(2));
-    let fingerprint = |r: &tandem::sim::ReachGraspResults| -> Vec<Fingerprint> {
+    let fingerprint = |r: &tandem::experiments::ReachGraspResults| -> Vec<Fingerprint> {
         r.episodes
             .iter()
             .map(|e| {
@@ -125,7 +124,7 @@ fn planar_is_deterministic_and_assistance_keeps_the_pole_away() {
     };
     let run = |threads| in_pool(threads, || run_planar(&settings, &|| {}).expect("experiment runs"));
     let (one, two) = (run(1), run(2));
-    let fingerprint = |r: &tandem::sim::PlanarResults| -> Vec<(usize, usize, usize, Outcome, u64, u64, u64)> {
+    let fingerprint = |r: &tandem::experiments::PlanarResults| -> Vec<(usize, usize, usize, Outcome, u64, u64, u64)> {
         r.episodes
             .iter()
             .map(|e| {

@@ -13,12 +13,12 @@ static GLOBAL: common::alloc::CountingAllocator = common::alloc::CountingAllocat
 use common::alloc::allocations;
 use std::path::Path;
 use std::sync::Arc;
+use tandem::arbitration::decision::DecisionSettings;
 use tandem::arbitration::{
     Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode, ArbitrationPolicy, HumanCommand, StateLayout,
     TickInput, TickStatus,
 };
-use tandem::learn::arbitration_experiment::{LearnedExperimentSettings, LearnedMethod, run_learned_experiment};
-use tandem::learn::decision::DecisionSettings;
+use tandem::experiments::learned::{LearnedExperimentSettings, LearnedMethod, run_learned_experiment};
 use tandem::learn::{
     ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta, DdpgSettings, LearnError,
     train_arbitration,

@@ -7,7 +7,7 @@
 mod common;
 
 use std::process::Command;
-use tandem::sim::traded::{
+use tandem::experiments::traded::{
     GraspDirection, HandUser, PlanningMode, TradedExperimentSettings, TradedResults, TradedSettings, commit,
     run_traded_experiment, synthesize_reach,
 };

@@ -8,7 +8,7 @@ use numpy::{PyArray1, ToPyArray};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::Mutex;
-use tandem::learn::decision::DecisionSettings;
+use tandem::arbitration::decision::DecisionSettings;
 use tandem::sim::{ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, EnvTask, RewardKind, reward};
 
 /// The arbitration-learning environment of the seed's §6.5: a simulated

@@ -211,3 +211,24 @@ impl ToPyErr for tandem::arbitration::ArbitrationError {
         }
     }
 }
+
+impl ToPyErr for tandem::experiments::ExperimentError {
+    fn to_py(self) -> PyErr {
+        use tandem::experiments::ExperimentError as E;
+        match self {
+            E::Arbitration(e) => (*e).to_py(),
+            E::Problem(e) => e.to_py(),
+            E::Robot(e) => e.to_py(),
+            e => ArbitrationError::new_err(e.to_string()),
+        }
+    }
+}
+
+impl ToPyErr for tandem::sim::EnvError {
+    fn to_py(self) -> PyErr {
+        match self {
+            tandem::sim::EnvError::Arbitration(e) => e.to_py(),
+            e => ArbitrationError::new_err(e.to_string()),
+        }
+    }
+}

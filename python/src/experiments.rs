@@ -4,9 +4,10 @@
 use crate::errors::PyResultExt;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tandem::sim::{Arm, PlanarSettings, ReachGraspSettings, run_planar, run_reach_grasp};
+use tandem::experiments::{PlanarSettings, ReachGraspSettings, run_planar, run_reach_grasp};
+use tandem::sim::Arm;
 
-/// The planar pick-and-place experiment (seed Table 4.1, the users of
+/// The planar pick-and-place experiment (Table 4.1 of the dissertation, the users of
 /// §6.5): ``tasks`` sampled tasks × every user × every method, in parallel
 /// (the GIL released), deterministic per ``seed``. One dict per episode:
 /// ``task``, ``user``, ``method``, ``outcome`` (success, collision, failed,
@@ -37,7 +38,7 @@ pub fn run_planar_experiment(py: Python<'_>, tasks: usize, seed: u64) -> PyResul
         .collect()
 }
 
-/// The Panda reach-and-grasp experiment (seed Table 5.1): ``tasks`` tasks
+/// The Panda reach-and-grasp experiment (Table 5.1 of the dissertation): ``tasks`` tasks
 /// per arm (``arm``: ``"right"``, ``"left"`` or ``"both"``) × the seven
 /// operators × the six methods, in parallel (the GIL released),
 /// deterministic per ``seed``. One dict per episode: ``arm``, ``task``,

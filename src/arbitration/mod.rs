@@ -57,6 +57,7 @@
 
 mod arbiter;
 mod command;
+pub mod decision;
 mod field;
 mod intent;
 mod learned;
@@ -152,9 +153,6 @@ pub enum ArbitrationError {
     /// A tracking policy could not be built.
     #[error(transparent)]
     Control(#[from] crate::control::ControlError),
-    /// Writing results failed.
-    #[error("{0}")]
-    Io(String),
     /// A scene edit failed.
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),

@@ -1,9 +1,10 @@
 //! `tandem learn policy`: train a goal-conditioned policy network on a
 //! dataset folder.
 
-use crate::learn::{Demonstrations, LearnOptions, PolicyNetwork, TrainReport, TrainSettings, figures, train_on};
+use crate::experiments::policy::train_and_save;
+use crate::learn::{LearnOptions, TrainSettings};
 use crate::problem::ProblemFamily;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `tandem learn`.
 #[derive(Debug, clap::Args)]
@@ -104,68 +105,11 @@ pub struct LearnPolicyArgs {
     pub quiet: bool,
 }
 
-/// The report written beside a policy file.
-#[derive(Debug, serde::Serialize, serde::Deserialize)]
-pub struct PolicyReport {
-    pub data: PathBuf,
-    pub trajectories: usize,
-    pub pairs: usize,
-    pub validation_trajectories: usize,
-    pub validation_pairs: usize,
-    pub seconds: f64,
-    pub final_train_loss: f64,
-    pub final_validation_loss: f64,
-    pub losses: Vec<serde_json::Value>,
-}
-
-impl PolicyReport {
-    pub(super) fn new(data: &Path, report: &TrainReport) -> PolicyReport {
-        let last = report.losses.last();
-        PolicyReport {
-            data: data.to_path_buf(),
-            trajectories: report.train_trajectories,
-            pairs: report.train_pairs,
-            validation_trajectories: report.validation_trajectories,
-            validation_pairs: report.validation_pairs,
-            seconds: report.seconds,
-            final_train_loss: last.map_or(f64::NAN, |l| l.train),
-            final_validation_loss: last.map_or(f64::NAN, |l| l.validation),
-            losses: report.losses.iter().filter_map(|l| serde_json::to_value(l).ok()).collect(),
-        }
-    }
-
-    /// The report beside `policy` (`None` when there is none or it is unreadable).
-    pub(super) fn read_beside(policy: &Path) -> Option<PolicyReport> {
-        serde_json::from_str(&std::fs::read_to_string(policy.with_extension("json")).ok()?).ok()
-    }
-}
-
 pub(super) fn run(args: &LearnArgs) -> Result<(), Box<dyn std::error::Error>> {
     match &args.what {
         LearnCommand::Policy(a) => run_policy(a),
         LearnCommand::Arbitration(a) => super::learned_arbitration::learn_arbitration(a),
     }
-}
-
-/// Trains, writes the network, its report and loss curves; returns them.
-pub(super) fn train_and_save(
-    data: &Path,
-    family: &ProblemFamily,
-    options: &LearnOptions,
-    out: &Path,
-) -> Result<(PolicyNetwork, PolicyReport), Box<dyn std::error::Error>> {
-    let demos = Demonstrations::read(data)?;
-    let (network, report) = train_on(&demos, family, options, None)?;
-    network.save(out)?;
-    let summary = PolicyReport::new(data, &report);
-    let json = out.with_extension("json");
-    std::fs::write(&json, serde_json::to_string_pretty(&summary)? + "\n")
-        .map_err(|e| format!("cannot write {}: {e}", json.display()))?;
-    let svg = out.with_extension("svg");
-    let title = format!("Training the policy network ({} trajectories, {} pairs)", summary.trajectories, summary.pairs);
-    std::fs::write(&svg, figures::loss_curves(&report, &title)?)
-        .map_err(|e| format!("cannot write {}: {e}", svg.display()))?;
-    Ok((network, summary))
 }
 
 fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> {

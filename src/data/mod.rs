@@ -7,8 +7,7 @@
 //! (the dataset depends on the seed and ids only, not on the thread count),
 //! resumable (parts are written atomically and skipped when present) and
 //! described by a JSON manifest. The dataset layout and schema are in
-//! [`schema`]. Shared-control episodes go to Parquet too (`write_episodes`,
-//! one row per control tick).
+//! [`schema`].
 //!
 //! ```no_run
 //! use tandem::data::{GenerateSettings, generate, Progress};
@@ -20,7 +19,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-mod episodes;
 mod generate;
 mod manifest;
 mod progress;
@@ -28,12 +26,13 @@ mod sample;
 pub mod schema;
 mod shard;
 
-pub use episodes::write_episodes;
 pub use generate::{
     GenerateError, GenerateSettings, GenerateSummary, MAX_CHUNK_SIZE, MAX_COUNT, MAX_PART_SLICES, MAX_PARTS,
     MAX_THREADS, ShardSpec, generate, part_count, part_ids, pending_parts,
 };
 pub use manifest::{DatasetParameters, Manifest, PartEntry};
 pub use progress::Progress;
+#[cfg(feature = "experiments")]
+pub(crate) use progress::ProgressRun;
 pub use sample::{Rejection, SampleOutcome, SampleTiming, TrajectoryRecord, run_problem, run_sample};
 pub use shard::{PartSummary, read_part_summary, write_part};

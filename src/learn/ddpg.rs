@@ -359,7 +359,7 @@ fn train_in_pool(
     Ok(DdpgReport { actor, episodes: log, seconds: began.elapsed().as_secs_f64() })
 }
 
-fn env_error(e: crate::arbitration::ArbitrationError) -> LearnError {
+fn env_error(e: crate::sim::EnvError) -> LearnError {
     LearnError::Training(format!("arbitration environment: {e}"))
 }
 

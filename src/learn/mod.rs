@@ -41,21 +41,14 @@
 
 mod arbitration_actor;
 #[cfg(feature = "learn")]
-pub mod arbitration_experiment;
-#[cfg(feature = "learn")]
 pub mod dagger;
 #[cfg(feature = "learn")]
 mod dataset;
 #[cfg(feature = "learn")]
 mod ddpg;
-pub mod decision;
 #[cfg(feature = "learn")]
 pub mod evaluate;
-#[cfg(feature = "learn")]
-pub mod experiment;
 pub mod features;
-#[cfg(feature = "learn")]
-pub mod figures;
 #[cfg(feature = "learn")]
 pub mod grasp_intent;
 mod network;

@@ -41,13 +41,13 @@
 
 use super::judge::TaskJudge;
 use super::operator::{Observation, Operator, OperatorAction};
-use super::planar::{PlanarUser, sample_planar_task};
-use super::reach_grasp::{Arm, OperatorKind, sample_task};
+use super::operator::{OperatorKind, PlanarUser};
+use super::tasks::{Arm, sample_planar_task, sample_task};
+use crate::arbitration::decision::{DecisionSettings, planar_modality, spatial_modality};
 use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationError, HumanCommand, ProblemGoal, StateLayout, TickInput,
 };
 use crate::control::{PolicyState, RobotPolicy};
-use crate::learn::decision::{DecisionSettings, planar_modality, spatial_modality};
 use crate::problem::Problem;
 use crate::robot::{KinematicsWorkspace, ReferenceFrame};
 use nalgebra::Matrix6xX;
@@ -197,20 +197,42 @@ pub struct ArbitrationEnv {
     running: Option<Running>,
 }
 
+/// Errors of the arbitration environment.
+#[derive(Debug, thiserror::Error)]
+pub enum EnvError {
+    /// Settings with no user or no operator.
+    #[error("the arbitration environment needs at least one user")]
+    NoUsers,
+    /// [`ArbitrationEnv::step`] before the first [`ArbitrationEnv::reset`].
+    #[error("step before reset")]
+    NotReset,
+    /// An action of the wrong size or with a non-finite value.
+    #[error("an action is {dims} finite values, got {action:?}")]
+    Action {
+        /// The task's dimensions.
+        dims: usize,
+        /// The action given.
+        action: Vec<f64>,
+    },
+    /// A setting out of range, a task or an arbiter that cannot be set up.
+    #[error(transparent)]
+    Arbitration(#[from] ArbitrationError),
+}
+
 impl ArbitrationEnv {
     /// An environment on `settings.task`.
     ///
     /// # Errors
     /// Invalid settings, no users.
-    pub fn new(settings: ArbitrationEnvSettings) -> Result<ArbitrationEnv, ArbitrationError> {
+    pub fn new(settings: ArbitrationEnvSettings) -> Result<ArbitrationEnv, EnvError> {
         if settings.users.is_empty() || settings.operators.is_empty() {
-            return Err(ArbitrationError::Io("the arbitration environment needs at least one user".into()));
+            return Err(EnvError::NoUsers);
         }
         for (what, value) in
             [("speed", settings.speed), ("max_time", settings.max_time), ("max_action", settings.max_action)]
         {
             if !(value.is_finite() && value > 0.0) {
-                return Err(ArbitrationError::Setting { what, value });
+                return Err(ArbitrationError::Setting { what, value }.into());
             }
         }
         let (name, layout) = match settings.task {
@@ -220,7 +242,7 @@ impl ArbitrationEnv {
                 StateLayout { task_dims: 3, goals: 1, length_scale: 0.1, speed_scale: settings.speed },
             ),
         };
-        let base = Problem::builtin(name)?;
+        let base = Problem::builtin(name).map_err(ArbitrationError::from)?;
         Ok(ArbitrationEnv { base, layout, state: vec![0.0; layout.width()], running: None, settings })
     }
 
@@ -265,7 +287,7 @@ impl ArbitrationEnv {
     ///
     /// # Errors
     /// A task that cannot be set up.
-    pub fn reset(&mut self, seed: u64) -> Result<&[f64], ArbitrationError> {
+    pub fn reset(&mut self, seed: u64) -> Result<&[f64], EnvError> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5EED_A4B1);
         let (goals, target, user, operator) = self.sample(&mut rng)?;
         let mut arbiter_settings = self.settings.arbiter;
@@ -334,12 +356,12 @@ impl ArbitrationEnv {
     /// # Errors
     /// No running episode ([`ArbitrationEnv::reset`] first), an action of
     /// another length or not finite.
-    pub fn step(&mut self, action: &[f64]) -> Result<StepResult<'_>, ArbitrationError> {
-        let mut running = self.running.take().ok_or_else(|| ArbitrationError::Io("step before reset".into()))?;
+    pub fn step(&mut self, action: &[f64]) -> Result<StepResult<'_>, EnvError> {
+        let mut running = self.running.take().ok_or(EnvError::NotReset)?;
         let d = self.layout.task_dims;
         if action.len() != d || action.iter().any(|a| !a.is_finite()) {
             self.running = Some(running);
-            return Err(ArbitrationError::Io(format!("an action is {d} finite values, got {action:?}")));
+            return Err(EnvError::Action { dims: d, action: action.to_vec() });
         }
         let result = self.execute(&mut running, action);
         self.running = Some(running);

@@ -21,29 +21,22 @@ mod arbitration_env;
 mod episode;
 mod judge;
 mod operator;
-#[cfg(feature = "experiments")]
-mod planar;
-#[cfg(feature = "experiments")]
-mod reach_grasp;
-#[cfg(feature = "learn")]
-pub mod traded;
+#[cfg(feature = "data")]
+mod record;
+mod tasks;
 
 #[cfg(feature = "experiments")]
 pub use arbitration_env::{
-    ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, EnvTask, RewardKind, StepResult, reward,
+    ArbitrationEnv, ArbitrationEnvSettings, EnvError, EnvOutcome, EnvTask, RewardKind, StepResult, reward,
 };
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, LiveEpisode, LiveStep, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
 pub use operator::{
-    Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, Pace, PolicyFollower, Straightline,
+    Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, OperatorKind, Pace, PlanarUser,
+    PolicyFollower, Straightline,
 };
+#[cfg(feature = "data")]
+pub use record::write_episodes;
 #[cfg(feature = "experiments")]
-pub use planar::{
-    PLANAR_METHODS, PlanarEpisode, PlanarResults, PlanarSettings, PlanarTask, PlanarUser, mean_std, run_planar,
-    sample_planar_task,
-};
-#[cfg(feature = "experiments")]
-pub use reach_grasp::{
-    Arm, Cell, EpisodeSummary, Method, OperatorKind, ReachGraspResults, ReachGraspSettings, Task, run_reach_grasp,
-    sample_task,
-};
+pub(crate) use tasks::mix;
+pub use tasks::{Arm, PlanarTask, Task, sample_planar_task, sample_task};

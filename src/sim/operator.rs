@@ -380,3 +380,92 @@ mod tests {
         assert!((v[0] - 0.1).abs() < 1e-12);
     }
 }
+
+/// A simulated operator by name and parameters, as the experiments and
+/// `tandem arbitrate --operator` choose them (§5.5.2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OperatorKind {
+    /// Straight at the grasp point.
+    Straightline,
+    /// Via a point 10 cm above the grasp point.
+    Approach,
+    /// Approach with joint noise of this size (rad/s).
+    Noisy(f64),
+    /// Approach aiming up to 5 cm off.
+    Biased,
+    /// Approach acting on what it saw this many ticks ago.
+    Laggy(usize),
+}
+
+impl OperatorKind {
+    /// The seven operators of Table 5.1, in its order.
+    pub const TABLE_5_1: [OperatorKind; 7] = [
+        OperatorKind::Straightline,
+        OperatorKind::Approach,
+        OperatorKind::Noisy(0.1),
+        OperatorKind::Noisy(0.2),
+        OperatorKind::Biased,
+        OperatorKind::Laggy(5),
+        OperatorKind::Laggy(10),
+    ];
+
+    /// The name in tables and JSON (`noisy-0.1`, …).
+    pub fn name(&self) -> String {
+        match self {
+            OperatorKind::Straightline => "straightline".into(),
+            OperatorKind::Approach => "approach".into(),
+            OperatorKind::Noisy(k) => format!("noisy-{k}"),
+            OperatorKind::Biased => "biased".into(),
+            OperatorKind::Laggy(m) => format!("laggy-{m}"),
+        }
+    }
+
+    /// The operator at `speed` (m/s), its randomness from `seed`.
+    pub fn build(&self, speed: f64, seed: u64) -> Box<dyn Operator> {
+        let approach = Approach::at_speed(speed);
+        match *self {
+            OperatorKind::Straightline => Box::new(Straightline { pace: Pace { speed, ..Pace::default() } }),
+            OperatorKind::Approach => Box::new(approach),
+            OperatorKind::Noisy(k) => Box::new(Noisy::new(approach, k, seed)),
+            OperatorKind::Biased => Box::new(Biased::new(approach, 0.05, seed)),
+            OperatorKind::Laggy(m) => Box::new(Laggy::new(approach, m)),
+        }
+    }
+}
+
+/// A simulated user of the planar task (§6.5).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PlanarUser {
+    /// Straight at the goal.
+    Straight,
+    /// The optimal policy plus uniform noise of this many times the speed.
+    Noisy(f64),
+    /// Aims up to 5 cm off.
+    Biased,
+}
+
+impl PlanarUser {
+    /// The users of Table 6.1.
+    pub const ALL: [PlanarUser; 4] =
+        [PlanarUser::Noisy(0.5), PlanarUser::Noisy(1.0), PlanarUser::Straight, PlanarUser::Biased];
+
+    /// `straight`, `noisy-0.5`, …
+    pub fn name(&self) -> String {
+        match self {
+            PlanarUser::Straight => "straight".into(),
+            PlanarUser::Noisy(s) => format!("noisy-{s}"),
+            PlanarUser::Biased => "biased".into(),
+        }
+    }
+
+    /// The user at `speed` (m/s), its randomness from `seed`.
+    pub fn build(&self, speed: f64, seed: u64) -> Box<dyn Operator> {
+        let pace = Pace { speed, slow_down: 0.03, arrive: 0.005 };
+        let follower = PolicyFollower { pace };
+        match *self {
+            PlanarUser::Straight => Box::new(Straightline { pace }),
+            PlanarUser::Noisy(s) => Box::new(Noisy::new(follower, s * speed, seed)),
+            PlanarUser::Biased => Box::new(Biased::new(follower, 0.05, seed)),
+        }
+    }
+}

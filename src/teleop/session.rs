@@ -341,7 +341,7 @@ impl TeleopSession {
         std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
         let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());
         let path = dir.join(format!("teleop-{}-{stamp}-{}.parquet", p.task.as_str(), self.episode));
-        crate::data::write_episodes(&path, &[(label, &record, p.arbiter.settings().period)])?;
+        crate::sim::write_episodes(&path, &[(label, &record, p.arbiter.settings().period)])?;
         Ok(Some(path))
     }
 

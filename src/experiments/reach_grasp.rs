@@ -1,125 +1,30 @@
-//! The reach-and-grasp experiment of the seed's §5.5 (Table 5.1): two
-//! Pandas side by side, a 6 × 6 × 12 cm box on the table at a random pose,
-//! a random start; simulated operators × arbitration methods on the same
-//! sampled tasks.
-//!
-//! **Tasks** (fixed before any result was looked at). Each arm stands at
-//! the origin of its own frame; the other Panda, held at the ready pose,
-//! stands 0.6 m to its side (+y for the RIGHT arm, −y for the LEFT) as
-//! collision spheres. The box stands on the table with its centre at x ∈
-//! [0.4, 0.6] m, y ∈ [−0.2, 0.2] m, yaw ∈ [−π/2, π/2]; the start is the
-//! ready pose plus U(−0.3, 0.3) rad per joint, collision-free. The robot's
-//! reference comes from the optimizer (`panda_grasp_box`'s objectives:
-//! approach above, then the grasp pointing down); its LQR tracking policy
-//! is the robot policy. A task whose reference does not converge is
-//! resampled (counted).
+//! The reach-and-grasp experiment of the dissertation's §5.5 (Table 5.1):
+//! two Pandas side by side, a 6 × 6 × 12 cm box on the table at a random
+//! pose, a random start ([`sample_task`]); simulated operators ×
+//! arbitration methods on the same sampled tasks.
 //!
 //! **Operators** (§5.5.2): Straightline, Approach (10 cm above, then
 //! down), Noisy-0.1 and Noisy-0.2, Biased (≤ 5 cm), Laggy-5 and Laggy-10,
 //! the last four disturbing Approach; 10 cm/s, 3-D linear velocity only.
 //! **Methods**: NoAssist (the operator's command through the damped
-//! pseudo-inverse, joint limits only: the seed's baseline), Constrained,
-//! SumOfSquares, NaturalGradient (joint space), LinearBlending (timid),
-//! ObstacleAvoidance — all but NoAssist under the hard constraints.
+//! pseudo-inverse, joint limits only: the dissertation's baseline),
+//! Constrained, SumOfSquares, NaturalGradient (joint space), LinearBlending
+//! (timid), ObstacleAvoidance — all but NoAssist under the hard constraints.
 //! **Outcome**: the episode ends when the operator believes it has reached
-//! the grasp point (then [`TaskJudge`](super::TaskJudge) decides success
-//! or failure), on a collision, or after 20 s.
+//! the grasp point (then [`TaskJudge`] decides success or failure), on a
+//! collision, or after 20 s.
 
-use super::episode::{Episode, EpisodeSettings, Outcome};
-use super::judge::TaskJudge;
-use super::operator::{Approach, Biased, Laggy, Noisy, Operator, Pace, Straightline};
-use crate::arbitration::{
-    Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode, BlendingStyle, GoalObjects, GoalOptions, MetricSpace,
-    ProblemGoal, problem_goals,
-};
-use crate::collision::{CollisionModel, CollisionWorkspace};
+use super::{Context, Experiment, ExperimentError};
+use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, BlendingStyle, MetricSpace};
+use crate::figures::{Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::robot::KinematicsWorkspace;
-use crate::scene::Obstacle;
-use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use crate::sim::{
+    Arm, Episode, EpisodeRecord, EpisodeSettings, OperatorKind, Outcome, Task, TaskJudge, mix, percentiles, sample_task,
+};
+use nalgebra::{IsometryMatrix3, Rotation3};
 use rayon::prelude::*;
-
-/// The Panda's ready pose (rad).
-const READY: [f64; 7] = [0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785];
-
-/// Which of the two arms does the task.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Arm {
-    /// The right arm: the other stands 0.6 m to its left (+y).
-    Right,
-    /// The left arm: the other stands 0.6 m to its right (−y).
-    Left,
-}
-
-impl Arm {
-    /// `right` or `left`.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            Arm::Right => "right",
-            Arm::Left => "left",
-        }
-    }
-
-    fn other_arm_offset(&self) -> f64 {
-        match self {
-            Arm::Right => 0.6,
-            Arm::Left => -0.6,
-        }
-    }
-}
-
-/// A simulated operator of the experiment.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum OperatorKind {
-    /// Straight at the grasp point.
-    Straightline,
-    /// Via a point 10 cm above the grasp point.
-    Approach,
-    /// Approach with joint noise of this size (rad/s).
-    Noisy(f64),
-    /// Approach aiming up to 5 cm off.
-    Biased,
-    /// Approach acting on what it saw this many ticks ago.
-    Laggy(usize),
-}
-
-impl OperatorKind {
-    /// The seven operators of Table 5.1, in its order.
-    pub const TABLE_5_1: [OperatorKind; 7] = [
-        OperatorKind::Straightline,
-        OperatorKind::Approach,
-        OperatorKind::Noisy(0.1),
-        OperatorKind::Noisy(0.2),
-        OperatorKind::Biased,
-        OperatorKind::Laggy(5),
-        OperatorKind::Laggy(10),
-    ];
-
-    /// The name in tables and JSON (`noisy-0.1`, …).
-    pub fn name(&self) -> String {
-        match self {
-            OperatorKind::Straightline => "straightline".into(),
-            OperatorKind::Approach => "approach".into(),
-            OperatorKind::Noisy(k) => format!("noisy-{k}"),
-            OperatorKind::Biased => "biased".into(),
-            OperatorKind::Laggy(m) => format!("laggy-{m}"),
-        }
-    }
-
-    /// The operator at `speed` (m/s), its randomness from `seed`.
-    pub fn build(&self, speed: f64, seed: u64) -> Box<dyn Operator> {
-        let approach = Approach::at_speed(speed);
-        match *self {
-            OperatorKind::Straightline => Box::new(Straightline { pace: Pace { speed, ..Pace::default() } }),
-            OperatorKind::Approach => Box::new(approach),
-            OperatorKind::Noisy(k) => Box::new(Noisy::new(approach, k, seed)),
-            OperatorKind::Biased => Box::new(Biased::new(approach, 0.05, seed)),
-            OperatorKind::Laggy(m) => Box::new(Laggy::new(approach, m)),
-        }
-    }
-}
+use std::fmt::Write;
 
 /// An arbitration method of the experiment.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -185,7 +90,8 @@ pub struct ReachGraspSettings {
     /// Keep the gripper paths of the first task per arm (for the figure).
     pub keep_paths: bool,
     /// Write every episode, tick by tick, to `DIR/<arm>-<task>.parquet`
-    /// (see [`write_episodes`](crate::data::write_episodes)).
+    /// (see [`write_episodes`](crate::sim::write_episodes)); created if
+    /// missing.
     pub record_dir: Option<std::path::PathBuf>,
 }
 
@@ -204,19 +110,6 @@ impl Default for ReachGraspSettings {
             record_dir: None,
         }
     }
-}
-
-/// One sampled task with its reference.
-#[derive(Debug, Clone)]
-pub struct Task {
-    /// The arm.
-    pub arm: Arm,
-    /// Task index.
-    pub index: usize,
-    /// The prepared goal: problem, reference, policy.
-    pub goal: ProblemGoal,
-    /// Samples rejected before this one (reference did not converge).
-    pub resampled: usize,
 }
 
 /// One episode's summary.
@@ -265,96 +158,26 @@ pub struct ReachGraspResults {
     pub wall_seconds: f64,
 }
 
-/// Samples task `index` for `arm` and optimizes its reference; resamples
-/// (up to 20 times) while the optimizer does not converge.
-///
-/// # Errors
-/// The base problem or the arbiter pieces failing (not a bad sample).
-pub fn sample_task(base: &Problem, arm: Arm, seed: u64, index: usize) -> Result<Task, ArbitrationError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(mix(seed, index as u64, arm as u64, 0));
-    let other = other_arm_obstacles(base, arm.other_arm_offset())?;
-    for resampled in 0..20 {
-        let mut problem = base.clone();
-        for o in &other {
-            problem.scene.add_obstacle(o.clone())?;
-        }
-        let yaw = rng.random_range(-std::f64::consts::FRAC_PI_2..std::f64::consts::FRAC_PI_2);
-        let pose = IsometryMatrix3::from_parts(
-            Translation3::new(rng.random_range(0.4..0.6), rng.random_range(-0.2..0.2), 0.06),
-            Rotation3::from_axis_angle(&Vector3::z_axis(), yaw),
-        );
-        problem.scene.set_object_pose("box", pose)?;
-        problem.start = free_start(&problem, &mut rng)?;
-        let options = GoalOptions { seed: Some(rng.random()), objects: GoalObjects::Goal, ..GoalOptions::default() };
-        match problem_goals(&problem, &options) {
-            Ok(mut goals) => return Ok(Task { arm, index, goal: goals.remove(0), resampled }),
-            Err(ArbitrationError::GoalNotReached { .. } | ArbitrationError::Pipeline(_)) => continue,
-            Err(e) => return Err(e),
-        }
-    }
-    Err(ArbitrationError::GoalNotReached {
-        goal: format!("task {index} ({})", arm.as_str()),
-        status: "resampled 20 times",
-    })
-}
-
-/// The ready pose plus U(−0.3, 0.3) rad per joint, within limits and
-/// collision-free (the ready pose itself after 100 tries).
-fn free_start(problem: &Problem, rng: &mut ChaCha8Rng) -> Result<Vec<f64>, ArbitrationError> {
-    let model = problem.collision_model()?;
-    let mut ws = CollisionWorkspace::new(&model);
-    for _ in 0..100 {
-        let q: Vec<f64> = READY.iter().map(|x| x + rng.random_range(-0.3..0.3)).collect();
-        if problem.robot.within_limits(&q) && model.collision_free(&mut ws, &q)? {
-            return Ok(q);
-        }
-    }
-    Ok(READY.to_vec())
-}
-
-/// The other Panda at the ready pose, `offset` m along y, as its
-/// collision shapes.
-fn other_arm_obstacles(base: &Problem, offset: f64) -> Result<Vec<Obstacle>, ArbitrationError> {
-    let model = CollisionModel::builder(base.robot.clone()).build()?;
-    let mut ws = CollisionWorkspace::new(&model);
-    model.place(&mut ws, &READY)?;
-    let shift = IsometryMatrix3::translation(0.0, offset, 0.0);
-    Ok((0..model.object_count())
-        .map(|k| {
-            let pose = shift * model.object_world_pose(&ws, k);
-            Obstacle::new(format!("other_arm_{k}"), model.object_shape(k).clone(), pose)
-        })
-        .collect())
-}
-
-/// A seed from several numbers (SplitMix64 rounds).
-fn mix(a: u64, b: u64, c: u64, d: u64) -> u64 {
-    let mut x = a;
-    for v in [b, c, d] {
-        x = x.wrapping_add(0x9E37_79B9_7F4A_7C15).wrapping_add(v);
-        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        x ^= x >> 31;
-    }
-    x
-}
-
 /// Runs the experiment: every task (in parallel over tasks; the results do
 /// not depend on the thread count), every operator × method on it.
 /// `progress` is called once per finished task.
 ///
 /// # Errors
-/// Setup failures (the base problem, a task resampled 20 times).
+/// Setup failures (the base problem, a task resampled 20 times), an
+/// episode recording that cannot be written.
 pub fn run_reach_grasp(
     settings: &ReachGraspSettings,
     progress: &(dyn Fn() + Sync),
-) -> Result<ReachGraspResults, ArbitrationError> {
+) -> Result<ReachGraspResults, ExperimentError> {
     let began = std::time::Instant::now();
+    if let Some(dir) = &settings.record_dir {
+        std::fs::create_dir_all(dir).map_err(crate::files::FileError::io(dir))?;
+    }
     let base = Problem::builtin("panda_grasp_box")?;
     let units: Vec<(Arm, usize)> =
         settings.arms.iter().flat_map(|&arm| (0..settings.tasks).map(move |i| (arm, i))).collect();
     type TaskRun = (Task, Vec<EpisodeSummary>, f64, f64);
-    let per_task: Vec<Result<TaskRun, ArbitrationError>> = units
+    let per_task: Vec<Result<TaskRun, ExperimentError>> = units
         .par_iter()
         .map(|&(arm, index)| {
             let t0 = std::time::Instant::now();
@@ -385,7 +208,7 @@ pub fn run_reach_grasp(
 }
 
 /// Every operator × method on one task.
-fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSummary>, ArbitrationError> {
+fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSummary>, ExperimentError> {
     let problem = &task.goal.problem;
     let base = Arbiter::for_problem(problem, std::slice::from_ref(&task.goal), settings.arbiter)?;
     let mut judge = TaskJudge::new(&task.goal);
@@ -439,10 +262,10 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
         }
     }
     if let Some(dir) = &settings.record_dir {
-        let rows: Vec<(String, &super::EpisodeRecord, f64)> =
+        let rows: Vec<(String, &EpisodeRecord, f64)> =
             records.iter().map(|(label, r)| (label.clone(), r, settings.arbiter.period)).collect();
         let path = dir.join(format!("{}-{:05}.parquet", task.arm.as_str(), task.index));
-        crate::data::write_episodes(&path, &rows).map_err(|e| ArbitrationError::Io(e.to_string()))?;
+        crate::sim::write_episodes(&path, &rows)?;
     }
     Ok(out)
 }
@@ -494,4 +317,138 @@ impl ReachGraspResults {
         let n = eps.len().max(1) as f64;
         [0, 1, 2].map(|k| eps.iter().map(|e| e.cos[k]).sum::<f64>() / n)
     }
+}
+
+impl Experiment for ReachGraspSettings {
+    const NAME: &'static str = "reach_grasp";
+    type Results = ReachGraspResults;
+
+    fn units(&self) -> (u64, &'static str) {
+        ((self.tasks * self.arms.len()) as u64, "tasks")
+    }
+
+    fn run(&self, cx: &Context<'_>) -> Result<ReachGraspResults, ExperimentError> {
+        run_reach_grasp(self, &|| cx.done())
+    }
+
+    /// `{"tasks", "seed", "results": [{"arm", "operator", "method",
+    /// "success", "collision", "timeout", "failed", "cos_sim": [x, y, z],
+    /// "hard_violations"}], "resampled_tasks", "seconds", "tick_us"}`.
+    fn json(&self, r: &ReachGraspResults) -> serde_json::Value {
+        let s = &r.settings;
+        let mut rows = vec![];
+        for &arm in &s.arms {
+            for (o, op) in s.operators.iter().enumerate() {
+                for (m, method) in s.methods.iter().enumerate() {
+                    let c = r.cell(arm, o, m);
+                    rows.push(serde_json::json!({
+                        "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
+                        "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
+                        "cos_sim": c.cos, "hard_violations": c.hard_violations,
+                    }));
+                }
+            }
+        }
+        let ticks: Vec<f64> = r.episodes.iter().flat_map(|e| e.tick_us.iter().copied()).collect();
+        let (median, p99, max) = percentiles(&ticks);
+        serde_json::json!({
+            "tasks": s.tasks,
+            "seed": s.seed,
+            "results": rows,
+            "resampled_tasks": r.tasks.iter().map(|t| t.resampled).sum::<usize>(),
+            "seconds": {"wall": r.wall_seconds, "prepare_cpu": r.prepare_seconds, "episodes_cpu": r.episode_seconds},
+            "tick_us": {"median": median, "p99": p99, "max": max},
+        })
+    }
+
+    /// Table 5.1's layout: per arm, a row per method, collision / timeout /
+    /// failed / success per operator, and the average cosine similarities.
+    fn table(&self, r: &ReachGraspResults) -> String {
+        let s = &r.settings;
+        let mut out = String::new();
+        for &arm in &s.arms {
+            let _ = write!(out, "\n{:<24}", arm.as_str().to_uppercase());
+            for op in &s.operators {
+                let _ = write!(out, "{:^18}", op.name());
+            }
+            let _ = writeln!(out, "   avg. cos sim");
+            let _ = write!(out, "{:<24}", "");
+            for _ in &s.operators {
+                let _ = write!(out, "{:^18}", "col  to fail succ");
+            }
+            let _ = writeln!(out, "   x     y     z");
+            for (m, method) in s.methods.iter().enumerate() {
+                let _ = write!(out, "{:<24}", method.name());
+                for o in 0..s.operators.len() {
+                    let c = r.cell(arm, o, m);
+                    let _ = write!(out, " {:>3} {:>3} {:>3} {:>4}  ", c.collision, c.timeout, c.failed, c.success);
+                }
+                let cos = r.method_cos(arm, m);
+                let _ = writeln!(out, "  {:.2}  {:.2}  {:.2}", cos[0], cos[1], cos[2]);
+            }
+        }
+        let resampled: usize = r.tasks.iter().map(|t| t.resampled).sum();
+        let _ = writeln!(
+            out,
+            "\n{} tasks per arm ({} resampled: reference not converged), {} episodes in {:.1} s \
+             (task preparation {:.1} s and episodes {:.1} s of CPU)",
+            s.tasks,
+            resampled,
+            r.episodes.len(),
+            r.wall_seconds,
+            r.prepare_seconds,
+            r.episode_seconds
+        );
+        let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
+        let _ = writeln!(out, "hard-constraint violations: {violations}");
+        out
+    }
+
+    fn figures(&self, r: &ReachGraspResults) -> Result<Vec<(String, String)>, ExperimentError> {
+        Ok(figure(r)?.map(|svg| ("reach_grasp.svg".to_string(), svg)).into_iter().collect())
+    }
+}
+
+/// Fig. 5.4: the first task's gripper paths (top views) per operator, for
+/// NoAssist and the dissertation's two methods, with the robot's reference.
+fn figure(r: &ReachGraspResults) -> Result<Option<String>, ExperimentError> {
+    let s = &r.settings;
+    let Some(&arm) = s.arms.first() else { return Ok(None) };
+    let Some(task) = r.tasks.iter().find(|t| t.arm == arm && t.index == 0) else { return Ok(None) };
+    let robot = &task.goal.problem.robot;
+    let gripper = robot.frame_id(task.goal.problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
+    let mut kin = KinematicsWorkspace::new(robot);
+    let reference = task.goal.policy.reference();
+    let mut planned = vec![];
+    for i in 0..reference.len() {
+        robot.forward_kinematics(&mut kin, reference.position(i))?;
+        let p = robot.frame_pose(&kin, gripper).translation.vector;
+        planned.push((p.x, p.y));
+    }
+    let shown = [
+        Method::NoAssist,
+        s.methods.get(1).copied().unwrap_or(Method::NoAssist),
+        s.methods.get(2).copied().unwrap_or(Method::NoAssist),
+    ];
+    let operators: Vec<(usize, &OperatorKind)> = s.operators.iter().enumerate().take(4).collect();
+    let panels: Vec<Panel> = operators
+        .iter()
+        .map(|&(o, op)| {
+            let mut panel =
+                Panel::new(&op.name(), "x (m)", "y (m)").with(Series::dashed("reference", &planned, 7)).equal();
+            for (k, method) in shown.iter().enumerate() {
+                let Some(m) = s.methods.iter().position(|x| x == method) else { continue };
+                if let Some(e) =
+                    r.episodes.iter().find(|e| e.arm == arm && e.task == 0 && e.operator == o && e.method == m)
+                {
+                    let path: Vec<(f64, f64)> = e.path.iter().map(|p| (p[0], p[1])).collect();
+                    panel = panel.with(Series::line(&format!("{} ({})", method.name(), e.outcome.as_str()), &path, k));
+                }
+            }
+            let goal = task.goal.position;
+            panel.with(Series::points("grasp point", &[(goal[0], goal[1])], 3))
+        })
+        .collect();
+    let title = format!("reach-and-grasp, {} arm, task 0: gripper paths (top view)", arm.as_str());
+    Ok(Some(render_panels(&title, &panels, 380, 420)?))
 }

@@ -17,7 +17,7 @@
 //! of scope.
 //!
 //! ```no_run
-//! use tandem::sim::traded::{TradedExperimentSettings, run_traded_experiment};
+//! use tandem::experiments::traded::{TradedExperimentSettings, run_traded_experiment};
 //! let results = run_traded_experiment(&TradedExperimentSettings::default(), &|| {})?;
 //! println!("{} rows", results.rows.len());
 //! # Ok::<(), Box<dyn std::error::Error>>(())

@@ -25,7 +25,7 @@
 //! palm (*palm normal*).
 //!
 //! ```
-//! use tandem::sim::traded::{GraspDirection, HandUser, synthesize_reach};
+//! use tandem::experiments::traded::{GraspDirection, HandUser, synthesize_reach};
 //! let objects = [[0.5, -0.2, 0.06], [0.55, 0.0, 0.06], [0.5, 0.2, 0.06]];
 //! let demo = synthesize_reach(&objects, 1, GraspDirection::Top, HandUser::Normal, 7);
 //! assert!(demo.samples.len() > 300);

@@ -23,7 +23,7 @@
 //! the demonstration.
 //!
 //! ```no_run
-//! use tandem::sim::traded::{IntentPredictor, PlanningMode, TradedScene, TradedSettings, run_traded_episode, HandUser};
+//! use tandem::experiments::traded::{IntentPredictor, PlanningMode, TradedScene, TradedSettings, run_traded_episode, HandUser};
 //! use tandem::arbitration::IntentSettings;
 //! let settings = TradedSettings { planning_latency: Some(0.05), ..TradedSettings::default() };
 //! let scene = TradedScene::new(&settings.objects)?;

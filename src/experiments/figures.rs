@@ -9,7 +9,7 @@ use crate::robot::JointLimits;
 ///
 /// # Errors
 /// Plotting errors.
-pub fn loss_curves(report: &super::TrainReport, title: &str) -> Result<String, FigureError> {
+pub fn loss_curves(report: &crate::learn::TrainReport, title: &str) -> Result<String, FigureError> {
     let log = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
     let train: Vec<(f64, f64)> = report.losses.iter().map(|l| (l.epoch as f64, log(l.train))).collect();
     let validation: Vec<(f64, f64)> = report
@@ -139,7 +139,7 @@ pub fn success_by_distance(outcomes: &[(String, Vec<(f64, bool)>)], bins: usize)
 /// # Errors
 /// Plotting errors.
 pub fn training_curves(
-    runs: &[(String, Vec<Vec<super::TrainingEpisode>>)],
+    runs: &[(String, Vec<Vec<crate::learn::TrainingEpisode>>)],
     window: usize,
 ) -> Result<String, FigureError> {
     let window = window.max(1);
@@ -152,7 +152,8 @@ pub fn training_curves(
             })
             .collect()
     };
-    let mean_over = |seeds: &[Vec<super::TrainingEpisode>], f: &dyn Fn(&super::TrainingEpisode) -> f64| {
+    let mean_over = |seeds: &[Vec<crate::learn::TrainingEpisode>],
+                     f: &dyn Fn(&crate::learn::TrainingEpisode) -> f64| {
         let len = seeds.iter().map(Vec::len).min().unwrap_or(0);
         (0..len).map(|i| seeds.iter().map(|s| f(&s[i])).sum::<f64>() / seeds.len() as f64).collect::<Vec<f64>>()
     };
@@ -173,7 +174,7 @@ pub fn training_curves(
 ///
 /// # Errors
 /// Plotting errors.
-pub fn authority_curves(curves: &[super::arbitration_experiment::AuthorityCurve]) -> Result<String, FigureError> {
+pub fn authority_curves(curves: &[super::learned::AuthorityCurve]) -> Result<String, FigureError> {
     let at = |v: &[f64]| v.iter().enumerate().map(|(k, y)| (10.0 * k as f64 + 5.0, *y)).collect::<Vec<_>>();
     let panels: Vec<Panel> = curves
         .iter()

@@ -21,7 +21,7 @@
 //! two-way fork) and is compared with [`DecisionSettings::threshold`].
 //!
 //! ```
-//! use tandem::learn::decision::{DecisionSettings, planar_modality, spatial_modality};
+//! use tandem::arbitration::decision::{DecisionSettings, planar_modality, spatial_modality};
 //!
 //! let settings = DecisionSettings::default();
 //! // Two goals, equally likely, whose sub-policies point left and right: a fork.

@@ -16,8 +16,8 @@
 //! t.groupby("episode").outcome.first().value_counts()
 //! ```
 
+use super::EpisodeRecord;
 use crate::files::FileError;
-use crate::sim::EpisodeRecord;
 use arrow_array::builder::{FixedSizeListBuilder, Float64Builder, ListBuilder, StringBuilder};
 use arrow_array::{ArrayRef, Float64Array, RecordBatch, UInt32Array};
 use arrow_schema::{Field, Schema};

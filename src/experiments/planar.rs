@@ -1,16 +1,7 @@
-//! The planar pick-and-place experiment of the seed's chapter 4 (Table 4.1,
-//! Fig. 4.5) with the simulated users of §6.5.
+//! The planar pick-and-place experiment of the dissertation's chapter 4
+//! (Table 4.1, Fig. 4.5) with the simulated users of §6.5.
 //!
-//! **Tasks** (fixed before any result was looked at): the planar gripper
-//! (`builtin:planar_pick`) over a 50 × 50 cm table; two cylinders (red,
-//! yellow; r = 2.5 cm) near the far edge (y ∈ [0.38, 0.45] m; red x ∈
-//! [0.05, 0.2], yellow x ∈ [0.3, 0.45]); a pole (r = 3 cm) near the centre
-//! (x ∈ [0.2, 0.3], y ∈ [0.18, 0.28]); the gripper starts behind the pole
-//! (x ∈ [0.2, 0.3], y ∈ [0.02, 0.08]). The user picks one cylinder (drawn at
-//! random) and brings it to a place position on the near side (x ∈ [0.05,
-//! 0.45], y = 0.06, at least 10 cm from the start in x). Phase 1 reaches
-//! the cylinder (within 1 cm) with both cylinders as goals (intent decides);
-//! phase 2 carries it, attached, to the place position.
+//! **Tasks**: [`sample_planar_task`].
 //!
 //! **Users** (§6.5): Straight (straight at the goal), Noisy-0.5 and
 //! Noisy-1.0 (the robot's optimal policy toward the goal plus uniform noise
@@ -24,55 +15,18 @@
 //! distance between the user's and the executed command; success (both
 //! phases done within 60 s) and collisions.
 
-use super::episode::{Episode, EpisodeRecord, EpisodeSettings, Outcome};
-use super::judge::TaskJudge;
-use super::operator::{Biased, Noisy, Operator, Pace, PolicyFollower, Straightline};
+use super::{Context, Experiment, ExperimentError, mean_std};
 use crate::arbitration::{
-    Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode, BlendingStyle, GoalObjects, GoalOptions, MetricSpace,
-    ProblemGoal, problem_goals,
+    Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode, BlendingStyle, MetricSpace, ProblemGoal,
 };
 use crate::collision::CollisionWorkspace;
-use crate::problem::{Goal, Problem};
-use nalgebra::{IsometryMatrix3, Vector3};
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+use crate::figures::{Panel, Series, SeriesKind, render_panels};
+use crate::problem::Problem;
+use crate::sim::{
+    Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarTask, PlanarUser, TaskJudge, sample_planar_task,
+};
 use rayon::prelude::*;
-
-/// A simulated user of the planar task.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum PlanarUser {
-    /// Straight at the goal.
-    Straight,
-    /// The optimal policy plus uniform noise of this many times the speed.
-    Noisy(f64),
-    /// Aims up to 5 cm off.
-    Biased,
-}
-
-impl PlanarUser {
-    /// The users of Table 6.1.
-    pub const ALL: [PlanarUser; 4] =
-        [PlanarUser::Noisy(0.5), PlanarUser::Noisy(1.0), PlanarUser::Straight, PlanarUser::Biased];
-
-    /// `straight`, `noisy-0.5`, …
-    pub fn name(&self) -> String {
-        match self {
-            PlanarUser::Straight => "straight".into(),
-            PlanarUser::Noisy(s) => format!("noisy-{s}"),
-            PlanarUser::Biased => "biased".into(),
-        }
-    }
-
-    pub(crate) fn build(&self, speed: f64, seed: u64) -> Box<dyn Operator> {
-        let pace = Pace { speed, slow_down: 0.03, arrive: 0.005 };
-        let follower = PolicyFollower { pace };
-        match *self {
-            PlanarUser::Straight => Box::new(Straightline { pace }),
-            PlanarUser::Noisy(s) => Box::new(Noisy::new(follower, s * speed, seed)),
-            PlanarUser::Biased => Box::new(Biased::new(follower, 0.05, seed)),
-        }
-    }
-}
+use std::fmt::Write;
 
 /// The methods of Table 4.1.
 pub const PLANAR_METHODS: [ArbitrationMode; 4] = [
@@ -140,21 +94,6 @@ pub struct PlanarEpisode {
     pub path: Vec<(f64, f64)>,
 }
 
-/// A sampled planar task: the two phases' prepared goals.
-#[derive(Debug, Clone)]
-pub struct PlanarTask {
-    /// Task index.
-    pub index: usize,
-    /// Phase 1: one goal per cylinder; `target` is the user's.
-    pub reach: Vec<ProblemGoal>,
-    /// Which of the goals the user means.
-    pub target: usize,
-    /// Phase 2: the place goal, the cylinder attached.
-    pub place: ProblemGoal,
-    /// The pole's position (m).
-    pub pole: [f64; 2],
-}
-
 /// Results of the planar experiment.
 #[derive(Debug, Clone)]
 pub struct PlanarResults {
@@ -168,90 +107,14 @@ pub struct PlanarResults {
     pub wall_seconds: f64,
 }
 
-/// Samples planar task `index` and prepares both phases' references.
-///
-/// # Errors
-/// A task whose references do not converge after 20 samples; setup errors.
-pub fn sample_planar_task(base: &Problem, seed: u64, index: usize) -> Result<PlanarTask, ArbitrationError> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ index as u64);
-    let mut last = None;
-    for _ in 0..20 {
-        match try_task(base, &mut rng, index) {
-            Ok(task) => return Ok(task),
-            Err(e @ (ArbitrationError::GoalNotReached { .. } | ArbitrationError::Pipeline(_))) => last = Some(e),
-            Err(e) => return Err(e),
-        }
-    }
-    Err(last.unwrap_or(ArbitrationError::GoalNotReached { goal: format!("planar task {index}"), status: "resampled" }))
-}
-
-fn try_task(base: &Problem, rng: &mut ChaCha8Rng, index: usize) -> Result<PlanarTask, ArbitrationError> {
-    let mut problem = base.clone();
-    let at = |x: f64, y: f64, z: f64| IsometryMatrix3::translation(x, y, z);
-    let red = [rng.random_range(0.05..0.2), rng.random_range(0.38..0.45)];
-    let yellow = [rng.random_range(0.3..0.45), rng.random_range(0.38..0.45)];
-    let pole = [rng.random_range(0.2..0.3), rng.random_range(0.18..0.28)];
-    problem.scene.set_object_pose("red", at(red[0], red[1], 0.075))?;
-    problem.scene.set_object_pose("yellow", at(yellow[0], yellow[1], 0.075))?;
-    let pole_obstacle = problem.scene.obstacles().iter().position(|o| o.name == "pole").unwrap_or(0);
-    let mut obstacles = problem.scene.obstacles().to_vec();
-    obstacles[pole_obstacle].pose = at(pole[0], pole[1], 0.15);
-    let mut scene = crate::scene::Scene::new();
-    for o in obstacles {
-        scene.add_obstacle(o)?;
-    }
-    for o in problem.scene.objects() {
-        scene.add_object(o.clone())?;
-    }
-    problem.scene = scene;
-    let start_x = rng.random_range(0.2..0.3);
-    problem.start = vec![start_x, rng.random_range(0.02..0.08), 0.0];
-    let target = usize::from(rng.random_bool(0.5));
-    let name = ["red", "yellow"][target];
-    problem = problem.retarget_grasp(name)?;
-    let seed: u64 = rng.random();
-    let options = GoalOptions { seed: Some(seed), objects: GoalObjects::AllGraspable, ..GoalOptions::default() };
-    let reach = problem_goals(&problem, &options)?;
-    let target = reach.iter().position(|g| g.name == name).unwrap_or(0);
-    // Phase 2: the cylinder attached, a place goal on the near side.
-    let mut place_x = rng.random_range(0.05..0.45);
-    if (place_x - start_x).abs() < 0.1 {
-        place_x = if start_x < 0.25 { start_x + 0.15 } else { start_x - 0.15 };
-    }
-    let end = reach[target].policy.reference().goal().to_vec();
-    let mut carry = problem.clone();
-    carry.start = end;
-    let grasp = carry.grasp_target().unwrap_or_else(IsometryMatrix3::identity);
-    let object_pose = carry.scene.object(name).map(|o| o.pose).unwrap_or_else(IsometryMatrix3::identity);
-    carry.scene.attach(name, "gripper_tcp", grasp.inverse() * object_pose)?;
-    carry.goal = Goal::Pose {
-        frame: "gripper_tcp".into(),
-        position: Vector3::new(place_x, 0.06, 0.1),
-        orientation: None,
-        axis_alignment: None,
-    };
-    // The reach objective becomes a place objective: the gripper at the
-    // place position at the end.
-    for o in carry.optimizer.objectives.iter_mut().filter(|o| o.feature == "position_difference") {
-        o.feature = "position".into();
-        o.frames = vec!["gripper_tcp".into()];
-        o.target = Some(vec![place_x, 0.06, 0.1]);
-    }
-    carry.name = format!("{}: place", carry.name);
-    let place =
-        problem_goals(&carry, &GoalOptions { seed: Some(seed), objects: GoalObjects::Goal, ..GoalOptions::default() })?
-            .remove(0);
-    Ok(PlanarTask { index, reach, target, place, pole })
-}
-
 /// Runs the planar experiment (parallel over tasks, deterministic).
 ///
 /// # Errors
 /// Setup failures.
-pub fn run_planar(settings: &PlanarSettings, progress: &(dyn Fn() + Sync)) -> Result<PlanarResults, ArbitrationError> {
+pub fn run_planar(settings: &PlanarSettings, progress: &(dyn Fn() + Sync)) -> Result<PlanarResults, ExperimentError> {
     let began = std::time::Instant::now();
     let base = Problem::builtin("planar_pick")?;
-    let per_task: Vec<Result<(PlanarTask, Vec<PlanarEpisode>), ArbitrationError>> = (0..settings.tasks)
+    let per_task: Vec<Result<(PlanarTask, Vec<PlanarEpisode>), ExperimentError>> = (0..settings.tasks)
         .into_par_iter()
         .map(|index| {
             let task = sample_planar_task(&base, settings.seed, index)?;
@@ -270,7 +133,7 @@ pub fn run_planar(settings: &PlanarSettings, progress: &(dyn Fn() + Sync)) -> Re
     Ok(results)
 }
 
-fn run_planar_task(task: &PlanarTask, settings: &PlanarSettings) -> Result<Vec<PlanarEpisode>, ArbitrationError> {
+fn run_planar_task(task: &PlanarTask, settings: &PlanarSettings) -> Result<Vec<PlanarEpisode>, ExperimentError> {
     let reach_base = Arbiter::for_problem(&task.reach[0].problem, &task.reach, settings.arbiter)?;
     let place_base = Arbiter::for_problem(&task.place.problem, std::slice::from_ref(&task.place), settings.arbiter)?;
     let mut out = vec![];
@@ -379,13 +242,126 @@ fn proximity_to_pole(reach: &Arbiter, place: &Arbiter, records: &[EpisodeRecord]
     Ok(best)
 }
 
-/// Mean and standard deviation of `values` (NaN-free ones).
-pub fn mean_std(values: impl Iterator<Item = f64>) -> [f64; 2] {
-    let v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return [f64::NAN, f64::NAN];
+impl Experiment for PlanarSettings {
+    const NAME: &'static str = "planar";
+    type Results = PlanarResults;
+
+    fn units(&self) -> (u64, &'static str) {
+        (self.tasks as u64, "tasks")
     }
-    let mean = v.iter().sum::<f64>() / v.len() as f64;
-    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64;
-    [mean, var.sqrt()]
+
+    fn run(&self, cx: &Context<'_>) -> Result<PlanarResults, ExperimentError> {
+        run_planar(self, &|| cx.done())
+    }
+
+    /// `{"tasks", "seed", "results": [{"operator", "method", "success",
+    /// "collision", "timeout", "failed", "duration_s": [mean, std],
+    /// "travel_cm", "proximity_cm", "cosine_distance", "hard_violations"}],
+    /// "seconds"}`.
+    fn json(&self, r: &PlanarResults) -> serde_json::Value {
+        let s = &r.settings;
+        let mut rows = vec![];
+        for (u, user) in s.users.iter().enumerate() {
+            for (m, method) in s.methods.iter().enumerate() {
+                let cell: Vec<_> = r.episodes.iter().filter(|e| e.user == u && e.method == m).collect();
+                let count = |o: Outcome| cell.iter().filter(|e| e.outcome == o).count();
+                rows.push(serde_json::json!({
+                    "operator": user.name(),
+                    "method": method.as_str(),
+                    "success": count(Outcome::Success),
+                    "collision": count(Outcome::Collision),
+                    "timeout": count(Outcome::Timeout),
+                    "failed": count(Outcome::Failed),
+                    "duration_s": mean_std(cell.iter().map(|e| e.duration)),
+                    "travel_cm": mean_std(cell.iter().map(|e| e.travel_cm)),
+                    "proximity_cm": mean_std(cell.iter().map(|e| e.proximity_cm)),
+                    "cosine_distance": mean_std(cell.iter().map(|e| e.cosine_distance)),
+                    "hard_violations": cell.iter().map(|e| e.hard_violations).sum::<usize>(),
+                }));
+            }
+        }
+        serde_json::json!({"tasks": s.tasks, "seed": s.seed, "results": rows, "seconds": r.wall_seconds})
+    }
+
+    /// Table 4.1: per user and method, success, collisions and the
+    /// metrics' mean ± std.
+    fn table(&self, r: &PlanarResults) -> String {
+        let json = self.json(r);
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "\n{:<12} {:<24} {:>8} {:>9} {:>14} {:>15} {:>15} {:>17}",
+            "user",
+            "method",
+            "success",
+            "collision",
+            "duration (s)",
+            "travel (cm)",
+            "proximity (cm)",
+            "cos dist (1e-2)"
+        );
+        for row in json["results"].as_array().into_iter().flatten() {
+            let pm = |key: &str, scale: f64| {
+                let v = &row[key];
+                format!(
+                    "{:.1} ± {:.1}",
+                    v[0].as_f64().unwrap_or(f64::NAN) * scale,
+                    v[1].as_f64().unwrap_or(f64::NAN) * scale
+                )
+            };
+            let _ = writeln!(
+                out,
+                "{:<12} {:<24} {:>8} {:>9} {:>14} {:>15} {:>15} {:>17}",
+                row["operator"].as_str().unwrap_or_default(),
+                row["method"].as_str().unwrap_or_default(),
+                format!("{}/{}", row["success"], r.settings.tasks),
+                row["collision"],
+                pm("duration_s", 1.0),
+                pm("travel_cm", 1.0),
+                pm("proximity_cm", 1.0),
+                pm("cosine_distance", 100.0),
+            );
+        }
+        let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
+        let _ = writeln!(
+            out,
+            "\n{} episodes in {:.1} s; hard-constraint violations: {violations}",
+            r.episodes.len(),
+            r.wall_seconds
+        );
+        out
+    }
+
+    fn figures(&self, r: &PlanarResults) -> Result<Vec<(String, String)>, ExperimentError> {
+        Ok(figure(r)?.map(|svg| ("planar.svg".to_string(), svg)).into_iter().collect())
+    }
+}
+
+/// Fig. 4.5: the first task's gripper paths, one panel per method, every user.
+fn figure(r: &PlanarResults) -> Result<Option<String>, ExperimentError> {
+    let s = &r.settings;
+    let Some(task) = r.tasks.first() else { return Ok(None) };
+    let problem = &task.reach[task.target].problem;
+    let pole = problem.scene.obstacle("pole").map(|o| (o.pose.translation.x, o.pose.translation.y)).unwrap_or_default();
+    let objects: Vec<(f64, f64)> = task.reach.iter().map(|g| (g.position[0], g.position[1])).collect();
+    let place = (task.place.position[0], task.place.position[1]);
+    let panels: Vec<Panel> = s
+        .methods
+        .iter()
+        .enumerate()
+        .map(|(m, method)| {
+            let mut panel = Panel::new(method.as_str(), "x (m)", "y (m)").ranges((0.0, 0.5), (0.0, 0.5)).equal();
+            for (u, user) in s.users.iter().enumerate() {
+                if let Some(e) = r.episodes.iter().find(|e| e.task == task.index && e.user == u && e.method == m) {
+                    panel = panel.with(Series::line(&format!("{} ({})", user.name(), e.outcome.as_str()), &e.path, u));
+                }
+            }
+            panel
+                .with(Series { label: None, points: vec![pole], color: 7, kind: SeriesKind::Circles(0.03) })
+                .with(Series::points("cylinders", &objects, 3))
+                .with(Series::points("place", &[place], 2))
+        })
+        .collect();
+    let title = "planar pick-and-place, task 0: gripper paths by method (top view)";
+    Ok(Some(render_panels(title, &panels, 360, 400)?))
 }

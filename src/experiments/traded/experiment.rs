@@ -8,7 +8,7 @@
 //! the thread count (each episode has its own seed and its own planner).
 //!
 //! ```no_run
-//! use tandem::sim::traded::{TradedExperimentSettings, run_traded_experiment};
+//! use tandem::experiments::traded::{TradedExperimentSettings, run_traded_experiment};
 //! let r = run_traded_experiment(&TradedExperimentSettings { episodes: 4, ..Default::default() }, &|| {})?;
 //! for row in &r.rows { println!("{} {} {:?}", row.user, row.mode, row.episode_s); }
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -19,7 +19,7 @@ use super::hand::{GraspDirection, HandUser, synthesize_reach};
 use super::intent::{IntentPredictor, train_intent_classifier};
 use super::robot::{TradedError, TradedScene};
 use crate::arbitration::IntentSettings;
-use crate::sim::mean_std;
+use crate::experiments::mean_std;
 use rayon::prelude::*;
 
 /// Which predictor drives the loop.
@@ -234,4 +234,81 @@ pub fn accuracy_curve(
         goal: acc(0),
         direction: acc(1),
     })
+}
+
+impl crate::experiments::Experiment for TradedExperimentSettings {
+    const NAME: &'static str = "traded";
+    type Results = TradedResults;
+
+    fn units(&self) -> (u64, &'static str) {
+        (3 * self.episodes as u64, "episodes")
+    }
+
+    fn run(&self, cx: &crate::experiments::Context<'_>) -> Result<TradedResults, crate::experiments::ExperimentError> {
+        Ok(run_traded_experiment(self, &|| cx.done())?)
+    }
+
+    /// `{"episodes", "results": [{"user", "mode", "time_until_execution_s":
+    /// [mean, std], "episode_s", "goal_accuracy", "direction_accuracy",
+    /// "planning_s", "plans_per_pick", "solved"}], "curves", "training_s"}`.
+    fn json(&self, r: &TradedResults) -> serde_json::Value {
+        serde_json::json!({
+            "episodes": r.episodes,
+            "results": r.rows,
+            "curves": r.curves,
+            "training_s": r.training_seconds,
+        })
+    }
+
+    /// Table 7.3: per user and planning mode.
+    fn table(&self, r: &TradedResults) -> String {
+        use std::fmt::Write;
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{:<8} {:<11} {:>16} {:>16} {:>6} {:>6} {:>14} {:>6}",
+            "user", "mode", "until exec (s)", "episode (s)", "goal", "dir", "plan (ms)", "plans"
+        );
+        for row in &r.rows {
+            let _ = writeln!(
+                out,
+                "{:<8} {:<11} {:>7.2} ± {:<6.2} {:>7.2} ± {:<6.2} {:>6.2} {:>6.2} {:>6.1} ± {:<5.1} {:>6.2}",
+                row.user,
+                row.mode,
+                row.time_until_execution_s[0],
+                row.time_until_execution_s[1],
+                row.episode_s[0],
+                row.episode_s[1],
+                row.goal_accuracy,
+                row.direction_accuracy,
+                1e3 * row.planning_s[0],
+                1e3 * row.planning_s[1],
+                row.plans_per_pick,
+            );
+        }
+        let _ = writeln!(out, "{} episodes per user; classifier trained in {:.1} s", r.episodes, r.training_seconds);
+        out
+    }
+
+    fn figures(&self, r: &TradedResults) -> Result<Vec<(String, String)>, crate::experiments::ExperimentError> {
+        Ok(vec![("traded_accuracy.svg".into(), accuracy_figure(r)?)])
+    }
+}
+
+/// Fig. 7.9: goal and direction accuracy over normalised demonstration
+/// time, one panel per predictor, a line per user.
+fn accuracy_figure(r: &TradedResults) -> Result<String, crate::figures::FigureError> {
+    use crate::figures::{Panel, Series, render_panels};
+    let mut panels = vec![];
+    for predictor in ["network", "posterior"] {
+        let mut panel = Panel::new(predictor, "normalised time", "accuracy").ranges((0.0, 1.0), (0.0, 1.05));
+        for (i, c) in r.curves.iter().filter(|c| c.predictor == predictor).enumerate() {
+            let goal: Vec<(f64, f64)> = c.time.iter().copied().zip(c.goal.iter().copied()).collect();
+            let dir: Vec<(f64, f64)> = c.time.iter().copied().zip(c.direction.iter().copied()).collect();
+            panel = panel.with(Series::line(&format!("{} goal", c.user), &goal, i));
+            panel = panel.with(Series::dashed(&format!("{} direction", c.user), &dir, i));
+        }
+        panels.push(panel);
+    }
+    render_panels("grasp-intent accuracy over the demonstration (Fig. 7.9)", &panels, 420, 360)
 }

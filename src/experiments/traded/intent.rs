@@ -16,7 +16,7 @@
 //! Objects already picked are masked out of both.
 //!
 //! ```no_run
-//! use tandem::sim::traded::{HandUser, IntentPredictor, train_intent_classifier};
+//! use tandem::experiments::traded::{HandUser, IntentPredictor, train_intent_classifier};
 //! let objects = [[0.5, -0.2, 0.06], [0.55, 0.0, 0.06], [0.5, 0.2, 0.06]];
 //! let net = train_intent_classifier(&objects, 60, 1)?;
 //! let predictor = IntentPredictor::Network(net);

@@ -8,7 +8,7 @@
 //! moves most per segment, twice (there and back), plus [`GRIPPER_SECONDS`].
 //!
 //! ```no_run
-//! use tandem::sim::traded::{GraspDirection, TradedScene};
+//! use tandem::experiments::traded::{GraspDirection, TradedScene};
 //! let scene = TradedScene::new(&[[0.5, -0.2, 0.06], [0.55, 0.0, 0.06], [0.5, 0.2, 0.06]])?;
 //! let grasp = scene.plan(&[true; 3], 1, GraspDirection::Side, 7)?;
 //! println!("planned in {:.3} s, executes in {:.1} s", grasp.planning_seconds, grasp.execution_seconds);

@@ -1,0 +1,591 @@
+//! The policy experiment (the dissertation's §3.3.3): tasks drawn from a
+//! problem family, the learned policy and the LQR tracking policy each
+//! followed alone from the task's start (the dissertation reached 92–97 %),
+//! DAgger rounds, and shared control (an [`Arbiter`] in a given mode with a
+//! simulated operator) on top of either policy.
+
+use super::figures::{joint_histograms, loss_curves, success_by_distance};
+use super::{Context, Experiment, ExperimentError};
+use crate::arbitration::{
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalOptions, problem_goals,
+};
+use crate::control::RobotPolicy;
+use crate::data::{GenerateSettings, Progress, generate};
+use crate::files::FileError;
+use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
+use crate::learn::evaluate::{OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances};
+use crate::learn::{
+    Demonstrations, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainReport, TrainSettings, train_on,
+};
+use crate::problem::ProblemFamily;
+use crate::robot::KinematicsWorkspace;
+use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
+use rayon::prelude::*;
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Tasks `0 … count − 1` of `family` for run seed `seed`, judged with `max_tilt`.
+///
+/// # Errors
+/// A family sample that cannot be drawn or is not a grasp task.
+pub fn sample_tasks(family: &ProblemFamily, seed: u64, count: usize, max_tilt: f64) -> Result<Vec<Task>, LearnError> {
+    (0..count as u64).into_par_iter().map(|id| Task::new(family.sample(seed, id)?.problem, max_tilt)).collect()
+}
+
+/// The learned policy followed alone on each task, in parallel (results in
+/// task order, the same whatever the thread count).
+///
+/// # Errors
+/// A task the network does not fit (joints, goal), robot errors.
+pub fn follow_learned(
+    network: &Arc<PolicyNetwork>,
+    tasks: &[Task],
+    settings: &RolloutSettings,
+) -> Result<Vec<Rollout>, LearnError> {
+    tasks
+        .par_iter()
+        .map(|task| {
+            let policy = LearnedPolicy::for_problem(network.clone(), &task.problem)?;
+            task.rollout(&policy, &task.problem.start, settings)
+        })
+        .collect()
+}
+
+/// The LQR tracking policy of a reference optimized from each task's start
+/// (planner seed `seed`) followed alone; a task whose reference cannot be
+/// optimized ends [`RolloutOutcome::NoPolicy`].
+///
+/// # Errors
+/// Robot errors.
+pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Result<Vec<Rollout>, LearnError> {
+    tasks
+        .par_iter()
+        .map(|task| {
+            let options = GoalOptions { seed: Some(seed), objects: GoalObjects::Goal, ..GoalOptions::default() };
+            match problem_goals(&task.problem, &options) {
+                Ok(goals) => task.rollout(goals[0].policy.as_ref(), &task.problem.start, settings),
+                Err(_) => Ok(Rollout {
+                    outcome: RolloutOutcome::NoPolicy,
+                    steps: 0,
+                    clamped: 0,
+                    path: vec![task.problem.start.clone()],
+                }),
+            }
+        })
+        .collect()
+}
+
+/// Which robot policy the arbiter blends with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GoalPolicy {
+    /// The learned network conditioned on the task's goal.
+    Learned,
+    /// The LQR tracking policy of a reference optimized from the start.
+    Lqr,
+}
+
+impl GoalPolicy {
+    /// `learned` or `lqr`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            GoalPolicy::Learned => "learned",
+            GoalPolicy::Lqr => "lqr",
+        }
+    }
+}
+
+/// Outcomes of shared-control episodes: the [`Approach`] operator (to a
+/// point above the grasp, then down) through an arbiter in `mode` whose
+/// goal policy is `which`, on each task, in parallel. Success is the
+/// task's grasp judge (as when a policy is followed alone), checked after
+/// every step; a task whose LQR reference cannot be optimized counts as
+/// `Timeout`.
+///
+/// # Errors
+/// Arbiter or robot errors.
+pub fn shared_control(
+    network: &Arc<PolicyNetwork>,
+    tasks: &[Task],
+    mode: ArbitrationMode,
+    which: GoalPolicy,
+    seed: u64,
+) -> Result<Vec<Outcome>, LearnError> {
+    let episode = EpisodeSettings { record: false, ..EpisodeSettings::default() };
+    let judge_radius = RolloutSettings::default().judge_radius;
+    let arbitration = |e: crate::arbitration::ArbitrationError| LearnError::Training(format!("arbiter: {e}"));
+    tasks
+        .par_iter()
+        .map(|task| {
+            let problem = &task.problem;
+            let settings = ArbiterSettings { mode, ..ArbiterSettings::default() };
+            let arbiter = match which {
+                GoalPolicy::Learned => {
+                    let policy: Arc<dyn RobotPolicy> = Arc::new(LearnedPolicy::for_problem(network.clone(), problem)?);
+                    let position = problem.grasp_target().map(|p| p.translation.vector.into()).unwrap_or([0.0; 3]);
+                    let goal = ArbiterGoal { name: task.object().to_string(), position, policy };
+                    Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings)
+                        .map_err(arbitration)?
+                }
+                GoalPolicy::Lqr => {
+                    let options =
+                        GoalOptions { seed: Some(seed), objects: GoalObjects::Goal, ..GoalOptions::default() };
+                    let Ok(goals) = problem_goals(problem, &options) else { return Ok(Outcome::Timeout) };
+                    Arbiter::for_problem(problem, &goals, settings).map_err(arbitration)?
+                }
+            };
+            let Some(goal) = problem.grasp_target() else { return Ok(Outcome::Timeout) };
+            let mut ws = arbiter.workspace();
+            let mut kin = KinematicsWorkspace::new(&problem.robot);
+            let run = Episode {
+                arbiter: &arbiter,
+                start: &problem.start,
+                target: goal.translation.vector.into(),
+                true_goal: 0,
+                settings: episode,
+            };
+            // A judge error (a bad configuration) is not a grasp.
+            let mut judge = |q: &[f64]| task.grasped(&mut kin, q, judge_radius).unwrap_or(false);
+            let record = run.run(&mut ws, &mut Approach::default(), &mut judge)?;
+            Ok(record.outcome)
+        })
+        .collect()
+}
+
+/// The report written beside a policy file (`FILE.json`).
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
+pub struct PolicyReport {
+    /// The dataset folder it was trained on.
+    pub data: PathBuf,
+    /// Training trajectories.
+    pub trajectories: usize,
+    /// Training state-action pairs.
+    pub pairs: usize,
+    /// Validation trajectories.
+    pub validation_trajectories: usize,
+    /// Validation pairs.
+    pub validation_pairs: usize,
+    /// Training time (s).
+    pub seconds: f64,
+    /// Training loss of the last epoch.
+    pub final_train_loss: f64,
+    /// Validation loss of the last epoch (NaN without validation pairs).
+    pub final_validation_loss: f64,
+    /// Every epoch's losses.
+    pub losses: Vec<serde_json::Value>,
+}
+
+impl PolicyReport {
+    fn new(data: &Path, report: &TrainReport) -> PolicyReport {
+        let last = report.losses.last();
+        PolicyReport {
+            data: data.to_path_buf(),
+            trajectories: report.train_trajectories,
+            pairs: report.train_pairs,
+            validation_trajectories: report.validation_trajectories,
+            validation_pairs: report.validation_pairs,
+            seconds: report.seconds,
+            final_train_loss: last.map_or(f64::NAN, |l| l.train),
+            final_validation_loss: last.map_or(f64::NAN, |l| l.validation),
+            losses: report.losses.iter().filter_map(|l| serde_json::to_value(l).ok()).collect(),
+        }
+    }
+
+    /// The report beside `policy` (`None` when there is none or it is unreadable).
+    pub fn read_beside(policy: &Path) -> Option<PolicyReport> {
+        serde_json::from_str(&std::fs::read_to_string(policy.with_extension("json")).ok()?).ok()
+    }
+}
+
+/// Trains a policy network on the dataset in `data` and writes it to `out`
+/// (safetensors), its [`PolicyReport`] beside it (`.json`) and its loss
+/// curves (`.svg`); returns the network and the report.
+///
+/// # Errors
+/// An unreadable dataset, training, or a file that cannot be written.
+pub fn train_and_save(
+    data: &Path,
+    family: &ProblemFamily,
+    options: &LearnOptions,
+    out: &Path,
+) -> Result<(PolicyNetwork, PolicyReport), ExperimentError> {
+    let demos = Demonstrations::read(data)?;
+    let (network, report) = train_on(&demos, family, options, None)?;
+    network.save(out)?;
+    let summary = PolicyReport::new(data, &report);
+    let json = out.with_extension("json");
+    std::fs::write(&json, serde_json::to_string_pretty(&summary)? + "\n").map_err(FileError::io(&json))?;
+    let svg = out.with_extension("svg");
+    let title = format!("Training the policy network ({} trajectories, {} pairs)", summary.trajectories, summary.pairs);
+    std::fs::write(&svg, loss_curves(&report, &title)?).map_err(FileError::io(&svg))?;
+    Ok((network, summary))
+}
+
+/// The policy experiment's settings; it needs an output folder (the
+/// dataset, the policies of each round, the figures).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolicyExperiment {
+    /// The problem family of the tasks and the data.
+    pub family: PathBuf,
+    /// Evaluation tasks (family samples 0 … N−1 of `seed`).
+    pub tasks: usize,
+    /// Seed of the evaluation tasks (another than the training data's).
+    pub seed: u64,
+    /// A trained policy (default: train one in the output folder).
+    pub policy: Option<PathBuf>,
+    /// Its training data (default: `OUT/data`, generated when missing).
+    pub data: Option<PathBuf>,
+    /// Trajectories of the generated dataset (seed 0).
+    pub train_count: u64,
+    /// Epochs of the first training.
+    pub epochs: usize,
+    /// DAgger rounds after it.
+    pub rounds: usize,
+    /// Fresh tasks followed per DAgger round.
+    pub round_tasks: usize,
+    /// Epochs per DAgger round.
+    pub round_epochs: usize,
+    /// Tasks of the shared-control comparison (0: none).
+    pub arbitration_tasks: usize,
+    /// Follow the LQR tracking policy too (it optimizes a reference per task).
+    pub lqr: bool,
+}
+
+impl Default for PolicyExperiment {
+    fn default() -> Self {
+        PolicyExperiment {
+            family: "problems/panda_grasp_family.toml".into(),
+            tasks: 100,
+            seed: 1000,
+            policy: None,
+            data: None,
+            train_count: 2000,
+            epochs: 30,
+            rounds: 0,
+            round_tasks: 200,
+            round_epochs: 10,
+            arbitration_tasks: 20,
+            lqr: true,
+        }
+    }
+}
+
+/// What the policy experiment found.
+#[derive(Debug, Clone)]
+pub struct PolicyResults {
+    /// Evaluation tasks.
+    pub tasks: usize,
+    /// Success, collision, timeout, … rates of each policy followed alone.
+    pub results: Vec<serde_json::Value>,
+    /// How the policy was trained (`None` for a given policy without a report).
+    pub training: Option<PolicyReport>,
+    /// Each DAgger round's rates and sizes.
+    pub rounds: Vec<serde_json::Value>,
+    /// Shared control on top of each policy.
+    pub arbitration: Vec<serde_json::Value>,
+    /// Median distance of the task starts from the training data (rad).
+    pub median_start_distance: f64,
+    /// The figures: joint values of the data against the limits (Fig. 3.8)
+    /// and success by the start's distance from the data.
+    pub figures: Vec<(String, String)>,
+}
+
+fn rates(policy: &str, c: &OutcomeCounts) -> serde_json::Value {
+    let n = c.total().max(1) as f64;
+    serde_json::json!({
+        "policy": policy,
+        "success": c.success as f64 / n,
+        "collision": c.collision as f64 / n,
+        "timeout": c.timeout as f64 / n,
+        "no_reference": c.no_policy as f64 / n,
+        "failed": c.failed as f64 / n,
+        "episodes": c.total(),
+    })
+}
+
+fn counts(rollouts: &[Rollout]) -> OutcomeCounts {
+    OutcomeCounts::from_outcomes(rollouts.iter().map(|r| r.outcome))
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn paired(distances: &[f64], rollouts: &[Rollout]) -> Vec<(f64, bool)> {
+    distances.iter().zip(rollouts).map(|(d, r)| (*d, r.outcome == RolloutOutcome::Success)).collect()
+}
+
+fn rates_table(results: &[serde_json::Value]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "  {:<10} {:>9} {:>10} {:>9} {:>13}",
+        "policy", "success", "collision", "timeout", "no reference"
+    );
+    for r in results {
+        let pct = |k: &str| 100.0 * r[k].as_f64().unwrap_or(f64::NAN);
+        let _ = writeln!(
+            out,
+            "  {:<10} {:>7.1} % {:>8.1} % {:>7.1} % {:>11.1} %",
+            r["policy"].as_str().unwrap_or(""),
+            pct("success"),
+            pct("collision"),
+            pct("timeout"),
+            pct("no_reference")
+        );
+    }
+    let _ =
+        writeln!(out, "  {:<10} {:>9}   (§3.3.3, learned policy in configuration space)", "dissertation", "92–97 %");
+    out
+}
+
+impl PolicyExperiment {
+    /// DAgger rounds: fresh tasks (seed `seed + 1 + round`), expert
+    /// trajectories from the states of failed rollouts and from the starts
+    /// farthest from the data, training continued on everything; success on
+    /// the evaluation tasks after each round.
+    #[allow(clippy::too_many_arguments)]
+    fn dagger(
+        &self,
+        cx: &Context<'_>,
+        out: &Path,
+        family: &ProblemFamily,
+        options: &LearnOptions,
+        network: &mut Arc<PolicyNetwork>,
+        demos: &mut Demonstrations,
+        tasks: &[Task],
+        rollout: &RolloutSettings,
+    ) -> Result<Vec<serde_json::Value>, ExperimentError> {
+        let settings = DaggerSettings {
+            rounds: self.rounds,
+            tasks_per_round: self.round_tasks,
+            epochs: self.round_epochs,
+            ..DaggerSettings::default()
+        };
+        let mut rounds = Vec::new();
+        let mut next_id = demos.items.iter().map(|d| d.id + 1).max().unwrap_or(0).max(1 << 40);
+        for round in 1..=settings.rounds {
+            let fresh = sample_tasks(family, self.seed + 1 + round as u64, settings.tasks_per_round, rollout.max_tilt)?;
+            let followed = follow_learned(network, &fresh, rollout)?;
+            let mut problems = Vec::new();
+            for (task, r) in fresh.iter().zip(&followed) {
+                for start in failure_states(r, settings.states_per_failure) {
+                    problems.push(restart(&task.problem, &start));
+                }
+            }
+            let failed = problems.len();
+            let states: Vec<Vec<f64>> = demos.items.iter().flat_map(|d| d.states.iter().cloned()).collect();
+            let starts: Vec<Vec<f64>> = fresh.iter().map(|t| t.problem.start.clone()).collect();
+            let distances = nearest_distances(&starts, &states);
+            let mut order: Vec<usize> = (0..fresh.len()).collect();
+            order.sort_by(|a, b| distances[*b].total_cmp(&distances[*a]));
+            problems.extend(order.iter().take(settings.thin_per_round).map(|&k| fresh[k].problem.clone()));
+            let generate = GenerateSettings { seed: self.seed + round as u64, ..GenerateSettings::default() };
+            let (added, rejected) = expert_demonstrations(&problems, next_id, &generate);
+            next_id += problems.len() as u64;
+            let added_count = added.len();
+            demos.items.extend(added);
+            let continued = LearnOptions {
+                train: TrainSettings {
+                    epochs: settings.epochs,
+                    seed: options.train.seed + round as u64,
+                    ..options.train.clone()
+                },
+                ..options.clone()
+            };
+            let (trained, report) = train_on(demos, family, &continued, Some(&**network))?;
+            *network = Arc::new(trained);
+            network.save(&out.join(format!("policy-round{round}.safetensors")))?;
+            let c = counts(&follow_learned(network, tasks, rollout)?);
+            let fresh_success = counts(&followed).success_rate();
+            cx.say(&format!(
+                "DAgger round {round}: learned policy succeeded on {:.1} % of {} fresh tasks; {failed} failure states + {} thin starts -> {added_count} expert trajectories ({rejected} rejected); {:.1} s training; evaluation: success {:.1} %, collision {:.1} %, timeout {:.1} %",
+                100.0 * fresh_success,
+                fresh.len(),
+                settings.thin_per_round.min(fresh.len()),
+                report.seconds,
+                100.0 * c.success_rate(),
+                100.0 * c.collision as f64 / c.total().max(1) as f64,
+                100.0 * c.timeout as f64 / c.total().max(1) as f64,
+            ));
+            let mut row = rates("learned", &c);
+            row["round"] = round.into();
+            row["added_trajectories"] = added_count.into();
+            row["expert_rejected"] = rejected.into();
+            row["training_seconds"] = report.seconds.into();
+            row["trajectories"] = demos.items.len().into();
+            rounds.push(row);
+        }
+        Ok(rounds)
+    }
+
+    /// Constrained and sum-of-squares arbitration on top of each policy.
+    fn arbitrate(
+        &self,
+        network: &Arc<PolicyNetwork>,
+        tasks: &[Task],
+    ) -> Result<Vec<serde_json::Value>, ExperimentError> {
+        let tasks = &tasks[..self.arbitration_tasks.min(tasks.len())];
+        let mut rows = Vec::new();
+        if tasks.is_empty() {
+            return Ok(rows);
+        }
+        for mode in [ArbitrationMode::Constrained, ArbitrationMode::SumOfSquares] {
+            for which in [GoalPolicy::Learned, GoalPolicy::Lqr] {
+                if which == GoalPolicy::Lqr && !self.lqr {
+                    continue;
+                }
+                let outcomes = shared_control(network, tasks, mode, which, self.seed)?;
+                let mut c = OutcomeCounts::default();
+                for o in outcomes {
+                    match o {
+                        Outcome::Success => c.success += 1,
+                        Outcome::Collision => c.collision += 1,
+                        Outcome::Timeout => c.timeout += 1,
+                        Outcome::Failed => c.failed += 1,
+                    }
+                }
+                let mut row = rates(which.as_str(), &c);
+                row["mode"] = mode.as_str().into();
+                rows.push(row);
+            }
+        }
+        Ok(rows)
+    }
+}
+
+impl Experiment for PolicyExperiment {
+    // Not `policy`: `policy.json` is the report beside `policy.safetensors`.
+    const NAME: &'static str = "policy_results";
+    type Results = PolicyResults;
+
+    fn units(&self) -> (u64, &'static str) {
+        (self.tasks as u64, "tasks")
+    }
+
+    fn run(&self, cx: &Context<'_>) -> Result<PolicyResults, ExperimentError> {
+        let out = cx.out().ok_or_else(|| ExperimentError::Setting {
+            option: "--out",
+            value: "none".into(),
+            expected: "a folder for the dataset, the policies and the figures".into(),
+        })?;
+        if self.tasks == 0 {
+            return Err(ExperimentError::Setting {
+                option: "--tasks",
+                value: "0".into(),
+                expected: "at least 1".into(),
+            });
+        }
+        let family = ProblemFamily::from_file(&self.family)?;
+        let data = self.data.clone().unwrap_or_else(|| out.join("data"));
+        if self.policy.is_none() && !data.join("_manifest.json").exists() {
+            cx.say(&format!("generating {} trajectories into {}", self.train_count, data.display()));
+            let settings = GenerateSettings { count: self.train_count, seed: 0, ..GenerateSettings::default() };
+            generate(&self.family, &data, &settings, &Progress::quiet())?;
+        }
+        let options = LearnOptions {
+            train: TrainSettings { epochs: self.epochs, progress: cx.verbose(), ..TrainSettings::default() },
+            ..LearnOptions::default()
+        };
+        let (network, training) = match &self.policy {
+            Some(path) => (PolicyNetwork::load(path)?, PolicyReport::read_beside(path)),
+            None => {
+                let path = out.join("policy.safetensors");
+                cx.say(&format!("training {} epochs on {}", self.epochs, data.display()));
+                let (network, report) = train_and_save(&data, &family, &options, &path)?;
+                cx.say(&format!("wrote {} ({:.1} s of training)", path.display(), report.seconds));
+                (network, Some(report))
+            }
+        };
+        let mut network = Arc::new(network);
+        let mut demos = Demonstrations::read(&data)?;
+        let states: Vec<Vec<f64>> = demos.items.iter().flat_map(|d| d.states.iter().cloned()).collect();
+        let robot = &family.base.robot;
+        let histograms = joint_histograms(&states, robot.joint_names(), robot.limits(), 40)?;
+        let rollout = RolloutSettings::default();
+        let began = Instant::now();
+        let tasks = sample_tasks(&family, self.seed, self.tasks, rollout.max_tilt)?;
+        let learned = follow_learned(&network, &tasks, &rollout)?;
+        for _ in 0..tasks.len() {
+            cx.done();
+        }
+        let learned_seconds = began.elapsed().as_secs_f64();
+        let lqr = if self.lqr { Some(follow_lqr(&tasks, self.seed, &rollout)?) } else { None };
+        let starts: Vec<Vec<f64>> = tasks.iter().map(|t| t.problem.start.clone()).collect();
+        let distances = nearest_distances(&starts, &states);
+        let mut by_distance = vec![("learned".to_string(), paired(&distances, &learned))];
+        if let Some(lqr) = &lqr {
+            by_distance.push(("lqr".to_string(), paired(&distances, lqr)));
+        }
+        let figures = vec![
+            ("joint_histograms.svg".to_string(), histograms),
+            ("success_by_distance.svg".to_string(), success_by_distance(&by_distance, 5)?),
+        ];
+        let mut results = vec![rates("learned", &counts(&learned))];
+        if let Some(lqr) = &lqr {
+            results.push(rates("lqr", &counts(lqr)));
+        }
+        cx.say(&format!("{} tasks of {} (seed {}), followed alone at 15 Hz:", self.tasks, family.name, self.seed));
+        cx.say(rates_table(&results).trim_end());
+        cx.say(&format!("learned rollouts: {learned_seconds:.1} s for {} tasks", self.tasks));
+        let rounds = self.dagger(cx, out, &family, &options, &mut network, &mut demos, &tasks, &rollout)?;
+        let arbitration = self.arbitrate(&network, &tasks)?;
+        Ok(PolicyResults {
+            tasks: self.tasks,
+            results,
+            training,
+            rounds,
+            arbitration,
+            median_start_distance: median(&distances),
+            figures,
+        })
+    }
+
+    /// `{"tasks", "results": [{"policy", "success", "collision",
+    /// "timeout", "no_reference", "failed", "episodes"}], "training":
+    /// {"samples", "pairs", "seconds"}, "rounds": [...], "arbitration":
+    /// [...], "seed_success": [0.92, 0.97], "median_start_distance"}`;
+    /// rates are shares of the tasks.
+    fn json(&self, r: &PolicyResults) -> serde_json::Value {
+        let training = r.training.as_ref().map_or(
+            serde_json::Value::Null,
+            |t| serde_json::json!({"samples": t.trajectories, "pairs": t.pairs, "seconds": t.seconds}),
+        );
+        serde_json::json!({
+            "tasks": r.tasks,
+            "results": r.results,
+            "training": training,
+            "rounds": r.rounds,
+            "arbitration": r.arbitration,
+            "seed_success": [0.92, 0.97],
+            "median_start_distance": r.median_start_distance,
+        })
+    }
+
+    fn table(&self, r: &PolicyResults) -> String {
+        let mut out = rates_table(&r.results);
+        if !r.arbitration.is_empty() {
+            let _ = writeln!(out, "shared control, Approach operator, {} tasks:", self.arbitration_tasks.min(r.tasks));
+            for row in &r.arbitration {
+                let pct = |k: &str| 100.0 * row[k].as_f64().unwrap_or(f64::NAN);
+                let _ = writeln!(
+                    out,
+                    "  {:<12} on {:<8} success {:>5.1} %, collision {:>5.1} %, timeout {:>5.1} %",
+                    row["mode"].as_str().unwrap_or(""),
+                    row["policy"].as_str().unwrap_or(""),
+                    pct("success"),
+                    pct("collision"),
+                    pct("timeout")
+                );
+            }
+        }
+        out
+    }
+
+    fn figures(&self, r: &PolicyResults) -> Result<Vec<(String, String)>, ExperimentError> {
+        Ok(r.figures.clone())
+    }
+}
