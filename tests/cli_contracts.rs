@@ -171,14 +171,16 @@ fn solve_writes_the_trajectory_policy_reads_back() {
     let one = dir.path().join("one.csv");
     std::fs::write(&one, "time,panda_joint4\n0,-2.0\n0.1,-1.9\n0.2,-1.8\n").unwrap();
     expect(&["policy", "--reference", one.to_str().unwrap()], 0, "3 waypoints of 1 joints");
-    let cases: [(&str, &str); 5] = [
+    let cases: [(&str, &str); 6] = [
         ("0,0,0\n0.1,0.1,0.1\n", "is the header missing?"),
         ("time,panda_joint1,panda_joint1\n0,0,0\n0.1,0,0\n", "named twice"),
         (
             "time,panda_jont1\n0,0\n0.1,0\n",
             "names joint 'panda_jont1', which panda has no movable joint of (did you mean panda_joint1",
         ),
-        ("time,panda_joint1\n0,1e308\n0.1,-1e308\n", "joint 'panda_joint1' = 100000000"),
+        // Finite values whose velocity is not: the waypoint, readably.
+        ("time,panda_joint1\n0,1e308\n0.1,-1e308\n", "waypoint 1: joint 'panda_joint1' moves from 1e308 to -1e308"),
+        ("time,panda_joint1\n0,0\n0.1,9\n", "joint 'panda_joint1' = 9 is outside its limits"),
         ("slice,time,panda_joint1\n1,0.1,0\n2,0.2,0\n", "its first column is 'slice'"),
     ];
     for (text, message) in cases {

@@ -36,6 +36,7 @@
 mod csv;
 
 use crate::files::FileError;
+use crate::robot::readable;
 use thiserror::Error;
 
 /// Most waypoints of a trajectory (`T + 1` for the largest horizon T a
@@ -50,13 +51,13 @@ pub const MAX_JOINTS: usize = 1024;
 #[derive(Debug, Error)]
 pub enum TrajectoryError {
     /// A time step that is not finite and positive.
-    #[error("time step {dt} s is not finite and positive")]
+    #[error("time step {} s is not finite and positive", readable(*dt))]
     InvalidTimeStep {
         /// Time step (s).
         dt: f64,
     },
     /// A duration that is not positive and finite.
-    #[error("duration {duration} s is not positive and finite")]
+    #[error("duration {} s is not positive and finite", readable(*duration))]
     InvalidDuration {
         /// The duration (s).
         duration: f64,
@@ -98,7 +99,10 @@ pub enum TrajectoryError {
     },
     /// Waypoints so far apart that a velocity or acceleration overflows.
     #[error(
-        "waypoint {index}: joint '{joint}' moves from {from} to {to} in {dt} s, a velocity or acceleration too large to represent"
+        "waypoint {index}: joint '{joint}' moves from {} to {} in {} s, a velocity or acceleration too large to represent",
+        readable(*from),
+        readable(*to),
+        readable(*dt)
     )]
     Overflow {
         /// Index of the waypoint.
