@@ -55,6 +55,7 @@ pub mod plan;
 pub mod problem;
 pub mod robot;
 pub mod scene;
+pub mod settings;
 pub mod sim;
 #[cfg(feature = "serve")]
 pub mod teleop;

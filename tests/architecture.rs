@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 const LAYERS: &[(&str, &[&str])] = &[
     ("robot", &["robot"]),
     ("files", &["files"]),
+    ("settings", &["settings"]),
     ("trajectory", &["trajectory"]),
     ("figures", &["figures"]),
     ("geometry", &["scene"]),

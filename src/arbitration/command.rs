@@ -59,12 +59,19 @@ impl<'a> TickInput<'a> {
 }
 
 /// How a tick went: a closed set, like MoveIt Servo's status codes. Every
-/// status comes with a command that is safe to execute.
+/// status comes with a command that is safe to execute. New statuses may
+/// be added: match with a wildcard arm.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum TickStatus {
     /// The mode's command, no hard constraint binding.
     #[default]
     Nominal,
+    /// The mode's command, no hard constraint binding, but a task command
+    /// near a singularity: damped least squares slowed the directions
+    /// losing rank (the arm keeps moving in the others; see
+    /// [`DampingSettings`](super::DampingSettings)).
+    SingularityDamped,
     /// A hard constraint (joint position or velocity limit, distance
     /// margin) shaped the command: the closest safe one was executed.
     Constrained,
@@ -113,6 +120,7 @@ impl TickStatus {
     pub fn as_str(&self) -> &'static str {
         match self {
             TickStatus::Nominal => "nominal",
+            TickStatus::SingularityDamped => "singularity_damped",
             TickStatus::Constrained => "constrained",
             TickStatus::StepShortened => "step_shortened",
             TickStatus::Halted => "halted",

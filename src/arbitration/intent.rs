@@ -18,6 +18,8 @@
 //! is O(goals), in log space. The largest belief is capped (`cap`, 0.99 as
 //! in ADA) so that assistance never becomes certain of a guess.
 
+use crate::settings::{InvalidSetting, check, positive};
+
 /// Settings of the goal posterior.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntentSettings {
@@ -31,6 +33,17 @@ pub struct IntentSettings {
 impl Default for IntentSettings {
     fn default() -> Self {
         IntentSettings { length_scale: 0.05, cap: 0.99 }
+    }
+}
+
+impl IntentSettings {
+    /// Checks every setting: a length scale above 0, a cap in (0, 1].
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        positive("length_scale", self.length_scale, "m")?;
+        check("cap", self.cap, self.cap > 0.0 && self.cap <= 1.0, "in (0, 1]")
     }
 }
 
@@ -155,6 +168,25 @@ pub(crate) fn cap_beliefs(beliefs: &mut [f64], cap: f64) {
             *b *= share / rest;
         } else {
             *b = share / (k - 1) as f64;
+        }
+    }
+}
+
+/// Stage 2 of a tick: the beliefs over the goals.
+impl super::arbiter::Arbiter {
+    /// The beliefs of this tick: `given`, or the estimator's update from
+    /// the gripper position.
+    pub(crate) fn update_beliefs(&self, ws: &mut super::workspace::ArbiterWorkspace, given: Option<&[f64]>) {
+        match given {
+            Some(b) => ws.intent.beliefs.copy_from_slice(b),
+            None => {
+                let b = ws.intent.estimator.observe(ws.input.gripper_position, self.settings.period);
+                ws.intent.beliefs.copy_from_slice(b);
+            }
+        }
+        if let Some((g, &b)) = ws.intent.beliefs.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) {
+            ws.diagnostics.goal = Some(g);
+            ws.diagnostics.confidence = b;
         }
     }
 }

@@ -29,8 +29,10 @@
 //! assert_eq!(planar.human_offset(), 15);
 //! ```
 
-use super::arbiter::{Arbiter, ArbiterWorkspace};
+use super::arbiter::Arbiter;
 use super::command::HumanCommand;
+use super::command::TickInput;
+use super::workspace::ArbiterWorkspace;
 
 /// Where each part of the arbitration state sits, and its units.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -104,7 +106,7 @@ pub trait ArbitrationPolicy: Send + Sync + std::fmt::Debug {
 }
 
 impl Arbiter {
-    /// Fills `ws.state` (the first `layout.width()` values) for the tick's
+    /// Fills `ws.learned.state` (the first `layout.width()` values) for the tick's
     /// configuration, whose FK, Jacobian, beliefs and robot actions `ws`
     /// already holds, and the operator's `command`. Returns false when a
     /// value is not finite.
@@ -118,21 +120,21 @@ impl Arbiter {
         let (d, n) = (layout.task_dims, self.robot.nq());
         let (length, speed) = (layout.length_scale, layout.speed_scale);
         // The nearest pair's normal points from the robot's body to the obstacle.
-        let (obstacle, toward) = match self.collision.min_distance(&mut ws.collision, q) {
+        let (obstacle, toward) = match self.collision.min_distance(&mut ws.rows.collision, q) {
             Ok(Some(p)) if p.signed.distance < 1.0 => (p.signed.distance, <[f64; 3]>::from(p.signed.normal)),
             _ => (1.0, [0.0; 3]),
         };
-        let p = ws.gripper_position;
+        let p = ws.input.gripper_position;
         let mut human = [0.0; 3];
         match command {
             HumanCommand::Linear(v) | HumanCommand::Twist(v) => human.copy_from_slice(&v[..3]),
             HumanCommand::Joint(v) => {
                 for (r, h) in human.iter_mut().enumerate() {
-                    *h = (0..n).map(|c| ws.jac[(r, c)] * v[c]).sum();
+                    *h = (0..n).map(|c| ws.input.jac[(r, c)] * v[c]).sum();
                 }
             }
         }
-        let s = &mut ws.state;
+        let s = &mut ws.learned.state;
         for i in 0..d {
             s[i] = p[i] / length;
         }
@@ -145,18 +147,32 @@ impl Arbiter {
         s[o] = obstacle / length;
         s[o + 1..o + 1 + d].copy_from_slice(&toward[..d]);
         for g in 0..layout.goals {
-            let action = &ws.actions[g * n..(g + 1) * n];
+            let action = &ws.robot.actions[g * n..(g + 1) * n];
             let at = layout.action_offset(g);
             for i in 0..d {
-                s[at + i] = (0..n).map(|c| ws.jac[(i, c)] * action[c]).sum::<f64>() / speed;
+                s[at + i] = (0..n).map(|c| ws.input.jac[(i, c)] * action[c]).sum::<f64>() / speed;
             }
         }
         let b = layout.belief_offset();
-        s[b..b + layout.goals].copy_from_slice(&ws.beliefs);
+        s[b..b + layout.goals].copy_from_slice(&ws.intent.beliefs);
         let h = layout.human_offset();
         for i in 0..d {
             s[h + i] = human[i] / speed;
         }
         s[..layout.width()].iter().all(|x| x.is_finite())
+    }
+
+    /// The learned policy's command (m/s, world) for this tick's state;
+    /// `None` without a policy or when the state or the command is not finite.
+    pub(crate) fn learned_command(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Option<[f64; 3]> {
+        let policy = self.learned.as_ref()?;
+        let layout = policy.layout();
+        if !self.fill_state(ws, input.q, &layout, &input.command) {
+            return None;
+        }
+        let mut command = [0.0; 3];
+        policy.act(&ws.learned.state[..layout.width()], &mut ws.learned.scratch, &mut command[..layout.task_dims]);
+        command.iter_mut().for_each(|c| *c *= layout.speed_scale);
+        command.iter().all(|c| c.is_finite()).then_some(command)
     }
 }

@@ -66,11 +66,12 @@ mod modes;
 mod objective;
 mod repulsion;
 mod safety;
+mod settings;
 mod setup;
+mod solve;
+pub mod workspace;
 
-pub use arbiter::{
-    Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, DampingSettings, SolvedProblem, SolverBackend,
-};
+pub use arbiter::{Arbiter, ArbiterGoal};
 pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
 pub use field::{FieldSample, metric_field};
 pub use intent::{IntentEstimator, IntentSettings};
@@ -78,8 +79,10 @@ pub use learned::{ArbitrationPolicy, StateLayout};
 pub use metric::{Metric, MetricSettings};
 pub use modes::{ArbitrationMode, BlendingStyle, MetricSpace, ModeSettings, UnknownMode};
 pub use repulsion::ObstacleRepulsion;
-pub use safety::SafetySettings;
+pub use safety::{SafetyRows, SafetySettings};
+pub use settings::{ArbiterSettings, DampingSettings, SolverBackend};
 pub use setup::{GoalObjects, GoalOptions, ProblemGoal, problem_goals};
+pub use workspace::{ArbiterWorkspace, SolvedProblem};
 
 use crate::robot::RobotError;
 
@@ -102,14 +105,9 @@ pub enum ArbitrationError {
         /// The goal.
         goal: String,
     },
-    /// A setting out of its range.
-    #[error("arbiter setting {what} = {value} is out of range")]
-    Setting {
-        /// The setting's path (`safety.margin`, …).
-        what: &'static str,
-        /// Its value.
-        value: f64,
-    },
+    /// A setting out of its range (its path, as `safety.margin`).
+    #[error(transparent)]
+    InvalidSetting(#[from] crate::settings::InvalidSetting),
     /// The gripper frame (or another robot-side input) is wrong.
     #[error(transparent)]
     Robot(#[from] RobotError),

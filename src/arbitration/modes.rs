@@ -3,6 +3,7 @@
 //! QP (or, for `Constrained`, an SOCP) over the joint velocity `u`, whose
 //! unconstrained solution is the mode's closed form from the seed.
 
+use crate::settings::{InvalidSetting, check, positive};
 use std::fmt;
 use std::str::FromStr;
 
@@ -169,6 +170,23 @@ impl Default for ModeSettings {
             constrained_center: 0.0,
             keep_speed: true,
         }
+    }
+}
+
+impl ModeSettings {
+    /// Checks every setting: blending factors in [0, 1], ε above 0, the
+    /// centres finite.
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        let unit = |v: f64| (0.0..=1.0).contains(&v);
+        check("timid_max_alpha", self.timid_max_alpha, unit(self.timid_max_alpha), "in [0, 1]")?;
+        check("aggressive_threshold", self.aggressive_threshold, unit(self.aggressive_threshold), "in [0, 1]")?;
+        positive("sum_of_squares_epsilon", self.sum_of_squares_epsilon, "")?;
+        let finite = |v: f64| v.is_finite();
+        check("sum_of_squares_center", self.sum_of_squares_center, finite(self.sum_of_squares_center), "finite")?;
+        check("constrained_center", self.constrained_center, finite(self.constrained_center), "finite")
     }
 }
 

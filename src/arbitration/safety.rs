@@ -12,8 +12,13 @@
 //! distance row, and with the state within its limits, every tick's
 //! problem is feasible.
 
+use super::arbiter::Arbiter;
+use super::command::TickStatus;
+use super::workspace::ArbiterWorkspace;
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
 use crate::robot::{KinematicsWorkspace, RobotModel};
+use crate::settings::{InvalidSetting, non_negative, positive};
+use tandem_solvers::small::add_scaled;
 
 /// Settings of the hard constraints.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,6 +66,21 @@ impl Default for SafetySettings {
     }
 }
 
+impl SafetySettings {
+    /// Checks every setting: a margin finite and at least 0; the gain,
+    /// limits, scale and clearance above 0.
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        non_negative("margin", self.margin, "m")?;
+        positive("avoidance_gain", self.avoidance_gain, "1/s")?;
+        positive("default_velocity_limit", self.default_velocity_limit, "rad/s or m/s")?;
+        positive("velocity_scale", self.velocity_scale, "")?;
+        positive("certification_clearance", self.certification_clearance, "m")
+    }
+}
+
 /// One hard-constraint row `gᵀu ≤ h`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Row {
@@ -74,7 +94,7 @@ pub(crate) enum Row {
 
 /// The rows of one tick. Allocated once for `n` joints.
 #[derive(Debug, Clone)]
-pub(crate) struct SafetyRows {
+pub struct SafetyRows {
     n: usize,
     pub(crate) lo: Vec<f64>,
     pub(crate) hi: Vec<f64>,
@@ -89,12 +109,14 @@ pub(crate) struct SafetyRows {
     /// The pairs within reach, closest first once trimmed.
     pairs: Vec<PairDistance>,
     gradient: Vec<f64>,
+    /// The collision queries of the rows, the certification and the
+    /// learned state, at the tick's configuration.
+    pub(crate) collision: CollisionWorkspace,
 }
 
 impl SafetyRows {
-    /// Rows for `n` joints, at most `max_rows` distance rows, from a model
-    /// of `pair_count` pairs.
-    pub(crate) fn new(n: usize, max_rows: usize, pair_count: usize) -> Self {
+    /// Rows for `n` joints, at most `max_rows` distance rows, from `model`.
+    pub(crate) fn new(n: usize, max_rows: usize, model: &CollisionModel) -> Self {
         SafetyRows {
             n,
             lo: vec![0.0; n],
@@ -104,8 +126,9 @@ impl SafetyRows {
             count: 0,
             min_distance: f64::INFINITY,
             min_moving_distance: f64::INFINITY,
-            pairs: Vec::with_capacity(pair_count),
+            pairs: Vec::with_capacity(model.pair_count()),
             gradient: vec![0.0; n],
+            collision: CollisionWorkspace::new(model),
         }
     }
 
@@ -130,7 +153,6 @@ impl SafetyRows {
     pub(crate) fn build_distances(
         &mut self,
         model: &CollisionModel,
-        cws: &mut CollisionWorkspace,
         kinematics: &KinematicsWorkspace,
         cutoff: f64,
         rate: f64,
@@ -144,7 +166,7 @@ impl SafetyRows {
         if !settings.collisions {
             return;
         }
-        self.pairs.extend_from_slice(model.distances_at(cws, kinematics, cutoff));
+        self.pairs.extend_from_slice(model.distances_at(&mut self.collision, kinematics, cutoff));
         let keep = self.pairs.len().min(settings.max_distance_rows).min(self.h.len());
         if keep < self.pairs.len() {
             self.pairs.select_nth_unstable_by(keep, |a, b| a.signed.distance.total_cmp(&b.signed.distance));
@@ -152,7 +174,7 @@ impl SafetyRows {
         for pair in &self.pairs[..keep] {
             let distance = pair.signed.distance;
             self.min_distance = self.min_distance.min(distance);
-            let moved = model.distance_gradient(cws, pair, &mut self.gradient).is_ok()
+            let moved = model.distance_gradient(&self.collision, pair, &mut self.gradient).is_ok()
                 && self.gradient.iter().any(|g| g.abs() > 1e-12);
             if !moved {
                 continue;
@@ -214,5 +236,66 @@ impl SafetyRows {
         for ((u, lo), hi) in u.iter_mut().zip(&self.lo).zip(&self.hi) {
             *u = u.clamp(*lo, *hi);
         }
+    }
+}
+
+/// Stage 6 of a tick (the rows) and stage 8 (the certification of the step).
+impl Arbiter {
+    /// Distance rows for the pairs that the step could bring within the
+    /// margin: those closer than `margin + bound(|u|·dt) · 1.5 + 1 mm`, `u`
+    /// the larger of the closed form's and `at_least`. Returns the reach (m).
+    pub(crate) fn build_distance_rows(&self, ws: &mut ArbiterWorkspace, rate: f64, at_least: Option<f64>) -> f64 {
+        let dt = self.settings.period;
+        for (d, u) in ws.certify.step.iter_mut().zip(&ws.objective.u0) {
+            *d = u * dt;
+        }
+        let reach = self.collision.displacement_bound(&ws.certify.step).max(at_least.unwrap_or(0.0));
+        let cutoff = self.settings.safety.margin + 1.5 * reach + 1e-3;
+        ws.rows.build_distances(&self.collision, &ws.input.kin, cutoff, rate, &self.settings.safety);
+        reach
+    }
+
+    pub(crate) fn note_rows(&self, ws: &mut ArbiterWorkspace) {
+        ws.diagnostics.min_distance = ws.rows.min_distance;
+        ws.diagnostics.rows = ws.rows.total();
+        ws.diagnostics.distance_pairs = ws.rows.count;
+    }
+
+    /// How far the robot's geometry can move under the current `u` (m).
+    pub(crate) fn step_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
+        let dt = self.settings.period;
+        for (d, u) in ws.certify.step.iter_mut().zip(&ws.solve.u) {
+            *d = u * dt;
+        }
+        self.collision.displacement_bound(&ws.certify.step)
+    }
+
+    /// Certifies `q → q + u·dt` against the exact geometry, halving the
+    /// step up to 4 times; holds when none is certified.
+    pub(crate) fn certify(
+        &self,
+        ws: &mut ArbiterWorkspace,
+        q: &[f64],
+        status: TickStatus,
+    ) -> Result<TickStatus, TickStatus> {
+        let dt = self.settings.period;
+        let clearance = self.settings.safety.certification_clearance;
+        if ws.solve.u.iter().all(|u| *u == 0.0) {
+            return Ok(status);
+        }
+        let mut fraction = 1.0;
+        for attempt in 0..5 {
+            add_scaled(&mut ws.certify.step, q, fraction * dt, &ws.solve.u);
+            match self.collision.motion_free_certified(&mut ws.rows.collision, q, &ws.certify.step, clearance) {
+                Ok(true) => {
+                    ws.diagnostics.step_fraction = fraction;
+                    return Ok(if attempt == 0 { status } else { TickStatus::StepShortened });
+                }
+                Ok(false) => fraction *= 0.5,
+                Err(_) => break,
+            }
+        }
+        ws.diagnostics.step_fraction = 0.0;
+        Err(TickStatus::Halted)
     }
 }

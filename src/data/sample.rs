@@ -78,7 +78,7 @@ pub struct TrajectoryRecord {
     pub ee_pose: Option<Vec<PoseArray>>,
     /// Solver and planner counts.
     pub report: RecordReport,
-    /// The grasp at q_T, for grasp goals ([`GraspJudge`]).
+    /// The grasp at q_T, for grasp goals ([`GraspJudge`](crate::problem::GraspJudge)).
     pub grasp: Option<GraspReport>,
 }
 

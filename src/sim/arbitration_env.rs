@@ -228,12 +228,13 @@ impl ArbitrationEnv {
         if settings.users.is_empty() || settings.operators.is_empty() {
             return Err(EnvError::NoUsers);
         }
-        for (what, value) in
-            [("speed", settings.speed), ("max_time", settings.max_time), ("max_action", settings.max_action)]
-        {
-            if !(value.is_finite() && value > 0.0) {
-                return Err(ArbitrationError::Setting { what, value }.into());
-            }
+        let units = [
+            ("speed", settings.speed, "m/s"),
+            ("max_time", settings.max_time, "s"),
+            ("max_action", settings.max_action, ""),
+        ];
+        for (field, value, unit) in units {
+            crate::settings::positive(field, value, unit).map_err(ArbitrationError::from)?;
         }
         let (name, layout) = match settings.task {
             EnvTask::Planar => ("planar_pick", StateLayout { speed_scale: settings.speed, ..StateLayout::planar(2) }),

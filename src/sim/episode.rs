@@ -338,7 +338,10 @@ impl LiveEpisode {
         let record = &mut self.record;
         record.tick_us.push(tick_us);
         record.steps += 1;
-        if !matches!(status, TickStatus::Nominal | TickStatus::Constrained | TickStatus::StepShortened) {
+        if !matches!(
+            status,
+            TickStatus::Nominal | TickStatus::SingularityDamped | TickStatus::Constrained | TickStatus::StepShortened
+        ) {
             record.fallbacks += 1;
         }
         for j in 0..n {

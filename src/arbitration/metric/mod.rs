@@ -32,7 +32,10 @@
 //! `min_belief` (re-normalised), Algorithm 2.
 
 use crate::control::{ControlError, PolicyState, RobotPolicy};
+use crate::settings::{InvalidSetting, check, positive};
 use tandem_solvers::small::{add_scaled, identity, recompose, symmetric_eigen};
+
+mod stage;
 
 /// Settings of the metrics.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,6 +59,21 @@ pub struct MetricSettings {
 impl Default for MetricSettings {
     fn default() -> Self {
         MetricSettings { step: 1e-3, sample_radius: 0.02, task_sample_radius: 0.02, floor: 0.05, min_belief: 0.01 }
+    }
+}
+
+impl MetricSettings {
+    /// Checks every setting: step and radii above 0, the floor in (0, 1],
+    /// the smallest belief in [0, 1].
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        positive("step", self.step, "rad or m")?;
+        positive("sample_radius", self.sample_radius, "rad or m")?;
+        positive("task_sample_radius", self.task_sample_radius, "rad")?;
+        check("floor", self.floor, self.floor > 0.0 && self.floor <= 1.0, "in (0, 1]")?;
+        check("min_belief", self.min_belief, (0.0..=1.0).contains(&self.min_belief), "in [0, 1]")
     }
 }
 
