@@ -24,7 +24,7 @@ use criterion::Criterion;
 use std::hint::black_box;
 use std::time::Instant;
 use tandem::arbitration::{
-    Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, HumanCommand, SolverBackend, StateLayout, TickInput,
+    Arbiter, ArbiterSettings, ArbitrationMode, GoalSettings, HumanCommand, SolverBackend, StateLayout, TickInput,
     problem_goals,
 };
 use tandem::learn::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
@@ -46,7 +46,7 @@ struct Setup {
 
 fn setup() -> Setup {
     let problem = Problem::builtin("panda_grasp_box").expect("builtin problem");
-    let goals = problem_goals(&problem, &GoalOptions::default()).expect("goal references");
+    let goals = problem_goals(&problem, &GoalSettings::default()).expect("goal references");
     let settings = ArbiterSettings { mode: ArbitrationMode::SumOfSquares, ..ArbiterSettings::default() };
     let arbiter = Arbiter::for_problem(&problem, &goals, settings).expect("arbiter");
     let episode = Episode {

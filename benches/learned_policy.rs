@@ -59,7 +59,7 @@ fn bench(c: &mut Criterion) {
             black_box(raw[0])
         })
     });
-    let mut state = policy.new_state();
+    let mut state = policy.new_workspace();
     let zero = [0.0; 7];
     let mut action = [0.0; 7];
     let mut q = problem.start.clone();

@@ -1,31 +1,48 @@
-//! tandem: motion for human-robot shared control.
+//! tandem: motion for human-robot shared control, after the dissertation
+//! *Adaptive Human-Robot Policy Blending for Shared Control Teleoperation*
+//! (`docs/references.md`).
 //!
-//! The pipeline (see `DESIGN.md`): robot models from URDF → collision-free
-//! seeds → KOMO-style trajectory optimization → LQR tracking policies →
-//! per-tick arbitration between a human operator and the policy. The boxes
-//! that work today, each a module:
+//! ```text
+//! problem (robot + scene + task) ─► plan ─► optimize ─► validate, accept ─► reference
+//!   ─► LQR tracking policy ─► every tick: beliefs, metric, the mode's QP/SOCP
+//!      under hard limits and distances ─► certified joint velocity
+//! ```
 //!
-//! - [`robot`]: URDF (and SRDF) models with exact, allocation-free
-//!   kinematics, cross-checked against Pinocchio;
-//! - [`collision`]: collision models of the robot and its scene, signed
-//!   distances (cross-checked against coal), motion checks;
-//! - [`scene`]: scenes, problem files and families, MoveIt inputs;
-//! - [`plan`]: inverse kinematics and RRT-Connect;
-//! - [`komo`]: trajectory optimization with objectives as data;
-//! - [`control`]: LQR tracking policies, and the [`RobotPolicy`](control::RobotPolicy)
+//! One module per box of the pipeline, each on a layer that uses only the
+//! layers below it (`docs/design.md`; `tests/architecture.rs` enforces it),
+//! from the ground up:
+//!
+//! - [`robot`]: URDF and SRDF models, exact allocation-free kinematics
+//!   (cross-checked against Pinocchio);
+//! - [`files`]: the error of every file tandem writes and reads back;
+//! - [`settings`]: settings out of range, one error shape everywhere;
+//! - [`trajectory`]: the one joint trajectory type and its CSV / Parquet files;
+//! - `figures` (feature `experiments`): the SVG toolkit, one style;
+//! - [`scene`]: shapes, obstacles, graspable objects;
+//! - [`collision`]: the collision model of a robot in its scene, signed
+//!   distances (cross-checked against coal), certified motion checks;
+//! - [`problem`]: problem files, families, MoveIt import, grasp goals and judge;
+//! - [`plan`]: inverse kinematics, RRT-Connect, shortcutting;
+//! - [`komo`]: the trajectory optimizer, objectives as data;
+//! - [`control`]: LQR tracking policies and the [`RobotPolicy`](control::RobotPolicy)
 //!   interface the arbiter queries;
-//! - [`arbitration`]: shared control every tick — metrics from the robot
-//!   policy, six blending modes as Clarabel QPs/SOCPs, hard constraints;
-//! - [`sim`]: the kinematic simulator, simulated operators and, with the
-//!   `experiments` feature, the seed's experiments;
-//! - [`data`]: trajectory files and, with the `data` feature, bulk
-//!   datasets in Parquet;
-//! - `figures` (with `experiments`): SVG figures;
-//! - `cli` (with the `cli` feature): the `tandem` command.
+//! - [`pipeline`]: plan → optimize → validate → accept → reference and policy;
+//! - `data` (feature `data`): bulk datasets of optimized trajectories;
+//! - [`arbitration`]: shared control every tick, in stages — beliefs,
+//!   metrics from the robot policies, eight modes as QPs / SOCPs (the exact
+//!   active-set solver, Clarabel for cones), hard constraints, certification;
+//! - [`sim`]: the kinematic simulator, simulated operators, judges, tasks,
+//!   episodes and their recordings, a Gym-style environment;
+//! - [`learn`]: learned robot policies and learned arbitration (training
+//!   with feature `learn`);
+//! - `experiments` (feature `experiments`): the dissertation's experiments
+//!   and their one harness;
+//! - `teleop` (feature `serve`): `tandem serve`, shared control from a browser;
+//! - `cli` (feature `cli`): the `tandem` command.
 //!
 //! The features are on by default; a control loop that embeds tandem can
 //! turn them off (`default-features = false`) and builds without clap,
-//! indicatif, parquet, arrow, rayon, sha2 or plotters.
+//! indicatif, parquet, arrow, rayon, sha2, plotters, candle, axum or tokio.
 //!
 //! ```
 //! use tandem::robot::{KinematicsWorkspace, RobotModel};

@@ -9,7 +9,7 @@ use tandem::arbitration::{
     TickStatus,
 };
 use tandem::collision::CollisionModel;
-use tandem::control::{ControlError, GainSchedule, PolicyState, RobotPolicy, TrackingPolicy, TrackingWeights};
+use tandem::control::{ControlError, GainSchedule, RobotPolicy, RobotPolicyWorkspace, TrackingPolicy, TrackingWeights};
 use tandem::robot::RobotModel;
 use tandem::scene::{Obstacle, Scene, Shape};
 use tandem::trajectory::JointTrajectory;
@@ -378,16 +378,16 @@ impl RobotPolicy for Broken {
     fn dof(&self) -> usize {
         7
     }
-    fn new_state(&self) -> PolicyState {
-        PolicyState::new(())
+    fn new_workspace(&self) -> RobotPolicyWorkspace {
+        RobotPolicyWorkspace::new(())
     }
-    fn act(&self, _: &mut PolicyState, _: &[f64], _: &[f64], _: &mut [f64]) -> Result<(), ControlError> {
+    fn act(&self, _: &mut RobotPolicyWorkspace, _: &[f64], _: &[f64], _: &mut [f64]) -> Result<(), ControlError> {
         Err(ControlError::ForeignState)
     }
-    fn probe(&self, _: &mut PolicyState, _: &[f64], _: &[f64], _: &mut [f64]) -> Result<(), ControlError> {
+    fn probe(&self, _: &mut RobotPolicyWorkspace, _: &[f64], _: &[f64], _: &mut [f64]) -> Result<(), ControlError> {
         Err(ControlError::ForeignState)
     }
-    fn reset(&self, _: &mut PolicyState) {}
+    fn reset(&self, _: &mut RobotPolicyWorkspace) {}
 }
 
 #[test]

@@ -23,7 +23,7 @@ use std::sync::Arc;
 use std::time::Instant;
 use tandem::collision::{CollisionModel, CollisionWorkspace, ObjectSource};
 use tandem::komo::{
-    COLLISION_CUTOFF, Feature, FeatureScratch, FrameRef, Objective, TimeSpan, TrajectoryProblem, TrajectoryWorkspace,
+    COLLISION_CUTOFF, Feature, FeatureWorkspace, FrameRef, Objective, TimeSpan, TrajectoryProblem, TrajectoryWorkspace,
 };
 use tandem::problem::ObjectiveKind;
 use tandem::robot::{KinematicsWorkspace, RobotModel};
@@ -212,7 +212,7 @@ fn features_match_casadi_and_finite_differences() {
 
     let mut report = Report::default();
     let (mut kin, mut kin_fd) = (KinematicsWorkspace::new(&robot), KinematicsWorkspace::new(&robot));
-    let (mut scratch, mut scratch_fd) = (FeatureScratch::new(&robot), FeatureScratch::new(&robot));
+    let (mut scratch, mut scratch_fd) = (FeatureWorkspace::new(&robot), FeatureWorkspace::new(&robot));
     let mut cursor = 0;
     for q in &configs {
         robot.forward_kinematics(&mut kin, q).unwrap();

@@ -17,7 +17,7 @@ use tandem::control::RobotPolicy;
 use tandem::data::{GenerateSettings, Progress, generate};
 use tandem::learn::evaluate::{RolloutSettings, Task};
 use tandem::learn::{
-    Demonstrations, FORMAT_VERSION, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainSettings, train_on,
+    Demonstrations, FORMAT_VERSION, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, TrainSettings, train_on,
 };
 use tandem::problem::ProblemFamily;
 
@@ -42,11 +42,11 @@ fn tiny_dataset() -> &'static Path {
     .path()
 }
 
-fn tiny_options(seed: u64) -> LearnOptions {
-    LearnOptions {
+fn tiny_options(seed: u64) -> LearnSettings {
+    LearnSettings {
         train: TrainSettings { epochs: 4, seed, hidden: vec![24, 24], batch: 128, ..TrainSettings::default() },
         validation: 0.2,
-        ..LearnOptions::default()
+        ..LearnSettings::default()
     }
 }
 
@@ -179,7 +179,7 @@ fn queries_allocate_nothing_and_feed_the_arbiter() {
     let family = family();
     let problem = family.sample(11, 0).unwrap().problem;
     let policy = Arc::new(LearnedPolicy::for_problem(network.clone(), &problem).unwrap());
-    let mut state = policy.new_state();
+    let mut state = policy.new_workspace();
     let (zero, mut act, mut probe) = (vec![0.0; 7], vec![0.0; 7], vec![0.0; 7]);
     policy.act(&mut state, &problem.start, &zero, &mut act).unwrap();
     let mut q = problem.start.clone();

@@ -10,7 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::sync::{Arc, Mutex};
 use tandem::arbitration::{
-    Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, GoalOptions, HumanCommand, TickInput, problem_goals,
+    Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, GoalSettings, HumanCommand, TickInput, problem_goals,
 };
 use tandem::learn::ArbitrationActor;
 
@@ -67,7 +67,7 @@ impl PyArbiter {
         };
         let arbiter = py
             .detach(|| {
-                let goals = problem_goals(p, &GoalOptions { seed, ..GoalOptions::default() })?;
+                let goals = problem_goals(p, &GoalSettings { seed, ..GoalSettings::default() })?;
                 let mut arbiter = Arbiter::for_problem(p, &goals, settings)?;
                 if let Some(actor) = actor {
                     arbiter = arbiter.with_arbitration_policy(actor)?;

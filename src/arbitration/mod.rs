@@ -1,7 +1,7 @@
 //! Shared control every tick: blend the operator's command with the robot
 //! policies so the operator keeps authority while the robot prevents
-//! collisions and fixes what the operator overlooks (seed chapters 4–5;
-//! `DESIGN.md`, "One arbitration tick").
+//! collisions and fixes what the operator overlooks (the dissertation's
+//! chapters 4–5; `docs/design.md`, "One arbitration tick").
 //!
 //! An [`Arbiter`] holds the robot, its collision model, the goals (each a
 //! world point for intent and a [`RobotPolicy`](crate::control::RobotPolicy)
@@ -11,15 +11,18 @@
 //! joint velocity for one period, a [`TickStatus`] from a closed set, and
 //! [`Diagnostics`]. A tick never panics and allocates nothing.
 //!
-//! Per tick: inputs validated (a wrong length or a NaN gives a hold and a
-//! status, no solve); the goal posterior updated ([`IntentEstimator`]); each
-//! goal's robot action queried; the mode's metric recovered from the
-//! policies ([`metric`](self#metrics)); the [`ArbitrationMode`]'s objective
-//! built; hard constraints added (joint position and velocity limits,
-//! linearised distances ≥ margin for the pairs within reach); the problem
-//! solved — the closed form when it meets every constraint, else Clarabel on
-//! the violated rows (an SOCP for `Constrained`, QPs otherwise); the step
-//! certified against the exact geometry.
+//! A tick runs in stages, each filling its part of the workspace (see
+//! [`workspace`]): inputs validated (a wrong length or a NaN gives a hold
+//! and a status, no solve); the goal posterior updated
+//! ([`IntentEstimator`]); each goal's robot action queried; the mode's
+//! metric recovered from the policies ([`metric`](self#metrics)); the
+//! [`ArbitrationMode`]'s objective built (damped least squares near
+//! singularities); hard constraints added (joint position and velocity
+//! limits, linearised distances ≥ margin for the pairs within reach); the
+//! problem solved — the closed form when it meets every constraint, else
+//! the exact active-set solver on the violated rows (Clarabel for the
+//! `Constrained` mode's cone, or when the active set cannot finish; see
+//! [`SolverBackend`]); the step certified against the exact geometry.
 //!
 //! # Metrics
 //! See the [`metric`] module: the Hessian metric of eq. 5.5–5.6 from
@@ -81,7 +84,7 @@ pub use modes::{ArbitrationMode, BlendingStyle, MetricSpace, ModeSettings, Unkno
 pub use repulsion::ObstacleRepulsion;
 pub use safety::{SafetyRows, SafetySettings};
 pub use settings::{ArbiterSettings, DampingSettings, SolverBackend};
-pub use setup::{GoalObjects, GoalOptions, ProblemGoal, problem_goals};
+pub use setup::{GoalObjects, GoalSettings, ProblemGoal, problem_goals};
 pub use workspace::{ArbiterWorkspace, SolvedProblem};
 
 use crate::robot::RobotError;

@@ -2,7 +2,7 @@
 //! robot policy of the seed's Fig. 4.2(c).
 
 use crate::collision::{CollisionModel, CollisionWorkspace};
-use crate::control::{ControlError, PolicyState, RobotPolicy};
+use crate::control::{ControlError, RobotPolicy, RobotPolicyWorkspace};
 use std::sync::Arc;
 
 /// `a = gain · Σ (influence − d) ∇d` over the pairs closer than
@@ -34,8 +34,8 @@ impl RobotPolicy for ObstacleRepulsion {
         self.model.robot().nq()
     }
 
-    fn new_state(&self) -> PolicyState {
-        PolicyState::new(RepulsionState {
+    fn new_workspace(&self) -> RobotPolicyWorkspace {
+        RobotPolicyWorkspace::new(RepulsionState {
             collision: CollisionWorkspace::new(&self.model),
             gradient: vec![0.0; self.dof()],
         })
@@ -43,7 +43,7 @@ impl RobotPolicy for ObstacleRepulsion {
 
     fn act(
         &self,
-        state: &mut PolicyState,
+        state: &mut RobotPolicyWorkspace,
         q: &[f64],
         velocity: &[f64],
         action: &mut [f64],
@@ -51,7 +51,13 @@ impl RobotPolicy for ObstacleRepulsion {
         self.probe(state, q, velocity, action)
     }
 
-    fn probe(&self, state: &mut PolicyState, q: &[f64], _: &[f64], action: &mut [f64]) -> Result<(), ControlError> {
+    fn probe(
+        &self,
+        state: &mut RobotPolicyWorkspace,
+        q: &[f64],
+        _: &[f64],
+        action: &mut [f64],
+    ) -> Result<(), ControlError> {
         let s = state.get_mut::<RepulsionState>().ok_or(ControlError::ForeignState)?;
         let n = self.dof();
         if action.len() != n {
@@ -75,7 +81,7 @@ impl RobotPolicy for ObstacleRepulsion {
         Ok(())
     }
 
-    fn reset(&self, _: &mut PolicyState) {}
+    fn reset(&self, _: &mut RobotPolicyWorkspace) {}
 }
 
 impl RepulsionState {

@@ -23,7 +23,7 @@ pub enum GoalObjects {
 
 /// How [`problem_goals`] plans the references and builds the policies.
 #[derive(Debug, Clone, PartialEq)]
-pub struct GoalOptions {
+pub struct GoalSettings {
     /// Planner seed (default: the problem's).
     pub seed: Option<u64>,
     /// Optimizer horizon (default: the problem's).
@@ -36,9 +36,9 @@ pub struct GoalOptions {
     pub objects: GoalObjects,
 }
 
-impl Default for GoalOptions {
+impl Default for GoalSettings {
     fn default() -> Self {
-        GoalOptions {
+        GoalSettings {
             seed: None,
             horizon: None,
             weights: TrackingWeights::default(),
@@ -90,7 +90,7 @@ impl ProblemGoal {
 /// # Errors
 /// No gripper frame; a goal whose optimization does not converge (named
 /// with its status); optimizer, planner or policy errors.
-pub fn problem_goals(problem: &Problem, options: &GoalOptions) -> Result<Vec<ProblemGoal>, ArbitrationError> {
+pub fn problem_goals(problem: &Problem, options: &GoalSettings) -> Result<Vec<ProblemGoal>, ArbitrationError> {
     let gripper = problem.robot_spec.gripper.as_deref().ok_or(ArbitrationError::NoGripper)?;
     let gripper = problem.robot.frame_id(gripper)?;
     let problems = match (&problem.goal, options.objects) {

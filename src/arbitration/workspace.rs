@@ -19,10 +19,10 @@ use super::arbiter::{Arbiter, MAX_SOLVER_ROWS};
 use super::command::Diagnostics;
 use super::intent::IntentEstimator;
 use super::learned::StateLayout;
-use super::metric::{Metric, MetricScratch};
+use super::metric::{Metric, MetricWorkspace};
 use super::modes::ArbitrationMode;
 use super::safety::{Row, SafetyRows};
-use crate::control::PolicyState;
+use crate::control::RobotPolicyWorkspace;
 use crate::robot::KinematicsWorkspace;
 use nalgebra::Matrix6xX;
 use tandem_solvers::conic::{ActiveSetSolver, ConicSolverPool};
@@ -80,7 +80,7 @@ pub struct IntentStage {
 /// `Arbiter::robot_actions`.
 pub struct RobotStage {
     /// Each goal policy's state (its progress along its reference).
-    pub(crate) states: Vec<PolicyState>,
+    pub(crate) states: Vec<RobotPolicyWorkspace>,
     /// The actions, goal-major (`goals × n`, rad/s).
     pub(crate) actions: Vec<f64>,
 }
@@ -93,9 +93,9 @@ pub struct MetricStage {
     /// The gripper Jacobian at a probe configuration.
     pub(crate) probe_jac: Matrix6xX<f64>,
     /// Scratch of the joint-space metrics (n joints).
-    pub(crate) scratch: MetricScratch,
+    pub(crate) scratch: MetricWorkspace,
     /// Scratch of the task-space metric (3 dimensions).
-    pub(crate) task_scratch: MetricScratch,
+    pub(crate) task_scratch: MetricWorkspace,
     /// One goal's raw (unrepaired) metric.
     pub(crate) raw: Vec<f64>,
     /// One goal's repaired joint-space metric.
@@ -215,14 +215,14 @@ impl Arbiter {
                 beliefs: vec![if k == 0 { 0.0 } else { 1.0 / k as f64 }; k],
             },
             robot: RobotStage {
-                states: self.goals.iter().map(|g| g.policy.new_state()).collect(),
+                states: self.goals.iter().map(|g| g.policy.new_workspace()).collect(),
                 actions: vec![0.0; k * n],
             },
             metric: MetricStage {
                 probe_kin: KinematicsWorkspace::new(&self.robot),
                 probe_jac: Matrix6xX::zeros(n),
-                scratch: MetricScratch::new(n),
-                task_scratch: MetricScratch::new(3),
+                scratch: MetricWorkspace::new(n),
+                task_scratch: MetricWorkspace::new(3),
                 raw: vec![0.0; n * n],
                 goal_joint: Metric::identity(n),
                 joint: Metric::identity(n),

@@ -1,6 +1,6 @@
 //! `tandem arbitrate`: one shared-control episode on a problem.
 
-use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, ProblemGoal, problem_goals};
+use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalSettings, ProblemGoal, problem_goals};
 use crate::figures::{Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::sim::{
@@ -67,7 +67,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
     }
     let problem = load(&args.problem)?;
     let began = Instant::now();
-    let options = GoalOptions { seed: Some(args.seed), ..GoalOptions::default() };
+    let options = GoalSettings { seed: Some(args.seed), ..GoalSettings::default() };
     let goals = problem_goals(&problem, &options)?;
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);

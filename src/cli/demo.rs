@@ -133,10 +133,10 @@ fn collision_sweep(steps: usize) -> Result<(), Box<dyn std::error::Error>> {
 /// velocity only, 10 cm/s) drives the arm through each arbitration mode at
 /// 15 Hz; the robot's LQR policy tracks the optimized reference.
 fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
-    use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalOptions, problem_goals};
+    use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalSettings, problem_goals};
     use crate::sim::{Approach, Episode, EpisodeSettings, TaskJudge, percentiles};
     let problem = crate::problem::Problem::builtin("panda_grasp_box")?;
-    let goals = problem_goals(&problem, &GoalOptions::default())?;
+    let goals = problem_goals(&problem, &GoalSettings::default())?;
     println!(
         "\nshared control: an operator who only gives the gripper's linear velocity (Approach, 10 cm/s),\n\
          blended with the tracking policy at 15 Hz under hard limits, distances and certified steps:"

@@ -2,7 +2,7 @@
 //! dataset folder.
 
 use crate::experiments::policy::train_and_save;
-use crate::learn::{LearnOptions, TrainSettings};
+use crate::learn::{LearnSettings, TrainSettings};
 use crate::problem::ProblemFamily;
 use std::path::PathBuf;
 
@@ -114,7 +114,7 @@ pub(super) fn run(args: &LearnArgs) -> Result<(), Box<dyn std::error::Error>> {
 
 fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> {
     let family = ProblemFamily::from_file(&args.family)?;
-    let options = LearnOptions {
+    let options = LearnSettings {
         train: TrainSettings {
             epochs: args.epochs,
             seed: args.seed,
@@ -130,7 +130,7 @@ fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> 
             noise: (args.noise[0], args.noise[1]),
             ..crate::learn::Augmentation::default()
         },
-        ..LearnOptions::default()
+        ..LearnSettings::default()
     };
     let (_, report) = train_and_save(&args.data, &family, &options, &args.out)?;
     if args.json {

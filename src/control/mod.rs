@@ -33,7 +33,7 @@ mod policy;
 mod robot_policy;
 
 pub use policy::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights};
-pub use robot_policy::{PolicyState, RobotPolicy};
+pub use robot_policy::{RobotPolicy, RobotPolicyWorkspace};
 
 use tandem_solvers::riccati::RiccatiError;
 

@@ -1,30 +1,30 @@
 //! The interface the arbiter queries: a goal-conditioned robot policy
-//! `π_R(q)` answering at any configuration, with per-caller state.
+//! `π_R(q)` answering at any configuration, with a per-caller workspace.
 
 use super::{ControlError, PolicyWorkspace, TrackingPolicy};
 use std::any::Any;
 use std::fmt;
 
-/// Per-caller state of a [`RobotPolicy`] (progress along a reference,
-/// scratch buffers, …), made once by [`RobotPolicy::new_state`] and reused
-/// every tick.
-pub struct PolicyState(Box<dyn Any + Send>);
+/// Per-caller workspace of a [`RobotPolicy`] (progress along a reference,
+/// scratch buffers, …), made once by [`RobotPolicy::new_workspace`] and
+/// reused every tick; it holds the policy's own workspace type.
+pub struct RobotPolicyWorkspace(Box<dyn Any + Send>);
 
-impl PolicyState {
-    /// Wraps a policy's own state type.
-    pub fn new<T: Any + Send>(state: T) -> Self {
-        PolicyState(Box::new(state))
+impl RobotPolicyWorkspace {
+    /// Wraps a policy's own workspace type.
+    pub fn new<T: Any + Send>(workspace: T) -> Self {
+        RobotPolicyWorkspace(Box::new(workspace))
     }
 
-    /// The policy's own state, if it has type `T`.
+    /// The policy's own workspace, if it has type `T`.
     pub fn get_mut<T: Any>(&mut self) -> Option<&mut T> {
         self.0.downcast_mut()
     }
 }
 
-impl fmt::Debug for PolicyState {
+impl fmt::Debug for RobotPolicyWorkspace {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("PolicyState")
+        f.write_str("RobotPolicyWorkspace")
     }
 }
 
@@ -35,16 +35,21 @@ pub trait RobotPolicy: Send + Sync + fmt::Debug {
     /// Number of joints.
     fn dof(&self) -> usize;
 
-    /// A fresh per-caller state.
-    fn new_state(&self) -> PolicyState;
+    /// A fresh per-caller workspace.
+    fn new_workspace(&self) -> RobotPolicyWorkspace;
 
     /// The action at `q` with current joint velocity `velocity`, written to
     /// `action`; advances the state (e.g. progress along a reference).
     ///
     /// # Errors
     /// Wrong lengths or non-finite inputs, a state made by another policy type.
-    fn act(&self, state: &mut PolicyState, q: &[f64], velocity: &[f64], action: &mut [f64])
-    -> Result<(), ControlError>;
+    fn act(
+        &self,
+        state: &mut RobotPolicyWorkspace,
+        q: &[f64],
+        velocity: &[f64],
+        action: &mut [f64],
+    ) -> Result<(), ControlError>;
 
     /// The action at `q` *without* advancing the state: a probe near the
     /// last [`RobotPolicy::act`] configuration, for finite differences.
@@ -53,18 +58,18 @@ pub trait RobotPolicy: Send + Sync + fmt::Debug {
     /// As [`RobotPolicy::act`].
     fn probe(
         &self,
-        state: &mut PolicyState,
+        state: &mut RobotPolicyWorkspace,
         q: &[f64],
         velocity: &[f64],
         action: &mut [f64],
     ) -> Result<(), ControlError>;
 
     /// Forgets what the state learned (a new episode).
-    fn reset(&self, state: &mut PolicyState);
+    fn reset(&self, state: &mut RobotPolicyWorkspace);
 }
 
 impl TrackingPolicy {
-    fn tracking_state<'s>(&self, state: &'s mut PolicyState) -> Result<&'s mut PolicyWorkspace, ControlError> {
+    fn tracking_state<'s>(&self, state: &'s mut RobotPolicyWorkspace) -> Result<&'s mut PolicyWorkspace, ControlError> {
         state.get_mut::<PolicyWorkspace>().ok_or(ControlError::ForeignState)
     }
 }
@@ -74,13 +79,13 @@ impl RobotPolicy for TrackingPolicy {
         self.reference().dof()
     }
 
-    fn new_state(&self) -> PolicyState {
-        PolicyState::new(self.workspace())
+    fn new_workspace(&self) -> RobotPolicyWorkspace {
+        RobotPolicyWorkspace::new(self.workspace())
     }
 
     fn act(
         &self,
-        state: &mut PolicyState,
+        state: &mut RobotPolicyWorkspace,
         q: &[f64],
         velocity: &[f64],
         action: &mut [f64],
@@ -91,7 +96,7 @@ impl RobotPolicy for TrackingPolicy {
 
     fn probe(
         &self,
-        state: &mut PolicyState,
+        state: &mut RobotPolicyWorkspace,
         q: &[f64],
         velocity: &[f64],
         action: &mut [f64],
@@ -100,7 +105,7 @@ impl RobotPolicy for TrackingPolicy {
         TrackingPolicy::probe(self, ws, q, Some(velocity), action).map(|_| ())
     }
 
-    fn reset(&self, state: &mut PolicyState) {
+    fn reset(&self, state: &mut RobotPolicyWorkspace) {
         if let Ok(ws) = self.tracking_state(state) {
             ws.reset();
         }

@@ -7,7 +7,7 @@
 use super::figures::{joint_histograms, loss_curves, success_by_distance};
 use super::{Context, Experiment, ExperimentError};
 use crate::arbitration::{
-    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalOptions, problem_goals,
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, problem_goals,
 };
 use crate::control::RobotPolicy;
 use crate::data::{GenerateSettings, Progress, generate};
@@ -15,7 +15,7 @@ use crate::files::FileError;
 use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
 use crate::learn::evaluate::{OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances};
 use crate::learn::{
-    Demonstrations, LearnError, LearnOptions, LearnedPolicy, PolicyNetwork, TrainReport, TrainSettings, train_on,
+    Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, TrainReport, TrainSettings, train_on,
 };
 use crate::problem::ProblemFamily;
 use crate::robot::KinematicsWorkspace;
@@ -63,7 +63,7 @@ pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Resu
     tasks
         .par_iter()
         .map(|task| {
-            let options = GoalOptions { seed: Some(seed), objects: GoalObjects::Goal, ..GoalOptions::default() };
+            let options = GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
             match problem_goals(&task.problem, &options) {
                 Ok(goals) => task.rollout(goals[0].policy.as_ref(), &task.problem.start, settings),
                 Err(_) => Ok(Rollout {
@@ -130,7 +130,7 @@ pub fn shared_control(
                 }
                 GoalPolicy::Lqr => {
                     let options =
-                        GoalOptions { seed: Some(seed), objects: GoalObjects::Goal, ..GoalOptions::default() };
+                        GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
                     let Ok(goals) = problem_goals(problem, &options) else { return Ok(Outcome::Timeout) };
                     Arbiter::for_problem(problem, &goals, settings).map_err(arbitration)?
                 }
@@ -207,7 +207,7 @@ impl PolicyReport {
 pub fn train_and_save(
     data: &Path,
     family: &ProblemFamily,
-    options: &LearnOptions,
+    options: &LearnSettings,
     out: &Path,
 ) -> Result<(PolicyNetwork, PolicyReport), ExperimentError> {
     let demos = Demonstrations::read(data)?;
@@ -353,7 +353,7 @@ impl PolicyExperiment {
         cx: &Context<'_>,
         out: &Path,
         family: &ProblemFamily,
-        options: &LearnOptions,
+        options: &LearnSettings,
         network: &mut Arc<PolicyNetwork>,
         demos: &mut Demonstrations,
         tasks: &[Task],
@@ -388,7 +388,7 @@ impl PolicyExperiment {
             next_id += problems.len() as u64;
             let added_count = added.len();
             demos.items.extend(added);
-            let continued = LearnOptions {
+            let continued = LearnSettings {
                 train: TrainSettings {
                     epochs: settings.epochs,
                     seed: options.train.seed + round as u64,
@@ -486,9 +486,9 @@ impl Experiment for PolicyExperiment {
             let settings = GenerateSettings { count: self.train_count, seed: 0, ..GenerateSettings::default() };
             generate(&self.family, &data, &settings, &Progress::quiet())?;
         }
-        let options = LearnOptions {
+        let options = LearnSettings {
             train: TrainSettings { epochs: self.epochs, progress: cx.verbose(), ..TrainSettings::default() },
-            ..LearnOptions::default()
+            ..LearnSettings::default()
         };
         let (network, training) = match &self.policy {
             Some(path) => (PolicyNetwork::load(path)?, PolicyReport::read_beside(path)),

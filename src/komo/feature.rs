@@ -80,15 +80,15 @@ pub enum Feature {
 
 /// Scratch space of feature evaluation: two frame Jacobians.
 #[derive(Debug, Clone)]
-pub struct FeatureScratch {
+pub struct FeatureWorkspace {
     jac_a: Matrix6xX<f64>,
     jac_b: Matrix6xX<f64>,
 }
 
-impl FeatureScratch {
+impl FeatureWorkspace {
     /// Scratch space for the features of `robot`.
-    pub fn new(robot: &RobotModel) -> FeatureScratch {
-        FeatureScratch { jac_a: Matrix6xX::zeros(robot.nq()), jac_b: Matrix6xX::zeros(robot.nq()) }
+    pub fn new(robot: &RobotModel) -> FeatureWorkspace {
+        FeatureWorkspace { jac_a: Matrix6xX::zeros(robot.nq()), jac_b: Matrix6xX::zeros(robot.nq()) }
     }
 }
 
@@ -157,7 +157,7 @@ impl Feature {
         robot: &RobotModel,
         kin: &KinematicsWorkspace,
         q: &[f64],
-        scratch: &mut FeatureScratch,
+        scratch: &mut FeatureWorkspace,
         value: &mut [f64],
         jac: &mut [f64],
     ) -> Result<(), RobotError> {
@@ -296,7 +296,7 @@ mod tests {
         let robot = RobotModel::panda();
         let nq = robot.nq();
         let mut kin = KinematicsWorkspace::new(&robot);
-        let mut scratch = FeatureScratch::new(&robot);
+        let mut scratch = FeatureWorkspace::new(&robot);
         let mut worst: f64 = 0.0;
         for feature in features(&robot) {
             let dim = feature.dim(&robot);
@@ -312,7 +312,7 @@ mod tests {
                 feature.evaluate(&robot, &kin, &q, &mut scratch, &mut value, &mut jac).unwrap();
                 let mut fd = vec![0.0; dim * nq];
                 let mut kin2 = KinematicsWorkspace::new(&robot);
-                let mut scratch2 = FeatureScratch::new(&robot);
+                let mut scratch2 = FeatureWorkspace::new(&robot);
                 let f = |x: &[f64], out: &mut [f64]| {
                     robot.forward_kinematics(&mut kin2, x).unwrap();
                     let mut j = vec![0.0; dim * nq];

@@ -30,7 +30,7 @@ mod objective;
 mod problem;
 mod solve;
 
-pub use feature::{Feature, FeatureScratch, FrameRef, JOINT_LIMIT_CUTOFF};
+pub use feature::{Feature, FeatureWorkspace, FrameRef, JOINT_LIMIT_CUTOFF};
 pub use objective::{Objective, TimeSpan, default_objectives, objective_from_spec};
 pub use problem::{COLLISION_CUTOFF, Measures, TrajectoryProblem, TrajectoryWorkspace};
 pub use solve::{

@@ -3,7 +3,7 @@
 //! slice by slice into banded rows for the solver.
 
 use super::KomoError;
-use super::feature::{Feature, FeatureScratch};
+use super::feature::{Feature, FeatureWorkspace};
 use super::objective::Objective;
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
 use crate::problem::ObjectiveKind;
@@ -405,7 +405,7 @@ pub struct TrajectoryWorkspace {
     gradient: Vec<f64>,
     /// A configuration between slices.
     q: Vec<f64>,
-    scratch: FeatureScratch,
+    scratch: FeatureWorkspace,
     features: Vec<FeatureBuffer>,
     row: Vec<f64>,
 }
@@ -433,7 +433,7 @@ impl TrajectoryWorkspace {
             pairs: Vec::with_capacity(pair_count),
             gradient: vec![0.0; n],
             q: vec![0.0; n],
-            scratch: FeatureScratch::new(robot),
+            scratch: FeatureWorkspace::new(robot),
             features,
             row: vec![0.0; (problem.order + 1) * n],
         }

@@ -151,7 +151,7 @@ impl Task {
         robot.check_configuration(start)?;
         let mut kin = KinematicsWorkspace::new(robot);
         let mut cws = CollisionWorkspace::new(&self.collision);
-        let mut state = policy.new_state();
+        let mut state = policy.new_workspace();
         let (mut q, mut velocity, mut action) = (start.to_vec(), vec![0.0; n], vec![0.0; n]);
         let mut rollout = Rollout { outcome: RolloutOutcome::Timeout, steps: 0, clamped: 0, path: vec![q.clone()] };
         if !self.collision.collision_free(&mut cws, &q)? {

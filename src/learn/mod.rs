@@ -33,7 +33,7 @@
 //! let network = Arc::new(PolicyNetwork::load("policy.safetensors".as_ref())?);
 //! let problem = Problem::builtin("panda_grasp_box")?;
 //! let policy = LearnedPolicy::for_problem(network, &problem)?;
-//! let mut state = policy.new_state();
+//! let mut state = policy.new_workspace();
 //! let mut qdot = vec![0.0; policy.dof()];
 //! policy.act(&mut state, &problem.start, &vec![0.0; policy.dof()], &mut qdot)?;
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -63,10 +63,10 @@ pub use arbitration_actor::{
 pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
 #[cfg(feature = "learn")]
 pub use ddpg::{DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
-pub use network::{FORMAT, FORMAT_VERSION, NetworkScratch, PolicyMeta, PolicyNetwork};
-pub use policy::{LearnedPolicy, LearnedState, problem_goal};
+pub use network::{FORMAT, FORMAT_VERSION, NetworkWorkspace, PolicyMeta, PolicyNetwork};
+pub use policy::{LearnedPolicy, LearnedPolicyWorkspace, problem_goal};
 #[cfg(feature = "learn")]
-pub use train::{EpochLoss, LearnOptions, TrainReport, TrainSettings, normalisation, speed_scale, train, train_on};
+pub use train::{EpochLoss, LearnSettings, TrainReport, TrainSettings, normalisation, speed_scale, train, train_on};
 
 use std::path::PathBuf;
 

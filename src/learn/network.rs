@@ -145,7 +145,7 @@ pub struct PolicyNetwork {
 
 /// Buffers of one caller's forward passes.
 #[derive(Debug, Clone)]
-pub struct NetworkScratch {
+pub struct NetworkWorkspace {
     a: Vec<f32>,
     b: Vec<f32>,
 }
@@ -235,15 +235,15 @@ impl PolicyNetwork {
     }
 
     /// Buffers for [`PolicyNetwork::forward`].
-    pub fn scratch(&self) -> NetworkScratch {
+    pub fn scratch(&self) -> NetworkWorkspace {
         let widest = self.layers.iter().map(|l| l.inputs.max(l.outputs)).max().unwrap_or(0);
-        NetworkScratch { a: vec![0.0; widest], b: vec![0.0; widest] }
+        NetworkWorkspace { a: vec![0.0; widest], b: vec![0.0; widest] }
     }
 
     /// The raw outputs (`dof` direction values, then the scaled speed) for
     /// the unnormalised `input`, written to `out` (`dof + 1` values).
     /// Allocates nothing.
-    pub fn forward(&self, input: &[f32], scratch: &mut NetworkScratch, out: &mut [f32]) {
+    pub fn forward(&self, input: &[f32], scratch: &mut NetworkWorkspace, out: &mut [f32]) {
         let d = self.input_mean.len();
         for (j, x) in input.iter().take(d).enumerate() {
             scratch.a[j] = (x - self.input_mean[j]) / self.input_std[j];

@@ -3,8 +3,8 @@
 
 use super::LearnError;
 use super::features::{GoalFeatures, ObstacleFeature, encode};
-use super::network::{NetworkScratch, PolicyNetwork};
-use crate::control::{ControlError, PolicyState, RobotPolicy};
+use super::network::{NetworkWorkspace, PolicyNetwork};
+use crate::control::{ControlError, RobotPolicy, RobotPolicyWorkspace};
 use crate::problem::Problem;
 use crate::robot::{FrameId, KinematicsWorkspace, RobotModel};
 use std::sync::Arc;
@@ -25,9 +25,9 @@ pub struct LearnedPolicy {
 
 /// Per-caller buffers of a [`LearnedPolicy`].
 #[derive(Debug, Clone)]
-pub struct LearnedState {
+pub struct LearnedPolicyWorkspace {
     kin: KinematicsWorkspace,
-    scratch: NetworkScratch,
+    scratch: NetworkWorkspace,
     input: Vec<f32>,
     raw: Vec<f32>,
 }
@@ -93,9 +93,9 @@ impl LearnedPolicy {
     }
 
     /// A fresh state (allocates).
-    pub fn state(&self) -> LearnedState {
+    pub fn state(&self) -> LearnedPolicyWorkspace {
         let meta = self.network.meta();
-        LearnedState {
+        LearnedPolicyWorkspace {
             kin: KinematicsWorkspace::new(&self.robot),
             scratch: self.network.scratch(),
             input: vec![0.0; meta.input_width()],
@@ -107,7 +107,12 @@ impl LearnedPolicy {
     ///
     /// # Errors
     /// Wrong lengths or non-finite values.
-    pub fn query(&self, state: &mut LearnedState, q: &[f64], velocity: &mut [f64]) -> Result<(), ControlError> {
+    pub fn query(
+        &self,
+        state: &mut LearnedPolicyWorkspace,
+        q: &[f64],
+        velocity: &mut [f64],
+    ) -> Result<(), ControlError> {
         let n = self.network.meta().dof();
         check(q, n, "q")?;
         if velocity.len() != n {
@@ -169,8 +174,11 @@ fn check(values: &[f64], n: usize, what: &'static str) -> Result<(), ControlErro
 }
 
 impl LearnedPolicy {
-    fn learned_state<'s>(&self, state: &'s mut PolicyState) -> Result<&'s mut LearnedState, ControlError> {
-        state.get_mut::<LearnedState>().ok_or(ControlError::ForeignState)
+    fn learned_state<'s>(
+        &self,
+        state: &'s mut RobotPolicyWorkspace,
+    ) -> Result<&'s mut LearnedPolicyWorkspace, ControlError> {
+        state.get_mut::<LearnedPolicyWorkspace>().ok_or(ControlError::ForeignState)
     }
 }
 
@@ -179,13 +187,13 @@ impl RobotPolicy for LearnedPolicy {
         self.network.meta().dof()
     }
 
-    fn new_state(&self) -> PolicyState {
-        PolicyState::new(self.state())
+    fn new_workspace(&self) -> RobotPolicyWorkspace {
+        RobotPolicyWorkspace::new(self.state())
     }
 
     fn act(
         &self,
-        state: &mut PolicyState,
+        state: &mut RobotPolicyWorkspace,
         q: &[f64],
         velocity: &[f64],
         action: &mut [f64],
@@ -197,7 +205,7 @@ impl RobotPolicy for LearnedPolicy {
 
     fn probe(
         &self,
-        state: &mut PolicyState,
+        state: &mut RobotPolicyWorkspace,
         q: &[f64],
         velocity: &[f64],
         action: &mut [f64],
@@ -205,5 +213,5 @@ impl RobotPolicy for LearnedPolicy {
         self.act(state, q, velocity, action)
     }
 
-    fn reset(&self, _state: &mut PolicyState) {}
+    fn reset(&self, _state: &mut RobotPolicyWorkspace) {}
 }

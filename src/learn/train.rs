@@ -407,7 +407,7 @@ pub(crate) fn progress_bar(total: u64, unit: &str) -> ProgressBar {
 
 /// What [`train_on`] needs beyond the training settings.
 #[derive(Debug, Clone, PartialEq)]
-pub struct LearnOptions {
+pub struct LearnSettings {
     /// Network and optimiser settings.
     pub train: TrainSettings,
     /// Share of sample ids held out for validation (default 0.1).
@@ -420,9 +420,9 @@ pub struct LearnOptions {
     pub augment: super::Augmentation,
 }
 
-impl Default for LearnOptions {
+impl Default for LearnSettings {
     fn default() -> Self {
-        LearnOptions {
+        LearnSettings {
             train: TrainSettings::default(),
             validation: 0.1,
             obstacle_slots: 2,
@@ -440,7 +440,7 @@ impl Default for LearnOptions {
 pub fn train_on(
     demos: &super::Demonstrations,
     family: &crate::problem::ProblemFamily,
-    options: &LearnOptions,
+    options: &LearnSettings,
     initial: Option<&PolicyNetwork>,
 ) -> Result<(PolicyNetwork, TrainReport), LearnError> {
     let (lo, hi) = options.augment.noise;

@@ -47,7 +47,7 @@ use crate::arbitration::decision::{DecisionSettings, planar_modality, spatial_mo
 use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationError, HumanCommand, ProblemGoal, StateLayout, TickInput,
 };
-use crate::control::{PolicyState, RobotPolicy};
+use crate::control::{RobotPolicy, RobotPolicyWorkspace};
 use crate::problem::Problem;
 use crate::robot::{KinematicsWorkspace, ReferenceFrame};
 use nalgebra::Matrix6xX;
@@ -178,7 +178,7 @@ struct Running {
     q: Vec<f64>,
     velocity: Vec<f64>,
     human: [f64; 3],
-    policy_state: PolicyState,
+    policy_state: RobotPolicyWorkspace,
     policy_action: Vec<f64>,
     kin: KinematicsWorkspace,
     jac: Matrix6xX<f64>,
@@ -307,7 +307,7 @@ impl ArbitrationEnv {
             q: goal.problem.start.clone(),
             velocity: vec![0.0; n],
             human: [0.0; 3],
-            policy_state: policy.new_state(),
+            policy_state: policy.new_workspace(),
             policy_action: vec![0.0; n],
             kin: KinematicsWorkspace::new(&robot),
             jac: Matrix6xX::zeros(n),

@@ -10,7 +10,7 @@
 use super::operator::{Observation, Operator, OperatorAction};
 use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand, TickInput, TickStatus};
 use crate::collision::CollisionWorkspace;
-use crate::control::PolicyState;
+use crate::control::RobotPolicyWorkspace;
 use crate::robot::{KinematicsWorkspace, ReferenceFrame, RobotError};
 use nalgebra::Matrix6xX;
 use std::time::Instant;
@@ -151,7 +151,7 @@ impl Episode<'_> {
         let n = arbiter.robot().nq();
         let mut live = LiveEpisode::new(arbiter, ws, self.start, self.settings.record)?;
         let true_policy = arbiter.goals().get(self.true_goal).map(|g| g.policy.clone());
-        let mut policy_state: Option<PolicyState> = true_policy.as_ref().map(|p| p.new_state());
+        let mut policy_state: Option<RobotPolicyWorkspace> = true_policy.as_ref().map(|p| p.new_workspace());
         let mut policy_action = vec![0.0; if operator.needs_policy() { n } else { 0 }];
         let steps_max = (self.settings.max_time / dt).ceil() as usize;
         live.record.tick_us.reserve(steps_max);

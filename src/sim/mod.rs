@@ -3,11 +3,11 @@
 //! [`Arbiter`](crate::arbitration::Arbiter).
 //!
 //! ```no_run
-//! use tandem::arbitration::{Arbiter, ArbiterSettings, GoalOptions, problem_goals};
+//! use tandem::arbitration::{Arbiter, ArbiterSettings, GoalSettings, problem_goals};
 //! use tandem::problem::Problem;
 //! use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
 //! let problem = Problem::builtin("panda_grasp_box")?;
-//! let goals = problem_goals(&problem, &GoalOptions::default())?;
+//! let goals = problem_goals(&problem, &GoalSettings::default())?;
 //! let arbiter = Arbiter::for_problem(&problem, &goals, ArbiterSettings::default())?;
 //! let mut judge = TaskJudge::new(&goals[0]);
 //! let episode = Episode { arbiter: &arbiter, start: &problem.start, target: goals[0].position, true_goal: 0, settings: EpisodeSettings::default() };

@@ -26,7 +26,7 @@
 //! with both cylinders as goals (intent decides); phase 2 carries it,
 //! attached, to the place position.
 
-use crate::arbitration::{ArbitrationError, GoalObjects, GoalOptions, ProblemGoal, problem_goals};
+use crate::arbitration::{ArbitrationError, GoalObjects, GoalSettings, ProblemGoal, problem_goals};
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::problem::{Goal, Problem};
 use crate::scene::Obstacle;
@@ -96,7 +96,7 @@ pub fn sample_task(base: &Problem, arm: Arm, seed: u64, index: usize) -> Result<
         );
         problem.scene.set_object_pose("box", pose)?;
         problem.start = free_start(&problem, &mut rng)?;
-        let options = GoalOptions { seed: Some(rng.random()), objects: GoalObjects::Goal, ..GoalOptions::default() };
+        let options = GoalSettings { seed: Some(rng.random()), objects: GoalObjects::Goal, ..GoalSettings::default() };
         match problem_goals(&problem, &options) {
             Ok(mut goals) => return Ok(Task { arm, index, goal: goals.remove(0), resampled }),
             Err(ArbitrationError::GoalNotReached { .. } | ArbitrationError::Pipeline(_)) => continue,
@@ -207,7 +207,7 @@ fn try_task(base: &Problem, rng: &mut ChaCha8Rng, index: usize) -> Result<Planar
     let name = ["red", "yellow"][target];
     problem = problem.retarget_grasp(name)?;
     let seed: u64 = rng.random();
-    let options = GoalOptions { seed: Some(seed), objects: GoalObjects::AllGraspable, ..GoalOptions::default() };
+    let options = GoalSettings { seed: Some(seed), objects: GoalObjects::AllGraspable, ..GoalSettings::default() };
     let reach = problem_goals(&problem, &options)?;
     let target = reach.iter().position(|g| g.name == name).unwrap_or(0);
     // Phase 2: the cylinder attached, a place goal on the near side.
@@ -235,8 +235,10 @@ fn try_task(base: &Problem, rng: &mut ChaCha8Rng, index: usize) -> Result<Planar
         o.target = Some(vec![place_x, 0.06, 0.1]);
     }
     carry.name = format!("{}: place", carry.name);
-    let place =
-        problem_goals(&carry, &GoalOptions { seed: Some(seed), objects: GoalObjects::Goal, ..GoalOptions::default() })?
-            .remove(0);
+    let place = problem_goals(
+        &carry,
+        &GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() },
+    )?
+    .remove(0);
     Ok(PlanarTask { index, reach, target, place, pole })
 }

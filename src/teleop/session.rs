@@ -4,7 +4,7 @@
 use super::TeleopError;
 use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, robot_links, tick_ellipsoid};
 use crate::arbitration::{
-    Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalOptions,
+    Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalSettings,
     HumanCommand, ProblemGoal, problem_goals,
 };
 use crate::problem::Problem;
@@ -121,7 +121,7 @@ fn prepare(settings: &SessionSettings, task: TeleopTask, seed: u64) -> Result<Pr
         TeleopTask::ReachGrasp => match &settings.problem {
             Some(problem) => {
                 let options =
-                    GoalOptions { seed: Some(seed), objects: GoalObjects::AllGraspable, ..Default::default() };
+                    GoalSettings { seed: Some(seed), objects: GoalObjects::AllGraspable, ..Default::default() };
                 ((**problem).clone(), problem_goals(problem, &options).map_err(wrap)?)
             }
             None => {

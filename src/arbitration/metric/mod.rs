@@ -31,7 +31,7 @@
 //! **Several goals.** `M⁻¹ = Σ_g b_g M_g⁻¹` over goals with belief at least
 //! `min_belief` (re-normalised), Algorithm 2.
 
-use crate::control::{ControlError, PolicyState, RobotPolicy};
+use crate::control::{ControlError, RobotPolicy, RobotPolicyWorkspace};
 use crate::settings::{InvalidSetting, check, positive};
 use tandem_solvers::small::{add_scaled, identity, recompose, symmetric_eigen};
 
@@ -123,7 +123,7 @@ impl Metric {
 
 /// Scratch of metric computations for `n` joints; allocated once.
 #[derive(Debug, Clone)]
-pub(crate) struct MetricScratch {
+pub(crate) struct MetricWorkspace {
     n: usize,
     pub(crate) probe: Vec<f64>,
     pub(crate) action: Vec<f64>,
@@ -139,9 +139,9 @@ pub(crate) struct MetricScratch {
     pub(crate) rhs: Vec<f64>,
 }
 
-impl MetricScratch {
+impl MetricWorkspace {
     pub(crate) fn new(n: usize) -> Self {
-        MetricScratch {
+        MetricWorkspace {
             n,
             probe: vec![0.0; n],
             action: vec![0.0; n],
@@ -161,11 +161,11 @@ impl MetricScratch {
 /// `velocity`) into `out` (n × n, column-major), by eq. 5.5–5.6 with step `h`.
 pub(crate) fn hessian_metric(
     policy: &dyn RobotPolicy,
-    state: &mut PolicyState,
+    state: &mut RobotPolicyWorkspace,
     q: &[f64],
     velocity: &[f64],
     h: f64,
-    scratch: &mut MetricScratch,
+    scratch: &mut MetricWorkspace,
     out: &mut [f64],
 ) -> Result<(), ControlError> {
     let n = scratch.n;
@@ -198,12 +198,12 @@ pub(crate) fn hessian_metric(
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fisher_metric(
     policy: &dyn RobotPolicy,
-    state: &mut PolicyState,
+    state: &mut RobotPolicyWorkspace,
     q: &[f64],
     velocity: &[f64],
     center: &[f64],
     r: f64,
-    scratch: &mut MetricScratch,
+    scratch: &mut MetricWorkspace,
     out: &mut [f64],
 ) -> Result<(), ControlError> {
     let n = scratch.n;
@@ -311,7 +311,7 @@ impl<'a> LwrFit<'a> {
 /// Repairs the raw symmetric metric in `raw` into `out`: eigenvalues
 /// floored at `floor · λ_max`, scaled to mean 1; the identity when the
 /// largest eigenvalue is not positive or not finite. `raw` is overwritten.
-pub(crate) fn repair(raw: &mut [f64], floor: f64, scratch: &mut MetricScratch, out: &mut Metric) {
+pub(crate) fn repair(raw: &mut [f64], floor: f64, scratch: &mut MetricWorkspace, out: &mut Metric) {
     let n = scratch.n;
     symmetric_eigen(raw, n, &mut scratch.values, &mut scratch.vectors);
     let max = scratch.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -333,13 +333,13 @@ pub(crate) struct MetricMixture {
 }
 
 impl MetricMixture {
-    pub(crate) fn begin(scratch: &mut MetricScratch) -> Self {
+    pub(crate) fn begin(scratch: &mut MetricWorkspace) -> Self {
         scratch.inverse_sum.fill(0.0);
         MetricMixture { weight: 0.0 }
     }
 
     /// Adds `belief · M⁻¹` of a repaired goal metric.
-    pub(crate) fn add(&mut self, scratch: &mut MetricScratch, belief: f64, metric: &Metric) {
+    pub(crate) fn add(&mut self, scratch: &mut MetricWorkspace, belief: f64, metric: &Metric) {
         for (s, m) in scratch.inverse_sum.iter_mut().zip(&metric.inverse) {
             *s += belief * m;
         }
@@ -348,7 +348,7 @@ impl MetricMixture {
 
     /// The combined metric `(Σ b̃_g M_g⁻¹)⁻¹` into `out` (the identity when
     /// no goal was added).
-    pub(crate) fn finish(self, scratch: &mut MetricScratch, out: &mut Metric) {
+    pub(crate) fn finish(self, scratch: &mut MetricWorkspace, out: &mut Metric) {
         let n = scratch.n;
         if self.weight <= 0.0 {
             out.set_identity();
@@ -411,20 +411,26 @@ mod tests {
         fn dof(&self) -> usize {
             self.a.len()
         }
-        fn new_state(&self) -> PolicyState {
-            PolicyState::new(())
+        fn new_workspace(&self) -> RobotPolicyWorkspace {
+            RobotPolicyWorkspace::new(())
         }
-        fn act(&self, s: &mut PolicyState, q: &[f64], v: &[f64], out: &mut [f64]) -> Result<(), ControlError> {
+        fn act(&self, s: &mut RobotPolicyWorkspace, q: &[f64], v: &[f64], out: &mut [f64]) -> Result<(), ControlError> {
             self.probe(s, q, v, out)
         }
-        fn probe(&self, _: &mut PolicyState, q: &[f64], _: &[f64], out: &mut [f64]) -> Result<(), ControlError> {
+        fn probe(
+            &self,
+            _: &mut RobotPolicyWorkspace,
+            q: &[f64],
+            _: &[f64],
+            out: &mut [f64],
+        ) -> Result<(), ControlError> {
             let n = self.a.len();
             for (i, o) in out.iter_mut().enumerate().take(n) {
                 *o = self.a[i] + (0..n).map(|j| self.matrix[i + j * n] * (q[j] - self.q0[j])).sum::<f64>();
             }
             Ok(())
         }
-        fn reset(&self, _: &mut PolicyState) {}
+        fn reset(&self, _: &mut RobotPolicyWorkspace) {}
     }
 
     fn field(n: usize, seed: u64) -> LinearField {
@@ -453,10 +459,10 @@ mod tests {
         for (n, seed) in [(2, 1), (3, 2), (7, 3), (9, 4)] {
             let f = field(n, seed);
             let q: Vec<f64> = f.q0.iter().map(|x| x + 0.3).collect();
-            let mut scratch = MetricScratch::new(n);
+            let mut scratch = MetricWorkspace::new(n);
             let mut out = vec![0.0; n * n];
             for h in [1e-4, 1e-2, 0.5] {
-                hessian_metric(&f, &mut f.new_state(), &q, &vec![0.0; n], h, &mut scratch, &mut out).unwrap();
+                hessian_metric(&f, &mut f.new_workspace(), &q, &vec![0.0; n], h, &mut scratch, &mut out).unwrap();
                 let err = out.iter().zip(expected(&f)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
                 assert!(err < 1e-9, "n = {n}, h = {h}: error {err}");
             }
@@ -468,11 +474,12 @@ mod tests {
         for (n, seed) in [(2, 5), (3, 6), (7, 7)] {
             let f = field(n, seed);
             let q = f.q0.clone();
-            let mut scratch = MetricScratch::new(n);
+            let mut scratch = MetricWorkspace::new(n);
             let (mut out, mut center) = (vec![0.0; n * n], vec![0.0; n]);
-            f.probe(&mut f.new_state(), &q, &[], &mut center).unwrap();
+            f.probe(&mut f.new_workspace(), &q, &[], &mut center).unwrap();
             for r in [1e-3, 0.02, 0.3] {
-                fisher_metric(&f, &mut f.new_state(), &q, &vec![0.0; n], &center, r, &mut scratch, &mut out).unwrap();
+                fisher_metric(&f, &mut f.new_workspace(), &q, &vec![0.0; n], &center, r, &mut scratch, &mut out)
+                    .unwrap();
                 let err = out.iter().zip(expected(&f)).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
                 assert!(err < 1e-7, "n = {n}, r = {r}: error {err}");
             }
@@ -482,7 +489,7 @@ mod tests {
     #[test]
     fn repair_floors_scales_and_inverts() {
         let n = 3;
-        let mut scratch = MetricScratch::new(n);
+        let mut scratch = MetricWorkspace::new(n);
         let mut metric = Metric::identity(n);
         // diag(4, 1, −2) → eigenvalues floored at 0.05·4 = 0.2, mean (4+1+0.2)/3.
         let mut raw = vec![4.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, -2.0];
@@ -505,7 +512,7 @@ mod tests {
     #[test]
     fn mixture_inverts_the_belief_weighted_sum_of_inverses() {
         let n = 2;
-        let mut scratch = MetricScratch::new(n);
+        let mut scratch = MetricWorkspace::new(n);
         let (mut a, mut b, mut out) = (Metric::identity(n), Metric::identity(n), Metric::identity(n));
         a.inverse = vec![2.0, 0.0, 0.0, 0.5];
         b.inverse = vec![0.5, 0.0, 0.0, 2.0];
