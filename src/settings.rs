@@ -1,8 +1,6 @@
 //! Settings out of range, one error shape in every module: which setting
 //! (its path, `safety.margin`), the value given, and what it must be.
 
-use crate::robot::readable;
-
 /// A setting outside its range.
 ///
 /// ```
@@ -61,4 +59,14 @@ pub(crate) fn non_negative(field: &str, value: f64, unit: &str) -> Result<(), In
     let expected =
         if unit.is_empty() { "finite and at least 0".to_string() } else { format!("finite and at least 0 {unit}") };
     check(field, value, value.is_finite() && value >= 0.0, &expected)
+}
+
+/// `value` in plain notation when that is short, else in scientific
+/// notation: error messages quoting 1e-300 would print 300 zeros.
+pub(crate) fn readable(value: f64) -> String {
+    if value == 0.0 || !value.is_finite() || (1e-5..1e7).contains(&value.abs()) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    }
 }

@@ -9,9 +9,9 @@ use std::path::{Path, PathBuf};
 /// The layers from the ground up: a module may use the modules of lower
 /// layers only. Keep in step with docs/design.md.
 const LAYERS: &[(&str, &[&str])] = &[
+    ("settings", &["settings"]),
     ("robot", &["robot"]),
     ("files", &["files"]),
-    ("settings", &["settings"]),
     ("trajectory", &["trajectory"]),
     ("figures", &["figures"]),
     ("geometry", &["scene"]),

@@ -154,7 +154,7 @@ fn bad_arguments_are_named() {
     assert!(code == Some(1) && stderr.contains("missing.toml"), "{stderr}");
     // Sizes whose product is out of bounds are errors of the settings (status 1).
     let (code, stderr) = run(&["--family", &fam, "--count", "100000000000", "--chunk-size", "1", "--out", &out]);
-    assert!(code == Some(1) && stderr.contains("more than 1000000"), "{stderr}");
+    assert!(code == Some(1) && stderr.contains("at most 1000000 part files"), "{stderr}");
     let (code, stderr) =
         run(&["--family", &fam, "--count", "100000", "--chunk-size", "100000", "-T", "100000", "--out", &out]);
     assert!(code == Some(1) && stderr.contains("slices per part file"), "{stderr}");

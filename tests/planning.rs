@@ -7,11 +7,8 @@ mod common;
 
 use std::time::{Duration, Instant};
 use tandem::collision::{CollisionWorkspace, MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
-use tandem::plan::{
-    DynamicDomain, EdgeCheck, IkError, IkSettings, IkTarget, PlanStatus, RootBias, RrtSettings, plan_problem, resample,
-    rrt_connect, solve_ik,
-};
-use tandem::problem::{Goal, Problem};
+use tandem::plan::{IkError, IkSettings, IkTarget, PlanStatus, plan_problem, resample, rrt_connect, solve_ik};
+use tandem::problem::{DynamicDomain, Goal, PlannerSettings, Problem, RootBias};
 use tandem::robot::{KinematicsWorkspace, RobotError};
 
 /// Checks a solved plan: ends, limits, collisions at resolution/4.
@@ -182,7 +179,8 @@ fn edge_checks_have_a_resolution_floor_and_never_skip_the_middle() {
         for resolution in [1e-300, 1e-9, MIN_RESOLUTION / 2.0, 0.0, -1.0, f64::NAN, f64::INFINITY] {
             let e = model.motion_free(&mut ws, &start, &goal, resolution).unwrap_err();
             assert!(
-                matches!(e, RobotError::InvalidSetting { name: "resolution", .. }) && e.to_string().contains("0.00001"),
+                matches!(&e, RobotError::InvalidSetting(s) if s.field == "resolution")
+                    && e.to_string().contains("0.00001"),
                 "{resolution}: {e}"
             );
         }
@@ -197,7 +195,7 @@ fn edge_checks_have_a_resolution_floor_and_never_skip_the_middle() {
         // Certified checks: a clearance floor too.
         for clearance in [1e-300, MIN_CLEARANCE / 2.0, 0.0, f64::NAN] {
             let e = model.motion_free_certified(&mut ws, &start, &goal, clearance).unwrap_err();
-            assert!(matches!(e, RobotError::InvalidSetting { name: "clearance", .. }), "{clearance}: {e}");
+            assert!(matches!(&e, RobotError::InvalidSetting(s) if s.field == "clearance"), "{clearance}: {e}");
         }
         // Deadlines are honoured inside one edge check: a passed deadline
         // stops a long check before its answer.
@@ -241,11 +239,8 @@ fn the_planner_stops_at_its_time_limit_inside_edge_checks() {
     let model = problem.collision_model().unwrap();
     let mut ws = CollisionWorkspace::new(&model);
     // 0.5 rad edges at the finest resolution: ~50,000 samples each.
-    let settings = RrtSettings {
-        edge: EdgeCheck::Resolution(MIN_RESOLUTION),
-        time_limit: Duration::from_millis(1),
-        ..RrtSettings::default()
-    };
+    let settings =
+        PlannerSettings { clearance: 0.0, resolution: MIN_RESOLUTION, time_limit: 1e-3, ..PlannerSettings::default() };
     let began = Instant::now();
     let result = rrt_connect(&model, &mut ws, &start, &[goal], &settings).unwrap();
     assert_eq!(result.status, PlanStatus::TimeLimit);
@@ -261,44 +256,47 @@ fn search_settings_out_of_range_are_refused_by_name() {
     let (problem, start, goal) = wall();
     let model = problem.collision_model().unwrap();
     let mut ws = CollisionWorkspace::new(&model);
-    let base = RrtSettings::default();
+    let base = PlannerSettings::default();
     let domain = base.dynamic_domain.unwrap();
     let bias = base.root_bias.unwrap();
-    let mut cases: Vec<(&str, RrtSettings)> = Vec::new();
+    let mut cases: Vec<(&str, PlannerSettings)> = Vec::new();
     for step in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        cases.push(("step", RrtSettings { step, ..base.clone() }));
+        cases.push(("step", PlannerSettings { step, ..base.clone() }));
     }
     for radius in [0.0, -1.0, f64::NAN] {
         let dynamic_domain = Some(DynamicDomain { radius, ..domain });
-        cases.push(("dynamic_domain.radius", RrtSettings { dynamic_domain, ..base.clone() }));
+        cases.push(("dynamic_domain.radius", PlannerSettings { dynamic_domain, ..base.clone() }));
     }
     for min_radius in [-0.5, f64::NAN] {
         let dynamic_domain = Some(DynamicDomain { min_radius, ..domain });
-        cases.push(("dynamic_domain.min_radius", RrtSettings { dynamic_domain, ..base.clone() }));
+        cases.push(("dynamic_domain.min_radius", PlannerSettings { dynamic_domain, ..base.clone() }));
     }
     for rate in [1.0, -0.1, f64::NAN] {
         let dynamic_domain = Some(DynamicDomain { rate, ..domain });
-        cases.push(("dynamic_domain.rate", RrtSettings { dynamic_domain, ..base.clone() }));
+        cases.push(("dynamic_domain.rate", PlannerSettings { dynamic_domain, ..base.clone() }));
     }
     for probability in [1.0, -0.1, f64::NAN] {
         let root_bias = Some(RootBias { probability, ..bias });
-        cases.push(("root_bias.probability", RrtSettings { root_bias, ..base.clone() }));
+        cases.push(("root_bias.probability", PlannerSettings { root_bias, ..base.clone() }));
     }
     for spread in [-1.0, f64::NAN, f64::INFINITY] {
         let root_bias = Some(RootBias { spread, ..bias });
-        cases.push(("root_bias.spread", RrtSettings { root_bias, ..base.clone() }));
+        cases.push(("root_bias.spread", PlannerSettings { root_bias, ..base.clone() }));
     }
     for (expected, settings) in &cases {
         assert!(settings.validate().is_err(), "{expected}");
         let e = rrt_connect(&model, &mut ws, &start, std::slice::from_ref(&goal), settings).unwrap_err();
-        assert!(matches!(e, RobotError::InvalidSetting { name, .. } if name == *expected), "{expected}: {e}");
+        assert!(matches!(&e, RobotError::InvalidSetting(s) if s.field == *expected), "{expected}: {e}");
         assert!(e.to_string().starts_with(expected), "{e}");
     }
     // The edges of each range are taken: no domain, no bias, a bias of 0.
     let edges = [
-        RrtSettings { dynamic_domain: None, root_bias: None, ..base.clone() },
-        RrtSettings { root_bias: Some(RootBias { probability: 0.0, spread: 0.0 }), ..base.clone() },
-        RrtSettings { dynamic_domain: Some(DynamicDomain { min_radius: 0.0, rate: 0.0, ..domain }), ..base.clone() },
+        PlannerSettings { dynamic_domain: None, root_bias: None, ..base.clone() },
+        PlannerSettings { root_bias: Some(RootBias { probability: 0.0, spread: 0.0 }), ..base.clone() },
+        PlannerSettings {
+            dynamic_domain: Some(DynamicDomain { min_radius: 0.0, rate: 0.0, ..domain }),
+            ..base.clone()
+        },
     ];
     for settings in &edges {
         settings.validate().unwrap();
@@ -346,7 +344,7 @@ fn lazy_certification_cuts_failed_branches_and_certifies_the_path() {
     let mut cut = 0;
     for resolution in [0.1, 1.0] {
         for seed in 0..6 {
-            let settings = RrtSettings { edge: EdgeCheck::Certified { clearance }, seed, ..RrtSettings::default() };
+            let settings = PlannerSettings { clearance, seed, ..PlannerSettings::default() };
             let plan = |ws: &mut CollisionWorkspace, padded_ws: &mut CollisionWorkspace| {
                 let lazy = LazySearch { padded: &padded, ws: padded_ws, resolution };
                 rrt_connect_lazy(&model, ws, lazy, &start, goals, &settings).unwrap()
@@ -363,10 +361,10 @@ fn lazy_certification_cuts_failed_branches_and_certifies_the_path() {
         }
     }
     assert!(cut > 0, "no branch was ever cut: the test does not reach the repair");
-    let settings = RrtSettings { edge: EdgeCheck::Certified { clearance }, ..RrtSettings::default() };
+    let settings = PlannerSettings { clearance, ..PlannerSettings::default() };
     let lazy = LazySearch { padded: &padded, ws: &mut padded_ws, resolution: 0.0 };
     let e = rrt_connect_lazy(&model, &mut ws, lazy, &start, goals, &settings).unwrap_err();
-    assert!(matches!(e, RobotError::InvalidSetting { name: "resolution", .. }), "{e}");
+    assert!(matches!(&e, RobotError::InvalidSetting(s) if s.field == "resolution"), "{e}");
 }
 
 /// Dynamic-domain sampling with a domain so small that every blocked node
@@ -375,21 +373,30 @@ fn lazy_certification_cuts_failed_branches_and_certifies_the_path() {
 /// plain alternating planner (no domain, no balancing) solves it too.
 #[test]
 fn dynamic_domain_and_balancing_never_starve_a_tree() {
-    use tandem::plan::DynamicDomain;
     let (problem, start, goal) = wall();
     let model = problem.collision_model().unwrap();
     let mut ws = CollisionWorkspace::new(&model);
-    let edge = EdgeCheck::Certified { clearance: 1e-3 };
+    let clearance = 1e-3;
     let tiny = DynamicDomain { radius: 1e-9, min_radius: 1e-9, ..DynamicDomain::default() };
     let variants = [
-        RrtSettings { edge, dynamic_domain: Some(tiny), ..RrtSettings::default() },
-        RrtSettings { edge, dynamic_domain: None, root_bias: None, balance: false, ..RrtSettings::default() },
-        RrtSettings { edge, root_bias: Some(RootBias { probability: 0.5, spread: 0.0 }), ..RrtSettings::default() },
-        RrtSettings { edge, ..RrtSettings::default() },
+        PlannerSettings { clearance, dynamic_domain: Some(tiny), ..PlannerSettings::default() },
+        PlannerSettings {
+            clearance,
+            dynamic_domain: None,
+            root_bias: None,
+            balance: false,
+            ..PlannerSettings::default()
+        },
+        PlannerSettings {
+            clearance,
+            root_bias: Some(RootBias { probability: 0.5, spread: 0.0 }),
+            ..PlannerSettings::default()
+        },
+        PlannerSettings { clearance, ..PlannerSettings::default() },
     ];
     for settings in &variants {
         for seed in 0..5 {
-            let settings = RrtSettings { seed, ..settings.clone() };
+            let settings = PlannerSettings { seed, ..settings.clone() };
             let result = rrt_connect(&model, &mut ws, &start, std::slice::from_ref(&goal), &settings).unwrap();
             assert_eq!(result.status, PlanStatus::Solved, "{settings:?}");
             assert_valid(&problem, &result.path, std::slice::from_ref(&goal));
@@ -405,7 +412,6 @@ fn dynamic_domain_and_balancing_never_starve_a_tree() {
 /// configurations do): the same on 7 joints, √2 times on two arms.
 #[test]
 fn dynamic_domain_radius_grows_with_the_square_root_of_the_joints() {
-    use tandem::plan::DynamicDomain;
     let domain = DynamicDomain::default();
     assert_eq!(DynamicDomain::REFERENCE_JOINTS, 7);
     assert_eq!(domain.radius_for(7), domain.radius, "a 7-joint arm keeps the radius bit for bit");

@@ -6,6 +6,7 @@ use super::model::CollisionModel;
 use super::query::{CollisionWorkspace, prunes};
 use super::spheres::{Certification, LANES, SampleOrder, SphereModel, Verdict};
 use crate::robot::RobotError;
+use crate::settings::InvalidSetting;
 use std::time::Instant;
 
 /// Finest resolution of a sampled motion check (rad or m): 10 µrad, 10 µm
@@ -74,8 +75,8 @@ impl CollisionModel {
     ) -> Result<Option<bool>, RobotError> {
         self.check_motion(q0, q1)?;
         if !(clearance.is_finite() && clearance >= MIN_CLEARANCE) {
-            let expected = format!("a finite clearance of at least {MIN_CLEARANCE} m");
-            return Err(RobotError::InvalidSetting { name: "clearance", value: clearance, expected });
+            let expected = format!("finite and at least {MIN_CLEARANCE} m");
+            return Err(InvalidSetting::number("clearance", clearance, expected).into());
         }
         match self.certify_fast(ws, (q0, q1), clearance) {
             Some(Certification::Certified) => return Ok(Some(true)),
@@ -332,16 +333,16 @@ impl CollisionModel {
 /// and motions that need more than [`MAX_MOTION_SAMPLES`] samples.
 fn motion_samples(q0: &[f64], q1: &[f64], resolution: f64) -> Result<usize, RobotError> {
     if !(resolution.is_finite() && resolution >= MIN_RESOLUTION) {
-        let expected = format!("a finite resolution of at least {MIN_RESOLUTION} (rad or m)");
-        return Err(RobotError::InvalidSetting { name: "resolution", value: resolution, expected });
+        let expected = format!("finite and at least {MIN_RESOLUTION} (rad or m)");
+        return Err(InvalidSetting::number("resolution", resolution, expected).into());
     }
     let span = q0.iter().zip(q1).map(|(a, b)| (b - a).abs()).fold(0.0, f64::max);
     let steps = (span / resolution).ceil().max(1.0);
     if steps.is_nan() || steps > MAX_MOTION_SAMPLES as f64 {
         let expected = format!(
-            "the motion spans {span} (rad or m): at most {MAX_MOTION_SAMPLES} samples allowed, this needs {steps:e}"
+            "coarse enough for at most {MAX_MOTION_SAMPLES} samples over a motion of {span} (rad or m), which needs {steps:e}"
         );
-        return Err(RobotError::InvalidSetting { name: "resolution", value: resolution, expected });
+        return Err(InvalidSetting::number("resolution", resolution, expected).into());
     }
     Ok(steps as usize)
 }

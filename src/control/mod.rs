@@ -71,7 +71,7 @@ pub enum ControlError {
     /// A tracking weight outside [`WEIGHT_RANGE`].
     #[error(
         "the {name} weight is {}, outside [{}, {}]",
-        crate::robot::readable(*value),
+        crate::settings::readable(*value),
         WEIGHT_RANGE.start(),
         WEIGHT_RANGE.end()
     )]

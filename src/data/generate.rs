@@ -16,6 +16,7 @@ use super::shard::{
 use crate::files::FileError;
 use crate::pipeline::PipelineSettings;
 use crate::problem::{ProblemError, ProblemFamily};
+use crate::settings::InvalidSetting;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
@@ -82,9 +83,10 @@ pub enum GenerateError {
     #[error(transparent)]
     /// A file cannot be written.
     Data(#[from] FileError),
-    #[error("generate settings: {0}")]
-    /// A setting outside its bounds.
-    Settings(String),
+    #[error(transparent)]
+    /// A setting outside its bounds, named as the command line names it
+    /// (`--count`).
+    InvalidSetting(#[from] InvalidSetting),
     /// The output folder holds a dataset made with other parameters.
     #[error(
         "{path} was generated with {key} = {existing}, this run asks {requested}: use another --out folder, or the same parameters to resume"
@@ -250,25 +252,26 @@ pub const MAX_PART_SLICES: u64 = 10_000_000;
 /// Most worker threads (`--threads`).
 pub const MAX_THREADS: usize = 1024;
 
-/// Checks every size against its bound (above), naming the setting.
+/// Checks every size against its bound (above), naming the setting by its
+/// command-line option.
 fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
-    let bad = |m: String| Err(GenerateError::Settings(m));
-    if !(1..=MAX_COUNT).contains(&s.count) {
-        return bad(format!("--count must be between 1 and {MAX_COUNT}, got {}", s.count));
-    }
-    if !(1..=MAX_CHUNK_SIZE).contains(&s.chunk_size) {
-        return bad(format!("--chunk-size must be between 1 and {MAX_CHUNK_SIZE}, got {}", s.chunk_size));
-    }
+    let range = |option: &str, value: u64, max: u64| {
+        if (1..=max).contains(&value) {
+            Ok(())
+        } else {
+            Err(InvalidSetting::new(option, value, format!("between 1 and {max}")))
+        }
+    };
+    range("--count", s.count, MAX_COUNT)?;
+    range("--chunk-size", s.chunk_size, MAX_CHUNK_SIZE)?;
     if chunk_count(s) > MAX_PARTS {
-        let parts = chunk_count(s);
-        return bad(format!(
-            "--count {} in chunks of {} makes {parts} part files, more than {MAX_PARTS}: raise --chunk-size",
-            s.count, s.chunk_size
-        ));
+        let expected =
+            format!("large enough for at most {MAX_PARTS} part files (--count {} makes {})", s.count, chunk_count(s));
+        return Err(InvalidSetting::new("--chunk-size", s.chunk_size, expected).into());
     }
-    s.pipeline.validate().map_err(GenerateError::Settings)?;
-    if let Some(threads) = s.threads.filter(|t| !(1..=MAX_THREADS).contains(t)) {
-        return bad(format!("--threads must be between 1 and {MAX_THREADS}, got {threads}"));
+    s.pipeline.validate()?;
+    if let Some(threads) = s.threads {
+        range("--threads", threads as u64, MAX_THREADS as u64)?;
     }
     Ok(())
 }
@@ -278,10 +281,11 @@ fn validate(s: &GenerateSettings) -> Result<(), GenerateError> {
 fn validate_part_size(chunk_size: u64, horizon: usize) -> Result<(), GenerateError> {
     let slices = u128::from(chunk_size) * (horizon as u128 + 1);
     if slices > u128::from(MAX_PART_SLICES) {
-        return Err(GenerateError::Settings(format!(
-            "--chunk-size {chunk_size} × {} slices is {slices} slices per part file, more than {MAX_PART_SLICES}: lower --chunk-size",
+        let expected = format!(
+            "small enough for at most {MAX_PART_SLICES} slices per part file ({} slices each make {slices})",
             horizon + 1
-        )));
+        );
+        return Err(InvalidSetting::new("--chunk-size", chunk_size, expected).into());
     }
     Ok(())
 }

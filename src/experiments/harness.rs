@@ -41,15 +41,8 @@ pub enum ExperimentError {
     #[error(transparent)]
     File(#[from] FileError),
     /// A setting outside its range, named as the command line names it.
-    #[error("{option} {value} is out of range: expected {expected}")]
-    Setting {
-        /// The option (`--threads`, …).
-        option: &'static str,
-        /// Its value, as given.
-        value: String,
-        /// What it must be.
-        expected: String,
-    },
+    #[error(transparent)]
+    InvalidSetting(#[from] crate::settings::InvalidSetting),
     /// The worker threads could not be started.
     #[error("cannot start {threads} worker threads (--threads): {message}")]
     Threads {
@@ -194,11 +187,8 @@ pub struct Report<R> {
 /// that cannot be created, the experiment's own errors.
 pub fn run<E: Experiment>(experiment: &E, settings: &HarnessSettings) -> Result<Report<E::Results>, ExperimentError> {
     if let Some(threads) = settings.threads.filter(|t| !(1..=MAX_THREADS).contains(t)) {
-        return Err(ExperimentError::Setting {
-            option: "--threads",
-            value: threads.to_string(),
-            expected: format!("1 … {MAX_THREADS}"),
-        });
+        let expected = format!("between 1 and {MAX_THREADS}");
+        return Err(crate::settings::InvalidSetting::new("--threads", threads, expected).into());
     }
     if let Some(dir) = &settings.out {
         std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;

@@ -349,10 +349,12 @@ impl LearnedExperiment {
                     }
                 }
             }
-            let actor = best.actor.ok_or_else(|| ExperimentError::Setting {
-                option: "--train-seeds",
-                value: self.train_seeds.to_string(),
-                expected: "at least 1, or an actor given".into(),
+            let actor = best.actor.ok_or_else(|| {
+                ExperimentError::from(crate::settings::InvalidSetting::new(
+                    "--train-seeds",
+                    self.train_seeds,
+                    "at least 1, or an actor given",
+                ))
             })?;
             if !runs.is_empty() {
                 logs.push((kind.as_str().to_string(), runs));

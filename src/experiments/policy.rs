@@ -467,17 +467,15 @@ impl Experiment for PolicyExperiment {
     }
 
     fn run(&self, cx: &Context<'_>) -> Result<PolicyResults, ExperimentError> {
-        let out = cx.out().ok_or_else(|| ExperimentError::Setting {
-            option: "--out",
-            value: "none".into(),
-            expected: "a folder for the dataset, the policies and the figures".into(),
+        let out = cx.out().ok_or_else(|| {
+            ExperimentError::from(crate::settings::InvalidSetting::new(
+                "--out",
+                "none",
+                "a folder for the dataset, the policies and the figures",
+            ))
         })?;
         if self.tasks == 0 {
-            return Err(ExperimentError::Setting {
-                option: "--tasks",
-                value: "0".into(),
-                expected: "at least 1".into(),
-            });
+            return Err(ExperimentError::from(crate::settings::InvalidSetting::new("--tasks", 0, "at least 1")));
         }
         let family = ProblemFamily::from_file(&self.family)?;
         let data = self.data.clone().unwrap_or_else(|| out.join("data"));

@@ -54,8 +54,11 @@ pub enum KomoError {
         message: String,
     },
     /// Horizon, order or duration out of range.
-    #[error("optimizer settings: {0}")]
-    Settings(String),
+    #[error(transparent)]
+    InvalidSetting(#[from] crate::settings::InvalidSetting),
+    /// A workspace made for another problem.
+    #[error("the workspace does not fit the problem")]
+    ForeignWorkspace,
     /// An initialisation of the wrong shape or with bad values.
     #[error("initialisation: {0}")]
     Initialization(String),

@@ -8,6 +8,7 @@ use super::objective::Objective;
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
 use crate::problem::ObjectiveKind;
 use crate::robot::{KinematicsWorkspace, RobotError, RobotModel};
+use crate::settings::InvalidSetting;
 use std::sync::Arc;
 use tandem_solvers::least_squares::{LeastSquaresProblem, Residuals, RowBlock};
 
@@ -51,14 +52,14 @@ impl TrajectoryProblem {
         duration: f64,
         start: Vec<f64>,
     ) -> Result<TrajectoryProblem, KomoError> {
-        let horizons = crate::problem::MIN_HORIZON..=crate::problem::MAX_HORIZON;
-        if !(horizons.contains(&horizon) && (1..=2).contains(&order) && duration.is_finite() && duration > 0.0) {
-            return Err(KomoError::Settings(format!(
-                "need a horizon T from {} to {}, order 1 or 2 and a positive duration; got T = {horizon}, k = {order}, {duration} s",
-                horizons.start(),
-                horizons.end()
-            )));
+        let (min, max) = (crate::problem::MIN_HORIZON, crate::problem::MAX_HORIZON);
+        if !(min..=max).contains(&horizon) {
+            return Err(InvalidSetting::new("horizon", horizon, format!("{min} … {max}")).into());
         }
+        if !(1..=2).contains(&order) {
+            return Err(InvalidSetting::new("order", order, "1 or 2").into());
+        }
+        crate::settings::positive("duration", duration, "s")?;
         robot.check_configuration(&start)?;
         for objective in &objectives {
             objective.validate(&robot, horizon, order)?;
@@ -183,7 +184,7 @@ impl TrajectoryProblem {
     ///
     /// # Errors
     /// [`KomoError::Initialization`] for an `x` of the wrong length,
-    /// [`KomoError::Settings`] for a workspace whose shape does not fit
+    /// [`KomoError::ForeignWorkspace`] for a workspace whose shape does not fit
     /// the problem (make it with [`TrajectoryWorkspace::new`] of this
     /// problem), configurations the robot model rejects.
     pub fn residuals(&self, ws: &mut TrajectoryWorkspace, x: &[f64], out: &mut Residuals) -> Result<(), KomoError> {
@@ -202,7 +203,7 @@ impl TrajectoryProblem {
                 b.values.len() == (self.horizon + 1) * dim && b.jacobians.len() == (self.horizon + 1) * dim * n
             });
         if !fits {
-            return Err(KomoError::Settings("the workspace does not fit the problem".into()));
+            return Err(KomoError::ForeignWorkspace);
         }
         self.robot.forward_kinematics(&mut ws.kinematics[0], &self.start)?;
         out.clear();

@@ -17,6 +17,7 @@ use super::LearnError;
 use super::arbitration_actor::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
 use super::train::{Layers, candle, progress_bar};
 use crate::arbitration::StateLayout;
+use crate::settings::InvalidSetting;
 use crate::sim::{ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, RewardKind, reward};
 use candle_core::{D, Device, Tensor, Var};
 use candle_nn::{AdamW, Optimizer, ParamsAdamW};
@@ -364,21 +365,45 @@ fn env_error(e: crate::sim::EnvError) -> LearnError {
 }
 
 fn check(s: &DdpgSettings) -> Result<(), LearnError> {
-    let ok = s.episodes > 0
-        && s.batch > 0
-        && s.buffer >= s.batch
-        && (0.0..1.0).contains(&s.gamma)
-        && s.tau > 0.0
-        && s.tau <= 1.0
-        && s.actor_lr > 0.0
-        && s.critic_lr > 0.0
-        && s.noise >= 0.0
-        && s.noise.is_finite()
-        && !s.head.is_empty()
-        && !s.head.contains(&0)
-        && !s.actor_tail.contains(&0)
-        && !s.critic_tail.contains(&0);
-    if ok { Ok(()) } else { Err(LearnError::Training(format!("DDPG settings out of range: {s:?}"))) }
+    Ok(s.validate()?)
+}
+
+impl DdpgSettings {
+    /// Checks every setting: at least one episode and one pair per batch,
+    /// a buffer of at least a batch, γ in [0, 1), τ in (0, 1], learning
+    /// rates above 0, noise of at least 0, layers of 1 …
+    /// [`MAX_HIDDEN_WIDTH`](super::MAX_HIDDEN_WIDTH) units (a head of at
+    /// least one layer).
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        use crate::settings::{check, non_negative, positive};
+        let at_least = |field: &str, value: usize, min: usize| {
+            if value >= min { Ok(()) } else { Err(InvalidSetting::new(field, value, format!("at least {min}"))) }
+        };
+        at_least("episodes", self.episodes, 1)?;
+        at_least("batch", self.batch, 1)?;
+        at_least("buffer", self.buffer, self.batch)?;
+        check("gamma", self.gamma, (0.0..1.0).contains(&self.gamma), "in [0, 1)")?;
+        check("tau", self.tau, self.tau > 0.0 && self.tau <= 1.0, "in (0, 1]")?;
+        positive("actor_lr", self.actor_lr, "")?;
+        positive("critic_lr", self.critic_lr, "")?;
+        non_negative("noise", self.noise, "")?;
+        let max = super::MAX_HIDDEN_WIDTH;
+        for (field, layers, min_layers) in
+            [("head", &self.head, 1), ("actor_tail", &self.actor_tail, 0), ("critic_tail", &self.critic_tail, 0)]
+        {
+            if layers.len() < min_layers
+                || layers.len() > super::MAX_HIDDEN_LAYERS
+                || layers.iter().any(|w| !(1..=max).contains(w))
+            {
+                let widths = layers.iter().map(usize::to_string).collect::<Vec<_>>().join(",");
+                return Err(InvalidSetting::new(field, widths, format!("layers of 1 … {max} units")));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// A standard normal draw (Box–Muller).

@@ -66,7 +66,10 @@ pub use ddpg::{DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkWorkspace, PolicyMeta, PolicyNetwork};
 pub use policy::{LearnedPolicy, LearnedPolicyWorkspace, problem_goal};
 #[cfg(feature = "learn")]
-pub use train::{EpochLoss, LearnSettings, TrainReport, TrainSettings, normalisation, speed_scale, train, train_on};
+pub use train::{
+    EpochLoss, LearnSettings, MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH, TrainReport, TrainSettings, normalisation,
+    speed_scale, train, train_on,
+};
 
 use std::path::PathBuf;
 
@@ -154,9 +157,9 @@ pub enum LearnError {
         /// What is wrong.
         message: String,
     },
-    /// Training settings out of range.
-    #[error("training settings: {0}")]
-    Settings(String),
+    /// A training setting out of range.
+    #[error(transparent)]
+    InvalidSetting(#[from] crate::settings::InvalidSetting),
     /// The network crate failed while training.
     #[error("training failed: {0}")]
     Training(String),

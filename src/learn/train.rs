@@ -9,6 +9,7 @@
 use super::LearnError;
 use super::dataset::Pairs;
 use super::network::{PolicyMeta, PolicyNetwork};
+use crate::settings::{InvalidSetting, non_negative, positive, readable};
 use candle_core::{Device, Tensor, Var};
 use candle_nn::{AdamW, Optimizer, ParamsAdamW};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -36,6 +37,40 @@ pub struct TrainSettings {
     pub direction_speed: f64,
     /// Show a progress bar on stderr.
     pub progress: bool,
+}
+
+/// Most hidden layers of a policy network.
+pub const MAX_HIDDEN_LAYERS: usize = 16;
+/// Widest hidden layer of a policy network: 4096 × 4096 weights are 64 MB
+/// of f32, already far past the 2 µs a query may take.
+pub const MAX_HIDDEN_WIDTH: usize = 4096;
+
+impl TrainSettings {
+    /// Checks every setting: at least one epoch and one pair per batch,
+    /// 1 … [`MAX_HIDDEN_LAYERS`] hidden layers of 1 … [`MAX_HIDDEN_WIDTH`]
+    /// units, a learning rate and direction speed above 0, a speed weight
+    /// of at least 0.
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        if self.epochs == 0 {
+            return Err(InvalidSetting::new("epochs", self.epochs, "at least 1"));
+        }
+        if self.batch == 0 {
+            return Err(InvalidSetting::new("batch", self.batch, "at least 1"));
+        }
+        let widths = self.hidden.iter().map(usize::to_string).collect::<Vec<_>>().join(",");
+        if self.hidden.is_empty() || self.hidden.len() > MAX_HIDDEN_LAYERS {
+            return Err(InvalidSetting::new("hidden", widths, format!("1 … {MAX_HIDDEN_LAYERS} layer widths")));
+        }
+        if self.hidden.iter().any(|w| !(1..=MAX_HIDDEN_WIDTH).contains(w)) {
+            return Err(InvalidSetting::new("hidden", widths, format!("widths of 1 … {MAX_HIDDEN_WIDTH} units")));
+        }
+        positive("learning_rate", self.learning_rate, "")?;
+        positive("direction_speed", self.direction_speed, "rad/s")?;
+        non_negative("speed_weight", self.speed_weight, "")
+    }
 }
 
 impl Default for TrainSettings {
@@ -345,28 +380,22 @@ fn validate(
     s: &TrainSettings,
     initial: Option<&PolicyNetwork>,
 ) -> Result<(), LearnError> {
-    let bad = |m: String| Err(LearnError::Settings(m));
+    s.validate()?;
+    let mismatch =
+        |what: &str, expected: String, got: String| Err(LearnError::Mismatch { what: what.into(), expected, got });
     if train.is_empty() {
-        return bad("no training pairs (is the validation share 1, or the dataset empty?)".into());
-    }
-    if s.epochs == 0 || s.batch == 0 {
-        return bad("epochs and batch size must be at least 1".into());
-    }
-    let positive = |v: f64| v.is_finite() && v > 0.0;
-    if !(positive(s.learning_rate)
-        && positive(s.direction_speed)
-        && s.speed_weight.is_finite()
-        && s.speed_weight >= 0.0)
-    {
-        return bad("the learning rate, speed weight and direction speed must be positive and finite".into());
+        let why = "no training pairs (is the validation share 1, or the dataset empty?)";
+        return mismatch("training pairs", "at least one".into(), why.into());
     }
     if train.input_width != meta.input_width() || train.dof != meta.dof() {
-        return bad(format!("pairs of width {} for a network of width {}", train.input_width, meta.input_width()));
+        let (expected, got) = (meta.input_width().to_string(), train.input_width.to_string());
+        return mismatch("input width of the pairs", expected, got);
     }
     if let Some(net) = initial
         && net.meta().layer_shapes() != meta.layer_shapes()
     {
-        return bad("the network to continue from has other layer shapes".into());
+        let (expected, got) = (format!("{:?}", meta.layer_shapes()), format!("{:?}", net.meta().layer_shapes()));
+        return mismatch("layer shapes of the network to continue from", expected, got);
     }
     Ok(())
 }
@@ -420,6 +449,25 @@ pub struct LearnSettings {
     pub augment: super::Augmentation,
 }
 
+impl LearnSettings {
+    /// Checks every setting: the training settings, a validation share in
+    /// [0, 1), a perturbation range positive and ordered when augmenting.
+    ///
+    /// # Errors
+    /// The first setting out of range (named by its path, `train.epochs`).
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        self.train.validate().map_err(|e| e.within("train"))?;
+        let v = self.validation;
+        crate::settings::check("validation", v, (0.0..1.0).contains(&v), "in [0, 1)")?;
+        let (lo, hi) = self.augment.noise;
+        if self.augment.per_state > 0 && !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
+            let range = format!("[{}, {}]", readable(lo), readable(hi));
+            return Err(InvalidSetting::new("augment.noise", range, "a range of rad above 0, low to high"));
+        }
+        Ok(())
+    }
+}
+
 impl Default for LearnSettings {
     fn default() -> Self {
         LearnSettings {
@@ -443,13 +491,7 @@ pub fn train_on(
     options: &LearnSettings,
     initial: Option<&PolicyNetwork>,
 ) -> Result<(PolicyNetwork, TrainReport), LearnError> {
-    let (lo, hi) = options.augment.noise;
-    if options.augment.per_state > 0 && !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
-        return Err(LearnError::Settings(format!("perturbation range [{lo}, {hi}] rad is not positive and ordered")));
-    }
-    if !(0.0..1.0).contains(&options.validation) {
-        return Err(LearnError::Settings(format!("validation share {} is not in [0, 1)", options.validation)));
-    }
+    options.validate()?;
     let base = &family.base;
     let gripper = base.robot_spec.gripper.clone().ok_or_else(|| LearnError::Mismatch {
         what: "family".into(),

@@ -11,6 +11,7 @@ use super::solve::{ProblemSolution, SolveSettings, solve_problem};
 use super::validate::{GoalMiss, goal_miss, judge_grasp};
 use crate::plan::{IkError, PlanError};
 use crate::problem::{Goal, GraspReport, MAX_HORIZON, MIN_HORIZON, Problem, sample_seed};
+use crate::settings::{InvalidSetting, check, positive};
 use std::borrow::Cow;
 use std::time::Duration;
 
@@ -55,32 +56,27 @@ impl Default for PipelineSettings {
 }
 
 impl PipelineSettings {
-    /// Checks every setting against its bound.
+    /// Checks every setting against its bound; settings the command line
+    /// gives are named by their option (`--attempts`).
     ///
     /// # Errors
-    /// A message naming the setting, its bound and its value.
-    pub fn validate(&self) -> Result<(), String> {
-        let horizons = MIN_HORIZON..=MAX_HORIZON;
-        if let Some(t) = self.horizon.filter(|t| !horizons.contains(t)) {
-            return Err(format!("the horizon T must be between {MIN_HORIZON} and {MAX_HORIZON}, got {t}"));
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        if let Some(t) = self.horizon.filter(|t| !(MIN_HORIZON..=MAX_HORIZON).contains(t)) {
+            return Err(InvalidSetting::new("--horizon", t, format!("between {MIN_HORIZON} and {MAX_HORIZON}")));
         }
-        if self.attempts == 0 || self.attempts > MAX_ATTEMPTS {
-            return Err(format!("--attempts must be between 1 and {MAX_ATTEMPTS}, got {}", self.attempts));
+        if !(1..=MAX_ATTEMPTS).contains(&self.attempts) {
+            return Err(InvalidSetting::new("--attempts", self.attempts, format!("between 1 and {MAX_ATTEMPTS}")));
         }
-        if self.max_evaluations == 0 || self.max_evaluations > MAX_EVALUATIONS {
-            let got = self.max_evaluations;
-            return Err(format!("--max-evaluations must be between 1 and {MAX_EVALUATIONS}, got {got}"));
+        if !(1..=MAX_EVALUATIONS).contains(&self.max_evaluations) {
+            let expected = format!("between 1 and {MAX_EVALUATIONS}");
+            return Err(InvalidSetting::new("--max-evaluations", self.max_evaluations, expected));
         }
         let min = crate::collision::MIN_RESOLUTION;
-        if !(self.validation_resolution >= min && self.validation_resolution.is_finite()) {
-            let got = self.validation_resolution;
-            return Err(format!("the validation resolution must be at least {min} rad, got {got}"));
-        }
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        if !(positive(self.goal_tolerance) && positive(self.goal_angle_tolerance)) {
-            return Err("the goal tolerances must be positive".into());
-        }
-        Ok(())
+        let r = self.validation_resolution;
+        check("validation_resolution", r, r >= min && r.is_finite(), &format!("finite and at least {min} rad"))?;
+        positive("goal_tolerance", self.goal_tolerance, "m")?;
+        positive("goal_angle_tolerance", self.goal_angle_tolerance, "rad")
     }
 }
 

@@ -18,12 +18,10 @@ mod rrt;
 
 pub use ik::{IkError, IkSettings, IkTarget, solve_ik};
 pub use postprocess::{MIN_GAIN, path_length, resample, shortcut};
-pub use rrt::{
-    DynamicDomain, EdgeCheck, LazySearch, PlanResult, PlanStatus, RootBias, RrtSettings, rrt_connect, rrt_connect_lazy,
-};
+pub use rrt::{EdgeCheck, LazySearch, PlanResult, PlanStatus, rrt_connect, rrt_connect_lazy};
 
 use crate::collision::{CollisionError, CollisionModel, CollisionWorkspace};
-use crate::problem::{Goal, Problem};
+use crate::problem::{Goal, PlannerSettings, Problem};
 use crate::robot::RobotError;
 use std::time::{Duration, Instant};
 use thiserror::Error;
@@ -130,8 +128,7 @@ pub struct ProblemPlanner {
     search_ws: CollisionWorkspace,
     start: Vec<f64>,
     goals: Vec<Vec<f64>>,
-    settings: RrtSettings,
-    clearance: f64,
+    settings: PlannerSettings,
 }
 
 impl ProblemPlanner {
@@ -147,17 +144,18 @@ impl ProblemPlanner {
         // edge samples keep a margin that the certification can rely on.
         let search = problem.collision_model_padded(problem.planner.clearance)?;
         let search_ws = CollisionWorkspace::new(&search);
-        let mut settings = RrtSettings::from(&problem.planner);
+        let mut settings = problem.planner.clone();
         settings.seed = seed.unwrap_or(settings.seed);
         let goals = goal_configurations(problem, &model, &mut ws, settings.seed)?;
-        let (start, clearance) = (problem.start.clone(), problem.planner.clearance);
-        Ok(ProblemPlanner { model, ws, search, search_ws, start, goals, settings, clearance })
+        let start = problem.start.clone();
+        Ok(ProblemPlanner { model, ws, search, search_ws, start, goals, settings })
     }
 
-    /// The search's settings, to tune before [`run`](Self::run) (for
-    /// instance dynamic-domain sampling or balancing off, as plain
-    /// RRT-Connect); the seed and edge check are set by `run`.
-    pub fn search_settings_mut(&mut self) -> &mut RrtSettings {
+    /// The planner's settings (the problem's), to tune before
+    /// [`run`](Self::run) (for instance dynamic-domain sampling or
+    /// balancing off, as plain RRT-Connect); the seed is `run`'s, and the
+    /// clearance was fixed by [`new`](Self::new) (its padded shapes).
+    pub fn search_settings_mut(&mut self) -> &mut PlannerSettings {
         &mut self.settings
     }
 
@@ -180,26 +178,30 @@ impl ProblemPlanner {
     /// # Errors
     /// Bad configurations (none for a validated problem).
     pub fn run(&mut self, seed: u64) -> Result<PlanReport, PlanError> {
-        if self.clearance > 0.0 && self.model.has_fast_path() {
+        let clearance = self.settings.clearance;
+        if clearance > 0.0 && self.model.has_fast_path() {
             return self.run_certified(seed);
         }
         let began = Instant::now();
         let mut simplify_time = Duration::ZERO;
         let mut attempts = 0;
+        // The search samples its edges on the padded shapes (clearance 0);
+        // the path found is certified with the clearance after.
+        let mut search = PlannerSettings { clearance: 0.0, ..self.settings.clone() };
         loop {
-            self.settings.seed = seed.wrapping_add(attempts as u64);
+            search.seed = seed.wrapping_add(attempts as u64);
             attempts += 1;
-            let result = rrt_connect(&self.search, &mut self.search_ws, &self.start, &self.goals, &self.settings)?;
+            let result = rrt_connect(&self.search, &mut self.search_ws, &self.start, &self.goals, &search)?;
             let planning_time = began.elapsed() - simplify_time;
             let (mut path, mut certified) = (Vec::new(), false);
             if result.status == PlanStatus::Solved {
                 let t = Instant::now();
-                let (edge, s) = (self.settings.edge, self.settings.seed);
+                let (edge, s) = (EdgeCheck::of(&search), search.seed);
                 path = shortcut(&self.search, &mut self.search_ws, &result.path, edge, SHORTCUTS, s)?;
-                certified = self.clearance > 0.0 && certify(&self.model, &mut self.ws, &path, self.clearance / 2.0)?;
+                certified = clearance > 0.0 && certify(&self.model, &mut self.ws, &path, clearance / 2.0)?;
                 simplify_time += t.elapsed();
             }
-            let done = result.status != PlanStatus::Solved || certified || self.clearance == 0.0 || attempts >= 4;
+            let done = result.status != PlanStatus::Solved || certified || clearance == 0.0 || attempts >= 4;
             if done {
                 let goals = self.goals.clone();
                 return Ok(PlanReport { result, goals, path, planning_time, simplify_time, certified, attempts });
@@ -209,8 +211,8 @@ impl ProblemPlanner {
 
     /// [`run`](Self::run) with certified edges throughout.
     fn run_certified(&mut self, seed: u64) -> Result<PlanReport, PlanError> {
-        let edge = EdgeCheck::Certified { clearance: self.clearance };
-        let settings = RrtSettings { edge, seed, ..self.settings.clone() };
+        let settings = PlannerSettings { seed, ..self.settings.clone() };
+        let edge = EdgeCheck::of(&settings);
         let began = Instant::now();
         let lazy = LazySearch { padded: &self.search, ws: &mut self.search_ws, resolution: LAZY_RESOLUTION };
         let result = rrt_connect_lazy(&self.model, &mut self.ws, lazy, &self.start, &self.goals, &settings)?;

@@ -20,8 +20,7 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use std::time::{Duration, Instant};
 
-mod settings;
-pub use settings::{DynamicDomain, RootBias, RrtSettings};
+use crate::problem::{DynamicDomain, PlannerSettings, RootBias};
 
 /// How a straight joint-space motion is validated.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,6 +38,16 @@ pub enum EdgeCheck {
 }
 
 impl EdgeCheck {
+    /// The check `settings` ask for: certified with their `clearance`
+    /// when it is above 0, else sampled at their `resolution`.
+    pub fn of(settings: &PlannerSettings) -> EdgeCheck {
+        if settings.clearance > 0.0 {
+            EdgeCheck::Certified { clearance: settings.clearance }
+        } else {
+            EdgeCheck::Resolution(settings.resolution)
+        }
+    }
+
     /// Whether the motion from `a` to `b` passes.
     ///
     /// # Errors
@@ -239,7 +248,9 @@ pub struct LazySearch<'a> {
 struct Planner<'a> {
     model: &'a CollisionModel,
     ws: &'a mut CollisionWorkspace,
-    settings: &'a RrtSettings,
+    settings: &'a PlannerSettings,
+    /// The edge check of the settings ([`EdgeCheck::of`]).
+    edge: EdgeCheck,
     lazy: Option<LazySearch<'a>>,
     scratch: Vec<f64>,
     deadline: Instant,
@@ -290,7 +301,7 @@ impl Planner<'_> {
     fn step_free(&mut self, from: &[f64]) -> Result<Option<bool>, RobotError> {
         let motion = (from, self.scratch.as_slice());
         let deadline = Some(self.deadline);
-        match (&mut self.lazy, self.settings.edge) {
+        match (&mut self.lazy, self.edge) {
             (Some(lazy), _) => lazy.padded.extension_free_by(lazy.ws, motion, lazy.resolution, deadline),
             (None, EdgeCheck::Resolution(r)) => self.model.extension_free_by(self.ws, motion, r, deadline),
             (None, edge) => edge.is_free_by(self.model, self.ws, motion, self.deadline),
@@ -305,7 +316,7 @@ impl Planner<'_> {
         todo.reverse();
         for k in todo {
             let (from, to) = (tree.nn.point(tree.parent[k] as usize), tree.nn.point(k));
-            match self.settings.edge.is_free_by(self.model, self.ws, (from, to), self.deadline)? {
+            match self.edge.is_free_by(self.model, self.ws, (from, to), self.deadline)? {
                 None => return Ok(None),
                 Some(false) => {
                     tree.cut_branch(k);
@@ -337,37 +348,37 @@ impl Planner<'_> {
 ///
 /// # Errors
 /// Configurations of the wrong length or with non-finite values;
-/// settings out of range ([`RrtSettings::validate`]).
+/// settings out of range ([`PlannerSettings::validate`]).
 pub fn rrt_connect(
     model: &CollisionModel,
     ws: &mut CollisionWorkspace,
     start: &[f64],
     goals: &[Vec<f64>],
-    settings: &RrtSettings,
+    settings: &PlannerSettings,
 ) -> Result<PlanResult, RobotError> {
     search(model, ws, None, start, goals, settings)
 }
 
 /// [`rrt_connect`] with lazy certification: the trees grow on the cheap
 /// discrete checks of [`LazySearch`], and when they meet, the edges of
-/// the path are checked with `settings.edge` (root side first, each edge
+/// the path are checked with the settings' edge check ([`EdgeCheck::of`]) (root side first, each edge
 /// once); an edge that fails is cut from its tree with every node grown
 /// from it, and the search goes on. The path's edges pass
-/// `settings.edge`, as [`rrt_connect`]'s do, while the edges of branches
+/// the settings' edge check ([`EdgeCheck::of`]), as [`rrt_connect`]'s do, while the edges of branches
 /// no path takes are never certified: on MotionBenchMaker-style problems
 /// most of a search's certification work (README).
 ///
 /// # Errors
 /// Configurations of the wrong length or with non-finite values, a
 /// resolution below [`crate::collision::MIN_RESOLUTION`], settings out of
-/// range ([`RrtSettings::validate`]).
+/// range ([`PlannerSettings::validate`]).
 pub fn rrt_connect_lazy(
     model: &CollisionModel,
     ws: &mut CollisionWorkspace,
     lazy: LazySearch<'_>,
     start: &[f64],
     goals: &[Vec<f64>],
-    settings: &RrtSettings,
+    settings: &PlannerSettings,
 ) -> Result<PlanResult, RobotError> {
     search(model, ws, Some(lazy), start, goals, settings)
 }
@@ -378,9 +389,10 @@ fn search(
     lazy: Option<LazySearch<'_>>,
     start: &[f64],
     goals: &[Vec<f64>],
-    settings: &RrtSettings,
+    settings: &PlannerSettings,
 ) -> Result<PlanResult, RobotError> {
     settings.validate()?;
+    let edge = EdgeCheck::of(settings);
     let began = Instant::now();
     let robot = model.robot();
     let done = |status, path, iterations, (nodes, cut)| PlanResult {
@@ -391,7 +403,7 @@ fn search(
         cut,
         time: began.elapsed(),
     };
-    if !robot.within_limits(start) || !settings.edge.is_valid(model, ws, start)? {
+    if !robot.within_limits(start) || !edge.is_valid(model, ws, start)? {
         return Ok(done(PlanStatus::StartInvalid, Vec::new(), 0, (0, 0)));
     }
     let dim = robot.nq();
@@ -401,7 +413,7 @@ fn search(
     let (mut a, mut b) = (Tree::new(dim, simd), Tree::new(dim, simd));
     a.add(start, None, true);
     for g in goals {
-        if robot.within_limits(g) && settings.edge.is_valid(model, ws, g)? {
+        if robot.within_limits(g) && edge.is_valid(model, ws, g)? {
             b.add(g, None, true);
         }
     }
@@ -415,17 +427,18 @@ fn search(
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(settings.seed);
     let limits = robot.limits().to_vec();
     // Far budgets (beyond what an Instant holds) never run out.
-    let deadline = began.checked_add(settings.time_limit).unwrap_or(began + Duration::from_secs(1 << 40));
+    let time_limit = Duration::try_from_secs_f64(settings.time_limit).unwrap_or(Duration::MAX);
+    let deadline = began.checked_add(time_limit).unwrap_or(began + Duration::from_secs(1 << 40));
     let domain = settings.dynamic_domain.map(|d| DynamicDomain { radius: d.radius_for(dim), ..d });
     let scratch = Vec::with_capacity(dim);
-    let mut planner = Planner { model, ws, settings, lazy, scratch, deadline, domain };
+    let mut planner = Planner { model, ws, settings, edge, lazy, scratch, deadline, domain };
     let mut sample = vec![0.0; dim];
     // Tree `a` holds the start when `a_is_start`.
     let mut a_is_start = true;
     let (mut iteration, mut draws) = (0, 0usize);
     while iteration < settings.max_iterations {
         draws += 1;
-        if draws % 32 == 0 && began.elapsed() > settings.time_limit {
+        if draws % 32 == 0 && began.elapsed() > time_limit {
             return Ok(done(PlanStatus::TimeLimit, Vec::new(), iteration, counts(&a, &b)));
         }
         let near_root = draw_sample(&mut rng, &limits, settings.root_bias, &b, &mut sample);

@@ -19,6 +19,7 @@ pub mod grasp;
 mod moveit;
 mod moveit_scene;
 mod moveit_yaml;
+mod planner;
 mod problem_file;
 mod toml_source;
 
@@ -26,6 +27,7 @@ pub use family::{FamilySample, ProblemFamily, sample_seed};
 pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
 pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, moveit_request_from_str, read_moveit_request};
 pub use moveit_scene::{MoveItScene, PLANE_EXTENT, moveit_scene_from_str, read_moveit_scene};
+pub use planner::{DynamicDomain, PlannerSettings, RootBias};
 pub use problem_file::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};
 
 use crate::collision::{CollisionError, CollisionModel};
@@ -105,38 +107,6 @@ pub enum Goal {
         /// Its grasp frame.
         grasp: String,
     },
-}
-
-/// RRT-Connect settings (used by the planner).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PlannerSettings {
-    /// Random seed of the planner.
-    pub seed: u64,
-    /// Largest joint-space step of a tree extension (rad, Euclidean).
-    pub step: f64,
-    /// Edge validation resolution: largest joint move between checks (rad),
-    /// used when `clearance` is 0.
-    pub resolution: f64,
-    /// Certified edge validation (m): every configuration of an edge keeps
-    /// at least clearance / 2 from everything; 0 switches to `resolution`.
-    pub clearance: f64,
-    /// Wall-clock budget (s).
-    pub time_limit: f64,
-    /// Iteration budget.
-    pub max_iterations: usize,
-}
-
-impl Default for PlannerSettings {
-    fn default() -> Self {
-        PlannerSettings {
-            seed: 0,
-            step: 1.0,
-            resolution: 0.005,
-            clearance: 0.001,
-            time_limit: 1.0,
-            max_iterations: 100_000,
-        }
-    }
 }
 
 /// How an objective enters the optimization problem.

@@ -7,8 +7,9 @@ use super::{
     Goal, ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, Problem, ProblemError, RobotSpec, Source,
     TimeRange,
 };
-use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh, readable};
+use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh};
 use crate::scene::{Obstacle, Scene, SceneObject, Shape};
+use crate::settings::readable;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -696,6 +697,7 @@ impl RawPlanner {
             clearance,
             time_limit,
             max_iterations,
+            ..d
         })
     }
 }

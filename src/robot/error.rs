@@ -282,15 +282,8 @@ pub enum RobotError {
     /// A setting of a query (a motion check's resolution or clearance)
     /// outside its documented range, or one that would make the query
     /// unbounded.
-    #[error("{name} = {value} is not valid: {expected}")]
-    InvalidSetting {
-        /// The setting (`resolution`, `clearance`).
-        name: &'static str,
-        /// The offending value.
-        value: f64,
-        /// What it must be.
-        expected: String,
-    },
+    #[error(transparent)]
+    InvalidSetting(#[from] crate::settings::InvalidSetting),
     /// An output buffer of the wrong shape (a programming error of the caller).
     #[error("output has {got} columns, the model has {expected} active joints")]
     OutputShape {
@@ -299,16 +292,6 @@ pub enum RobotError {
         /// Values given.
         got: usize,
     },
-}
-
-/// `value` in plain notation when that is short, else in scientific
-/// notation: error messages quoting 1e-300 would print 300 zeros.
-pub(crate) fn readable(value: f64) -> String {
-    if value == 0.0 || !value.is_finite() || (1e-5..1e7).contains(&value.abs()) {
-        format!("{value}")
-    } else {
-        format!("{value:e}")
-    }
 }
 
 pub(crate) fn did_you_mean(suggestions: &[String]) -> String {

@@ -30,7 +30,7 @@ mod xml_checks;
 
 pub use description::{CollisionElement, Geometry, Joint, JointKind, JointLimits, Link, Mimic, RobotDescription};
 pub use error::{RobotError, SourceLocation};
-pub(crate) use error::{did_you_mean, readable, suggest as suggest_names};
+pub(crate) use error::{did_you_mean, suggest as suggest_names};
 pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;
 pub(crate) use model::Motion;

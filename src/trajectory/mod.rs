@@ -36,7 +36,7 @@
 mod csv;
 
 use crate::files::FileError;
-use crate::robot::readable;
+use crate::settings::readable;
 use thiserror::Error;
 
 /// Most waypoints of a trajectory (`T + 1` for the largest horizon T a

@@ -191,7 +191,7 @@ pub fn run_traded_episode(
 ) -> Result<Vec<TradedEpisode>, TradedError> {
     let n = settings.objects.len();
     if n == 0 || scene.objects() != settings.objects.as_slice() {
-        return Err(TradedError::Settings("the scene's objects differ from the settings'".into()));
+        return Err(TradedError::Placement("the scene's objects differ from the settings'".into()));
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut order: Vec<usize> = (0..n).collect();

@@ -132,8 +132,12 @@ pub fn run_traded_experiment(
     settings: &TradedExperimentSettings,
     progress: &(dyn Fn() + Sync),
 ) -> Result<TradedResults, TradedError> {
-    if settings.episodes == 0 || settings.loop_settings.objects.len() != 3 {
-        return Err(TradedError::Settings("needs at least one episode and three objects".into()));
+    if settings.episodes == 0 {
+        return Err(crate::settings::InvalidSetting::new("episodes", 0, "at least 1").into());
+    }
+    let objects = settings.loop_settings.objects.len();
+    if objects != 3 {
+        return Err(crate::settings::InvalidSetting::new("loop_settings.objects", objects, "3 objects").into());
     }
     let objects = &settings.loop_settings.objects;
     let began = std::time::Instant::now();

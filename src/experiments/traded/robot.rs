@@ -43,9 +43,13 @@ pub enum TradedError {
     /// The classifier failed.
     #[error(transparent)]
     Learn(#[from] crate::learn::LearnError),
-    /// Bad settings.
+    /// A setting out of range.
+    #[error(transparent)]
+    InvalidSetting(#[from] crate::settings::InvalidSetting),
+    /// Objects that cannot be placed as asked (off the table, other than the
+    /// scene's).
     #[error("traded control: {0}")]
-    Settings(String),
+    Placement(String),
 }
 
 /// A planned grasp.
@@ -93,14 +97,14 @@ impl TradedScene {
     /// `object` out of range or not present; scene errors.
     pub fn problem(&self, present: &[bool], object: usize, direction: GraspDirection) -> Result<Problem, TradedError> {
         if object >= self.objects.len() || !present.get(object).copied().unwrap_or(false) {
-            return Err(TradedError::Settings(format!("object {object} is not on the table")));
+            return Err(TradedError::Placement(format!("object {object} is not on the table")));
         }
         let template = self
             .base
             .scene
             .object("box")
             .cloned()
-            .ok_or_else(|| TradedError::Settings("panda_grasp_box has no box".into()))?;
+            .ok_or_else(|| TradedError::Placement("panda_grasp_box has no box".into()))?;
         let mut problem = self.base.clone();
         problem.scene = crate::scene::Scene::new();
         for o in self.base.scene.obstacles() {

@@ -1,19 +1,100 @@
-//! Settings of the RRT-Connect search: the step, dynamic-domain sampling
-//! ([`DynamicDomain`]), samples drawn near the other tree's roots
-//! ([`RootBias`]), balancing, the edge check and the budgets.
+//! The planner's settings, one type for the search and for the problem
+//! files' `[planner]` table: what RRT-Connect
+//! ([`rrt_connect`](crate::plan::rrt_connect)) samples and how, how it
+//! checks edges, and its budgets.
 //!
 //! ```
-//! use tandem::plan::{RootBias, RrtSettings};
+//! use tandem::problem::{PlannerSettings, RootBias};
 //! // One sample in ten aims near the other tree's roots by default:
-//! assert_eq!(RrtSettings::default().root_bias, Some(RootBias { probability: 0.1, spread: 3.0 }));
-//! // Plain RRT-Connect: uniform samples, every one used, trees alternating.
-//! let plain = RrtSettings { dynamic_domain: None, root_bias: None, balance: false, ..RrtSettings::default() };
-//! assert!(plain.root_bias.is_none() && plain.dynamic_domain.is_none());
+//! assert_eq!(PlannerSettings::default().root_bias, Some(RootBias { probability: 0.1, spread: 3.0 }));
+//! // Plain RRT-Connect: uniform samples, every one used, trees alternating,
+//! // edges sampled every 5 mrad.
+//! let plain = PlannerSettings {
+//!     dynamic_domain: None,
+//!     root_bias: None,
+//!     balance: false,
+//!     clearance: 0.0,
+//!     ..PlannerSettings::default()
+//! };
+//! assert!(plain.validate().is_ok());
 //! ```
 
-use super::EdgeCheck;
-use crate::robot::RobotError;
-use std::time::Duration;
+use crate::settings::{InvalidSetting, check};
+
+/// Settings of RRT-Connect: sampling ([`DynamicDomain`], [`RootBias`],
+/// balancing), the edge check, the budgets and the seed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannerSettings {
+    /// Seed of the sampler: the same seed gives the same path.
+    pub seed: u64,
+    /// Largest joint-space step of one extension (rad, Euclidean norm).
+    pub step: f64,
+    /// Sampled edge checks (`clearance` 0): the largest joint move between
+    /// checked configurations (rad or m).
+    pub resolution: f64,
+    /// Certified edge checks (m): every configuration of an edge keeps at
+    /// least `clearance / 2` from everything; 0 switches to `resolution`.
+    /// A problem's planner searches on shapes padded by it and certifies
+    /// the path ([`ProblemPlanner`](crate::plan::ProblemPlanner)).
+    pub clearance: f64,
+    /// Wall-clock budget (s).
+    pub time_limit: f64,
+    /// Budget of extension rounds.
+    pub max_iterations: usize,
+    /// Dynamic-domain sampling; `None`: every sample is used.
+    pub dynamic_domain: Option<DynamicDomain>,
+    /// Samples drawn near the other tree's roots; `None`: every sample is
+    /// uniform over the joint limits.
+    pub root_bias: Option<RootBias>,
+    /// Always grow the smaller tree (else the trees alternate): a goal in
+    /// a pocket gets the samples it needs to find its way out.
+    pub balance: bool,
+}
+
+impl Default for PlannerSettings {
+    fn default() -> Self {
+        PlannerSettings {
+            seed: 0,
+            step: 1.0,
+            resolution: 0.005,
+            clearance: 0.001,
+            time_limit: 1.0,
+            max_iterations: 100_000,
+            dynamic_domain: Some(DynamicDomain::default()),
+            root_bias: Some(RootBias::default()),
+            balance: true,
+        }
+    }
+}
+
+impl PlannerSettings {
+    /// Checks the search's settings: a positive, finite step; a time limit
+    /// of at least 0; a dynamic domain with a positive radius, a
+    /// non-negative smallest radius and a rate in `[0, 1)`; a root bias
+    /// with a chance in `[0, 1)` and a finite, non-negative spread. (The
+    /// edge check's resolution or clearance is checked by the check
+    /// itself.) A step of 0 would let a tree's connection add the same
+    /// node forever within one round.
+    ///
+    /// # Errors
+    /// The first setting out of range.
+    pub fn validate(&self) -> Result<(), InvalidSetting> {
+        check("step", self.step, self.step.is_finite() && self.step > 0.0, "finite and above 0 (rad or m)")?;
+        check("time_limit", self.time_limit, self.time_limit >= 0.0, "at least 0 s")?;
+        if let Some(d) = &self.dynamic_domain {
+            check("dynamic_domain.radius", d.radius, d.radius > 0.0, "above 0 (rad or m)")?;
+            check("dynamic_domain.min_radius", d.min_radius, d.min_radius >= 0.0, "at least 0 (rad or m)")?;
+            check("dynamic_domain.rate", d.rate, (0.0..1.0).contains(&d.rate), "in [0, 1)")?;
+        }
+        if let Some(b) = &self.root_bias {
+            let p = b.probability;
+            check("root_bias.probability", p, (0.0..1.0).contains(&p), "in [0, 1)")?;
+            let spread = b.spread;
+            check("root_bias.spread", spread, spread.is_finite() && spread >= 0.0, "finite and at least 0 (rad or m)")?;
+        }
+        Ok(())
+    }
+}
 
 /// Dynamic-domain sampling (Yershova et al. 2005, with the adaptive radius
 /// of Jaillet et al. 2005): a node whose extension was blocked only takes
@@ -60,89 +141,6 @@ impl DynamicDomain {
     /// change stayed within 4 % either way (README).
     pub fn radius_for(&self, joints: usize) -> f64 {
         self.radius * (joints as f64 / Self::REFERENCE_JOINTS as f64).sqrt()
-    }
-}
-
-/// Settings of [`rrt_connect`](super::rrt_connect).
-#[derive(Debug, Clone, PartialEq)]
-pub struct RrtSettings {
-    /// Largest joint-space step of one extension (rad, Euclidean norm).
-    pub step: f64,
-    /// Dynamic-domain sampling; `None`: every sample is used.
-    pub dynamic_domain: Option<DynamicDomain>,
-    /// Samples drawn near the other tree's roots; `None`: every sample
-    /// is uniform over the joint limits.
-    pub root_bias: Option<RootBias>,
-    /// Always grow the smaller tree (else the trees alternate): a goal in
-    /// a pocket gets the samples it needs to find its way out.
-    pub balance: bool,
-    /// How edges are validated.
-    pub edge: EdgeCheck,
-    /// Wall-clock budget.
-    pub time_limit: Duration,
-    /// Budget of extension rounds.
-    pub max_iterations: usize,
-    /// Seed of the sampler: the same seed gives the same path.
-    pub seed: u64,
-}
-
-impl Default for RrtSettings {
-    fn default() -> Self {
-        RrtSettings {
-            step: 1.0,
-            dynamic_domain: Some(DynamicDomain::default()),
-            root_bias: Some(RootBias::default()),
-            balance: true,
-            edge: EdgeCheck::Resolution(0.005),
-            time_limit: Duration::from_secs(1),
-            max_iterations: 100_000,
-            seed: 0,
-        }
-    }
-}
-
-impl RrtSettings {
-    /// Checks the sampling settings: a positive, finite step; a dynamic
-    /// domain with a positive radius, a non-negative smallest radius and
-    /// a rate in `[0, 1)`; a root bias with a chance in `[0, 1)` and a
-    /// finite, non-negative spread. (The edge check's resolution or
-    /// clearance is checked by the check itself.) A step of 0 would let
-    /// a tree's connection add the same node forever within one round.
-    ///
-    /// # Errors
-    /// [`RobotError::InvalidSetting`] naming the first setting out of range.
-    pub fn validate(&self) -> Result<(), RobotError> {
-        let check = |name: &'static str, value: f64, ok: bool, expected: &str| {
-            if ok { Ok(()) } else { Err(RobotError::InvalidSetting { name, value, expected: expected.into() }) }
-        };
-        check("step", self.step, self.step.is_finite() && self.step > 0.0, "a finite step above 0 (rad or m)")?;
-        if let Some(d) = &self.dynamic_domain {
-            check("dynamic_domain.radius", d.radius, d.radius > 0.0, "a radius above 0 (rad or m)")?;
-            check("dynamic_domain.min_radius", d.min_radius, d.min_radius >= 0.0, "a radius of at least 0")?;
-            check("dynamic_domain.rate", d.rate, (0.0..1.0).contains(&d.rate), "a rate in [0, 1)")?;
-        }
-        if let Some(b) = &self.root_bias {
-            let p = b.probability;
-            check("root_bias.probability", p, (0.0..1.0).contains(&p), "a chance in [0, 1)")?;
-            let spread = b.spread;
-            check("root_bias.spread", spread, spread.is_finite() && spread >= 0.0, "a finite spread of at least 0")?;
-        }
-        Ok(())
-    }
-}
-
-impl From<&crate::problem::PlannerSettings> for RrtSettings {
-    fn from(p: &crate::problem::PlannerSettings) -> Self {
-        RrtSettings {
-            step: p.step,
-            edge: EdgeCheck::Resolution(p.resolution),
-            // Problem files bound it; a larger one from Rust code never runs out.
-            time_limit: Duration::try_from_secs_f64(p.time_limit).unwrap_or(Duration::MAX),
-            max_iterations: p.max_iterations,
-            seed: p.seed,
-            // Problem files do not set how the search samples.
-            ..RrtSettings::default()
-        }
     }
 }
 
