@@ -6,6 +6,7 @@ use thiserror::Error;
 
 /// A file that could not be read, written or encoded.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum FileError {
     /// A file that could not be read or written.
     #[error("cannot access {path}: {source}")]

@@ -177,6 +177,7 @@ impl ToPyErr for PipelineError {
             PipelineError::Optimizer(e) => e.to_py(),
             PipelineError::Plan(e) => (*e).to_py(),
             PipelineError::Robot(e) => e.to_py(),
+            e => OptimizationError::new_err(e.to_string()),
         }
     }
 }

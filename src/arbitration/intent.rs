@@ -21,17 +21,24 @@
 use crate::settings::{InvalidSetting, check, positive};
 
 /// Settings of the goal posterior.
+///
+/// ```
+/// # use tandem::arbitration::IntentSettings;
+/// let s = IntentSettings::default();
+/// assert_eq!((s.length_scale, s.cap), (0.05, 0.99));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntentSettings {
-    /// Length scale ℓ of the score (m; default 0.05: a goal whose detour is
-    /// 5 cm longer is e times less likely).
+    /// Length scale ℓ of the score (m): a goal whose detour is ℓ longer is
+    /// e times less likely.
     pub length_scale: f64,
-    /// Cap of the largest belief (default 0.99).
+    /// Cap of the largest belief.
     pub cap: f64,
 }
 
 impl Default for IntentSettings {
     fn default() -> Self {
+        // A 5 cm detour makes a goal e times less likely; ADA's cap.
         IntentSettings { length_scale: 0.05, cap: 0.99 }
     }
 }

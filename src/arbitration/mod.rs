@@ -91,6 +91,7 @@ use crate::robot::RobotError;
 
 /// Errors building an [`Arbiter`] (ticks never fail: they return a status).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ArbitrationError {
     /// A goal policy for another number of joints.
     #[error("goal '{goal}': its policy has {got} joints, the robot {expected}")]

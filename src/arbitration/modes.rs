@@ -138,25 +138,30 @@ impl FromStr for ArbitrationMode {
 }
 
 /// Settings of the modes.
+///
+/// ```
+/// # use tandem::arbitration::ModeSettings;
+/// let s = ModeSettings::default();
+/// assert_eq!((s.timid_max_alpha, s.aggressive_threshold, s.sum_of_squares_epsilon), (0.8, 0.6, 0.01));
+/// assert_eq!((s.sum_of_squares_center, s.constrained_center, s.keep_speed), (0.0, 0.0, true));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ModeSettings {
     /// Timid blending: `α = timid_max_alpha · c`, `c` the confidence
-    /// rescaled so that uniform beliefs give 0 and certainty 1 (default 0.8).
+    /// rescaled so that uniform beliefs give 0 and certainty 1.
     pub timid_max_alpha: f64,
-    /// Aggressive blending: `α = 1` once `c` reaches this (default 0.6).
+    /// Aggressive blending: `α = 1` once `c` reaches this.
     pub aggressive_threshold: f64,
-    /// `ε = C⁻¹` of sum-of-squares (default 0.01: the task velocity is met
-    /// to about 1 %, with the metric normalised to mean eigenvalue 1).
+    /// `ε = C⁻¹` of sum-of-squares.
     pub sum_of_squares_epsilon: f64,
     /// `κ` of sum-of-squares' preferred step: `min ‖J u − v‖²_C + ‖u −
-    /// κ ā_R‖²_W` (default 0, the seed's eq. 5.4, which prefers no motion).
+    /// κ ā_R‖²_W`.
     pub sum_of_squares_center: f64,
     /// `κ` of the constrained trust region's centre `κ ā_R` (`ā_R` the
-    /// belief-weighted robot action; default 0, the seed's eq. 5.3).
+    /// belief-weighted robot action).
     pub constrained_center: f64,
     /// Natural gradient and constrained: scale the shaped command to the
-    /// operator's speed (task speed for task commands; default true; §5.7
-    /// found the normalised 6-D mode slower than the operator asked).
+    /// operator's speed (task speed for task commands).
     pub keep_speed: bool,
 }
 
@@ -165,9 +170,13 @@ impl Default for ModeSettings {
         ModeSettings {
             timid_max_alpha: 0.8,
             aggressive_threshold: 0.6,
+            // The task velocity met to about 1 %, the metric normalised to
+            // mean eigenvalue 1.
             sum_of_squares_epsilon: 0.01,
+            // The dissertation's eq. 5.4 (which prefers no motion) and 5.3.
             sum_of_squares_center: 0.0,
             constrained_center: 0.0,
+            // §5.7 found the normalised 6-D mode slower than the operator asked.
             keep_speed: true,
         }
     }

@@ -21,33 +21,39 @@ use crate::settings::{InvalidSetting, non_negative, positive};
 use tandem_solvers::small::add_scaled;
 
 /// Settings of the hard constraints.
+///
+/// ```
+/// # use tandem::arbitration::SafetySettings;
+/// let s = SafetySettings::default();
+/// assert!(s.collisions && s.certify);
+/// assert_eq!((s.margin, s.avoidance_gain, s.certification_clearance, s.max_distance_rows), (0.005, 2.0, 1e-4, 32));
+/// assert_eq!((s.default_velocity_limit, s.velocity_scale), (2.0, 1.0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SafetySettings {
-    /// Keep away from collisions: distance rows and certified steps
-    /// (default true). Off, only the joint position and velocity limits
-    /// bound the command: the seed's unassisted baseline (`NoAssist`).
+    /// Keep away from collisions: distance rows and certified steps. Off,
+    /// only the joint position and velocity limits bound the command: the
+    /// dissertation's unassisted baseline (`NoAssist`).
     pub collisions: bool,
-    /// Distance every checked pair keeps, linearised (m; default 0.005, the
-    /// shipped problems' optimizer margin: a Panda grasp of a 6 cm box
-    /// leaves 7 mm between the fingers' outer spheres and the box). It
-    /// absorbs the linearisation error of one step; the certification
-    /// below guarantees contact-free motion whatever it is.
+    /// Distance every checked pair keeps, linearised (m). It absorbs the
+    /// linearisation error of one step; the certification below guarantees
+    /// contact-free motion whatever it is.
     pub margin: f64,
     /// `ObstacleAvoidance`: pairs approach at most `avoidance_gain · (d −
-    /// margin)` (1/s; default 2).
+    /// margin)` (1/s).
     pub avoidance_gain: f64,
-    /// Velocity limit of joints whose URDF gives none (rad/s or m/s; default 2).
+    /// Velocity limit of joints whose URDF gives none (rad/s or m/s).
     pub default_velocity_limit: f64,
-    /// Factor on the URDF velocity limits (default 1).
+    /// Factor on the URDF velocity limits.
     pub velocity_scale: f64,
     /// Certify each step against the exact geometry: every configuration
     /// of the straight motion `q → q + u·dt` keeps
     /// `certification_clearance / 2` from everything, else the step is
-    /// halved (up to 4 times) or the arm holds (default true).
+    /// halved (up to 4 times) or the arm holds.
     pub certify: bool,
-    /// Clearance of the certification (m; default 1e-4).
+    /// Clearance of the certification (m).
     pub certification_clearance: f64,
-    /// Most distance rows per tick, the closest pairs first (default 32).
+    /// Most distance rows per tick, the closest pairs first.
     pub max_distance_rows: usize,
 }
 
@@ -55,6 +61,8 @@ impl Default for SafetySettings {
     fn default() -> Self {
         SafetySettings {
             collisions: true,
+            // The shipped problems' optimizer margin: a Panda grasp of a 6 cm
+            // box leaves 7 mm between the fingers' outer spheres and the box.
             margin: 0.005,
             avoidance_gain: 2.0,
             default_velocity_limit: 2.0,

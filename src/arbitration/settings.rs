@@ -16,18 +16,24 @@ use tandem_solvers::conic::ConicSettings;
 /// Jacobian whose singular value `σ` is below `threshold` is damped by
 /// `max_damping² · (1 − (σ/threshold)²)`; `floor` regularises the null
 /// space. Only the directions losing rank slow down: the arm keeps moving
-/// where it can.
+/// where it can, and the tick says so (`TickStatus::SingularityDamped`).
+///
+/// ```
+/// # use tandem::arbitration::DampingSettings;
+/// let d = DampingSettings::default();
+/// assert_eq!((d.threshold, d.max_damping, d.floor, d.null_space_weight), (0.03, 0.05, 1e-6, 0.01));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DampingSettings {
-    /// σ_min below which damping grows (m/rad; default 0.03).
+    /// σ_min below which damping grows (m/rad).
     pub threshold: f64,
-    /// Largest damping factor (m/rad; default 0.05).
+    /// Largest damping factor (m/rad).
     pub max_damping: f64,
-    /// Damping always present, regularising the null space (default 1e-6).
+    /// Damping always present, regularising the null space.
     pub floor: f64,
     /// Weight of joint-space deviation from the operator's command against
-    /// task-space deviation when a constraint binds (m²/rad²; default
-    /// 0.01): the command gives way in the null space first.
+    /// task-space deviation when a constraint binds (m²/rad²): the command
+    /// gives way in the null space first.
     pub null_space_weight: f64,
 }
 
@@ -68,12 +74,22 @@ pub enum SolverBackend {
     Osqp,
 }
 
-/// Everything an [`Arbiter`](super::Arbiter) can be told.
+/// Everything an [`Arbiter`](super::Arbiter) can be told. The defaults:
+/// direct control (choose a mode), 15 Hz as the dissertation's loop, the
+/// exact active-set solver, the closed form first.
+///
+/// ```
+/// # use tandem::arbitration::{ArbiterSettings, ArbitrationMode, SolverBackend};
+/// let s = ArbiterSettings::default();
+/// assert_eq!((s.mode, s.backend, s.closed_form_first), (ArbitrationMode::DirectControl, SolverBackend::ActiveSet, true));
+/// assert_eq!(s.period, 1.0 / 15.0);
+/// assert!(s.validate().is_ok());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ArbiterSettings {
     /// The mode new workspaces start in.
     pub mode: ArbitrationMode,
-    /// Control period `dt` (s; default 1/15, the seed's 15 Hz).
+    /// Control period `dt` (s).
     pub period: f64,
     /// The metrics' settings.
     pub metric: MetricSettings,
@@ -90,7 +106,7 @@ pub struct ArbiterSettings {
     /// Which solver solves the QP modes.
     pub backend: SolverBackend,
     /// Skip the solver when the mode's closed form meets every constraint
-    /// (it is then the optimum of the convex problem; default true).
+    /// (it is then the optimum of the convex problem).
     pub closed_form_first: bool,
 }
 
@@ -98,6 +114,7 @@ impl Default for ArbiterSettings {
     fn default() -> Self {
         ArbiterSettings {
             mode: ArbitrationMode::default(),
+            // The dissertation's 15 Hz.
             period: 1.0 / 15.0,
             metric: MetricSettings::default(),
             intent: IntentSettings::default(),

@@ -49,6 +49,7 @@ use thiserror::Error;
 
 /// Errors building collision shapes and models.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum CollisionError {
     /// A shape that cannot be built (a bad dimension, a degenerate mesh
     /// hull), or a padding that is not finite and non-negative.

@@ -51,6 +51,7 @@ pub const WEIGHT_RANGE: std::ops::RangeInclusive<f64> = 1e-4..=1e4;
 
 /// Errors building or querying a tracking policy.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ControlError {
     /// A time step outside [`MIN_TIME_STEP`] ..= [`MAX_TIME_STEP`].
     #[error("time step {dt} s is outside [{MIN_TIME_STEP}, {MAX_TIME_STEP}] s")]

@@ -76,6 +76,7 @@ impl Default for GenerateSettings {
 
 /// Why a run stopped.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum GenerateError {
     #[error(transparent)]
     /// The family (or its base problem) cannot be loaded.

@@ -13,6 +13,7 @@ pub const MAX_THREADS: usize = 1024;
 /// Errors of an experiment run (an episode that fails is a result, not an
 /// error).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ExperimentError {
     /// A task or an arbiter could not be set up.
     #[error(transparent)]

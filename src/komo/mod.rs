@@ -44,6 +44,7 @@ use thiserror::Error;
 /// Errors setting up or running an optimization (a solve that does not
 /// converge is not an error: see the report's termination).
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum KomoError {
     /// An objective cannot be built or does not fit the problem.
     #[error("objective {name}: {message}")]

@@ -75,6 +75,7 @@ use std::path::PathBuf;
 
 /// Errors reading data or policy files, training, or building a policy.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum LearnError {
     /// A file or folder that cannot be read or written.
     #[error("cannot read or write {path}: {source}")]

@@ -37,6 +37,7 @@ use thiserror::Error;
 /// Errors running the pipeline (a solve that does not converge is not an
 /// error: see [`ProblemSolution::status`]).
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum PipelineError {
     /// The optimizer cannot be set up (objectives, horizon, collision model).
     #[error(transparent)]

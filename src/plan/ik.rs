@@ -55,6 +55,7 @@ impl Default for IkSettings {
 
 /// Why inverse kinematics failed.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum IkError {
     /// No attempt converged; the best one missed by this much.
     #[error(

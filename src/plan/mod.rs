@@ -28,6 +28,7 @@ use thiserror::Error;
 
 /// Errors planning a problem (a failed search is not an error: see [`PlanStatus`]).
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum PlanError {
     #[error(transparent)]
     /// The collision model cannot be built.

@@ -53,6 +53,7 @@ use thiserror::Error;
 
 /// Errors about grasps and grippers.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum GraspError {
     /// The problem names no gripper frame (`robot.gripper`).
     #[error("the problem names no gripper frame (robot.gripper)")]

@@ -43,6 +43,7 @@ use toml_source::{KeyPath, line_of, line_of_path, path_at};
 /// Errors loading a problem (or family) file: what is wrong, in which file,
 /// at which key and line.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ProblemError {
     /// The file could not be read.
     #[error("cannot read {path}: {source}")]

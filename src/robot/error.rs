@@ -28,6 +28,7 @@ impl std::fmt::Display for SourceLocation {
 /// Errors loading a URDF, building a [`RobotModel`](super::RobotModel) or
 /// querying its kinematics.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum RobotError {
     /// The URDF (or a mesh) file could not be read.
     #[error("cannot read {path}: {source}")]

@@ -101,6 +101,7 @@ impl SceneObject {
 
 /// Errors editing a scene.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum SceneError {
     /// Two obstacles or objects share a name.
     #[error("the scene already has an obstacle or object named '{0}'")]

@@ -13,6 +13,7 @@ use thiserror::Error;
 
 /// A shape that cannot be built.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ShapeError {
     /// A dimension that is not finite and positive.
     #[error("invalid {what}: {value} (must be finite and positive)")]

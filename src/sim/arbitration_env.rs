@@ -199,6 +199,7 @@ pub struct ArbitrationEnv {
 
 /// Errors of the arbitration environment.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum EnvError {
     /// Settings with no user or no operator.
     #[error("the arbitration environment needs at least one user")]

@@ -33,6 +33,7 @@ impl Default for EpisodeSettings {
 
 /// How an episode ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Outcome {
     /// The task's judge agreed (checked after every step).
     Success,

@@ -42,6 +42,7 @@ pub use session::{SessionSettings, TeleopSession, TeleopTask};
 
 /// Errors of the teleoperation server and its sessions.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum TeleopError {
     /// A task could not be prepared (its references, its arbiter).
     #[error("preparing the {task} task: {source}")]

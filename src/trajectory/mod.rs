@@ -49,6 +49,7 @@ pub const MAX_JOINTS: usize = 1024;
 
 /// Errors building, reading or writing a trajectory.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum TrajectoryError {
     /// A time step that is not finite and positive.
     #[error("time step {} s is not finite and positive", readable(*dt))]

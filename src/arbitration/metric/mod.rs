@@ -38,26 +38,33 @@ use tandem_solvers::small::{add_scaled, identity, recompose, symmetric_eigen};
 mod stage;
 
 /// Settings of the metrics.
+///
+/// ```
+/// # use tandem::arbitration::MetricSettings;
+/// let s = MetricSettings::default();
+/// assert_eq!((s.step, s.sample_radius, s.task_sample_radius), (1e-3, 0.02, 0.02));
+/// assert_eq!((s.floor, s.min_belief), (0.05, 0.01));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetricSettings {
-    /// Finite-difference step `h` of the Hessian metric (rad or m; default
-    /// 1e-3, well inside a segment of a 50-slice reference).
+    /// Finite-difference step `h` of the Hessian metric (rad or m).
     pub step: f64,
     /// Radius `r` of the Fisher metric's samples and width of its LWR
-    /// weights (rad or m in joint space; default 0.02).
+    /// weights (rad or m in joint space).
     pub sample_radius: f64,
-    /// Radius of the task-space Fisher metric's joint samples (rad;
-    /// default 0.02).
+    /// Radius of the task-space Fisher metric's joint samples (rad).
     pub task_sample_radius: f64,
-    /// Eigenvalue floor relative to the largest eigenvalue (default 0.05:
-    /// the metric's condition number is at most 20).
+    /// Eigenvalue floor relative to the largest eigenvalue (the metric's
+    /// condition number is at most its inverse).
     pub floor: f64,
-    /// Goals below this belief are left out of the combined metric (default 0.01).
+    /// Goals below this belief are left out of the combined metric.
     pub min_belief: f64,
 }
 
 impl Default for MetricSettings {
     fn default() -> Self {
+        // A step well inside a segment of a 50-slice reference; a condition
+        // number of at most 20.
         MetricSettings { step: 1e-3, sample_radius: 0.02, task_sample_radius: 0.02, floor: 0.05, min_belief: 0.01 }
     }
 }

@@ -30,6 +30,7 @@ pub const GRIPPER_SECONDS: f64 = 0.5;
 
 /// Errors setting up or planning a traded grasp.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum TradedError {
     /// The base problem cannot be loaded or retargeted.
     #[error(transparent)]
