@@ -54,7 +54,7 @@ impl TrajectoryProblem {
     ) -> Result<TrajectoryProblem, KomoError> {
         let (min, max) = (crate::problem::MIN_HORIZON, crate::problem::MAX_HORIZON);
         if !(min..=max).contains(&horizon) {
-            return Err(InvalidSetting::new("horizon", horizon, format!("{min} … {max}")).into());
+            return Err(InvalidSetting::new("horizon", horizon, format!("between {min} and {max}")).into());
         }
         if !(1..=2).contains(&order) {
             return Err(InvalidSetting::new("order", order, "1 or 2").into());
