@@ -8,7 +8,6 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::sync::Mutex;
 use tandem::control::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights};
-use tandem::trajectory::JointTrajectory;
 
 /// An LQR policy steering the arm back onto a joint-space reference from
 /// anywhere nearby: ``a = −K (x − x_d)`` on the joint-space double
@@ -91,10 +90,7 @@ impl PyTrackingPolicy {
         let weights = TrackingWeights { position: position_weight, velocity: velocity_weight, control: control_weight };
         let waypoints = reference.to_rows();
         let policy = py
-            .detach(|| {
-                let reference = JointTrajectory::new(joints, dt, &waypoints)?;
-                TrackingPolicy::new(reference, weights, schedule)
-            })
+            .detach(|| TrackingPolicy::from_waypoints(joints, dt, &waypoints, weights, schedule))
             .py()?
             .with_feedforward(feedforward)
             .with_lookahead(lookahead);

@@ -188,6 +188,29 @@ impl TrackingPolicy {
         })
     }
 
+    /// The policy of the reference through `waypoints` (one slice of
+    /// `joints.len()` values each, the start first), `dt` seconds apart: the
+    /// policy's time step and joint count are checked first, then the
+    /// waypoints ([`JointTrajectory::new`]).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new) and [`JointTrajectory::new`].
+    pub fn from_waypoints(
+        joints: Vec<String>,
+        dt: f64,
+        waypoints: &[Vec<f64>],
+        weights: TrackingWeights,
+        schedule: GainSchedule,
+    ) -> Result<Self, ControlError> {
+        if !(super::MIN_TIME_STEP..=super::MAX_TIME_STEP).contains(&dt) {
+            return Err(ControlError::InvalidTimeStep { dt });
+        }
+        if joints.len() > super::MAX_REFERENCE_JOINTS {
+            return Err(ControlError::TooManyJoints { count: joints.len() });
+        }
+        Self::new(JointTrajectory::new(joints, dt, waypoints)?, weights, schedule)
+    }
+
     /// Chooses the feedforward terms (default [`Feedforward::Velocity`]).
     pub fn with_feedforward(mut self, feedforward: Feedforward) -> Self {
         self.feedforward = feedforward;
