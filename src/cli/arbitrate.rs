@@ -51,8 +51,8 @@ pub struct ArbitrateArgs {
     #[arg(long, value_name = "FILE")]
     pub field: Option<PathBuf>,
     /// Print one JSON object: {"problem", "mode", "operator", "seed",
-    /// "outcome", "steps", "tick_us": {"median", "p99", "max"},
-    /// "hard_violations", "min_clearance_m", "fallbacks"}.
+    /// "outcome", "reason", "reason_detail", "steps", "tick_us": {"median",
+    /// "p99", "max"}, "hard_violations", "min_clearance_m", "fallbacks"}.
     #[arg(long)]
     pub json: bool,
 }
@@ -92,7 +92,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         settings: EpisodeSettings::default(),
     };
     let mut ws = arbiter.workspace();
-    let record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
+    let record = episode.run(&mut ws, operator.as_mut(), &mut judge)?;
     if let Some(path) = &args.plot {
         let svg = episode_svg(&problem, &goals[target], &record, args)?;
         std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
@@ -109,6 +109,8 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
             "operator": args.operator,
             "seed": args.seed,
             "outcome": record.outcome.as_str(),
+            "reason": record.reason.as_str(),
+            "reason_detail": record.reason.to_string(),
             "steps": record.steps,
             "tick_us": {"median": median, "p99": p99, "max": max},
             "hard_violations": record.hard_violations,
@@ -126,13 +128,14 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         goals.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
     );
     println!(
-        "{} operator, mode {} at {} Hz: {} after {} ticks ({:.1} s)",
+        "{} operator, mode {} at {} Hz: {} after {} ticks ({:.1} s): {}",
         args.operator,
         args.mode,
         args.rate,
         record.outcome.as_str(),
         record.steps,
-        record.steps as f64 / args.rate
+        record.steps as f64 / args.rate,
+        record.reason
     );
     println!("tick: median {median:.1} µs, p99 {p99:.1} µs, max {max:.1} µs");
     println!(

@@ -157,7 +157,7 @@ fn shared_control(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error
             true_goal: 0,
             settings: EpisodeSettings::default(),
         };
-        let record = episode.run(&mut ws, &mut Approach::default(), &mut |q| judge.succeeded(q))?;
+        let record = episode.run(&mut ws, &mut Approach::default(), &mut judge)?;
         let (median, p99, _) = percentiles(&record.tick_us);
         println!(
             "  {:<24} {:>9} {:>6} {median:>11.1} {p99:>9.1} {:>11} {:>9.1} mm",

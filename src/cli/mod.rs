@@ -227,8 +227,15 @@ pub enum Command {
     /// under hard constraints (joint limits, velocity limits, distances),
     /// at 15 Hz in the kinematic simulator, with a collision check each step.
     ///
-    /// The episode ends in success (the gripper at the goal's grasp pose:
-    /// within 1 cm and 0.2 rad of its z axis), collision, or timeout (30 s).
+    /// The episode ends in success (a grasp: the box between the finger
+    /// pads, the fingertip centre over it, the gripper within 0.2 rad of the
+    /// grasp's approach axis, palm and fingers clear; a reach: within 1 cm),
+    /// collision, timeout (30 s), or failed: the operator stopped where the
+    /// task is not done. Every ending has a reason, printed and in --json
+    /// ("reason"): success, collision (with the pair), timeout (with the
+    /// distance left), stopped_short (with the distance), orientation_off
+    /// (with the angle), not_between_pads, outside_footprint,
+    /// touching_object, judge_declined. Exit status 3 unless it succeeds.
     /// Reports the tick time (median, p99, max), hard-constraint violations
     /// (should be 0), the smallest clearance and the fallbacks.
     ///

@@ -23,7 +23,7 @@ use crate::collision::CollisionWorkspace;
 use crate::figures::{Panel, Series, SeriesKind, render_panels};
 use crate::problem::Problem;
 use crate::sim::{
-    Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarTask, PlanarUser, TaskJudge, sample_planar_task,
+    Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarTask, PlanarUser, Reason, TaskJudge, sample_planar_task,
 };
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -80,6 +80,8 @@ pub struct PlanarEpisode {
     pub method: usize,
     /// How it ended.
     pub outcome: Outcome,
+    /// Why (the last phase's reason).
+    pub reason: Reason,
     /// Seconds, centimetres, centimetres, and the mean cosine distance.
     pub duration: f64,
     /// Gripper path length (cm).
@@ -163,17 +165,21 @@ fn run_phases(
     let first_goal = &task.reach[task.target];
     let speed = settings.speed;
     let first = phase(reach, &first_goal.problem.start, first_goal, task.target, user, speed, seed, settings.max_time)?;
-    let mut outcome = first.outcome;
+    let (mut outcome, mut reason) = (first.outcome, first.reason.clone());
     let mut records = vec![first];
     if outcome == Outcome::Success {
         let remaining = settings.max_time - records[0].duration;
         if remaining > 0.0 {
             let start = records[0].final_q.clone();
             let second = phase(place, &start, &task.place, 0, user, speed, seed ^ 0xABCD, remaining)?;
-            outcome = second.outcome;
+            (outcome, reason) = (second.outcome, second.reason.clone());
             records.push(second);
         } else {
             outcome = Outcome::Timeout;
+            let end = records[0].gripper.last().copied().unwrap_or_default();
+            let to = task.place.position;
+            let distance = ((end[0] - to[0]).powi(2) + (end[1] - to[1]).powi(2) + (end[2] - to[2]).powi(2)).sqrt();
+            reason = Reason::Timeout { distance };
         }
     }
     let duration = records.iter().map(|r| r.duration).sum();
@@ -192,6 +198,7 @@ fn run_phases(
         user: u,
         method: m,
         outcome,
+        reason,
         duration,
         travel_cm: travel * 100.0,
         proximity_cm: proximity * 100.0,
@@ -221,7 +228,7 @@ fn phase(
         true_goal,
         settings: EpisodeSettings { max_time, record: true },
     };
-    Ok(episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut |q| judge.succeeded(q))?)
+    Ok(episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut judge)?)
 }
 
 /// Smallest distance (m) between the pole and the gripper (phase 1) or the
@@ -277,6 +284,7 @@ impl Experiment for PlanarSettings {
                     "proximity_cm": mean_std(cell.iter().map(|e| e.proximity_cm)),
                     "cosine_distance": mean_std(cell.iter().map(|e| e.cosine_distance)),
                     "hard_violations": cell.iter().map(|e| e.hard_violations).sum::<usize>(),
+                    "reasons": reasons(&cell),
                 }));
             }
         }
@@ -322,6 +330,13 @@ impl Experiment for PlanarSettings {
                 pm("cosine_distance", 100.0),
             );
         }
+        let _ = writeln!(out, "\nfailures by reason, all users:");
+        for (m, method) in r.settings.methods.iter().enumerate() {
+            let cell: Vec<&PlanarEpisode> = r.episodes.iter().filter(|e| e.method == m).collect();
+            let listed: Vec<String> = reasons(&cell).iter().map(|(reason, n)| format!("{reason} {n}")).collect();
+            let listed = if listed.is_empty() { "none".to_string() } else { listed.join(", ") };
+            let _ = writeln!(out, "{:<37}{listed}", method.as_str());
+        }
         let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
         let _ = writeln!(
             out,
@@ -335,6 +350,15 @@ impl Experiment for PlanarSettings {
     fn figures(&self, r: &PlanarResults) -> Result<Vec<(String, String)>, ExperimentError> {
         Ok(figure(r)?.map(|svg| ("planar.svg".to_string(), svg)).into_iter().collect())
     }
+}
+
+/// The episodes of `cell` that did not succeed, by reason.
+fn reasons(cell: &[&PlanarEpisode]) -> std::collections::BTreeMap<&'static str, usize> {
+    let mut counts = std::collections::BTreeMap::new();
+    for e in cell.iter().filter(|e| e.outcome != Outcome::Success) {
+        *counts.entry(e.reason.as_str()).or_default() += 1;
+    }
+    counts
 }
 
 /// Fig. 4.5: the first task's gripper paths, one panel per method, every user.

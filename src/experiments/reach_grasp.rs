@@ -20,10 +20,12 @@ use crate::figures::{Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::robot::KinematicsWorkspace;
 use crate::sim::{
-    Arm, Episode, EpisodeRecord, EpisodeSettings, OperatorKind, Outcome, Task, TaskJudge, mix, percentiles, sample_task,
+    Arm, Episode, EpisodeRecord, EpisodeSettings, OperatorKind, Outcome, Reason, Task, TaskJudge, mix, percentiles,
+    sample_task,
 };
 use nalgebra::{IsometryMatrix3, Rotation3};
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 use std::fmt::Write;
 
 /// An arbitration method of the experiment.
@@ -125,6 +127,8 @@ pub struct EpisodeSummary {
     pub method: usize,
     /// How it ended.
     pub outcome: Outcome,
+    /// Why.
+    pub reason: Reason,
     /// |cos| between the gripper's x, y axes and the box's, and cos between
     /// the gripper's z and the box's −z, at the end.
     pub cos: [f64; 3],
@@ -232,7 +236,7 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 true_goal: 0,
                 settings: EpisodeSettings { max_time: settings.max_time, record },
             };
-            let mut record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
+            let mut record = episode.run(&mut ws, operator.as_mut(), &mut judge)?;
             problem.robot.forward_kinematics(&mut kin, &record.final_q)?;
             let g = problem.robot.frame_pose(&kin, gripper).rotation;
             let b = box_pose.rotation;
@@ -248,6 +252,7 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 operator: o,
                 method: m,
                 outcome: record.outcome,
+                reason: record.reason.clone(),
                 cos,
                 duration: record.duration,
                 tick_us: std::mem::take(&mut record.tick_us),
@@ -285,6 +290,8 @@ pub struct Cell {
     pub cos: [f64; 3],
     /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
+    /// The episodes that did not succeed, by reason.
+    pub reasons: BTreeMap<&'static str, usize>,
 }
 
 impl ReachGraspResults {
@@ -303,6 +310,9 @@ impl ReachGraspResults {
                 c.cos[k] += e.cos[k];
             }
             c.hard_violations += e.hard_violations;
+            if e.outcome != Outcome::Success {
+                *c.reasons.entry(e.reason.as_str()).or_default() += 1;
+            }
             count += 1;
         }
         if count > 0 {
@@ -344,7 +354,7 @@ impl Experiment for ReachGraspSettings {
                     rows.push(serde_json::json!({
                         "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
                         "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
-                        "cos_sim": c.cos, "hard_violations": c.hard_violations,
+                        "cos_sim": c.cos, "hard_violations": c.hard_violations, "reasons": c.reasons,
                     }));
                 }
             }
@@ -369,24 +379,40 @@ impl Experiment for ReachGraspSettings {
         for &arm in &s.arms {
             let _ = write!(out, "\n{:<24}", arm.as_str().to_uppercase());
             for op in &s.operators {
-                let _ = write!(out, "{:^18}", op.name());
+                let _ = write!(out, "{:^19}", op.name());
             }
             let _ = writeln!(out, "   avg. cos sim");
             let _ = write!(out, "{:<24}", "");
             for _ in &s.operators {
-                let _ = write!(out, "{:^18}", "col  to fail succ");
+                let _ = write!(out, "{:^19}", "col t/o fail succ");
             }
             let _ = writeln!(out, "   x     y     z");
             for (m, method) in s.methods.iter().enumerate() {
                 let _ = write!(out, "{:<24}", method.name());
                 for o in 0..s.operators.len() {
                     let c = r.cell(arm, o, m);
-                    let _ = write!(out, " {:>3} {:>3} {:>3} {:>4}  ", c.collision, c.timeout, c.failed, c.success);
+                    let _ = write!(out, " {:>3} {:>3} {:>4} {:>4} ", c.collision, c.timeout, c.failed, c.success);
                 }
                 let cos = r.method_cos(arm, m);
                 let _ = writeln!(out, "  {:.2}  {:.2}  {:.2}", cos[0], cos[1], cos[2]);
             }
+            let _ = writeln!(out, "  failures by reason, all operators:");
+            for (m, method) in s.methods.iter().enumerate() {
+                let mut reasons: BTreeMap<&str, usize> = BTreeMap::new();
+                for o in 0..s.operators.len() {
+                    for (reason, n) in r.cell(arm, o, m).reasons {
+                        *reasons.entry(reason).or_default() += n;
+                    }
+                }
+                let listed: Vec<String> = reasons.iter().map(|(reason, n)| format!("{reason} {n}")).collect();
+                let listed = if listed.is_empty() { "none".to_string() } else { listed.join(", ") };
+                let _ = writeln!(out, "  {:<24}{listed}", method.name());
+            }
         }
+        let _ = writeln!(
+            out,
+            "\ncol: collision, t/o: timeout (20 s), fail: the operator stopped where the task is not done, succ: success"
+        );
         let resampled: usize = r.tasks.iter().map(|t| t.resampled).sum();
         let _ = writeln!(
             out,
