@@ -117,7 +117,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
             "min_clearance_m": record.min_clearance,
             "fallbacks": record.fallbacks,
         });
-        println!("{json}");
+        println!("{}", crate::experiments::tidy_json(json));
         return Ok(outcome(&record));
     }
     println!(

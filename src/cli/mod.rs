@@ -98,10 +98,13 @@ pub struct UrdfArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the main job on the embedded default robot (the Franka Panda):
-    /// time forward kinematics and the gripper Jacobian, print the
-    /// clearance to the table and the box along a forward lean, then plan
-    /// and optimize a reach-and-grasp of the box and write the trajectory
-    /// (CSV, Parquet) and its plots into --out.
+    /// shared control of a reach-and-grasp of a box on a table. A simulated
+    /// operator drives the gripper under every arbitration mode, one
+    /// episode each: outcome and reason, tick time, hard-limit violations,
+    /// clearance. Then the robot's reference behind it (planned, optimized,
+    /// checked) and the files in --out: shared_control.svg (the gripper's
+    /// paths), path.svg and joints.svg (the reference), trajectory.csv and
+    /// .parquet. --verbose adds a kinematics timing and a clearance sweep.
     ///
     /// Example: tandem demo
     Demo(demo::DemoArgs),
