@@ -181,9 +181,10 @@ fn shared_control(out: &std::path::Path) -> Result<std::path::PathBuf, Box<dyn s
             record.min_clearance * 1e3,
             record.reason
         );
-        paths.push((mode, record.gripper));
+        paths.push((mode, record.outcome, record.gripper));
     }
-    let svg = shared_control_svg(&paths, goals[0].position)?;
+    let corners = problem.scene.object("box").map(|o| o.silhouette_points()).unwrap_or_default();
+    let svg = shared_control_svg(&paths, goals[0].position, &corners)?;
     let path = out.join("shared_control.svg");
     std::fs::write(&path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     println!(
@@ -195,23 +196,46 @@ fn shared_control(out: &std::path::Path) -> Result<std::path::PathBuf, Box<dyn s
     Ok(path)
 }
 
-/// Top and side views of the gripper path under each mode.
+/// Top and side views of the gripper path under each mode, the box's
+/// outline (`corners`, world) and the grasp point; a path within 1 mm of
+/// an earlier one all along is named after it, as it hides under it.
 fn shared_control_svg(
-    paths: &[(crate::arbitration::ArbitrationMode, Vec<[f64; 3]>)],
+    paths: &[(crate::arbitration::ArbitrationMode, crate::sim::Outcome, Vec<[f64; 3]>)],
     goal: [f64; 3],
+    corners: &[[f64; 3]],
 ) -> Result<String, Box<dyn std::error::Error>> {
-    use crate::figures::{Panel, Series, render_panels};
+    use crate::experiments::figures::{episode_path, outcome_legend};
+    use crate::figures::{Color, Marker, Panel, Series, render_panels};
+    let same_as = |k: usize| {
+        let path = &paths[k].2;
+        paths[..k].iter().find(|(_, _, other)| {
+            other.len() == path.len()
+                && other.iter().zip(path).all(|(a, b)| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>() < 1e-6)
+        })
+    };
+    let labels: Vec<String> = (0..paths.len())
+        .map(|k| match same_as(k) {
+            Some((mode, ..)) => format!("{} (the path of {})", paths[k].0.as_str(), mode.as_str()),
+            None => paths[k].0.as_str().to_string(),
+        })
+        .collect();
     let view = |a: usize, b: usize, title: &str, y: &str| {
-        let mut panel = Panel::new(title, "x (m)", y).equal();
-        for (k, (mode, path)) in paths.iter().enumerate() {
-            let points: Vec<(f64, f64)> = path.iter().map(|p| (p[a], p[b])).collect();
-            panel = panel.with(Series::line(mode.as_str(), &points, k));
+        let project = |p: &[f64; 3]| (p[a], p[b]);
+        let mut panel = Panel::new(title, "x (m)", y)
+            .with(Series::outline("box", &corners.iter().map(project).collect::<Vec<_>>()));
+        for (k, (_, outcome, path)) in paths.iter().enumerate() {
+            let points: Vec<(f64, f64)> = path.iter().map(project).collect();
+            panel = episode_path(panel, &labels[k], &points, k, *outcome);
         }
-        panel.with(Series::points("grasp point", &[(goal[a], goal[b])], 3))
+        let start: Vec<(f64, f64)> = paths.first().and_then(|p| p.2.first()).map(project).into_iter().collect();
+        outcome_legend(panel, paths.iter().map(|p| p.1))
+            .with(Series::markers("start", &start, Color::Reference, Marker::Dot))
+            .with(Series::markers("grasp point", &[project(&goal)], Color::Reference, Marker::Ring))
+            .equal()
     };
     Ok(render_panels(
         "panda_grasp_box under shared control: gripper paths (Approach operator)",
-        &[view(0, 1, "top view", "y (m)"), view(0, 2, "side view", "z (m)")],
+        &[view(0, 1, "from above", "y (m)"), view(0, 2, "from the side", "z (m)")],
         520,
         480,
     )?)

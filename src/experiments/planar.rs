@@ -20,7 +20,8 @@ use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode, BlendingStyle, MetricSpace, ProblemGoal,
 };
 use crate::collision::CollisionWorkspace;
-use crate::figures::{Panel, Series, SeriesKind, render_panels};
+use crate::experiments::figures::{episode_path, outcome_legend};
+use crate::figures::{Color, Marker, Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::sim::{
     Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarTask, PlanarUser, Reason, TaskJudge, sample_planar_task,
@@ -366,7 +367,10 @@ fn figure(r: &PlanarResults) -> Result<Option<String>, ExperimentError> {
     let s = &r.settings;
     let Some(task) = r.tasks.first() else { return Ok(None) };
     let problem = &task.reach[task.target].problem;
-    let pole = problem.scene.obstacle("pole").map(|o| (o.pose.translation.x, o.pose.translation.y)).unwrap_or_default();
+    let pole = problem
+        .scene
+        .obstacle("pole")
+        .map(|o| ((o.pose.translation.x, o.pose.translation.y), o.shape.extents().x.min(o.shape.extents().y) / 2.0));
     let objects: Vec<(f64, f64)> = task.reach.iter().map(|g| (g.position[0], g.position[1])).collect();
     let place = (task.place.position[0], task.place.position[1]);
     let panels: Vec<Panel> = s
@@ -375,15 +379,28 @@ fn figure(r: &PlanarResults) -> Result<Option<String>, ExperimentError> {
         .enumerate()
         .map(|(m, method)| {
             let mut panel = Panel::new(method.as_str(), "x (m)", "y (m)").ranges((0.0, 0.5), (0.0, 0.5)).equal();
+            let mut outcomes = Vec::new();
             for (u, user) in s.users.iter().enumerate() {
                 if let Some(e) = r.episodes.iter().find(|e| e.task == task.index && e.user == u && e.method == m) {
-                    panel = panel.with(Series::line(&format!("{} ({})", user.name(), e.outcome.as_str()), &e.path, u));
+                    panel = episode_path(panel, &user.name(), &e.path, u, e.outcome);
+                    outcomes.push(e.outcome);
                 }
             }
+            panel = outcome_legend(panel, outcomes);
+            if let Some((centre, radius)) = pole {
+                panel = panel.with(Series::discs("pole", &[centre], radius));
+            }
+            let start: Vec<(f64, f64)> = r
+                .episodes
+                .iter()
+                .find(|e| e.task == task.index)
+                .and_then(|e| e.path.first().copied())
+                .into_iter()
+                .collect();
             panel
-                .with(Series { label: None, points: vec![pole], color: 7, kind: SeriesKind::Circles(0.03) })
-                .with(Series::points("cylinders", &objects, 3))
-                .with(Series::points("place", &[place], 2))
+                .with(Series::markers("start", &start, Color::Reference, Marker::Dot))
+                .with(Series::markers("cylinders", &objects, Color::Reference, Marker::Ring))
+                .with(Series::markers("place", &[place], Color::Reference, Marker::Diamond))
         })
         .collect();
     let title = "planar pick-and-place, task 0: gripper paths by method (top view)";

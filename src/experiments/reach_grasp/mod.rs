@@ -14,9 +14,10 @@
 //! the grasp point (then [`TaskJudge`] decides success or failure), on a
 //! collision, or after 20 s.
 
+mod figures;
+
 use super::{Context, Experiment, ExperimentError};
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, BlendingStyle, MetricSpace};
-use crate::figures::{Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::robot::KinematicsWorkspace;
 use crate::sim::{
@@ -140,8 +141,11 @@ pub struct EpisodeSummary {
     pub hard_violations: usize,
     /// Smallest signed distance over the episode (m).
     pub min_clearance: f64,
-    /// The gripper path (first task of each arm, when kept).
+    /// The gripper path (first task of each arm, when kept; m, world).
     pub path: Vec<[f64; 3]>,
+    /// The gripper's approach axis (its z, world) at the last
+    /// `approach.len()` points of `path` (kept with it).
+    pub approach: Vec<[f64; 3]>,
 }
 
 /// Every episode, in (arm, task, operator, method) order, and the tasks.
@@ -234,9 +238,17 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 start: &problem.start,
                 target: task.goal.position,
                 true_goal: 0,
-                settings: EpisodeSettings { max_time: settings.max_time, record },
+                settings: EpisodeSettings { max_time: settings.max_time, record: record || keep },
             };
             let mut record = episode.run(&mut ws, operator.as_mut(), &mut judge)?;
+            let mut approach = vec![];
+            if keep {
+                for q in &record.q {
+                    problem.robot.forward_kinematics(&mut kin, q)?;
+                    let z = problem.robot.frame_pose(&kin, gripper).rotation.matrix().column(2).into_owned();
+                    approach.push([z.x, z.y, z.z]);
+                }
+            }
             problem.robot.forward_kinematics(&mut kin, &record.final_q)?;
             let g = problem.robot.frame_pose(&kin, gripper).rotation;
             let b = box_pose.rotation;
@@ -259,6 +271,7 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 hard_violations: record.hard_violations,
                 min_clearance: record.min_clearance,
                 path: if keep { std::mem::take(&mut record.gripper) } else { vec![] },
+                approach,
             });
             if settings.record_dir.is_some() {
                 let label = format!("{}/{}/{}/{}", task.arm.as_str(), kind.name(), method.name(), task.index);
@@ -431,50 +444,8 @@ impl Experiment for ReachGraspSettings {
     }
 
     fn figures(&self, r: &ReachGraspResults) -> Result<Vec<(String, String)>, ExperimentError> {
-        Ok(figure(r)?.map(|svg| ("reach_grasp.svg".to_string(), svg)).into_iter().collect())
+        let mut out = vec![("reach_grasp_success.svg".to_string(), figures::success(r)?)];
+        out.extend(figures::paths(r)?.map(|svg| ("reach_grasp.svg".to_string(), svg)));
+        Ok(out)
     }
-}
-
-/// Fig. 5.4: the first task's gripper paths (top views) per operator, for
-/// NoAssist and the dissertation's two methods, with the robot's reference.
-fn figure(r: &ReachGraspResults) -> Result<Option<String>, ExperimentError> {
-    let s = &r.settings;
-    let Some(&arm) = s.arms.first() else { return Ok(None) };
-    let Some(task) = r.tasks.iter().find(|t| t.arm == arm && t.index == 0) else { return Ok(None) };
-    let robot = &task.goal.problem.robot;
-    let gripper = robot.frame_id(task.goal.problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
-    let mut kin = KinematicsWorkspace::new(robot);
-    let reference = task.goal.policy.reference();
-    let mut planned = vec![];
-    for i in 0..reference.len() {
-        robot.forward_kinematics(&mut kin, reference.position(i))?;
-        let p = robot.frame_pose(&kin, gripper).translation.vector;
-        planned.push((p.x, p.y));
-    }
-    let shown = [
-        Method::NoAssist,
-        s.methods.get(1).copied().unwrap_or(Method::NoAssist),
-        s.methods.get(2).copied().unwrap_or(Method::NoAssist),
-    ];
-    let operators: Vec<(usize, &OperatorKind)> = s.operators.iter().enumerate().take(4).collect();
-    let panels: Vec<Panel> = operators
-        .iter()
-        .map(|&(o, op)| {
-            let mut panel =
-                Panel::new(&op.name(), "x (m)", "y (m)").with(Series::dashed("reference", &planned, 7)).equal();
-            for (k, method) in shown.iter().enumerate() {
-                let Some(m) = s.methods.iter().position(|x| x == method) else { continue };
-                if let Some(e) =
-                    r.episodes.iter().find(|e| e.arm == arm && e.task == 0 && e.operator == o && e.method == m)
-                {
-                    let path: Vec<(f64, f64)> = e.path.iter().map(|p| (p[0], p[1])).collect();
-                    panel = panel.with(Series::line(&format!("{} ({})", method.name(), e.outcome.as_str()), &path, k));
-                }
-            }
-            let goal = task.goal.position;
-            panel.with(Series::points("grasp point", &[(goal[0], goal[1])], 3))
-        })
-        .collect();
-    let title = format!("reach-and-grasp, {} arm, task 0: gripper paths (top view)", arm.as_str());
-    Ok(Some(render_panels(&title, &panels, 380, 420)?))
 }
