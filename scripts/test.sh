@@ -18,7 +18,14 @@
 #      from web/src;
 #   6. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh);
 #   7. one million random arbitration ticks in a release build
-#      (tests/arbitration_stress.rs).
+#      (tests/arbitration_stress.rs);
+#   8. the user pages' examples: examples/arbiter_loop.rs, every ```sh
+#      block of docs/ (scripts/doc_examples.py; the Rust and Python blocks
+#      ran above as doctests and pytest);
+#   9. the reproduction check: the quick versions of the published tables
+#      and figures equal to the committed ones, every figure rendered
+#      (scripts/reproduce.sh --quick --check; rsvg-convert from Debian's
+#      librsvg2-bin, installed when missing).
 # The OSQP cross-check backend (feature `osqp`) is built with the cmake of
 # python_ref/.venv (PyPI's cmake).
 # A missing or broken Python environment is an error, never a skip.
@@ -79,6 +86,8 @@ cargo test --workspace --all-targets --features osqp --no-run --quiet
 disk "tests built"
 cargo test --workspace --all-targets --features osqp --no-fail-fast
 cargo test --workspace --doc --features osqp --no-fail-fast
+echo "== examples/arbiter_loop.rs"
+cargo run --quiet --features osqp --example arbiter_loop
 disk "Rust tests done"
 
 # `pip install .` as a user runs it (maturin from PyPI in an isolated build
@@ -94,13 +103,17 @@ TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:ca
 # the page's npm packages, the bundle check, then the end-to-end tests
 # against the tandem binary the Rust tests built.
 echo "== teleoperation page in headless Chromium (web/tests)"
-if [ ! -x /usr/bin/chromium ]; then
-  echo "   installing Debian's chromium"
-  apt() { if [ "$(id -u)" -eq 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get "$@"; else sudo DEBIAN_FRONTEND=noninteractive apt-get "$@"; fi; }
-  apt install -y -q chromium > /dev/null \
-    || { apt update -q > /dev/null && apt install -y -q chromium > /dev/null; } \
-    || { echo "error: could not install chromium (apt-get); the browser tests need /usr/bin/chromium" >&2; exit 1; }
-fi
+apt() { if [ "$(id -u)" -eq 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get "$@"; else sudo DEBIAN_FRONTEND=noninteractive apt-get "$@"; fi; }
+# A Debian package, installed when its program is missing.
+need() {
+  local program=$1 package=$2
+  command -v "$program" > /dev/null && return
+  echo "   installing Debian's $package"
+  apt install -y -q "$package" > /dev/null \
+    || { apt update -q > /dev/null && apt install -y -q "$package" > /dev/null; } \
+    || { echo "error: could not install $package (apt-get); the tests need $program" >&2; exit 1; }
+}
+need chromium chromium
 (cd web && npm ci --no-audit --no-fund --loglevel=error)
 (cd web && node build.mjs node_modules/.app-check.js)
 cmp -s web/dist/app.js web/node_modules/.app-check.js \
@@ -117,4 +130,12 @@ disk "fuzz smoke done"
 # The stress test in release: 1,000,000 random ticks (20,000 in the debug run above).
 echo "== arbitration stress test (release, 1,000,000 ticks)"
 cargo test --release --features osqp --test arbitration_stress -- --nocapture
+
+# The release binary the stress test built runs the user pages' shell
+# examples and the quick reproduction.
+echo "== the shell examples of docs/"
+"$venv/bin/python" scripts/doc_examples.py target/release/tandem
+echo "== reproduction check (scripts/reproduce.sh --quick --check)"
+need rsvg-convert librsvg2-bin
+scripts/reproduce.sh --quick --check --bin target/release/tandem
 disk "end"

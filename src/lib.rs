@@ -77,3 +77,19 @@ pub mod sim;
 #[cfg(feature = "serve")]
 pub mod teleop;
 pub mod trajectory;
+
+/// The Rust examples of the user pages run as doctests, so they cannot go
+/// stale (`cargo test --doc`).
+#[cfg(doctest)]
+mod user_pages {
+    #[doc = include_str!("../README.md")]
+    struct Readme;
+    #[doc = include_str!("../docs/embedding.md")]
+    struct Embedding;
+    #[doc = include_str!("../docs/cli.md")]
+    struct Cli;
+    #[doc = include_str!("../docs/datasets.md")]
+    struct Datasets;
+    #[doc = include_str!("../problems/README.md")]
+    struct Problems;
+}

@@ -12,7 +12,7 @@
 //! paths' bits and their mean length: changes that keep every verdict
 //! keep the hash.
 
-#[path = "../benches/support/mbm.rs"]
+#[path = "../support/mbm.rs"]
 #[allow(dead_code)]
 mod mbm;
 

@@ -46,10 +46,10 @@
 //! cargo run --release --example komo_seeds -- problems/panda_grasp_box.toml --horizon 50 --measure rai.json
 //! ```
 
-#[path = "support/peer_problem.rs"]
+#[path = "../support/peer_problem.rs"]
 mod peer_problem;
 
-#[path = "support/timing.rs"]
+#[path = "../support/timing.rs"]
 mod timing;
 use clap::Parser;
 use serde_json::{Value, json};

@@ -20,7 +20,7 @@
 //! cargo run --release --example plan_seeds -- problems/panda_reach_obstacle.toml --seeds 50 --scene scene.json
 //! ```
 
-#[path = "support/timing.rs"]
+#[path = "../support/timing.rs"]
 mod timing;
 use clap::Parser;
 use rand::{RngExt, SeedableRng};

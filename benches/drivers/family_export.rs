@@ -41,7 +41,7 @@
 //! cargo run --release --example family_export -- problems/panda_grasp_family.toml --count 100 -T 50 --dataset DIR
 //! ```
 
-#[path = "support/peer_problem.rs"]
+#[path = "../support/peer_problem.rs"]
 mod peer_problem;
 
 use arrow_array::{Array, FixedSizeListArray, Float64Array, UInt64Array};
