@@ -131,7 +131,7 @@ pub enum Command {
     ///     --q 0,-0.785,0,-2.356,0,1.571,0.785,0.04 --json
     #[command(verbatim_doc_comment)]
     Fk(kinematics::FkArgs),
-    /// Build an LQR tracking policy (the seed's Algorithm 1) for a joint
+    /// Build an LQR tracking policy (the dissertation's Algorithm 1) for a joint
     /// reference, roll it out from perturbed starts, time its queries and
     /// optionally plot it (Fig. 3.9 style).
     ///
@@ -249,12 +249,13 @@ pub enum Command {
     #[command(verbatim_doc_comment)]
     Arbitrate(arbitrate::ArbitrateArgs),
     /// Train networks on tandem's datasets: `tandem learn policy --data DIR
-    /// --out policy.safetensors` fits the robot policy network (seed §3.3.3).
+    /// --out policy.safetensors` fits the robot policy network (§3.3.3 of the
+    /// dissertation).
     /// See `tandem learn policy --help`.
     Learn(learn::LearnArgs),
-    /// Run the seed's shared-control experiments with simulated operators:
-    /// reach-grasp (Table 5.1), planar (Table 4.1), and the learned policy
-    /// alone and under shared control (policy). See `tandem experiment
+    /// Run the dissertation's shared-control experiments with simulated
+    /// operators: reach-grasp (Table 5.1), planar (Table 4.1), and the learned
+    /// policy alone and under shared control (policy). See `tandem experiment
     /// <name> --help`.
     Experiment(experiment::ExperimentArgs),
     /// Drive the arm yourself from a browser: a local web server with a
@@ -264,7 +265,7 @@ pub enum Command {
     /// keyboard (W/S: ±x, A/D: ±y, R/F: ±z; arrow keys too), pick the task
     /// (reach-grasp, planar) and the arbitration mode, and reset. The
     /// simulator and the arbiter run in the server at --rate (30 Hz, the
-    /// seed's joystick rate); each driven episode is saved as Parquet in
+    /// dissertation's joystick rate); each driven episode is saved as Parquet in
     /// the simulator's layout, to compare with the simulated operators'.
     ///
     /// A page that disconnects or stops sending holds the arm (after

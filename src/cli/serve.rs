@@ -22,7 +22,7 @@ pub struct ServeArgs {
     #[arg(long, default_value = "127.0.0.1")]
     pub host: IpAddr,
     /// Control rate of the simulator and the arbiter (Hz, 1–1000): 30 is
-    /// the seed's joystick rate (§4.4).
+    /// the dissertation's joystick rate (§4.4).
     #[arg(long, default_value_t = 30.0, value_parser = |s: &str| super::number_in(s, 1.0..=1000.0))]
     pub rate: f64,
     /// States sent to the page per second at most (1–240).
