@@ -61,12 +61,13 @@ pub const EXIT_UNSUCCESSFUL: u8 = 3;
 
 /// tandem — motion for human-robot shared control.
 ///
-/// Loads robots from URDF and computes exact kinematics (cross-checked
-/// against Pinocchio to 1e-9), LQR tracking policies, collision checks,
-/// plans and optimized trajectories of problem files (signed distances
-/// cross-checked against coal). Every command prints human-readable text by
-/// default and one JSON object with --json where offered. Errors go to
-/// stderr with the file, element, line and value at fault.
+/// Loads robots from URDF and computes exact kinematics (frame placements
+/// and Jacobians cross-checked against Pinocchio to 3e-13), LQR tracking
+/// policies, collision checks, plans and optimized trajectories of problem
+/// files (signed distances cross-checked against coal). Every command
+/// prints human-readable text by default and one JSON object with --json
+/// where offered. Errors go to stderr with the file, element, line and
+/// value at fault.
 ///
 /// Exit status: 0 success; 1 an invalid input file or argument value, or
 /// failed I/O; 2 a command line that does not parse (unknown option,
