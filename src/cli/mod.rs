@@ -254,10 +254,11 @@ pub enum Command {
     /// dissertation).
     /// See `tandem learn policy --help`.
     Learn(learn::LearnArgs),
-    /// Run the dissertation's shared-control experiments with simulated
-    /// operators: reach-grasp (Table 5.1), planar (Table 4.1), and the learned
-    /// policy alone and under shared control (policy). See `tandem experiment
-    /// <name> --help`.
+    /// Run the dissertation's experiments with simulated operators:
+    /// reach-grasp (Table 5.1), planar (Table 4.1), policy (the learned
+    /// policy alone and under shared control, §3.3.3), learned (the learned
+    /// arbiters, Table 6.1) and traded (traded control from predicted
+    /// intent, Table 7.3). See `tandem experiment <name> --help`.
     Experiment(experiment::ExperimentArgs),
     /// Drive the arm yourself from a browser: a local web server with a
     /// live shared-control page (3-D view of the robot, the scene, the
