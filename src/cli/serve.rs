@@ -47,7 +47,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 0.25, value_parser = |s: &str| super::number_in(s, 0.001..=2.0))]
     pub max_speed: f64,
     /// Folder where each driven episode is saved as Parquet (the layout of
-    /// the simulator's episodes, src/data/episodes.rs).
+    /// the simulator's episodes, src/sim/record.rs).
     #[arg(long, default_value = "recordings")]
     pub record_dir: PathBuf,
     /// Keep no recordings.
