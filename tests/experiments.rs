@@ -1,5 +1,6 @@
 //! Short seeded versions of the dissertation's experiments (the full runs are
-//! `tandem experiment reach-grasp|planar`, their results in the README):
+//! `tandem experiment reach-grasp|planar`, their results in
+//! docs/experiments.md):
 //! the same results whatever the thread count, hard constraints never
 //! broken, assistance that helps where the dissertation says it does, and the
 //! recorded episodes readable by an independent Parquet reader (pyarrow).
