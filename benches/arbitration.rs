@@ -9,8 +9,9 @@
 //! constraints are those of a real run. Groups:
 //! * `arbitration/tick/<mode>`: the default settings (closed form first,
 //!   then the active-set QP solver; Clarabel for `Constrained`'s cone);
-//!   `learned` runs an actor of the seed's §6.5 shape (head 32-32-32-2,
-//!   tail 16-16-16; weights drawn at random: the cost does not depend on them);
+//!   `learned` runs an actor of the shape in §6.5 of the dissertation (head
+//!   32-32-32-2, tail 16-16-16; weights drawn at random: the cost does not
+//!   depend on them);
 //! * `arbitration/solver/<mode>/<backend>`: the solver forced on every tick
 //!   (`closed_form_first = false`) on every row: the active set, Clarabel
 //!   and, with `--features osqp`, OSQP.
@@ -76,7 +77,7 @@ fn arbiter(s: &Setup, mode: ArbitrationMode, backend: SolverBackend, closed_form
     Arbiter::for_problem(&s.problem, &s.goals, settings).expect("arbiter")
 }
 
-/// An arbiter in `ArbitrationMode::Learned` with an actor of the seed's shape.
+/// An arbiter in `ArbitrationMode::Learned` with an actor of the dissertation's shape.
 fn learned_arbiter(s: &Setup) -> Arbiter {
     let meta = ArbitrationMeta {
         format: ARBITRATION_FORMAT.into(),

@@ -16,8 +16,8 @@ R = control I):
 * the policy pi(q) = v + (-K e) dt with e = [q - r(s+1), v - v_r(s+1)], r the
   polyline through the waypoints, s the closest point (earliest of ties),
   v_r from backward differences (0 at the first waypoint and at the goal);
-* the Hessian metric (seed eq. 5.5-5.6): f(p) = pi(p).(p - q) at q + h e_i
-  and q + h e_i + h e_j, W = -H/2;
+* the Hessian metric (the dissertation's eq. 5.5-5.6): f(p) = pi(p).(p - q)
+  at q + h e_i and q + h e_i + h e_j, W = -H/2;
 * the Fisher metric (Algorithm 3): samples q + r e_i, q - r e_i and r u_k
   for the first n Halton directions, a linear least-squares fit with
   Gaussian weights exp(-|d|^2 / 2r^2), F = -(A + A^T)/2;

@@ -1,4 +1,4 @@
-//! The arbiter: each mode against its closed form from the seed, KKT
+//! The arbiter: each mode against its closed form from the dissertation, KKT
 //! conditions of constrained solutions, safe fallbacks, singularities,
 //! separating pairs, no allocation per tick.
 
@@ -95,7 +95,7 @@ fn speed(j: &Option<DMatrix<f64>>, command: &[f64], h: &DVector<f64>, shaped: &D
     }
 }
 
-/// The closed form of `mode` from the seed, from what the workspace exposes.
+/// The closed form of `mode` from the dissertation, from what the workspace exposes.
 fn closed_form(
     arbiter: &Arbiter,
     ws: &ArbiterWorkspace,
@@ -138,7 +138,7 @@ fn closed_form(
             mean * s.modes.constrained_center + shaped * eta
         }
         ArbitrationMode::SumOfSquares => {
-            // The seed's form: W⁻¹Jᵀ(JW⁻¹Jᵀ + εI)⁻¹ v_H (J = I for joint commands).
+            // The dissertation's form: W⁻¹Jᵀ(JW⁻¹Jᵀ + εI)⁻¹ v_H (J = I for joint commands).
             let w_inv = dmat(ws.metric().inverse(), n);
             let eps = s.modes.sum_of_squares_epsilon;
             let j = j.unwrap_or_else(|| DMatrix::identity(n, n));

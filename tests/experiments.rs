@@ -1,7 +1,8 @@
-//! Short seeded versions of the seed's experiments (the full runs are
-//! `tandem experiment reach-grasp|planar`, their results in the README):
+//! Short seeded versions of the dissertation's experiments (the full runs are
+//! `tandem experiment reach-grasp|planar`, their results in
+//! docs/experiments.md):
 //! the same results whatever the thread count, hard constraints never
-//! broken, assistance that helps where the seed says it does, and the
+//! broken, assistance that helps where the dissertation says it does, and the
 //! recorded episodes readable by an independent Parquet reader (pyarrow).
 #![cfg(feature = "experiments")]
 
@@ -61,7 +62,7 @@ fn reach_grasp_is_deterministic_safe_and_assistance_helps() {
         assert!(e.min_clearance > -1e-9, "{e:?}");
         assert_ne!(e.outcome, Outcome::Collision, "{e:?}");
     }
-    // The seed's Table 5.1: both constrained methods grasp for unbiased
+    // The dissertation's Table 5.1: both constrained methods grasp for unbiased
     // operators (12 episodes each); the operator alone mostly cannot (it
     // never turns the gripper, and drives into the box).
     for method in [1, 2] {

@@ -1,5 +1,5 @@
-//! Learned arbitration (seed chapter 6): the arbitration state, the
-//! observe / act split against the tick, `ArbitrationMode::Learned` inside
+//! Learned arbitration (the dissertation's chapter 6): the arbitration state,
+//! the observe / act split against the tick, `ArbitrationMode::Learned` inside
 //! the arbiter (same command as direct control for a policy that copies the
 //! user, allocation-free, typed errors), the actor file format, the
 //! environment and Algorithm 5's reward, and DDPG (deterministic per seed)

@@ -408,7 +408,8 @@ goal_constraints:
 #[test]
 fn vendored_benchmark_files_match_their_recorded_checksums() {
     use sha2::{Digest, Sha256};
-    // The tests read ../shared/benchmarks/mbm, outside the repository.
+    // The tests read the vendored copies in problems/motionbenchmaker/; they
+    // must be the files whose checksums its README records.
     let readme = std::fs::read_to_string(mbm().join("README.md")).unwrap();
     let mut checked = 0;
     for line in readme.lines().filter(|l| l.starts_with("| `")) {

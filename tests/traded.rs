@@ -1,7 +1,8 @@
-//! Traded control from predicted intent (seed chapter 7, Table 7.3): short
-//! seeded runs. The full run is `tandem experiment traded --episodes 100`
-//! (README). Checks: the same results per seed whatever the thread count;
-//! the commit rule; Early never starts later than Late; the CLI's JSON.
+//! Traded control from predicted intent (the dissertation's chapter 7,
+//! Table 7.3): short seeded runs. The full run is
+//! `tandem experiment traded --episodes 100` (docs/experiments.md). Checks:
+//! the same results per seed whatever the thread count; the commit rule;
+//! Early never starts later than Late; the CLI's JSON.
 #![cfg(all(feature = "learn", feature = "cli"))]
 
 mod common;

@@ -1,5 +1,6 @@
 """Train an arbitration policy on tandem's Gymnasium environment with
-Stable-Baselines3's DDPG (the seed's chapter 6 algorithm) or SAC.
+Stable-Baselines3's DDPG (the algorithm of the dissertation's chapter 6)
+or SAC.
 
 Not run in CI: Stable-Baselines3 pulls in PyTorch (a ~700 MB wheel).
 

@@ -1,5 +1,5 @@
-//! `tandem.TrackingPolicy`: LQR tracking policies (the seed's Algorithm 1)
-//! built from a reference trajectory and queried from Python.
+//! `tandem.TrackingPolicy`: LQR tracking policies (the dissertation's
+//! Algorithm 1) built from a reference trajectory and queried from Python.
 
 use crate::arrays::{Matrix, Vector, fill_out, matrix_with, rows_matrix};
 use crate::errors::PyResultExt;

@@ -11,7 +11,7 @@ use std::sync::Mutex;
 use tandem::arbitration::decision::DecisionSettings;
 use tandem::sim::{ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, EnvTask, RewardKind, reward};
 
-/// The arbitration-learning environment of the seed's §6.5: a simulated
+/// The arbitration-learning environment of §6.5 of the dissertation: a simulated
 /// user drives the gripper toward one of the goals; the agent sees the
 /// arbitration state (gripper, goals, the nearest obstacle, every
 /// sub-policy's action and belief, the user's command; 17 values) and

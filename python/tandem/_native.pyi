@@ -361,7 +361,7 @@ _Mode = Literal[
 @final
 class Arbiter:
     """Shared control of a problem's goals: every tick, the operator's command blended with the
-    robot policies under joint limits and distances (seed chapters 4–5)."""
+    robot policies under joint limits and distances (dissertation, chapters 4–5)."""
 
     def __new__(
         cls, problem: Problem, *, mode: _Mode = "sos", period: float = 1.0 / 15.0, margin: float = 0.005,
@@ -393,7 +393,7 @@ class Arbiter:
 
 @final
 class ArbitrationEnv:
-    """The arbitration-learning environment (seed §6.5); :mod:`tandem.gym` wraps it for Gymnasium."""
+    """The arbitration-learning environment (§6.5 of the dissertation); :mod:`tandem.gym` wraps it for Gymnasium."""
 
     def __new__(
         cls,

@@ -1,4 +1,5 @@
-"""Gymnasium environments for learning arbitration (the seed's chapter 6).
+"""Gymnasium environments for learning arbitration (chapter 6 of the
+dissertation).
 
 A simulated user drives a robot toward one of several goals; the agent
 arbitrates. Each step it observes the arbitration state — gripper
@@ -8,8 +9,8 @@ velocity) and belief, and the user's command: 17 values, positions over
 0.1 m and velocities over the user speed — and returns the arbitrated
 gripper velocity (scaled to [−1, 1]: ±1 is twice the user speed), which tandem's
 arbiter executes under its hard constraints (joint limits and velocities,
-collision distances). The reward is the seed's Algorithm 5: agree with the
-user at decision points (where the sub-policies' von Mises mixture is
+collision distances). The reward is the dissertation's Algorithm 5: agree
+with the user at decision points (where the sub-policies' von Mises mixture is
 multimodal), with the user's goal's sub-policy elsewhere, at the user's
 speed; plus −10 for touching an obstacle (the episode ends), −2 per step at
 the workspace border and +10 for reaching the user's goal.
@@ -83,7 +84,7 @@ class ArbitrationEnv(gymnasium.Env):
 
 
 class PlanarArbitrationEnv(ArbitrationEnv):
-    """``tandem/PlanarArbitration-v0``: the planar task of the seed's §6.5."""
+    """``tandem/PlanarArbitration-v0``: the planar task of §6.5 of the dissertation."""
 
     def __init__(self, reward: str = "combined", max_time: float | None = None):
         super().__init__("planar", reward=reward, max_time=max_time)

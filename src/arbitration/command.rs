@@ -9,7 +9,7 @@ use super::ArbitrationMode;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum HumanCommand<'a> {
     /// Linear velocity of the gripper origin (m/s, world axes): 3 values.
-    /// The arbiter chooses the orientation (seed §5.3, eq. 5.7).
+    /// The arbiter chooses the orientation (§5.3 of the dissertation, eq. 5.7).
     Linear(&'a [f64]),
     /// Twist of the gripper: linear velocity (m/s) then angular velocity
     /// (rad/s), world axes: 6 values (eq. 5.9).

@@ -1,4 +1,4 @@
-//! Metric fields over a planar workspace (the seed's Fig. 4.2): the
+//! Metric fields over a planar workspace (the dissertation's Fig. 4.2): the
 //! ellipses of `F⁻¹` that show where and how the robot policy reshapes the
 //! operator's command.
 

@@ -1,5 +1,5 @@
 //! Goal prediction from the observed gripper path (Dragan & Srinivasa; the
-//! seed's §6.5: cost = sum of squared velocities).
+//! dissertation's §6.5: cost = sum of squared velocities).
 //!
 //! `P(g | ξ_{S→U}) ∝ exp(−C(ξ_{S→U}) − V_g(U)) / exp(−V_g(S)) · P(g)`: a
 //! goal is likely when the path so far plus the best way on to it costs

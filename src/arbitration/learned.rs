@@ -1,5 +1,5 @@
-//! Learned arbitration (seed chapter 6): a policy that maps the arbitration
-//! state `s_t = {x, a_H, a_1^R … a_G^R, b_1 … b_G}` (§6.4) to the
+//! Learned arbitration (the dissertation's chapter 6): a policy that maps the
+//! arbitration state `s_t = {x, a_H, a_1^R … a_G^R, b_1 … b_G}` (§6.4) to the
 //! arbitrated gripper velocity, run inside [`Arbiter::tick`] as
 //! [`ArbitrationMode::Learned`](super::ArbitrationMode::Learned) under the
 //! same hard constraints as every mode.
@@ -15,8 +15,8 @@
 //! | robot action as gripper velocity J a_g^R, per goal (G·d) | beliefs (G) | operator's command (d) ]
 //! ```
 //!
-//! The operator's command comes last: the seed's networks route everything
-//! before it through a shared "head" and join the command after it.
+//! The operator's command comes last: the dissertation's networks route
+//! everything before it through a shared "head" and join the command after it.
 //! [`Arbiter::observe`] computes the state without acting and
 //! [`Arbiter::act_observed`] executes a given command under the hard
 //! constraints — the two halves a learner (DDPG, a Gymnasium environment)
@@ -25,7 +25,7 @@
 //! ```
 //! use tandem::arbitration::StateLayout;
 //! let planar = StateLayout::planar(2);
-//! assert_eq!(planar.width(), 17); // the seed's 17-dimensional input (§6.5)
+//! assert_eq!(planar.width(), 17); // the dissertation's 17-dimensional input (§6.5)
 //! assert_eq!(planar.human_offset(), 15);
 //! ```
 

@@ -1,7 +1,7 @@
 //! The arbitration modes and their objectives: each mode turns the
 //! operator's command, the robot actions, the beliefs and a metric into a
 //! QP (or, for `Constrained`, an SOCP) over the joint velocity `u`, whose
-//! unconstrained solution is the mode's closed form from the seed.
+//! unconstrained solution is the mode's closed form from the dissertation.
 
 use crate::settings::{InvalidSetting, check, positive};
 use std::fmt;
@@ -11,7 +11,7 @@ use std::str::FromStr;
 /// Srinivasa 2013).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BlendingStyle {
-    /// `α` grows with the confidence but never reaches 1 (the seed's LB).
+    /// `α` grows with the confidence but never reaches 1 (the dissertation's LB).
     Timid,
     /// `α = 1` once the confidence passes a threshold, 0 before.
     Aggressive,
@@ -60,7 +60,7 @@ pub enum ArbitrationMode {
 }
 
 impl ArbitrationMode {
-    /// Every mode, in the order of the seed's chapters.
+    /// Every mode, in the order of the dissertation's chapters.
     pub const ALL: [ArbitrationMode; 8] = [
         ArbitrationMode::DirectControl,
         ArbitrationMode::LinearBlending(BlendingStyle::Timid),

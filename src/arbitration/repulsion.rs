@@ -1,5 +1,5 @@
 //! A policy that only keeps away from obstacles: the minimal-assistance
-//! robot policy of the seed's Fig. 4.2(c).
+//! robot policy of the dissertation's Fig. 4.2(c).
 
 use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::control::{ControlError, RobotPolicy, RobotPolicyWorkspace};

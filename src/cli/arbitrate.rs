@@ -38,7 +38,7 @@ pub struct ArbitrateArgs {
     /// Operator speed (m/s).
     #[arg(long, default_value_t = 0.1)]
     pub speed: f64,
-    /// Control rate (Hz; the seed's 15 Hz by default).
+    /// Control rate (Hz; the dissertation's 15 Hz by default).
     #[arg(long, default_value_t = 15.0)]
     pub rate: f64,
     /// Write the gripper path (top and side views, with the reference) as SVG.
@@ -193,8 +193,8 @@ fn episode_svg(
     Ok(render_panels(&title, &[view(0, 1, "from above", "y (m)"), view(0, 2, "from the side", "z (m)")], 480, 440)?)
 }
 
-/// The seed's Fig. 4.2: F⁻¹ ellipses for (a) the goal, (b) every goal with
-/// beliefs from distance (exp(−d / 10 cm)), (c) obstacle avoidance only.
+/// The dissertation's Fig. 4.2: F⁻¹ ellipses for (a) the goal, (b) every goal
+/// with beliefs from distance (exp(−d / 10 cm)), (c) obstacle avoidance only.
 fn field_svg(
     problem: &Problem,
     goals: &[ProblemGoal],

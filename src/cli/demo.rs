@@ -70,7 +70,7 @@ fn kinematics_timing(panda: &RobotModel) -> Result<(), Box<dyn std::error::Error
     Ok(())
 }
 
-/// The seed's reach-and-grasp task end to end: RRT-Connect, trajectory
+/// The dissertation's reach-and-grasp task end to end: RRT-Connect, trajectory
 /// optimization, checks of the result, files and plots.
 fn reach_and_grasp(out: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
     let problem = crate::problem::Problem::builtin("panda_grasp_box")?;

@@ -33,14 +33,14 @@ pub enum Experiment {
     ///   tandem experiment reach-grasp --tasks 20 --arm right --json --out results/
     #[command(verbatim_doc_comment)]
     ReachGrasp(ReachGraspArgs),
-    /// Table 4.1: planar pick-and-place (the seed's chapter 4 task) with the
-    /// simulated users of §6.5. A gripper over a 50 × 50 cm table picks one
-    /// of two cylinders past a pole and brings it to a place position;
-    /// users straight, noisy-0.5, noisy-1.0, biased (5 cm/s) with methods
-    /// direct (no collision avoidance), natural-gradient-joint, blend-timid,
-    /// avoid, at 30 Hz. Reports duration, travel distance, smallest distance
-    /// to the pole and the cosine distance between the user's and the
-    /// executed command (mean ± std), success and collisions.
+    /// Table 4.1: planar pick-and-place (the dissertation's chapter 4 task)
+    /// with the simulated users of §6.5. A gripper over a 50 × 50 cm table
+    /// picks one of two cylinders past a pole and brings it to a place
+    /// position; users straight, noisy-0.5, noisy-1.0, biased (5 cm/s) with
+    /// methods direct (no collision avoidance), natural-gradient-joint,
+    /// blend-timid, avoid, at 30 Hz. Reports duration, travel distance,
+    /// smallest distance to the pole and the cosine distance between the
+    /// user's and the executed command (mean ± std), success and collisions.
     ///
     /// Examples:
     ///   tandem experiment planar
@@ -53,9 +53,9 @@ pub enum Experiment {
     /// the finger pads, gripper within 0.1 rad of the approach axis, palm
     /// and fingers clear), beside the LQR tracking policy of a reference
     /// optimized from each start, and report success, collisions and
-    /// timeouts (20 s; the seed reached 92–97 %, §3.3.3). Also: the
-    /// training data's joint values against the limits (Fig. 3.8), success
-    /// by the start's distance from the data, DAgger rounds (--rounds:
+    /// timeouts (20 s; the dissertation's policy reached 92–97 %, §3.3.3).
+    /// Also: the training data's joint values against the limits (Fig. 3.8),
+    /// success by the start's distance from the data, DAgger rounds (--rounds:
     /// follow fresh tasks, optimize expert trajectories from where the
     /// policy failed and where the data is thin, retrain) and shared
     /// control (the approach operator through constrained and
@@ -71,14 +71,14 @@ pub enum Experiment {
     #[command(verbatim_doc_comment)]
     Policy(super::experiment_policy::PolicyExperimentArgs),
     /// Table 6.1: the learned arbiters (combined reward, environment-only
-    /// reward; DDPG, seed chapter 6) beside direct control (no collision
-    /// avoidance, as the seed's) with the users noisy-0.5, noisy-1.0,
-    /// straight and biased (5 cm/s, 30 Hz) on the planar reach task: the
-    /// gripper starts behind a pole and reaches the user's cylinder (1 cm)
-    /// within 20 s. Reports success, collisions and travel (mean ± std),
-    /// Fig. 6.4 (training curves over --train-seeds seeds) and Fig. 6.5
-    /// (distance of the executed command to the user's and to the
-    /// predicted sub-policy over the episode). Trains the actors first
+    /// reward; DDPG, the dissertation's chapter 6) beside direct control (no
+    /// collision avoidance, as in the dissertation) with the users noisy-0.5,
+    /// noisy-1.0, straight and biased (5 cm/s, 30 Hz) on the planar reach
+    /// task: the gripper starts behind a pole and reaches the user's cylinder
+    /// (1 cm) within 20 s. Reports success, collisions and travel
+    /// (mean ± std), Fig. 6.4 (training curves over --train-seeds seeds)
+    /// and Fig. 6.5 (distance of the executed command to the user's and to
+    /// the predicted sub-policy over the episode). Trains the actors first
     /// unless --combined and --environment give them.
     ///
     /// Examples:
@@ -86,10 +86,10 @@ pub enum Experiment {
     ///   tandem experiment learned --combined c.safetensors --environment e.safetensors --json
     #[command(verbatim_doc_comment)]
     Learned(super::learned_arbitration::LearnedExperimentArgs),
-    /// Table 7.3: traded control from predicted intent (seed chapter 7).
-    /// A simulated person mimics reaching for one of three boxes on the
-    /// table, from the top or the side (minimum-jerk hand motion at 180 Hz
-    /// with trial-to-trial variability and a slow start; users Normal,
+    /// Table 7.3: traded control from predicted intent (the dissertation's
+    /// chapter 7). A simulated person mimics reaching for one of three boxes
+    /// on the table, from the top or the side (minimum-jerk hand motion at
+    /// 180 Hz with trial-to-trial variability and a slow start; users Normal,
     /// Noisy: Gaussian noise each frame, Biased: a constant offset per
     /// demonstration). A classifier (trained first, on demonstrations
     /// seeded apart) names the object and the grasp direction from eight

@@ -20,12 +20,13 @@ pub struct TradedArgs {
     #[arg(long, default_value_t = 300)]
     pub discard_steps: usize,
     /// Charge this planning time (s) per plan instead of the measured one
-    /// (makes the times exactly reproducible; e.g. the seed's planner took
-    /// seconds).
+    /// (makes the times exactly reproducible; e.g. the dissertation's planner
+    /// took seconds).
     #[arg(long, value_name = "SECONDS")]
     pub planning_latency: Option<f64>,
-    /// The predictor driving the robot: the trained classifier (the seed's)
-    /// or the Bayesian goal posterior over the palm path (baseline).
+    /// The predictor driving the robot: the trained classifier (the
+    /// dissertation's) or the Bayesian goal posterior over the palm path
+    /// (baseline).
     #[arg(long, default_value = "network", value_parser = ["network", "posterior"])]
     pub predictor: String,
     /// Training demonstrations per (object, direction) for the classifier.

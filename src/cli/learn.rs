@@ -16,16 +16,16 @@ pub struct LearnArgs {
 /// What `tandem learn` trains.
 #[derive(Debug, clap::Subcommand)]
 pub enum LearnCommand {
-    /// Train the robot policy network (seed §3.3.3) on a dataset folder
-    /// written by `tandem generate`: input gripper position, goal relative
-    /// to it, goal rotation (6-D), q (the seed's), the gripper rotation and
-    /// the goal in the gripper frame, and the family's random obstacles;
-    /// output the unit joint velocity and its norm, trained on the weighted
-    /// sum of their mean squared errors. Besides the demonstrated states it
-    /// trains on perturbed ones labelled by each demonstration's LQR
-    /// tracking policy (--augment, --noise), so the network learns how to
-    /// get back to a motion. Deterministic per --seed whatever the thread
-    /// count (RAYON_NUM_THREADS). Writes
+    /// Train the robot policy network (§3.3.3 of the dissertation) on a
+    /// dataset folder written by `tandem generate`: input gripper position,
+    /// goal relative to it, goal rotation (6-D), q (the dissertation's), the
+    /// gripper rotation and the goal in the gripper frame, and the family's
+    /// random obstacles; output the unit joint velocity and its norm, trained
+    /// on the weighted sum of their mean squared errors. Besides the
+    /// demonstrated states it trains on perturbed ones labelled by each
+    /// demonstration's LQR tracking policy (--augment, --noise), so the
+    /// network learns how to get back to a motion. Deterministic per --seed
+    /// whatever the thread count (RAYON_NUM_THREADS). Writes
     /// the network (safetensors), a report (JSON: losses per epoch, time,
     /// pairs) and the loss curves (SVG) beside it.
     ///
@@ -34,9 +34,9 @@ pub enum LearnCommand {
     ///   tandem learn policy --data grasps/ --epochs 30 --out policy.safetensors
     #[command(verbatim_doc_comment)]
     Policy(LearnPolicyArgs),
-    /// Train a learned arbiter (seed chapter 6) with DDPG on the planar
-    /// task of §6.5: the gripper behind a pole, two cylinders near the far
-    /// edge, a simulated user (straight, noisy-0.5, noisy-1.0, biased,
+    /// Train a learned arbiter (the dissertation's chapter 6) with DDPG on the
+    /// planar task of §6.5: the gripper behind a pole, two cylinders near the
+    /// far edge, a simulated user (straight, noisy-0.5, noisy-1.0, biased,
     /// drawn per episode) heading for one of them. The actor sees the
     /// gripper, the goals, the distance to the nearest obstacle, every
     /// sub-policy's action and belief and the user's command (17 values)
@@ -85,7 +85,8 @@ pub struct LearnPolicyArgs {
     #[arg(long, default_value_t = 0.1, value_parser = |s: &str| super::number_in(s, 0.0..=0.9))]
     pub validation: f64,
     /// Perturbed states per demonstrated state, labelled by the
-    /// demonstration's LQR tracking policy (0: the seed's data alone).
+    /// demonstration's LQR tracking policy (0: the demonstrations alone, as in
+    /// the dissertation).
     #[arg(long, default_value_t = 1, value_parser = |s: &str| super::number_in(s, 0usize..=100))]
     pub augment: usize,
     /// Range of the perturbations' standard deviation per joint (rad),

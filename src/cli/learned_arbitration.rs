@@ -1,6 +1,6 @@
 //! `tandem learn arbitration` (DDPG with the disagreement reward, the
-//! seed's chapter 6) and `tandem experiment learned` (Table 6.1, Fig. 6.4,
-//! Fig. 6.5).
+//! dissertation's chapter 6) and `tandem experiment learned` (Table 6.1,
+//! Fig. 6.4, Fig. 6.5).
 
 use crate::experiments::learned::{LearnedExperiment, LearnedExperimentSettings, train_and_save};
 use crate::learn::{DdpgSettings, TrainingEpisode};
@@ -55,7 +55,7 @@ pub struct LearnedExperimentArgs {
     pub train_episodes: usize,
     /// Training seeds per reward, trained side by side on the cores (Fig.
     /// 6.4 averages them; the table uses the seed whose last 50 episodes
-    /// earned the most, as the seed does).
+    /// earned the most, as the dissertation does).
     #[arg(long, default_value_t = 2, value_parser = |s: &str| super::number_in(s, 1usize..=100))]
     pub train_seeds: usize,
     /// Worker threads for the evaluation (default: all cores); results do not depend on it.

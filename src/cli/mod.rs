@@ -61,12 +61,13 @@ pub const EXIT_UNSUCCESSFUL: u8 = 3;
 
 /// tandem — motion for human-robot shared control.
 ///
-/// Loads robots from URDF and computes exact kinematics (cross-checked
-/// against Pinocchio to 1e-9), LQR tracking policies, collision checks,
-/// plans and optimized trajectories of problem files (signed distances
-/// cross-checked against coal). Every command prints human-readable text by
-/// default and one JSON object with --json where offered. Errors go to
-/// stderr with the file, element, line and value at fault.
+/// Loads robots from URDF and computes exact kinematics (frame placements
+/// and Jacobians cross-checked against Pinocchio to 3e-13), LQR tracking
+/// policies, collision checks, plans and optimized trajectories of problem
+/// files (signed distances cross-checked against coal). Every command
+/// prints human-readable text by default and one JSON object with --json
+/// where offered. Errors go to stderr with the file, element, line and
+/// value at fault.
 ///
 /// Exit status: 0 success; 1 an invalid input file or argument value, or
 /// failed I/O; 2 a command line that does not parse (unknown option,
@@ -131,7 +132,7 @@ pub enum Command {
     ///     --q 0,-0.785,0,-2.356,0,1.571,0.785,0.04 --json
     #[command(verbatim_doc_comment)]
     Fk(kinematics::FkArgs),
-    /// Build an LQR tracking policy (the seed's Algorithm 1) for a joint
+    /// Build an LQR tracking policy (the dissertation's Algorithm 1) for a joint
     /// reference, roll it out from perturbed starts, time its queries and
     /// optionally plot it (Fig. 3.9 style).
     ///
@@ -249,13 +250,15 @@ pub enum Command {
     #[command(verbatim_doc_comment)]
     Arbitrate(arbitrate::ArbitrateArgs),
     /// Train networks on tandem's datasets: `tandem learn policy --data DIR
-    /// --out policy.safetensors` fits the robot policy network (seed §3.3.3).
+    /// --out policy.safetensors` fits the robot policy network (§3.3.3 of the
+    /// dissertation).
     /// See `tandem learn policy --help`.
     Learn(learn::LearnArgs),
-    /// Run the seed's shared-control experiments with simulated operators:
-    /// reach-grasp (Table 5.1), planar (Table 4.1), and the learned policy
-    /// alone and under shared control (policy). See `tandem experiment
-    /// <name> --help`.
+    /// Run the dissertation's experiments with simulated operators:
+    /// reach-grasp (Table 5.1), planar (Table 4.1), policy (the learned
+    /// policy alone and under shared control, §3.3.3), learned (the learned
+    /// arbiters, Table 6.1) and traded (traded control from predicted
+    /// intent, Table 7.3). See `tandem experiment <name> --help`.
     Experiment(experiment::ExperimentArgs),
     /// Drive the arm yourself from a browser: a local web server with a
     /// live shared-control page (3-D view of the robot, the scene, the
@@ -264,7 +267,7 @@ pub enum Command {
     /// keyboard (W/S: ±x, A/D: ±y, R/F: ±z; arrow keys too), pick the task
     /// (reach-grasp, planar) and the arbitration mode, and reset. The
     /// simulator and the arbiter run in the server at --rate (30 Hz, the
-    /// seed's joystick rate); each driven episode is saved as Parquet in
+    /// dissertation's joystick rate); each driven episode is saved as Parquet in
     /// the simulator's layout, to compare with the simulated operators'.
     ///
     /// A page that disconnects or stops sending holds the arm (after

@@ -22,7 +22,7 @@ pub struct ServeArgs {
     #[arg(long, default_value = "127.0.0.1")]
     pub host: IpAddr,
     /// Control rate of the simulator and the arbiter (Hz, 1–1000): 30 is
-    /// the seed's joystick rate (§4.4).
+    /// the dissertation's joystick rate (§4.4).
     #[arg(long, default_value_t = 30.0, value_parser = |s: &str| super::number_in(s, 1.0..=1000.0))]
     pub rate: f64,
     /// States sent to the page per second at most (1–240).
@@ -47,7 +47,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 0.25, value_parser = |s: &str| super::number_in(s, 0.001..=2.0))]
     pub max_speed: f64,
     /// Folder where each driven episode is saved as Parquet (the layout of
-    /// the simulator's episodes, src/data/episodes.rs).
+    /// the simulator's episodes, src/sim/record.rs).
     #[arg(long, default_value = "recordings")]
     pub record_dir: PathBuf,
     /// Keep no recordings.

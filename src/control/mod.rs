@@ -7,8 +7,8 @@
 //! double integrator, applies the LQR gain from the discrete algebraic
 //! Riccati equation (constant, or time-varying along the reference) and
 //! integrates the acceleration over one time step into a joint-velocity
-//! command (the seed's Algorithm 1, §3.3.4). Queries follow the reference
-//! by progress (a local search from the previous closest point, so
+//! command (the dissertation's Algorithm 1, §3.3.4). Queries follow the
+//! reference by progress (a local search from the previous closest point, so
 //! references that reverse or cross themselves are followed in order), are
 //! O(1) amortised and allocate nothing. [`RobotPolicy`] is the interface the
 //! arbiter queries; [`TrackingPolicy`] implements it.

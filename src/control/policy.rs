@@ -1,4 +1,4 @@
-//! The LQR tracking policy π_R (the seed's Algorithm 1, §3.3.4).
+//! The LQR tracking policy π_R (the dissertation's Algorithm 1, §3.3.4).
 
 use super::ControlError;
 use crate::trajectory::JointTrajectory;

@@ -83,8 +83,8 @@ pub struct LearnedCell {
 /// Fig. 6.5's curves for one method with the straight user: per tenth of
 /// the normalised episode time, the mean distance between the direction of
 /// the executed gripper velocity and that of the user's command, and of
-/// the most likely goal's sub-policy (unit vectors, as the seed normalises
-/// the actions: 0 = same direction, 2 = opposite).
+/// the most likely goal's sub-policy (unit vectors, as the dissertation
+/// normalises the actions: 0 = same direction, 2 = opposite).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct AuthorityCurve {
     /// The method's name.

@@ -8,8 +8,8 @@
 //! of that many times the speed on x and y each tick), Biased (the optimal
 //! policy toward a goal up to 5 cm off); 5 cm/s.
 //! **Methods**: DirectControl (the user's command alone, no collision
-//! avoidance, as the seed's DC), NaturalGradient, LinearBlending (timid),
-//! ObstacleAvoidance — the last three under the hard constraints.
+//! avoidance, as the dissertation's DC), NaturalGradient, LinearBlending
+//! (timid), ObstacleAvoidance — the last three under the hard constraints.
 //! **Metrics** (Table 4.1): duration, travel distance, smallest distance
 //! between the gripper (or the carried cylinder) and the pole, cosine
 //! distance between the user's and the executed command; success (both
@@ -143,7 +143,7 @@ fn run_planar_task(task: &PlanarTask, settings: &PlanarSettings) -> Result<Vec<P
     for (m, mode) in settings.methods.iter().enumerate() {
         let mut s = settings.arbiter;
         s.mode = *mode;
-        // The seed's direct control has no collision avoidance.
+        // The dissertation's direct control has no collision avoidance.
         s.safety.collisions = *mode != ArbitrationMode::DirectControl;
         let (reach, place) = (reach_base.with_settings(s)?, place_base.with_settings(s)?);
         for (u, user) in settings.users.iter().enumerate() {

@@ -1,7 +1,7 @@
-//! The learned arbitration's actor at query time (seed §6.5): the state
-//! without the operator's command goes through the "head" (three 32-unit
-//! ReLU layers and a linear 2-unit layer); the head's output joined with
-//! the operator's command goes through the "tail" (three 16-unit ReLU
+//! The learned arbitration's actor at query time (§6.5 of the dissertation):
+//! the state without the operator's command goes through the "head" (three
+//! 32-unit ReLU layers and a linear 2-unit layer); the head's output joined
+//! with the operator's command goes through the "tail" (three 16-unit ReLU
 //! layers and a `tanh` output scaled by [`ArbitrationMeta::max_command`]).
 //! Hand-written `f32` layers, nothing allocated per query, saved as
 //! safetensors (`head.{i}.weight`, `head.{i}.bias`, `tail.{i}.…`, `[out,
@@ -29,9 +29,9 @@ pub struct ArbitrationMeta {
     pub version: u32,
     /// The state the actor reads.
     pub layout: StateLayout,
-    /// Widths of the head's layers (the last is its output; seed: 32, 32, 32, 2).
+    /// Widths of the head's layers (the last is its output; the dissertation's: 32, 32, 32, 2).
     pub head: Vec<usize>,
-    /// Widths of the tail's hidden layers (seed: 16, 16, 16).
+    /// Widths of the tail's hidden layers (the dissertation's: 16, 16, 16).
     pub tail: Vec<usize>,
     /// Largest command component, in units of `layout.speed_scale`.
     pub max_command: f64,

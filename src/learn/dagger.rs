@@ -1,4 +1,4 @@
-//! Closing the blind spots (beyond the seed, which could not cover the
+//! Closing the blind spots (beyond the dissertation, which could not cover the
 //! joint-limit boundaries with trajectory data): DAgger-style rounds with
 //! the optimizer as the expert. A round follows the learned policy on fresh
 //! tasks; where it fails, states along its path become starts of new

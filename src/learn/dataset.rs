@@ -158,7 +158,7 @@ impl Demonstrations {
 }
 
 /// Perturbed states around the demonstrations, labelled by the LQR
-/// tracking policy of the demonstration (the seed's §3.3.4, with the
+/// tracking policy of the demonstration (the dissertation's §3.3.4, with the
 /// demonstration's velocity as the arm's): the network learns how to get
 /// back to a motion, not only the motion (DART-style noise injection with
 /// a local expert, no optimizer solve).

@@ -1,4 +1,4 @@
-//! DDPG for arbitration (the seed's Algorithm 4) on the planar
+//! DDPG for arbitration (the dissertation's Algorithm 4) on the planar
 //! [`ArbitrationEnv`]: actor and critic as in §6.5 (a shared-shape "head"
 //! of three 32-unit layers and a 2-unit layer; actor: head ⊕ user command →
 //! three 16-unit layers → 2-D action; critic: head ⊕ user command ⊕

@@ -1,7 +1,7 @@
 //! Following a policy alone: kinematic steps `q ← q + Δt·π(q)` from a
 //! task's start, a collision check at every step, and the grasp judged
-//! by [`GraspJudge`] — the seed's "success rate when following the inferred
-//! action at each state" (§3.3.3).
+//! by [`GraspJudge`] — the dissertation's "success rate when following the
+//! inferred action at each state" (§3.3.3).
 
 use super::LearnError;
 use crate::collision::{CollisionModel, CollisionWorkspace};

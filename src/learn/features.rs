@@ -1,4 +1,4 @@
-//! The network's input (the seed's §3.3.3 state, plus the obstacles of
+//! The network's input (the dissertation's §3.3.3 state, plus the obstacles of
 //! §3.3.1): one layout shared by training (dataset rows) and queries.
 //!
 //! | values | what |
@@ -7,11 +7,11 @@
 //! | 3 | goal position relative to the gripper, `g − p` (m, world axes) |
 //! | 6 | goal rotation, the first two columns of its matrix (continuous 6-D form) |
 //! | n | the configuration `q` (rad or m) |
-//! | 6 | gripper rotation `R`, 6-D form (beyond the seed) |
-//! | 3 | `g − p` in the gripper frame, `Rᵀ(g − p)` (m; beyond the seed) |
+//! | 6 | gripper rotation `R`, 6-D form (beyond the dissertation) |
+//! | 3 | `g − p` in the gripper frame, `Rᵀ(g − p)` (m; beyond the dissertation) |
 //! | 7 per obstacle slot | obstacle centre relative to the gripper (3, m), its bounding-box edge lengths (3, m), 1 when the slot is used (0 and zeros otherwise) |
 //!
-//! The last two rows are not in the seed's input: they are functions of
+//! The last two rows are not in the dissertation's input: they are functions of
 //! `q` the network could learn, but given directly they make the final
 //! approach (millimetres between the fingers and the object) a simple
 //! function of the input.

@@ -1,5 +1,6 @@
-//! Grasp-intent classifier (seed §7.3.2): from one frame of hand features,
-//! which object the person reaches for and whether from the top or the side.
+//! Grasp-intent classifier (§7.3.2 of the dissertation): from one frame of
+//! hand features, which object the person reaches for and whether from the top
+//! or the side.
 //!
 //! A small dense network (the [`train`](super::train) module's layers: ReLU
 //! between them, He-uniform initialisation) with two softmax heads — object

@@ -1,4 +1,4 @@
-//! Learned robot policies (the seed's §3.3.1 and §3.3.3): a network
+//! Learned robot policies (the dissertation's §3.3.1 and §3.3.3): a network
 //! trained on tandem's own datasets that answers at any configuration,
 //! for any goal it was trained on — including states no reference passes
 //! through, where an LQR tracking policy only knows its one reference.

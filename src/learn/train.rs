@@ -1,6 +1,7 @@
 //! Training the policy network with candle (CPU): minibatch AdamW on the
-//! seed's loss (§3.3.3) — the weighted sum of the mean squared errors of the
-//! unit joint velocity and of its norm — with a cosine learning-rate decay.
+//! dissertation's loss (§3.3.3) — the weighted sum of the mean squared errors
+//! of the unit joint velocity and of its norm — with a cosine learning-rate
+//! decay.
 //!
 //! Deterministic: the initial weights and the minibatch order come from the
 //! seed (ChaCha8), and every operation runs in a fixed order on the CPU, so
@@ -444,8 +445,8 @@ pub struct LearnSettings {
     /// Obstacle slots of the input (default 2, the grasp family's most).
     pub obstacle_slots: usize,
     /// Perturbed states labelled by the LQR tracking policy, training
-    /// split only (default: one per state; `per_state: 0` is the seed's
-    /// data alone).
+    /// split only (default: one per state; `per_state: 0` is the
+    /// demonstrations alone, as in the dissertation).
     pub augment: super::Augmentation,
 }
 

@@ -7,7 +7,7 @@
 //! [`DynamicDomain`]), and one sample in ten is drawn near the other
 //! tree's roots ([`RootBias`]), which leads a goal out of a pocket. On
 //! MotionBenchMaker's 700 Panda problems the first two cut the mean
-//! planning time several times over (README).
+//! planning time several times over (docs/notes/planning.md).
 //! [`rrt_connect_lazy`] certifies only the edges of a path found (lazy
 //! certification, as in Lazy PRM, Bohlin & Kavraki 2000), cutting any
 //! branch whose edge fails.
@@ -361,12 +361,13 @@ pub fn rrt_connect(
 
 /// [`rrt_connect`] with lazy certification: the trees grow on the cheap
 /// discrete checks of [`LazySearch`], and when they meet, the edges of
-/// the path are checked with the settings' edge check ([`EdgeCheck::of`]) (root side first, each edge
-/// once); an edge that fails is cut from its tree with every node grown
-/// from it, and the search goes on. The path's edges pass
-/// the settings' edge check ([`EdgeCheck::of`]), as [`rrt_connect`]'s do, while the edges of branches
-/// no path takes are never certified: on MotionBenchMaker-style problems
-/// most of a search's certification work (README).
+/// the path are checked with the settings' edge check ([`EdgeCheck::of`])
+/// (root side first, each edge once); an edge that fails is cut from its
+/// tree with every node grown from it, and the search goes on. The path's
+/// edges pass the settings' edge check, as [`rrt_connect`]'s do, while the
+/// edges of branches no path takes, which on MotionBenchMaker-style
+/// problems are most of what an eager search certifies, are never
+/// certified (docs/notes/planning.md).
 ///
 /// # Errors
 /// Configurations of the wrong length or with non-finite values, a

@@ -131,7 +131,7 @@ pub struct TimeRange {
 }
 
 /// One objective of the optimizer, as data: feature, time range, kind,
-/// scale, target and order (see DESIGN.md, "objectives as data").
+/// scale, target and order (see docs/design.md, "Objectives are data").
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObjectiveSpec {
     /// Feature name: `joint_state`, `joint_limits`, `position`,

@@ -138,7 +138,7 @@ impl DynamicDomain {
     /// added. On the Baxter's two arms (14 joints; `shelf`, 30 problems ×
     /// 3 seeds) the radius of 5.66 rather than 4 took 16 % fewer
     /// instructions at the median; on 6 and 8 joints (UR5, TIAGo) the
-    /// change stayed within 4 % either way (README).
+    /// change stayed within 4 % either way (docs/notes/planning.md).
     pub fn radius_for(&self, joints: usize) -> f64 {
         self.radius * (joints as f64 / Self::REFERENCE_JOINTS as f64).sqrt()
     }
@@ -162,15 +162,15 @@ impl DynamicDomain {
 /// roots rather than its newest node; RRT-Connect already extends each
 /// tree towards the other's new nodes.
 ///
-/// Measured (README): the Panda's 699 solved MotionBenchMaker problems
-/// take 9.3 % fewer instructions (seed 0), its planning mean / median
-/// went from 2.01–2.07 to 1.86–1.89 and the TIAGo's median from 1.8× to
-/// 1.4× the Panda's; the Baxter's median stayed where it was and its
-/// mean rose (dual-arm `cage`). A spread of 2 rad did as well on the
+/// Measured (docs/notes/planning.md, 2026-11-28): the Panda's 699 solved
+/// MotionBenchMaker problems take 9.3 % fewer instructions (seed 0), its
+/// planning mean / median went from 2.01–2.07 to 1.86–1.89 and the
+/// TIAGo's median from 1.8× to 1.4× the Panda's; the Baxter's median
+/// stayed where it was and its mean rose (dual-arm `cage`). A spread of 2 rad did as well on the
 /// Panda and better on the TIAGo, but raised the Baxter's median 3.6 %;
 /// a chance of 0.05 or 0.2 did worse on the Panda. It slows the UR5's
 /// `cage` of VAMP's MotionBenchMaker set (median rounds 626 without it,
-/// 1,480 with it; README), and no variant measured spared that family.
+/// 1,480 with it), and no variant measured spared that family.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RootBias {
     /// Chance that a drawn sample is near a root (0 to 1; below 1,

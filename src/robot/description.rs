@@ -349,9 +349,9 @@ impl RobotDescription {
             .expect("embedded Panda URDF is valid")
     }
 
-    /// The embedded planar gripper of the seed's planar task: prismatic `x`
-    /// and `y` (m, over a 50 × 50 cm table) and a `yaw` joint, gripper frame
-    /// `gripper_tcp` 10 cm above the table.
+    /// The embedded planar gripper of the dissertation's planar task:
+    /// prismatic `x` and `y` (m, over a 50 × 50 cm table) and a `yaw` joint,
+    /// gripper frame `gripper_tcp` 10 cm above the table.
     pub fn planar_gripper() -> RobotDescription {
         const URDF: &str = include_str!("../../problems/robots/planar/planar_gripper.urdf");
         super::urdf::parse_urdf(URDF, "<embedded planar_gripper.urdf>", &super::MeshSearchPath::default())

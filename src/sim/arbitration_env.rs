@@ -1,4 +1,4 @@
-//! The arbitration-learning environment of the seed's §6.5, one step per
+//! The arbitration-learning environment of the dissertation's §6.5, one step per
 //! control tick. [`EnvTask::Planar`]: the planar gripper behind a pole, two
 //! goal cylinders near the far edge (the tasks of [`sample_planar_task`],
 //! phase 1), a simulated user ([`PlanarUser`]) heading for one of them.
@@ -470,7 +470,7 @@ fn gripper_state(r: &mut Running) -> Result<[f64; 3], ArbitrationError> {
 pub enum RewardKind {
     /// `r_agree + r_env` (Algorithm 5).
     Combined,
-    /// `r_env` only (the seed's comparison).
+    /// `r_env` only (the dissertation's comparison).
     Environment,
 }
 
@@ -488,7 +488,7 @@ impl RewardKind {
 /// `state` (of `layout`) when the user meant goal `true_goal`, given the
 /// step's environment reward. At a decision point (the sub-policies' von
 /// Mises mixture multimodal) the agreement term is `−‖â_H − û‖²`, else
-/// `−‖â_{g*} − û‖²` (hats: unit directions, as the seed normalises the
+/// `−‖â_{g*} − û‖²` (hats: unit directions, as the dissertation normalises the
 /// actions); both minus the speed difference `|‖a_H‖ − ‖u‖|` (units of the
 /// user speed).
 pub fn reward(

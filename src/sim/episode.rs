@@ -2,10 +2,11 @@
 //! controlled arm stepped at the arbiter's period (`q ← q + q̇·dt`), a
 //! simulated operator, and after every step a collision check (the
 //! arbiter's collision model, exact geometry) and the task's judge. It ends
-//! in success as soon as the judge agrees (seed §5.5.3: "a success when the
-//! object lies between the gripper's fingers"), in a collision when the arm
-//! touches anything first, as failed when the operator stops where the task
-//! is not done (it believes it has arrived), or in a timeout.
+//! in success as soon as the judge agrees (§5.5.3 of the dissertation: "a
+//! success when the object lies between the gripper's fingers"), in a
+//! collision when the arm touches anything first, as failed when the operator
+//! stops where the task is not done (it believes it has arrived), or in a
+//! timeout.
 
 use super::judge::Judge;
 use super::operator::{Observation, Operator, OperatorAction};
@@ -107,7 +108,7 @@ pub struct EpisodeRecord {
 impl EpisodeRecord {
     /// Mean cosine distance `1 − cos` between the operator's command and
     /// the executed gripper velocity, over the ticks where both move
-    /// (seed Table 4.1); NaN without such ticks.
+    /// (the dissertation's Table 4.1); NaN without such ticks.
     pub fn mean_cosine_distance(&self) -> f64 {
         let values: Vec<f64> = self
             .human

@@ -1,5 +1,5 @@
 //! The kinematic simulator: a velocity-controlled arm, simulated operators
-//! (seed §5.5.2) and shared-control episodes through an
+//! (§5.5.2 of the dissertation) and shared-control episodes through an
 //! [`Arbiter`](crate::arbitration::Arbiter).
 //!
 //! ```no_run

@@ -1,7 +1,8 @@
-//! Simulated operators (seed §5.5.2, §6.5): policies that give the arbiter
-//! the commands a person would, from what they see of the scene. Every
-//! operator commands the gripper's linear velocity (m/s, world axes), the
-//! seed's 3-D interface, and says when it believes it has arrived.
+//! Simulated operators (§5.5.2 and §6.5 of the dissertation): policies that
+//! give the arbiter the commands a person would, from what they see of the
+//! scene. Every operator commands the gripper's linear velocity (m/s, world
+//! axes), the dissertation's 3-D interface, and says when it believes it has
+//! arrived.
 //!
 //! Base behaviours aim at a point: [`Straightline`] straight at it,
 //! [`Approach`] via a point above it, [`PolicyFollower`] along the robot's
@@ -72,8 +73,8 @@ impl Default for Pace {
     }
 }
 
-/// Heads straight for the goal (seed: "actions that point directly toward
-/// the object").
+/// Heads straight for the goal (the dissertation: "actions that point
+/// directly toward the object").
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Straightline {
     /// Speed and arrival.
@@ -90,9 +91,9 @@ impl Operator for Straightline {
     }
 }
 
-/// Reaches a pre-grasp point `height` above the goal, then descends (seed:
-/// "actions to reach a pre-grasp position above the object and descend to
-/// grab the object").
+/// Reaches a pre-grasp point `height` above the goal, then descends (the
+/// dissertation: "actions to reach a pre-grasp position above the object
+/// and descend to grab the object").
 #[derive(Debug, Clone, Copy)]
 pub struct Approach {
     /// Speed and arrival.
@@ -138,7 +139,7 @@ impl Operator for Approach {
 
 /// Follows the robot's own policy toward the goal at the operator's speed
 /// (the direction of `J π(q)`), switching to a straight line over the last
-/// `slow_down` metres: the seed's planar users, who knew the way (§6.5).
+/// `slow_down` metres: the dissertation's planar users, who knew the way (§6.5).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PolicyFollower {
     /// Speed and arrival.
@@ -173,7 +174,7 @@ impl Operator for PolicyFollower {
 }
 
 /// Adds uniform noise of size `k` on the joints each tick (rad/s, mapped to
-/// the gripper through the Jacobian): the seed's Noisy-k, k = 0.1, 0.2.
+/// the gripper through the Jacobian): the dissertation's Noisy-k, k = 0.1, 0.2.
 pub struct Noisy<O> {
     /// The disturbed behaviour.
     pub inner: O,
@@ -218,8 +219,8 @@ impl<O: Operator> Operator for Noisy<O> {
 }
 
 /// Aims at the goal plus a constant offset drawn once, uniformly in a ball
-/// of radius `radius` (seed: "reaching the incorrect object location with
-/// max. 5 cm error radius").
+/// of radius `radius` (the dissertation: "reaching the incorrect object
+/// location with max. 5 cm error radius").
 pub struct Biased<O> {
     /// The disturbed behaviour.
     pub inner: O,
@@ -264,7 +265,7 @@ struct Seen {
     policy_action: Vec<f64>,
 }
 
-/// Acts on the state it observed `m` ticks ago (seed: Laggy-m, m = 5, 10).
+/// Acts on the state it observed `m` ticks ago (the dissertation's Laggy-m, m = 5, 10).
 pub struct Laggy<O> {
     /// The disturbed behaviour.
     pub inner: O,

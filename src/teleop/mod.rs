@@ -1,7 +1,7 @@
 //! Teleoperation from a browser (`tandem serve`): a person drives the arm
 //! with a gamepad or the keyboard, and the [`Arbiter`](crate::arbitration::Arbiter)
 //! blends their command with the robot's policies every control tick, as
-//! the seed's user studies did with a joystick at 30 Hz (§4.4).
+//! the dissertation's user studies did with a joystick at 30 Hz (§4.4).
 //!
 //! The pieces, one per file:
 //! - [`TeleopSession`]: one person's simulator — a task (the Panda's

@@ -17,12 +17,13 @@ use std::time::Instant;
 /// The tasks a person can drive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TeleopTask {
-    /// The Panda's reach-and-grasp of a box (seed §5.5.1), the box placed
-    /// by the seed as in `tandem experiment reach-grasp` (or the problem
-    /// given to `tandem serve`).
+    /// The Panda's reach-and-grasp of a box (§5.5.1 of the dissertation), the
+    /// box placed by the seed as in `tandem experiment reach-grasp` (or the
+    /// problem given to `tandem serve`).
     ReachGrasp,
-    /// The planar gripper reaching one of two cylinders past a pole (seed
-    /// §6.5), placed by the seed as in `tandem experiment planar`.
+    /// The planar gripper reaching one of two cylinders past a pole (§6.5 of
+    /// the dissertation), placed by the seed as in
+    /// `tandem experiment planar`.
     Planar,
 }
 
@@ -47,7 +48,7 @@ impl TeleopTask {
 /// How sessions run.
 #[derive(Clone)]
 pub struct SessionSettings {
-    /// Control rate (Hz; default 30, the seed's joystick rate; at most 1000).
+    /// Control rate (Hz; default 30, the dissertation's joystick rate; at most 1000).
     pub rate_hz: f64,
     /// Largest commanded gripper speed (m/s; default 0.25): longer commands
     /// are scaled down to it.

@@ -98,7 +98,7 @@ async function drive(page, seconds, screenshotPath = null) {
     const state = await page.evaluate(() => window.tandem.state);
     seen.push(state);
     if (state.outcome) break;
-    // Above the box first, then down: the approach the seed's operators take.
+    // Above the box first, then down: the approach the dissertation's operators take.
     const above = [goal[0], goal[1], goal[2] + 0.08];
     const horizontal = Math.hypot(state.gripper[0] - goal[0], state.gripper[1] - goal[1]);
     const target = horizontal > 0.03 ? above : goal;

@@ -1,6 +1,6 @@
 //! Metrics recovered from the robot policy's local behaviour: the Hessian
-//! metric `W` (seed §5.4.1, eq. 5.5–5.6) and the Fisher metric `F`
-//! (Algorithm 3), their repair into well-conditioned positive definite
+//! metric `W` (§5.4.1 of the dissertation, eq. 5.5–5.6) and the Fisher metric
+//! `F` (Algorithm 3), their repair into well-conditioned positive definite
 //! matrices, and the belief-weighted combination over goals (Algorithm 2).
 //!
 //! **Hessian metric.** A robot action is read as the gradient of a value

@@ -39,7 +39,7 @@ pub enum Method {
 }
 
 impl Method {
-    /// The six methods of the experiment: the seed's three, then NG, LB, OA.
+    /// The six methods of the experiment: the dissertation's three, then NG, LB, OA.
     pub const ALL: [Method; 6] = [
         Method::NoAssist,
         Method::Mode(ArbitrationMode::Constrained),

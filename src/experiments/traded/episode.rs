@@ -1,12 +1,12 @@
-//! The traded-control loop (seed §7.3.1): the operator demonstrates a reach
-//! for each of the three objects in an order of their choosing; the intent
-//! predictor labels every tracker frame; the robot plans and executes the
-//! grasp and retrieval of the predicted object.
+//! The traded-control loop (§7.3.1 of the dissertation): the operator
+//! demonstrates a reach for each of the three objects in an order of their
+//! choosing; the intent predictor labels every tracker frame; the robot plans
+//! and executes the grasp and retrieval of the predicted object.
 //!
 //! A prediction is *committed* when it has been the same for
 //! [`TradedSettings::commit_steps`] consecutive frames, counting from frame
-//! [`TradedSettings::discard_steps`] (the seed's 80 and 300; earlier frames
-//! say little); a demonstration that never settles commits to its last
+//! [`TradedSettings::discard_steps`] (the dissertation's 80 and 300; earlier
+//! frames say little); a demonstration that never settles commits to its last
 //! frame's prediction when it ends. The planning modes:
 //!
 //! * **Early**: plan the committed grasp at once (during the demonstration);
@@ -40,7 +40,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::HashMap;
 
-/// When the robot plans (seed §7.3.1).
+/// When the robot plans (§7.3.1 of the dissertation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum PlanningMode {
     /// Plan as soon as the prediction is committed.
@@ -70,10 +70,10 @@ impl PlanningMode {
 pub struct TradedSettings {
     /// Object centres on the table (world, m): three boxes.
     pub objects: Vec<[f64; 3]>,
-    /// Consecutive equal predictions that commit a target (seed: 80).
+    /// Consecutive equal predictions that commit a target (80 in the dissertation).
     pub commit_steps: usize,
     /// Frames at the start of a demonstration whose predictions are ignored
-    /// (seed: 300).
+    /// (300 in the dissertation).
     pub discard_steps: usize,
     /// Planning time charged per plan (s): `None` charges the measured
     /// wall-clock time (then episode times vary slightly run to run);

@@ -1,7 +1,7 @@
-//! The traded-control experiment (seed Table 7.3, Fig. 7.9): every user
-//! (Normal, Noisy, Biased) × planning mode (Early, Late, Continuous) over
-//! seeded episodes of three picks, and the per-frame accuracy of the intent
-//! predictors over normalised demonstration time.
+//! The traded-control experiment (the dissertation's Table 7.3, Fig. 7.9):
+//! every user (Normal, Noisy, Biased) × planning mode (Early, Late,
+//! Continuous) over seeded episodes of three picks, and the per-frame accuracy
+//! of the intent predictors over normalised demonstration time.
 //!
 //! The classifier is trained once per run on demonstrations seeded apart
 //! from the evaluation's. Episodes run in parallel; results do not depend on
@@ -25,7 +25,7 @@ use rayon::prelude::*;
 /// Which predictor drives the loop.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PredictorKind {
-    /// The candle classifier (the seed's).
+    /// The candle classifier (the dissertation's).
     Network,
     /// The Bayesian goal posterior (baseline).
     Posterior,
@@ -69,7 +69,7 @@ pub struct TradedRow {
     /// Mode name.
     pub mode: &'static str,
     /// Seconds from each demonstration's start to the robot's start, summed
-    /// over the episode's three picks as in the seed (mean, std).
+    /// over the episode's three picks as in the dissertation (mean, std).
     pub time_until_execution_s: [f64; 2],
     /// Episode duration (three picks; mean, std).
     pub episode_s: [f64; 2],

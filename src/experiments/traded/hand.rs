@@ -1,6 +1,6 @@
-//! Synthesized hand-motion demonstrations (seed §7.5.6): a person reaches to
-//! grasp one of the objects on the table from the top or from the side, as a
-//! hand tracker would see it at 180 Hz.
+//! Synthesized hand-motion demonstrations (§7.5.6 of the dissertation): a
+//! person reaches to grasp one of the objects on the table from the top or
+//! from the side, as a hand tracker would see it at 180 Hz.
 //!
 //! The reaching model is minimum-jerk (Flash & Hogan) in position and in
 //! orientation (a geodesic between the start and grasp orientations), with
@@ -8,7 +8,7 @@
 //!
 //! * rest before the reach starts: `U(0.3, 0.9)` s with 2 mm tremor;
 //! * reach duration `U(1.2, 2.4)` s, then holding at the grasp `U(0.4, 1.2)` s
-//!   (episodes of 2–4.5 s, the seed's 2–5 s);
+//!   (episodes of 2–4.5 s, the dissertation's 2–5 s);
 //! * the path bows by a bump `64 τ³ (1 − τ)³` (zero velocity and acceleration
 //!   at both ends) times a random via offset: lateral `N(0, 3 cm)`, up
 //!   `U(3, 10) cm`;
@@ -35,7 +35,7 @@ use nalgebra::{Rotation3, Unit, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// Tracker rate (Hz), the seed's 180 Hz.
+/// Tracker rate (Hz), the dissertation's 180 Hz.
 pub const HAND_RATE: f64 = 180.0;
 
 /// Where the hand starts (world, m): above the table edge in front of the
@@ -69,7 +69,7 @@ impl GraspDirection {
     }
 }
 
-/// The simulated demonstrator (seed §7.5.6).
+/// The simulated demonstrator (§7.5.6 of the dissertation).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum HandUser {
     /// The reaching model alone.

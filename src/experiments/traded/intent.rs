@@ -1,7 +1,7 @@
-//! Grasp-intent features and predictors (seed §7.3.2).
+//! Grasp-intent features and predictors (§7.3.2 of the dissertation).
 //!
-//! Each tracker frame becomes the seed's eight features: the distances from
-//! the palm to each of the three objects (m), the x of the palm position
+//! Each tracker frame becomes the dissertation's eight features: the distances
+//! from the palm to each of the three objects (m), the x of the palm position
 //! (world, m), the x of the hand direction, the x and y of the palm normal,
 //! and the rotation about y (pitch, rad). Two predictors map a frame to
 //! `(object, direction)`:
@@ -31,7 +31,7 @@ use crate::learn::grasp_intent::{IntentClassifier, IntentTrainSettings};
 /// Number of features per frame with three objects.
 pub const INTENT_FEATURES: usize = 8;
 
-/// The seed's features of one frame (`objects`: object centres, world, m).
+/// The dissertation's features of one frame (`objects`: object centres, world, m).
 pub fn intent_features(sample: &HandSample, objects: &[[f64; 3]]) -> Vec<f32> {
     let p = sample.position;
     let mut f: Vec<f32> = objects

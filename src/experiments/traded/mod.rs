@@ -1,20 +1,20 @@
-//! Traded control from predicted intent (seed Chapter 7): the operator
-//! mimics reaching for an object with their hand, a predictor names the
-//! object and the grasp direction (top or side), and the robot plans and
+//! Traded control from predicted intent (the dissertation's chapter 7): the
+//! operator mimics reaching for an object with their hand, a predictor names
+//! the object and the grasp direction (top or side), and the robot plans and
 //! executes the grasp on its own — early (as soon as the prediction
 //! settles), late (after the demonstration) or continuously (re-planning
 //! whenever the prediction changes).
 //!
 //! * [`hand`](self::synthesize_reach): the synthesized hand demonstrations
 //!   (§7.5.6) and the Normal, Noisy and Biased users;
-//! * intent: the seed's eight features, the candle classifier and the
+//! * intent: the dissertation's eight features, the candle classifier and the
 //!   Bayesian goal posterior as predictors (§7.3.2);
 //! * robot: the three-box scene and the IK → RRT-Connect → shortcut plan;
 //! * episode: the commit rule and the three planning modes (§7.3.1);
 //! * experiment: Table 7.3 and Fig. 7.9.
 //!
-//! Object poses are inputs: the seed's perception (Mask R-CNN, DBOT) is out
-//! of scope.
+//! Object poses are inputs: the dissertation's perception (Mask R-CNN, DBOT)
+//! is out of scope.
 //!
 //! ```no_run
 //! use tandem::experiments::traded::{TradedExperimentSettings, run_traded_experiment};

@@ -1,8 +1,9 @@
-//! The robot side of traded control (seed §7.3.1): three 6 × 6 × 12 cm boxes
-//! on the table of `panda_grasp_box`, each with a top and a side grasp frame;
-//! a committed `(object, direction)` becomes a grasp problem that is planned
-//! (IK of the grasp frame → RRT-Connect → shortcutting, [`plan_problem`])
-//! and executed: along the path, the gripper closes, and back (retrieval).
+//! The robot side of traded control (§7.3.1 of the dissertation): three
+//! 6 × 6 × 12 cm boxes on the table of `panda_grasp_box`, each with a top and
+//! a side grasp frame; a committed `(object, direction)` becomes a grasp
+//! problem that is planned (IK of the grasp frame → RRT-Connect →
+//! shortcutting, [`plan_problem`]) and executed: along the path, the gripper
+//! closes, and back (retrieval).
 //!
 //! Execution time is the path timed at [`JOINT_SPEED`] on the joint that
 //! moves most per segment, twice (there and back), plus [`GRIPPER_SECONDS`].
