@@ -459,8 +459,12 @@ async fn close_handshake(stream: &mut futures_util::stream::SplitStream<WebSocke
     let _ = tokio::time::timeout(Duration::from_secs(2), drain).await;
 }
 
-/// Ends the session's episode, saves it, and tells the page where.
+/// Ends the session's episode, saves it, and tells the page where. A page
+/// that never drove has no episode to end: nothing is saved or said.
 fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &ServerStats) {
+    if !session.driven() {
+        return;
+    }
     match session.finish() {
         Ok(file) => {
             if file.is_some() {

@@ -2,7 +2,7 @@
 //! at a time, the latest command, and the recording of each episode.
 
 use super::TeleopError;
-use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, robot_links, tick_ellipsoid};
+use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, pose7, robot_links, tick_ellipsoid};
 use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalSettings,
     HumanCommand, ProblemGoal, problem_goals,
@@ -109,6 +109,12 @@ pub struct TeleopSession {
     command_at: Option<Instant>,
     used_command_at: Option<Instant>,
     new_command: bool,
+    /// Whether the operator has asked for motion in this episode: the
+    /// episode (its clock, its ticks, its recording) starts then, not when
+    /// the page opened.
+    driven: bool,
+    /// The collision pair named in [`StateView::nearest`].
+    nearest: Option<usize>,
     outcome: Option<Outcome>,
     saved: bool,
     episode: usize,
@@ -173,10 +179,12 @@ impl TeleopSession {
             command_at: None,
             used_command_at: None,
             new_command: false,
+            driven: false,
+            nearest: None,
             outcome: None,
             saved: false,
             episode: 0,
-            state: StateView::default(),
+            state: StateView { status: "waiting", ..StateView::default() },
         };
         session.refresh_state(0.0)?;
         Ok(session)
@@ -219,8 +227,11 @@ impl TeleopSession {
 
     /// Sets the operator's command (m/s, world axes), received at `at`.
     /// Commands faster than the speed limit are scaled down to it; NaN is
-    /// kept, so that the arbiter reports it and holds.
+    /// kept, so that the arbiter reports it and holds. The first command
+    /// that is not zero (NaN included) starts the episode.
     pub fn set_command(&mut self, linear: [f64; 3], at: Instant) {
+        // The page sends zeros while no key is held: those start nothing.
+        self.driven |= linear.iter().any(|v| *v != 0.0);
         let norm = linear.iter().map(|v| v * v).sum::<f64>().sqrt();
         let scale = if norm > self.settings.max_speed { self.settings.max_speed / norm } else { 1.0 };
         self.command = linear.map(|v| v * scale);
@@ -252,10 +263,17 @@ impl TeleopSession {
         Ok(mode)
     }
 
+    /// Whether the episode has started: the operator sent a command that
+    /// is not zero since the last start. Only such episodes are saved.
+    pub fn driven(&self) -> bool {
+        self.driven
+    }
+
     /// One control tick at wall-clock time `now`: the arbiter blends the
     /// latest command (zero when older than the command timeout), the arm
     /// moves, and the episode ends on success, collision or timeout. After
-    /// the end the arm holds until [`Self::restart`].
+    /// the end the arm holds until [`Self::restart`]; before the first
+    /// command it holds too, its status `waiting`, and no tick counts.
     ///
     /// # Errors
     /// The simulator's kinematics or collision queries failing.
@@ -265,6 +283,14 @@ impl TeleopSession {
         }
         let fresh =
             self.command_at.is_some_and(|t| now.duration_since(t).as_secs_f64() <= self.settings.command_timeout);
+        if !self.driven {
+            self.used_command_at = None;
+            self.new_command = false;
+            self.state.status = "waiting";
+            self.state.stale_command = false;
+            self.state.human = [0.0; 3];
+            return Ok(&self.state);
+        }
         let command = if fresh { self.command } else { [0.0; 3] };
         self.used_command_at = if fresh && self.new_command { self.command_at } else { None };
         self.new_command = false;
@@ -306,6 +332,7 @@ impl TeleopSession {
         s.q.clear();
         s.q.extend_from_slice(self.live.q());
         s.gripper = self.live.gripper();
+        s.gripper_pose = pose7(&robot.frame_pose(&self.kin, self.prepared.arbiter.gripper_frame()));
         s.executed = self.live.record().executed.last().copied().unwrap_or([0.0; 3]);
         s.beliefs.clear();
         s.beliefs.extend_from_slice(self.ws.beliefs());
@@ -314,6 +341,15 @@ impl TeleopSession {
         }
         s.mode = self.ws.mode().as_str();
         s.clearance = self.live.clearance();
+        // Names change only when the pair does: no strings per tick.
+        let nearest = self.live.nearest_pair();
+        if nearest != self.nearest {
+            self.nearest = nearest;
+            s.nearest = nearest.map(|pair| {
+                let (a, b) = self.prepared.arbiter.collision_model().pair_names(pair);
+                [a.to_string(), b.to_string()]
+            });
+        }
         s.min_clearance = self.live.record().min_clearance;
         s.ellipsoid = if s.steps > 0 { tick_ellipsoid(&self.ws, self.ws.mode()) } else { [[0.0; 3]; 3] };
         s.outcome = self.outcome.map(|o| o.as_str());
@@ -322,11 +358,15 @@ impl TeleopSession {
 
     /// Ends the episode (as `failed` when it was still running: the person
     /// stopped it) and saves it to the record directory when it has ticks,
-    /// once. Returns the file written.
+    /// once. Returns the file written. An episode never [`driven`](Self::driven)
+    /// has not started: nothing ends and nothing is saved.
     ///
     /// # Errors
     /// Writing the recording.
     pub fn finish(&mut self) -> Result<Option<PathBuf>, TeleopError> {
+        if !self.driven {
+            return Ok(None);
+        }
         let outcome = *self.outcome.get_or_insert(Outcome::Failed);
         self.state.outcome = Some(outcome.as_str());
         let (Some(dir), true, false) = (&self.settings.record_dir, self.live.record().steps > 0, self.saved) else {
@@ -359,16 +399,20 @@ impl TeleopSession {
             self.judges = self.prepared.goals.iter().map(TaskJudge::new).collect();
             self.kin = KinematicsWorkspace::new(&self.prepared.problem.robot);
         }
+        // Pair indices belong to the old collision model.
+        self.nearest = None;
+        self.state.nearest = None;
         if self.prepared.modes.contains(&mode) {
             self.ws.set_mode(mode);
         }
         self.live = LiveEpisode::new(&self.prepared.arbiter, &mut self.ws, &self.prepared.problem.start, true)?;
         self.outcome = None;
         self.saved = false;
+        self.driven = false;
         self.command = [0.0; 3];
         self.command_at = None;
         self.episode += 1;
-        self.state.status = "nominal";
+        self.state.status = "waiting";
         self.refresh_state(0.0)
     }
 }
