@@ -8,6 +8,8 @@
 //!   reach-and-grasp or the planar pick), its arbiter, the arm stepped by a
 //!   [`LiveEpisode`](crate::sim::LiveEpisode), the latest command, and the
 //!   recording of every driven episode (Parquet, the simulator's layout);
+//!   an episode starts at the first command that is not zero, so a page
+//!   left open is neither timed nor recorded;
 //! - [`SceneView`] and [`StateView`]: what the page draws, as JSON;
 //! - [`serve`]: the axum web server, the page at `/`, the WebSocket at
 //!   `/ws` (one session per connection), health and timing at `/stats`.
