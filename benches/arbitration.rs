@@ -57,8 +57,7 @@ fn setup() -> Setup {
         settings: EpisodeSettings::default(),
     };
     let mut judge = TaskJudge::new(&goals[0]);
-    let record =
-        episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut |q| judge.succeeded(q)).expect("episode");
+    let record = episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut judge).expect("episode");
     assert!(record.steps > 0, "the recorded episode has no ticks ({})", record.outcome.as_str());
     let dt = arbiter.settings().period;
     let ticks = (0..record.steps)

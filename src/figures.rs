@@ -1,6 +1,18 @@
-//! Figures as SVG text, drawn with `plotters` (no system fonts needed):
-//! one look for every figure — white background, round tick values,
-//! side-by-side panels, legends in a corner that keeps clear of the data.
+//! Figures as SVG text, drawn with `plotters` (no system fonts needed), in
+//! one style for every figure tandem writes:
+//!
+//! - one colour per series ([`PALETTE`], ten), never reused for scene
+//!   objects, which are drawn in [`Color::Scene`] grey, nor for references
+//!   ([`Color::Reference`], black);
+//! - one legend for the whole figure, below the panels, never over the
+//!   data; its swatches draw what the series draws (a solid or a dashed
+//!   line, the marker, a patch);
+//! - axes fitted to the data (equal scales only where that does not leave
+//!   most of a panel empty); round tick values without `-0` or a needless
+//!   `.0`; tick label areas sized to their labels, so axis titles never
+//!   cover them;
+//! - panels meant for comparison share their axes ([`share_x`], [`share_y`]);
+//! - categorical axes name their categories ([`Panel::categories`]).
 //!
 //! ```
 //! use tandem::figures::{Panel, Series, render_panels};
@@ -12,9 +24,12 @@
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+// `Color` below names tandem's colour choice; plotters' trait stays usable.
+use plotters::style::Color as _;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-/// The colour cycle of every figure (Tableau 10).
-pub const PALETTE: [RGBColor; 8] = [
+/// The colour cycle of every figure's series (Tableau 10).
+pub const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
@@ -22,8 +37,57 @@ pub const PALETTE: [RGBColor; 8] = [
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
+    RGBColor(23, 190, 207),
+    RGBColor(188, 189, 34),
     RGBColor(127, 127, 127),
 ];
+
+/// Grey of scene objects (obstacles, tables, boxes): no series uses it.
+const SCENE: RGBColor = RGBColor(150, 150, 150);
+
+/// A series' colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Color {
+    /// [`PALETTE`]`[i % 10]`.
+    Palette(usize),
+    /// Scene objects: grey.
+    Scene,
+    /// References and targets: black.
+    Reference,
+}
+
+impl From<usize> for Color {
+    fn from(i: usize) -> Color {
+        Color::Palette(i)
+    }
+}
+
+impl Color {
+    fn rgb(self) -> RGBColor {
+        match self {
+            Color::Palette(i) => PALETTE[i % PALETTE.len()],
+            Color::Scene => SCENE,
+            Color::Reference => BLACK,
+        }
+    }
+}
+
+/// A marker's shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    /// A filled disc.
+    Dot,
+    /// A hollow ring.
+    Ring,
+    /// An upright cross (×).
+    Cross,
+    /// A filled square.
+    Square,
+    /// A filled upward triangle.
+    Triangle,
+    /// A filled diamond.
+    Diamond,
+}
 
 /// What a series draws.
 #[derive(Debug, Clone, PartialEq)]
@@ -33,9 +97,14 @@ pub enum SeriesKind {
     /// A dashed polyline.
     Dashed,
     /// Markers.
-    Points,
-    /// Circles of the given radius (data units) at the points.
+    Points(Marker),
+    /// Filled discs of the given radius (data units) at the points.
     Circles(f64),
+    /// Filled axis-aligned rectangles: each point is a corner, the vector
+    /// at its index the opposite corner minus it (data units).
+    Rectangles(Vec<(f64, f64)>),
+    /// One filled polygon through the points (a scene object's outline).
+    Polygon,
     /// Ellipses: each point carries a 2 × 2 symmetric matrix (column-major)
     /// whose eigenvectors scaled by the eigenvalues are the half-axes.
     Ellipses(Vec<[f64; 4]>),
@@ -50,31 +119,72 @@ pub struct Series {
     pub label: Option<String>,
     /// Points in data coordinates.
     pub points: Vec<(f64, f64)>,
-    /// Index into [`PALETTE`].
-    pub color: usize,
+    /// Its colour.
+    pub color: Color,
     /// How the points are drawn.
     pub kind: SeriesKind,
 }
 
 impl Series {
-    /// A solid polyline.
-    pub fn line(label: &str, points: &[(f64, f64)], color: usize) -> Series {
-        Series { label: Some(label.into()), points: points.to_vec(), color, kind: SeriesKind::Line }
+    /// A solid polyline in palette colour `color`.
+    pub fn line(label: &str, points: &[(f64, f64)], color: impl Into<Color>) -> Series {
+        Series { label: Some(label.into()), points: points.to_vec(), color: color.into(), kind: SeriesKind::Line }
     }
 
     /// A dashed polyline.
-    pub fn dashed(label: &str, points: &[(f64, f64)], color: usize) -> Series {
-        Series { label: Some(label.into()), points: points.to_vec(), color, kind: SeriesKind::Dashed }
+    pub fn dashed(label: &str, points: &[(f64, f64)], color: impl Into<Color>) -> Series {
+        Series { label: Some(label.into()), points: points.to_vec(), color: color.into(), kind: SeriesKind::Dashed }
     }
 
     /// Arrows from `points` by `vectors` (data units), unlabelled.
-    pub fn arrows(points: &[(f64, f64)], vectors: &[(f64, f64)], color: usize) -> Series {
-        Series { label: None, points: points.to_vec(), color, kind: SeriesKind::Arrows(vectors.to_vec()) }
+    pub fn arrows(points: &[(f64, f64)], vectors: &[(f64, f64)], color: impl Into<Color>) -> Series {
+        let kind = SeriesKind::Arrows(vectors.to_vec());
+        Series { label: None, points: points.to_vec(), color: color.into(), kind }
     }
 
-    /// Markers.
-    pub fn points(label: &str, points: &[(f64, f64)], color: usize) -> Series {
-        Series { label: Some(label.into()), points: points.to_vec(), color, kind: SeriesKind::Points }
+    /// Dots.
+    pub fn points(label: &str, points: &[(f64, f64)], color: impl Into<Color>) -> Series {
+        Series::markers(label, points, color, Marker::Dot)
+    }
+
+    /// Markers of shape `marker`.
+    pub fn markers(label: &str, points: &[(f64, f64)], color: impl Into<Color>, marker: Marker) -> Series {
+        Series {
+            label: Some(label.into()),
+            points: points.to_vec(),
+            color: color.into(),
+            kind: SeriesKind::Points(marker),
+        }
+    }
+
+    /// Scene discs (obstacles seen from above) of `radius` (m), grey.
+    pub fn discs(label: &str, centres: &[(f64, f64)], radius: f64) -> Series {
+        let kind = SeriesKind::Circles(radius);
+        Series { label: Some(label.into()), points: centres.to_vec(), color: Color::Scene, kind }
+    }
+
+    /// Scene rectangles (a table, a box seen from above), grey: each from
+    /// its lower-left corner `(x, y)` with size `(w, h)`.
+    pub fn boxes(label: &str, corners: &[(f64, f64)], sizes: &[(f64, f64)]) -> Series {
+        let kind = SeriesKind::Rectangles(sizes.to_vec());
+        Series { label: Some(label.into()), points: corners.to_vec(), color: Color::Scene, kind }
+    }
+
+    /// A scene object's outline seen along an axis, grey: the convex hull
+    /// of `corners` (its corners projected onto the view).
+    pub fn outline(label: &str, corners: &[(f64, f64)]) -> Series {
+        Series {
+            label: Some(label.into()),
+            points: convex_hull(corners),
+            color: Color::Scene,
+            kind: SeriesKind::Polygon,
+        }
+    }
+
+    /// The same series in another colour.
+    pub fn colored(mut self, color: impl Into<Color>) -> Series {
+        self.color = color.into();
+        self
     }
 
     /// Unlabelled series (no legend entry).
@@ -84,8 +194,8 @@ impl Series {
     }
 }
 
-/// One panel: a title, axis labels, series, and optionally fixed ranges
-/// and equal axis scales.
+/// One panel: a title, axis labels, series, and optionally fixed ranges,
+/// equal axis scales and category names on x.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Panel {
     /// Panel title.
@@ -100,8 +210,11 @@ pub struct Panel {
     pub x_range: Option<(f64, f64)>,
     /// Fixed y range (data bounds when `None`).
     pub y_range: Option<(f64, f64)>,
-    /// Same metres per pixel on both axes (workspace views).
+    /// Same metres per pixel on both axes (workspace views), unless that
+    /// would leave most of the panel empty.
     pub equal_axes: bool,
+    /// Names of x = 0, 1, 2, …: a categorical x axis.
+    pub categories: Vec<String>,
 }
 
 impl Panel {
@@ -115,6 +228,7 @@ impl Panel {
             x_range: None,
             y_range: None,
             equal_axes: false,
+            categories: vec![],
         }
     }
 
@@ -131,40 +245,95 @@ impl Panel {
         self
     }
 
-    /// Equal scales on both axes.
+    /// Fixes the y range only.
+    pub fn y_range(mut self, y: (f64, f64)) -> Panel {
+        self.y_range = Some(y);
+        self
+    }
+
+    /// Equal scales on both axes (when the data's shape allows it).
     pub fn equal(mut self) -> Panel {
         self.equal_axes = true;
         self
     }
 
-    /// Data bounds of every series, padded by 5 % (a unit box when empty).
-    fn bounds(&self) -> ((f64, f64), (f64, f64)) {
+    /// Names the x positions 0, 1, 2, … (the points' x are category indices).
+    pub fn categories(mut self, names: &[&str]) -> Panel {
+        self.categories = names.iter().map(|s| s.to_string()).collect();
+        self
+    }
+
+    /// Data bounds of every series (unpadded), `None` without finite data.
+    fn data_bounds(&self) -> Option<((f64, f64), (f64, f64))> {
         let mut b = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+        let mut add = |x: f64, y: f64| {
+            if x.is_finite() && y.is_finite() {
+                b = (b.0.min(x), b.1.max(x), b.2.min(y), b.3.max(y));
+            }
+        };
         for s in &self.series {
-            let reach = match &s.kind {
-                SeriesKind::Circles(r) => *r,
-                _ => 0.0,
-            };
             for (k, &(x, y)) in s.points.iter().enumerate() {
-                let r = match &s.kind {
-                    SeriesKind::Ellipses(m) => m.get(k).map_or(0.0, |m| m[0].abs().max(m[3].abs()) + m[1].abs()),
-                    SeriesKind::Arrows(v) => v.get(k).map_or(0.0, |v| v.0.abs().max(v.1.abs())),
-                    _ => reach,
-                };
-                if x.is_finite() && y.is_finite() {
-                    b = (b.0.min(x - r), b.1.max(x + r), b.2.min(y - r), b.3.max(y + r));
+                match &s.kind {
+                    SeriesKind::Circles(r) => {
+                        add(x - r, y - r);
+                        add(x + r, y + r);
+                    }
+                    SeriesKind::Ellipses(m) => {
+                        let r = m.get(k).map_or(0.0, |m| m[0].abs().max(m[3].abs()) + m[1].abs());
+                        add(x - r, y - r);
+                        add(x + r, y + r);
+                    }
+                    SeriesKind::Arrows(v) | SeriesKind::Rectangles(v) => {
+                        add(x, y);
+                        if let Some(v) = v.get(k) {
+                            add(x + v.0, y + v.1);
+                        }
+                    }
+                    _ => add(x, y),
                 }
             }
         }
-        if !b.0.is_finite() {
-            return ((0.0, 1.0), (0.0, 1.0));
-        }
-        let pad = |lo: f64, hi: f64| {
-            let span = (hi - lo).max(1e-6);
+        b.0.is_finite().then_some(((b.0, b.1), (b.2, b.3)))
+    }
+
+    /// The ranges drawn: fixed ones, else the data's padded by 5 % (a unit
+    /// box without data); a categorical x spans half a slot past its ends.
+    fn bounds(&self) -> ((f64, f64), (f64, f64)) {
+        let pad = |(lo, hi): (f64, f64)| {
+            let span = (hi - lo).max(1e-6 * hi.abs().max(lo.abs()).max(1e-3));
             (lo - 0.05 * span, hi + 0.05 * span)
         };
-        (self.x_range.unwrap_or_else(|| pad(b.0, b.1)), self.y_range.unwrap_or_else(|| pad(b.2, b.3)))
+        let data = self.data_bounds();
+        let x = if !self.categories.is_empty() {
+            (-0.5, self.categories.len() as f64 - 0.5)
+        } else {
+            self.x_range.unwrap_or_else(|| data.map_or((0.0, 1.0), |d| pad(d.0)))
+        };
+        let y = self.y_range.unwrap_or_else(|| data.map_or((0.0, 1.0), |d| pad(d.1)));
+        (x, y)
     }
+}
+
+/// Gives every panel the x range that holds all of them.
+pub fn share_x(panels: &mut [Panel]) {
+    let ranges: Vec<(f64, f64)> = panels.iter().map(|p| p.bounds().0).collect();
+    if let Some(range) = union(&ranges) {
+        panels.iter_mut().for_each(|p| p.x_range = Some(range));
+    }
+}
+
+/// Gives every panel the y range that holds all of them.
+pub fn share_y(panels: &mut [Panel]) {
+    let ranges: Vec<(f64, f64)> = panels.iter().map(|p| p.bounds().1).collect();
+    if let Some(range) = union(&ranges) {
+        panels.iter_mut().for_each(|p| p.y_range = Some(range));
+    }
+}
+
+fn union(ranges: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let lo = ranges.iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
+    let hi = ranges.iter().map(|r| r.1).fold(f64::NEG_INFINITY, f64::max);
+    (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
 }
 
 /// Why a figure could not be drawn.
@@ -173,20 +342,57 @@ impl Panel {
 pub struct FigureError(String);
 
 /// Renders `panels` side by side under `title` into SVG text, each panel
-/// `panel_width × height` pixels.
+/// `panel_width × height` pixels, with one legend below them.
 ///
 /// # Errors
 /// A drawing error of the backend (none expected for finite data).
 pub fn render_panels(title: &str, panels: &[Panel], panel_width: u32, height: u32) -> Result<String, FigureError> {
+    render_grid(title, &[panels.to_vec()], panel_width, height)
+}
+
+/// Renders rows of panels under `title` into SVG text, each panel
+/// `panel_width × panel_height` pixels, with one legend below them (the
+/// entries of every panel, each once).
+///
+/// # Errors
+/// A drawing error of the backend (none expected for finite data).
+pub fn render_grid(
+    title: &str,
+    rows: &[Vec<Panel>],
+    panel_width: u32,
+    panel_height: u32,
+) -> Result<String, FigureError> {
+    let columns = rows.iter().map(Vec::len).max().unwrap_or(1).max(1) as u32;
+    let width = panel_width * columns;
+    let entries = legend_entries(rows.iter().flatten());
+    let legend_rows = legend_layout(&entries, width).len() as u32;
+    let legend_height = if entries.is_empty() { 0 } else { 14 + 20 * legend_rows };
+    let title_height = 34;
+    let height = title_height + panel_height * rows.len().max(1) as u32 + legend_height;
     let mut svg = String::new();
     {
-        let width = panel_width * panels.len().max(1) as u32;
         let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        let root = root.titled(title, ("sans-serif", 18)).map_err(err)?;
-        let areas = root.split_evenly((1, panels.len().max(1)));
-        for (panel, area) in panels.iter().zip(areas) {
-            draw_panel(panel, &area)?;
+        let (top, rest) = root.split_vertically(title_height);
+        top.draw(&Text::new(
+            title.to_string(),
+            (width as i32 / 2, 10),
+            TextStyle::from(("sans-serif", 18).into_font()).pos(Pos::new(HPos::Center, VPos::Top)),
+        ))
+        .map_err(err)?;
+        let (body, legend) = rest.split_vertically(panel_height * rows.len().max(1) as u32);
+        let row_areas = body.split_evenly((rows.len().max(1), 1));
+        for (row, row_area) in rows.iter().zip(row_areas) {
+            let cells = row_area.split_by_breakpoints(
+                (1..row.len()).map(|k| k as u32 * panel_width).collect::<Vec<_>>(),
+                [] as [u32; 0],
+            );
+            for (panel, area) in row.iter().zip(cells) {
+                draw_panel(panel, &area)?;
+            }
+        }
+        if !entries.is_empty() {
+            draw_legend(&legend, &entries, width)?;
         }
         root.present().map_err(err)?;
     }
@@ -197,95 +403,294 @@ fn err(e: impl std::fmt::Display) -> FigureError {
     FigureError(e.to_string())
 }
 
+/// A tick value with as many decimals as the tick step needs: no `-0`, no
+/// needless `.0`.
+fn tick(value: f64, step: f64) -> String {
+    let decimals = if step > 0.0 && step.is_finite() { (-step.log10().floor()).max(0.0) as usize } else { 3 };
+    let text = format!("{value:.decimals$}");
+    let text = if text.contains('.') { text.trim_end_matches('0').trim_end_matches('.').to_string() } else { text };
+    if text.trim_start_matches('-').chars().all(|c| c == '0' || c == '.') { "0".into() } else { text }
+}
+
+/// How many multiples of `step` lie within `range` (at least 2, at most 50).
+fn ticks((lo, hi): (f64, f64), step: f64) -> usize {
+    if !(step > 0.0 && lo.is_finite() && hi.is_finite()) {
+        return 2;
+    }
+    (((hi / step + 1e-9).floor() - (lo / step - 1e-9).ceil()) as i64 + 1).clamp(2, 50) as usize
+}
+
+/// The 1-2-5 step nearest to `range / count`: about `count` round ticks.
+fn tick_step((lo, hi): (f64, f64), count: usize) -> f64 {
+    let raw = (hi - lo).abs() / count.max(1) as f64;
+    if !(raw > 0.0 && raw.is_finite()) {
+        return 1.0;
+    }
+    let magnitude = 10f64.powf(raw.log10().floor());
+    let f = raw / magnitude;
+    magnitude
+        * if f < 1.5 {
+            1.0
+        } else if f < 3.5 {
+            2.0
+        } else if f < 7.5 {
+            5.0
+        } else {
+            10.0
+        }
+}
+
 fn draw_panel(panel: &Panel, area: &DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), FigureError> {
     let ((mut x0, mut x1), (mut y0, mut y1)) = panel.bounds();
-    if panel.equal_axes {
-        // Widen the shorter span so both axes have the same scale.
-        let (w, h) = area.dim_in_pixel();
-        let (pw, ph) = (f64::from(w.saturating_sub(70)).max(1.0), f64::from(h.saturating_sub(80)).max(1.0));
+    let (w, h) = area.dim_in_pixel();
+    // Tick labels decide the label areas (an axis title beside them).
+    let y_step = tick_step((y0, y1), 5);
+    let y_chars = [y0, y1, 0.5 * (y0 + y1)].iter().map(|v| tick(*v, y_step).len()).max().unwrap_or(1);
+    let y_area = 30 + 7 * y_chars as u32;
+    let x_area = if panel.categories.is_empty() { 40 } else { 52 };
+    if panel.equal_axes && panel.categories.is_empty() {
+        let (pw, ph) =
+            (f64::from(w.saturating_sub(y_area + 20)).max(1.0), f64::from(h.saturating_sub(x_area + 40)).max(1.0));
         let scale = ((x1 - x0) / pw).max((y1 - y0) / ph);
         let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-        (x0, x1, y0, y1) = (cx - scale * pw / 2.0, cx + scale * pw / 2.0, cy - scale * ph / 2.0, cy + scale * ph / 2.0);
+        // Equal scales only while the data fills at least a quarter of the
+        // panel's width and height: a path in a 2 cm band over 30 cm is
+        // better read fitted.
+        if (x1 - x0) / (scale * pw) >= 0.25 && (y1 - y0) / (scale * ph) >= 0.25 {
+            (x0, x1, y0, y1) =
+                (cx - scale * pw / 2.0, cx + scale * pw / 2.0, cy - scale * ph / 2.0, cy + scale * ph / 2.0);
+        }
     }
+    // Steps from the final (equal-scaled) ranges. Plotters takes the finest
+    // 1-2-5 step with at most the given count of ticks, so the count of our
+    // step's multiples in range makes it pick exactly our step.
+    let (x_step, y_step) = (tick_step((x0, x1), 5), tick_step((y0, y1), 5));
+    let x_labels = if panel.categories.is_empty() { ticks((x0, x1), x_step) } else { panel.categories.len() * 2 + 1 };
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 15))
-        .margin(12)
-        .x_label_area_size(36)
-        .y_label_area_size(52)
+        .margin(10)
+        .margin_right(18)
+        .x_label_area_size(x_area)
+        .y_label_area_size(y_area)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(err)?;
+    let categories = panel.categories.clone();
+    let x_format = move |v: &f64| {
+        if categories.is_empty() {
+            tick(*v, x_step)
+        } else {
+            let k = v.round();
+            if (v - k).abs() < 1e-6 && k >= 0.0 {
+                categories.get(k as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        }
+    };
     chart
         .configure_mesh()
         .x_desc(panel.x_label.as_str())
         .y_desc(panel.y_label.as_str())
-        .x_labels(6)
-        .y_labels(6)
+        .x_labels(x_labels)
+        .y_labels(ticks((y0, y1), y_step))
+        .x_label_formatter(&x_format)
+        .y_label_formatter(&|v| tick(*v, y_step))
         .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
         .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
         .draw()
         .map_err(err)?;
-    let mut labelled = false;
-    for s in &panel.series {
-        let color = PALETTE[s.color % PALETTE.len()];
+    // Scene first, data over it.
+    let mut order: Vec<&Series> = panel.series.iter().filter(|s| s.color == Color::Scene).collect();
+    order.extend(panel.series.iter().filter(|s| s.color != Color::Scene));
+    for s in order {
+        let color = s.color.rgb();
         let style = ShapeStyle::from(&color).stroke_width(2);
-        let anno = match &s.kind {
-            SeriesKind::Line => chart.draw_series(LineSeries::new(s.points.iter().copied(), style)).map_err(err)?,
+        match &s.kind {
+            SeriesKind::Line => {
+                chart.draw_series(LineSeries::new(s.points.iter().copied(), style)).map_err(err)?;
+            }
             SeriesKind::Dashed => {
-                chart.draw_series(DashedLineSeries::new(s.points.iter().copied(), 6, 4, style)).map_err(err)?
+                chart.draw_series(DashedLineSeries::new(s.points.iter().copied(), 7, 5, style)).map_err(err)?;
             }
-            SeriesKind::Points => {
-                chart.draw_series(s.points.iter().map(|&p| Circle::new(p, 4, color.filled()))).map_err(err)?
+            SeriesKind::Points(marker) => {
+                for &p in &s.points {
+                    draw_marker(chart.plotting_area(), p, *marker, color, 5)?;
+                }
             }
-            SeriesKind::Circles(r) => chart
-                .draw_series(
-                    s.points
-                        .iter()
-                        .map(|&(x, y)| Polygon::new(circle_points(x, y, *r, *r, 0.0), color.mix(0.35).filled())),
-                )
-                .map_err(err)?,
-            SeriesKind::Ellipses(matrices) => chart
-                .draw_series(s.points.iter().zip(matrices).map(|(&(x, y), m)| {
-                    let (a, b, angle) = ellipse_axes(m);
-                    PathElement::new(closed(circle_points(x, y, a, b, angle)), style)
-                }))
-                .map_err(err)?,
-            SeriesKind::Arrows(vectors) => chart
-                .draw_series(s.points.iter().zip(vectors).map(|(&p, &v)| PathElement::new(arrow(p, v), style)))
-                .map_err(err)?,
-        };
-        if let Some(label) = &s.label {
-            labelled = true;
-            anno.label(label.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], style));
+            SeriesKind::Circles(r) => {
+                chart
+                    .draw_series(
+                        s.points.iter().map(|&(x, y)| Polygon::new(circle_points(x, y, *r, *r, 0.0), fill(s.color))),
+                    )
+                    .map_err(err)?;
+            }
+            SeriesKind::Rectangles(sizes) => {
+                chart
+                    .draw_series(
+                        s.points
+                            .iter()
+                            .zip(sizes)
+                            .map(|(&(x, y), &(w, h))| Rectangle::new([(x, y), (x + w, y + h)], fill(s.color))),
+                    )
+                    .map_err(err)?;
+            }
+            SeriesKind::Polygon => {
+                chart.draw_series(std::iter::once(Polygon::new(s.points.clone(), fill(s.color)))).map_err(err)?;
+            }
+            SeriesKind::Ellipses(matrices) => {
+                chart
+                    .draw_series(s.points.iter().zip(matrices).map(|(&(x, y), m)| {
+                        let (a, b, angle) = ellipse_axes(m);
+                        PathElement::new(closed(circle_points(x, y, a, b, angle)), style)
+                    }))
+                    .map_err(err)?;
+            }
+            SeriesKind::Arrows(vectors) => {
+                let thin = ShapeStyle::from(&color).stroke_width(1);
+                chart
+                    .draw_series(s.points.iter().zip(vectors).map(|(&p, &v)| PathElement::new(arrow(p, v), thin)))
+                    .map_err(err)?;
+            }
         }
-    }
-    if labelled {
-        chart
-            .configure_series_labels()
-            .position(emptiest_corner(panel, (x0, x1), (y0, y1)))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font(("sans-serif", 12))
-            .draw()
-            .map_err(err)?;
     }
     Ok(())
 }
 
-/// The legend corner whose quarter of the panel holds the fewest points.
-fn emptiest_corner(panel: &Panel, (x0, x1): (f64, f64), (y0, y1): (f64, f64)) -> SeriesLabelPosition {
-    let (xm, ym) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-    let mut counts = [0usize; 4]; // upper right, upper left, lower right, lower left
-    for s in &panel.series {
-        for &(x, y) in &s.points {
-            counts[usize::from(x < xm) + 2 * usize::from(y < ym)] += 1;
+/// The fill of a patch: scene objects light grey, series a tint.
+fn fill(color: Color) -> ShapeStyle {
+    match color {
+        Color::Scene => RGBColor(205, 205, 205).filled(),
+        c => c.rgb().mix(0.35).filled(),
+    }
+}
+
+/// Draws a marker of `shape`, `size` pixels in half-width, at `at` (in
+/// the area's coordinates: data in a panel, pixels in the legend).
+fn draw_marker<C: CoordTranslate>(
+    area: &DrawingArea<SVGBackend<'_>, C>,
+    at: C::From,
+    shape: Marker,
+    color: RGBColor,
+    size: i32,
+) -> Result<(), FigureError> {
+    let line = ShapeStyle::from(&color).stroke_width(2);
+    let here = EmptyElement::at(at);
+    match shape {
+        Marker::Dot => area.draw(&(here + Circle::new((0, 0), size, color.filled()))),
+        Marker::Ring => area.draw(&(here + Circle::new((0, 0), size + 2, line))),
+        Marker::Cross => area.draw(
+            &(here + PathElement::new(vec![(-size, -size), (size, size), (0, 0), (-size, size), (size, -size)], line)),
+        ),
+        Marker::Square => {
+            area.draw(&(here + Rectangle::new([(1 - size, 1 - size), (size - 1, size - 1)], color.filled())))
+        }
+        Marker::Triangle => {
+            area.draw(&(here + Polygon::new(vec![(0, -size), (size, size - 1), (-size, size - 1)], color.filled())))
+        }
+        Marker::Diamond => {
+            area.draw(&(here + Polygon::new(vec![(0, -size), (size, 0), (0, size), (-size, 0)], color.filled())))
         }
     }
-    match (0..4).min_by_key(|&k| counts[k]).unwrap_or(0) {
-        0 => SeriesLabelPosition::UpperRight,
-        1 => SeriesLabelPosition::UpperLeft,
-        2 => SeriesLabelPosition::LowerRight,
-        _ => SeriesLabelPosition::LowerLeft,
+    .map_err(err)
+}
+
+/// One legend entry: its label, colour and what its swatch draws.
+#[derive(Debug, Clone, PartialEq)]
+struct Entry {
+    label: String,
+    color: Color,
+    kind: SeriesKind,
+}
+
+/// The labelled series of `panels`, each (label, colour, kind) once, in order.
+fn legend_entries<'a>(panels: impl Iterator<Item = &'a Panel>) -> Vec<Entry> {
+    let mut entries: Vec<Entry> = Vec::new();
+    for panel in panels {
+        for s in &panel.series {
+            let Some(label) = &s.label else { continue };
+            let kind = swatch_kind(&s.kind);
+            if !entries.iter().any(|e| &e.label == label && e.color == s.color && e.kind == kind) {
+                entries.push(Entry { label: label.clone(), color: s.color, kind });
+            }
+        }
     }
+    entries
+}
+
+/// What a swatch needs of a series' kind (not its data).
+fn swatch_kind(kind: &SeriesKind) -> SeriesKind {
+    match kind {
+        SeriesKind::Circles(_) => SeriesKind::Circles(0.0),
+        SeriesKind::Rectangles(_) => SeriesKind::Rectangles(vec![]),
+        SeriesKind::Ellipses(_) => SeriesKind::Ellipses(vec![]),
+        SeriesKind::Arrows(_) => SeriesKind::Arrows(vec![]),
+        other => other.clone(),
+    }
+}
+
+const SWATCH: i32 = 26;
+
+/// An entry's width (px): swatch, gap, label at about 6.6 px per character
+/// of 13 px sans-serif, and the space to the next entry.
+fn legend_width(e: &Entry) -> i32 {
+    SWATCH + 8 + (6.6 * e.label.chars().count() as f64).ceil() as i32 + 18
+}
+
+/// The entries' widths packed into rows of at most `width` pixels:
+/// `(first entry, entries, row width)` per row.
+fn legend_layout(entries: &[Entry], width: u32) -> Vec<(usize, usize, i32)> {
+    let mut rows: Vec<(usize, usize, i32)> = Vec::new();
+    let mut current = (0usize, 0usize, 0i32);
+    for (k, e) in entries.iter().enumerate() {
+        let w = legend_width(e);
+        if current.1 > 0 && current.2 + w > width as i32 - 20 {
+            rows.push(current);
+            current = (k, 0, 0);
+        }
+        current.1 += 1;
+        current.2 += w;
+    }
+    if current.1 > 0 {
+        rows.push(current);
+    }
+    rows
+}
+
+fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, entries: &[Entry], width: u32) -> Result<(), FigureError> {
+    let font = TextStyle::from(("sans-serif", 13).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    for (row, &(first, count, row_width)) in legend_layout(entries, width).iter().enumerate() {
+        let y = 12 + 20 * row as i32;
+        let mut x = (width as i32 - row_width) / 2;
+        for e in &entries[first..first + count] {
+            let color = e.color.rgb();
+            let line = ShapeStyle::from(&color).stroke_width(2);
+            let mid = (x + SWATCH / 2, y);
+            match &e.kind {
+                SeriesKind::Line | SeriesKind::Arrows(_) | SeriesKind::Ellipses(_) => {
+                    area.draw(&PathElement::new(vec![(x, y), (x + SWATCH, y)], line)).map_err(err)?;
+                }
+                SeriesKind::Dashed => {
+                    for k in 0..3 {
+                        let a = x + k * 10;
+                        area.draw(&PathElement::new(vec![(a, y), (a + 6, y)], line)).map_err(err)?;
+                    }
+                }
+                SeriesKind::Points(marker) => draw_marker(area, mid, *marker, color, 5)?,
+                SeriesKind::Circles(_) => {
+                    area.draw(&Circle::new(mid, 7, fill(e.color))).map_err(err)?;
+                }
+                SeriesKind::Rectangles(_) | SeriesKind::Polygon => {
+                    area.draw(&Rectangle::new([(x + 4, y - 6), (x + SWATCH - 4, y + 6)], fill(e.color)))
+                        .map_err(err)?;
+                }
+            }
+            area.draw(&Text::new(e.label.clone(), (x + SWATCH + 8, y), font.clone())).map_err(err)?;
+            x += legend_width(e);
+        }
+    }
+    Ok(())
 }
 
 /// An arrow from `p` by `v` as one path: shaft, then a head of two barbs
@@ -299,6 +704,29 @@ fn arrow(p: (f64, f64), v: (f64, f64)) -> Vec<(f64, f64)> {
     vec![p, tip, barb(0.44), tip, barb(-0.44)]
 }
 
+/// The convex hull of `points`, counter-clockwise (Andrew's monotone chain).
+fn convex_hull(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut p: Vec<(f64, f64)> = points.iter().copied().filter(|q| q.0.is_finite() && q.1.is_finite()).collect();
+    p.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    p.dedup();
+    if p.len() < 3 {
+        return p;
+    }
+    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0);
+    let mut hull: Vec<(f64, f64)> = Vec::with_capacity(2 * p.len());
+    for pass in [p.clone(), p.iter().rev().copied().collect()] {
+        let floor = hull.len();
+        for q in pass {
+            while hull.len() >= floor + 2 && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    hull
+}
+
 fn closed(mut points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
     if let Some(&first) = points.first() {
         points.push(first);
@@ -309,9 +737,9 @@ fn closed(mut points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
 /// Points of the ellipse with half-axes `a` (along `angle`) and `b`.
 fn circle_points(x: f64, y: f64, a: f64, b: f64, angle: f64) -> Vec<(f64, f64)> {
     let (s, c) = angle.sin_cos();
-    (0..32)
+    (0..72)
         .map(|k| {
-            let t = std::f64::consts::TAU * k as f64 / 32.0;
+            let t = std::f64::consts::TAU * k as f64 / 72.0;
             let (u, v) = (a * t.cos(), b * t.sin());
             (x + c * u - s * v, y + s * u + c * v)
         })
@@ -345,21 +773,63 @@ mod tests {
     }
 
     #[test]
-    fn panels_render_with_legends_and_equal_axes() {
+    fn ticks_are_round_without_minus_zero() {
+        assert_eq!(tick(-0.0000001, 0.05), "0");
+        assert_eq!(tick(-0.05, 0.05), "-0.05");
+        assert_eq!(tick(0.1, 0.05), "0.1");
+        assert_eq!(tick(2.0, 0.5), "2");
+        assert_eq!(tick(300.0, 100.0), "300");
+        assert_eq!(tick_step((0.0, 1.0), 5), 0.2);
+        assert_eq!(tick_step((-0.14, -0.12), 5), 0.005);
+        assert_eq!(ticks((-0.245, 0.795), 0.2), 5);
+    }
+
+    #[test]
+    fn axes_get_about_five_round_ticks() {
+        let panel = Panel::new("t", "x", "y").with(Series::line("a", &[(-0.245, -1.03), (0.795, -0.18)], 0));
+        let svg = render_panels("ticks", &[panel], 800, 600).unwrap();
+        let labels: Vec<&str> = svg
+            .split("</text>")
+            .filter_map(|t| t.rsplit('>').next())
+            .map(str::trim)
+            .filter(|t| t.parse::<f64>().is_ok())
+            .collect();
+        for tick in ["-0.2", "0", "0.2", "0.4", "0.6", "-1", "-0.8", "-0.6", "-0.4"] {
+            assert!(labels.contains(&tick), "{tick} missing from {labels:?}");
+        }
+    }
+
+    #[test]
+    fn one_legend_below_the_panels_with_each_entry_once() {
         let line = Series::line("path", &[(0.0, 0.0), (1.0, 0.5)], 0);
         let e = Series {
             label: Some("metric".into()),
             points: vec![(0.5, 0.25)],
-            color: 1,
+            color: Color::Palette(1),
             kind: SeriesKind::Ellipses(vec![[0.1, 0.0, 0.0, 0.05]]),
         };
-        let svg = render_panels(
-            "t",
-            &[Panel::new("a", "x", "y").with(line).equal(), Panel::new("b", "x", "y").with(e)],
-            400,
-            300,
-        )
-        .unwrap();
-        assert!(svg.contains("path") && svg.contains("metric") && svg.matches("<svg").count() == 1);
+        let a = Panel::new("a", "x", "y").with(line.clone()).equal();
+        let b = Panel::new("b", "x", "y").with(line).with(e);
+        let svg = render_panels("t", &[a, b], 400, 300).unwrap();
+        assert_eq!(svg.matches(">\npath\n<").count(), 1, "the legend names a series once");
+        assert!(svg.contains("metric") && svg.matches("<svg").count() == 1);
+    }
+
+    #[test]
+    fn hull_of_a_square_with_inner_points() {
+        let pts = [(0.0, 0.0), (1.0, 0.0), (0.5, 0.5), (1.0, 1.0), (0.0, 1.0), (0.2, 0.7)];
+        assert_eq!(convex_hull(&pts), vec![(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]);
+    }
+
+    #[test]
+    fn shared_axes_hold_every_panel() {
+        let mut panels = vec![
+            Panel::new("a", "x", "y").with(Series::line("p", &[(0.0, 0.0), (1.0, 1.0)], 0)),
+            Panel::new("b", "x", "y").with(Series::line("p", &[(0.0, -2.0), (1.0, 3.0)], 0)),
+        ];
+        share_y(&mut panels);
+        assert_eq!(panels[0].y_range, panels[1].y_range);
+        let (lo, hi) = panels[0].y_range.unwrap();
+        assert!(lo <= -2.0 && hi >= 3.0);
     }
 }

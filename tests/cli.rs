@@ -254,10 +254,12 @@ fn demo_runs_the_reach_and_grasp_end_to_end() {
     assert!(text.contains("panda_grasp_box (<builtin:panda_grasp_box>): converged"), "{text}");
     assert!(text.contains("collision-free between slices (every 0.002 rad): yes"), "{text}");
     assert!(out.join("path.svg").exists() && out.join("trajectory.parquet").exists());
-    // It ends with the shared-control episodes and where their figure is,
-    // not with features to come.
+    // Shared control first, then the reference, and it ends with which
+    // figure to open.
     assert!(text.contains("wrote trajectory.csv"), "{text}");
+    assert!(text.find("one episode per arbitration mode") < text.find("the robot's reference"), "{text}");
     assert!(text.trim_end().lines().last().unwrap().contains("shared_control.svg"), "{text}");
+    assert!(!text.contains("ns per call"), "micro-benchmarks only with --verbose: {text}");
     assert!(out.join("shared_control.svg").exists());
     for mode in ["sos", "constrained", "natural-gradient-joint"] {
         let row = text.lines().find(|l| l.trim_start().starts_with(&format!("{mode} "))).expect("mode row");

@@ -59,7 +59,9 @@ fn a_person_driving_toward_a_cylinder_gets_there_and_the_episode_is_recorded() {
         .iter()
         .map(|f| f.name().to_string())
         .collect();
-    let layout = ["episode", "step", "time", "q", "qdot", "human", "executed", "robot", "beliefs", "status", "outcome"];
+    let layout = [
+        "episode", "step", "time", "q", "qdot", "human", "executed", "robot", "beliefs", "status", "outcome", "reason",
+    ];
     assert_eq!(columns, layout, "the simulator's episode layout");
 }
 

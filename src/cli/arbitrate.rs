@@ -1,7 +1,8 @@
 //! `tandem arbitrate`: one shared-control episode on a problem.
 
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalSettings, ProblemGoal, problem_goals};
-use crate::figures::{Panel, Series, render_panels};
+use crate::experiments::figures::{episode_path, outcome_legend, with_scene};
+use crate::figures::{Color, Marker, Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::sim::{
     Approach, Episode, EpisodeRecord, EpisodeSettings, Operator, Pace, Straightline, TaskJudge, percentiles,
@@ -51,8 +52,8 @@ pub struct ArbitrateArgs {
     #[arg(long, value_name = "FILE")]
     pub field: Option<PathBuf>,
     /// Print one JSON object: {"problem", "mode", "operator", "seed",
-    /// "outcome", "steps", "tick_us": {"median", "p99", "max"},
-    /// "hard_violations", "min_clearance_m", "fallbacks"}.
+    /// "outcome", "reason", "reason_detail", "steps", "tick_us": {"median",
+    /// "p99", "max"}, "hard_violations", "min_clearance_m", "fallbacks"}.
     #[arg(long)]
     pub json: bool,
 }
@@ -92,7 +93,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         settings: EpisodeSettings::default(),
     };
     let mut ws = arbiter.workspace();
-    let record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
+    let record = episode.run(&mut ws, operator.as_mut(), &mut judge)?;
     if let Some(path) = &args.plot {
         let svg = episode_svg(&problem, &goals[target], &record, args)?;
         std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
@@ -109,13 +110,15 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
             "operator": args.operator,
             "seed": args.seed,
             "outcome": record.outcome.as_str(),
+            "reason": record.reason.as_str(),
+            "reason_detail": record.reason.to_string(),
             "steps": record.steps,
             "tick_us": {"median": median, "p99": p99, "max": max},
             "hard_violations": record.hard_violations,
             "min_clearance_m": record.min_clearance,
             "fallbacks": record.fallbacks,
         });
-        println!("{json}");
+        println!("{}", crate::experiments::tidy_json(json));
         return Ok(outcome(&record));
     }
     println!(
@@ -126,13 +129,14 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         goals.iter().map(|g| g.name.as_str()).collect::<Vec<_>>().join(", ")
     );
     println!(
-        "{} operator, mode {} at {} Hz: {} after {} ticks ({:.1} s)",
+        "{} operator, mode {} at {} Hz: {} after {} ticks ({:.1} s): {}",
         args.operator,
         args.mode,
         args.rate,
         record.outcome.as_str(),
         record.steps,
-        record.steps as f64 / args.rate
+        record.steps as f64 / args.rate,
+        record.reason
     );
     println!("tick: median {median:.1} µs, p99 {p99:.1} µs, max {max:.1} µs");
     println!(
@@ -165,25 +169,28 @@ fn episode_svg(
 ) -> Result<String, Box<dyn std::error::Error>> {
     let robot = &problem.robot;
     let gripper = robot.frame_id(problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
-    let mut kin = crate::robot::KinematicsWorkspace::new(robot);
     let reference = goal.policy.reference();
-    let mut planned = Vec::with_capacity(reference.len());
-    for i in 0..reference.len() {
-        robot.forward_kinematics(&mut kin, reference.position(i))?;
-        planned.push(robot.frame_pose(&kin, gripper).translation.vector);
-    }
-    let view = |a: usize, b: usize, title: &str, ya: &str| {
-        let executed: Vec<(f64, f64)> = record.gripper.iter().map(|p| (p[a], p[b])).collect();
-        let reference: Vec<(f64, f64)> = planned.iter().map(|p| (p[a], p[b])).collect();
-        let end = goal.position;
-        Panel::new(title, if a == 0 { "x (m)" } else { "y (m)" }, ya)
-            .with(Series::dashed("reference", &reference, 7))
-            .with(Series::line(&format!("executed ({})", args.mode), &executed, 0))
-            .with(Series::points("goal", &[(end[a], end[b])], 3))
-            .equal()
+    let planned = robot.frame_path(gripper, (0..reference.len()).map(|i| reference.position(i)))?;
+    let view = |a: usize, b: usize, title: &str, y_label: &str| {
+        let project = |p: &[f64; 3]| (p[a], p[b]);
+        let executed: Vec<(f64, f64)> = record.gripper.iter().map(project).collect();
+        let reference: Vec<(f64, f64)> = planned.iter().map(project).collect();
+        let panel =
+            Panel::new(title, "x (m)", y_label).with(Series::dashed("reference", &reference, Color::Reference)).equal();
+        let panel = episode_path(
+            with_scene(panel, &problem.scene, (a, b)),
+            &format!("executed ({})", args.mode),
+            &executed,
+            0,
+            record.outcome,
+        );
+        outcome_legend(panel, [record.outcome])
+            .with(Series::markers("start", &executed[..executed.len().min(1)], Color::Reference, Marker::Dot))
+            .with(Series::markers("goal", &[project(&goal.position)], Color::Reference, Marker::Ring))
     };
-    let title = format!("{}: {} operator, {}", problem.name, args.operator, record.outcome.as_str());
-    Ok(render_panels(&title, &[view(0, 1, "top view", "y (m)"), view(0, 2, "side view", "z (m)")], 480, 440)?)
+    let title =
+        format!("{}: {} operator, {} ({})", problem.name, args.operator, record.outcome.as_str(), record.reason);
+    Ok(render_panels(&title, &[view(0, 1, "from above", "y (m)"), view(0, 2, "from the side", "z (m)")], 480, 440)?)
 }
 
 /// The seed's Fig. 4.2: F⁻¹ ellipses for (a) the goal, (b) every goal with
@@ -207,25 +214,35 @@ fn field_svg(
     };
     let gripper = problem.robot_spec.gripper.as_deref().unwrap_or_default();
     let avoid = Arbiter::new(model, gripper, vec![repulsion], *settings)?;
-    let points: Vec<[f64; 2]> = goals.iter().map(|g| [g.position[0], g.position[1]]).collect();
-    let by_distance = |p: [f64; 2]| {
-        let w: Vec<f64> = points.iter().map(|g| (-((p[0] - g[0]).hypot(p[1] - g[1])) / 0.1).exp()).collect();
-        let total: f64 = w.iter().sum();
+    // Beliefs from the gripper's distance to each goal (exp(−d / 10 cm)) at
+    // the grid point: the slice through the start with joints 1 and 2 set.
+    let gripper_frame = problem.robot.frame_id(gripper)?;
+    let by_distance = |at: [f64; 2]| {
+        let mut q = problem.start.clone();
+        q[0] = at[0];
+        q[1] = at[1];
+        let p = problem.robot.frame_path(gripper_frame, [q.as_slice()]).ok().and_then(|p| p.first().copied());
+        let w: Vec<f64> = goals
+            .iter()
+            .map(|g| {
+                p.map_or(1.0, |p| (-(0..3).map(|k| (p[k] - g.position[k]).powi(2)).sum::<f64>().sqrt() / 0.1).exp())
+            })
+            .collect();
+        let total: f64 = w.iter().sum::<f64>().max(1e-300);
         w.iter().map(|x| x / total).collect::<Vec<_>>()
     };
     let fields = [
         ("(a) goal-directed", metric_field(&single, &problem.start, GRID, |_| vec![1.0])),
-        ("(b) two goals, beliefs by distance", metric_field(&all, &problem.start, GRID, by_distance)),
+        ("(b) every goal, beliefs by distance", metric_field(&all, &problem.start, GRID, by_distance)),
         ("(c) obstacle avoidance only", metric_field(&avoid, &problem.start, GRID, |_| vec![1.0])),
     ];
     let limits = problem.robot.limits();
     let spacing = (limits[0].upper - limits[0].lower) * 0.9 / (GRID - 1) as f64;
-    let obstacles: Vec<(f64, f64, f64)> = problem
-        .scene
-        .obstacles()
-        .iter()
-        .map(|o| (o.pose.translation.x, o.pose.translation.y, o.shape.extents().x.min(o.shape.extents().y) / 2.0))
-        .collect();
+    // Each goal's final configuration, in the same joint plane as the field.
+    let goal_ends: Vec<(f64, f64)> =
+        goals.iter().filter_map(|g| g.solution.trajectory.last()).map(|q| (q[0], q[1])).collect();
+    let axis =
+        |j: usize| format!("{} ({})", problem.robot.joint_names()[j], problem.robot.joint_unit(j).unwrap_or("rad"));
     let panels: Vec<Panel> = fields
         .iter()
         .map(|(title, samples)| {
@@ -237,26 +254,14 @@ fn field_svg(
             let ellipses = crate::figures::Series {
                 label: Some("F⁻¹".into()),
                 points: samples.iter().map(|s| (s.at[0], s.at[1])).collect(),
-                color: 0,
+                color: 0.into(),
                 kind: SeriesKind::Ellipses(samples.iter().map(|s| s.inverse.map(|v| v * scale)).collect()),
             };
-            let mut panel = Panel::new(
-                title,
-                &format!("{} (m)", problem.robot.joint_names()[0]),
-                &format!("{} (m)", problem.robot.joint_names()[1]),
-            )
-            .with(ellipses)
-            .with(Series::points("goals", &points.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>(), 3))
-            .equal();
-            for &(x, y, r) in &obstacles {
-                panel = panel.with(crate::figures::Series {
-                    label: None,
-                    points: vec![(x, y)],
-                    color: 7,
-                    kind: SeriesKind::Circles(r),
-                });
-            }
-            panel
+            Panel::new(title, &axis(0), &axis(1))
+                .with(ellipses)
+                .with(Series::markers("goal configurations", &goal_ends, Color::Reference, Marker::Cross))
+                .with(Series::markers("start", &[(problem.start[0], problem.start[1])], Color::Reference, Marker::Dot))
+                .equal()
         })
         .collect();
     Ok(render_panels(&format!("{}: metric fields (F⁻¹ ellipses)", problem.name), &panels, 420, 440)?)

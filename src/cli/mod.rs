@@ -98,10 +98,13 @@ pub struct UrdfArgs {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the main job on the embedded default robot (the Franka Panda):
-    /// time forward kinematics and the gripper Jacobian, print the
-    /// clearance to the table and the box along a forward lean, then plan
-    /// and optimize a reach-and-grasp of the box and write the trajectory
-    /// (CSV, Parquet) and its plots into --out.
+    /// shared control of a reach-and-grasp of a box on a table. A simulated
+    /// operator drives the gripper under every arbitration mode, one
+    /// episode each: outcome and reason, tick time, hard-limit violations,
+    /// clearance. Then the robot's reference behind it (planned, optimized,
+    /// checked) and the files in --out: shared_control.svg (the gripper's
+    /// paths), path.svg and joints.svg (the reference), trajectory.csv and
+    /// .parquet. --verbose adds a kinematics timing and a clearance sweep.
     ///
     /// Example: tandem demo
     Demo(demo::DemoArgs),
@@ -227,8 +230,15 @@ pub enum Command {
     /// under hard constraints (joint limits, velocity limits, distances),
     /// at 15 Hz in the kinematic simulator, with a collision check each step.
     ///
-    /// The episode ends in success (the gripper at the goal's grasp pose:
-    /// within 1 cm and 0.2 rad of its z axis), collision, or timeout (30 s).
+    /// The episode ends in success (a grasp: the box between the finger
+    /// pads, the fingertip centre over it, the gripper within 0.2 rad of the
+    /// grasp's approach axis, palm and fingers clear; a reach: within 1 cm),
+    /// collision, timeout (30 s), or failed: the operator stopped where the
+    /// task is not done. Every ending has a reason, printed and in --json
+    /// ("reason"): success, collision (with the pair), timeout (with the
+    /// distance left), stopped_short (with the distance), orientation_off
+    /// (with the angle), not_between_pads, outside_footprint,
+    /// touching_object, judge_declined. Exit status 3 unless it succeeds.
     /// Reports the tick time (median, p99, max), hard-constraint violations
     /// (should be 0), the smallest clearance and the fallbacks.
     ///

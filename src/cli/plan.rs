@@ -2,10 +2,10 @@
 
 use super::{Outcome, ProblemArgs};
 use crate::collision::CollisionWorkspace;
-use crate::figures::{Panel, Series, render_panels};
+use crate::experiments::figures::with_scene;
+use crate::figures::{Color, Marker, Panel, Series, render_panels};
 use crate::plan::{PlanStatus, path_length, plan_problem};
 use crate::problem::Problem;
-use crate::robot::KinematicsWorkspace;
 use std::path::PathBuf;
 
 /// Arguments of `tandem plan`.
@@ -133,32 +133,17 @@ pub(super) fn gripper_path_svg(
         Some(g) => robot.frame_id(g)?,
         None => robot.link_frame(robot.description().links().len() - 1),
     };
-    let mut ws = KinematicsWorkspace::new(robot);
-    let mut points = Vec::new();
-    for q in configurations {
-        robot.forward_kinematics(&mut ws, q)?;
-        points.push(robot.frame_pose(&ws, frame).translation.vector);
-    }
+    let points = robot.frame_path(frame, configurations.iter().map(Vec::as_slice))?;
     let title = format!("{}: {} {what}", problem.name, robot.frame_name(frame));
-    let view = |label: &str, axis: fn(&nalgebra::Vector3<f64>) -> f64| {
-        let path: Vec<(f64, f64)> = points.iter().map(|p| (p.x, axis(p))).collect();
-        let ends: Vec<(f64, f64)> = path.first().into_iter().chain(path.last()).copied().collect();
-        let obstacles: Vec<(f64, f64)> = problem
-            .scene
-            .obstacles()
-            .iter()
-            .filter(|o| o.name != "table")
-            .map(|o| (o.pose.translation.vector.x, axis(&o.pose.translation.vector)))
-            .collect();
-        let mut panel = Panel::new(label, "x (m)", if label.starts_with("top") { "y (m)" } else { "z (m)" })
+    let view = |title: &str, b: usize, y_label: &str| {
+        let path: Vec<(f64, f64)> = points.iter().map(|p| (p[0], p[b])).collect();
+        let panel = Panel::new(title, "x (m)", y_label)
             .with(Series::line(&format!("{} path", robot.frame_name(frame)), &path, 0))
-            .with(Series::points("start and end", &ends, 2))
+            .with(Series::markers("start", &path[..path.len().min(1)], Color::Reference, Marker::Dot))
+            .with(Series::markers("end", &path[path.len().saturating_sub(1)..], Color::Reference, Marker::Ring))
             .equal();
-        if !obstacles.is_empty() {
-            panel = panel.with(Series::points("obstacle centres", &obstacles, 7));
-        }
-        panel
+        with_scene(panel, &problem.scene, (0, b))
     };
-    let panels = [view("top view (x, y)", |p| p.y), view("side view (x, z)", |p| p.z)];
+    let panels = [view("from above", 1, "y (m)"), view("from the side", 2, "z (m)")];
     Ok(render_panels(&title, &panels, 480, 440)?)
 }

@@ -5,7 +5,7 @@ use super::Outcome;
 use crate::control::{
     ControlError, GainSchedule, MAX_TIME_STEP, MIN_TIME_STEP, TrackingPolicy, TrackingWeights, WEIGHT_RANGE,
 };
-use crate::figures::{Panel, Series, render_panels};
+use crate::figures::{Color, Marker, Panel, Series, render_panels};
 use crate::robot::{MeshSearchPath, RobotDescription, RobotModel};
 use crate::trajectory::JointTrajectory;
 use std::path::PathBuf;
@@ -204,7 +204,8 @@ fn parse_slice(text: &str, dof: usize) -> Result<(usize, usize), String> {
     }
 }
 
-/// Reference (dashed), rollouts (colours) and policy arrows around the path.
+/// Reference (dashed black), rollouts (one colour), starts and goal, and
+/// the policy's commands as arrows around the path.
 fn field_plot(
     policy: &TrackingPolicy,
     rollouts: &[Vec<Vec<f64>>],
@@ -223,14 +224,14 @@ fn field_plot(
     for (i, path) in rollouts.iter().enumerate() {
         let pts: Vec<(f64, f64)> = path.iter().map(|q| project(q)).collect();
         starts.extend(pts.first().copied());
-        let rollout = Series::line("rollouts from nearby starts", &pts, 1 + i % 6);
+        let rollout = Series::line("rollouts from nearby starts", &pts, 0);
         panel = panel.with(if i == 0 { rollout } else { rollout.unlabelled() });
     }
     let reference: Vec<(f64, f64)> = (0..r.len()).map(|i| project(r.position(i))).collect();
     panel = panel
-        .with(Series::dashed("reference", &reference, 7))
-        .with(Series::points("starts", &starts, 0))
-        .with(Series::points("goal", &[project(r.goal())], 7));
+        .with(Series::dashed("reference", &reference, Color::Reference))
+        .with(Series::points("starts", &starts, Color::Reference))
+        .with(Series::markers("goal", &[project(r.goal())], Color::Reference, Marker::Ring));
     // Policy commands on a lattice around the reference, arrows scaled so the
     // longest spans 6% of the reference's extent.
     let mut command = vec![0.0; r.dof()];
@@ -249,6 +250,7 @@ fn field_plot(
     let longest = arrows.iter().fold(0.0f64, |m, (_, v)| m.max(v.0.hypot(v.1))).max(1e-12);
     let scale = 0.06 * extent.max(0.1) / longest;
     let (from, by): (Vec<_>, Vec<_>) = arrows.into_iter().map(|(p, v)| (p, (scale * v.0, scale * v.1))).unzip();
-    panel = panel.with(Series::arrows(&from, &by, 3));
+    let field = Series { label: Some("policy command (scaled)".into()), ..Series::arrows(&from, &by, 1) };
+    panel = panel.with(field);
     Ok(render_panels("LQR tracking policy", &[panel], 800, 600)?)
 }

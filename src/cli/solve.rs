@@ -139,7 +139,13 @@ pub(super) fn write_outputs(
 /// Every joint's value over time, the start at t = 0.
 fn joints_svg(problem: &Problem, s: &ProblemSolution) -> Result<String, crate::figures::FigureError> {
     let rows = configurations(problem, s);
-    let mut panel = Panel::new("joint values", "time (s)", "joint value (rad or m)");
+    let kinds: Vec<&str> = (0..problem.robot.nq()).filter_map(|j| problem.robot.joint_unit(j)).collect();
+    let unit = match (kinds.contains(&"m"), kinds.contains(&"rad")) {
+        (true, true) => "rad or m",
+        (true, false) => "m",
+        _ => "rad",
+    };
+    let mut panel = Panel::new("joint values", "time (s)", &format!("joint value ({unit})"));
     for (k, name) in s.joints.iter().enumerate() {
         let points: Vec<(f64, f64)> = rows.iter().enumerate().map(|(t, q)| (t as f64 * s.time_step, q[k])).collect();
         panel = panel.with(Series::line(name, &points, k));

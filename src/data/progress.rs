@@ -115,6 +115,9 @@ impl ProgressRun {
     pub(crate) fn finish(&self) {
         if let Some(bar) = &self.bar {
             bar.finish();
+            // The bar's last draw ends in a carriage return: without a
+            // newline, the next line printed would overwrite it.
+            eprintln!();
         }
     }
 }

@@ -1,9 +1,65 @@
 //! Figures of learning: loss curves, the training data's joint values
 //! against the limits (the seed's Fig. 3.8), and success against the
-//! start's distance from the data.
+//! start's distance from the data; and how episodes end on their paths.
 
-use crate::figures::{FigureError, Panel, Series, render_panels};
+use crate::figures::{Color, FigureError, Marker, Panel, Series, render_panels};
 use crate::robot::JointLimits;
+use crate::sim::Outcome;
+
+/// Adds the outlines of `scene`'s objects and obstacles (but a table,
+/// which would fill the view) seen along the axis that is neither `a` nor
+/// `b` (0 = x, 1 = y, 2 = z).
+pub fn with_scene(mut panel: Panel, scene: &crate::scene::Scene, (a, b): (usize, usize)) -> Panel {
+    let obstacles = scene.obstacles().iter().filter(|o| o.name != "table").map(|o| o.silhouette_points());
+    for points in obstacles.chain(scene.objects().iter().map(|o| o.silhouette_points())) {
+        let projected: Vec<(f64, f64)> = points.iter().map(|p| (p[a], p[b])).collect();
+        panel = panel.with(Series::outline("obstacles and objects", &projected));
+    }
+    panel
+}
+
+/// The marker at the end of an episode's path: none for a success (the
+/// path ends at its target), a triangle for a collision, a square at the
+/// time limit, a cross where the operator stopped and the judge declined.
+pub fn outcome_marker(outcome: Outcome) -> Option<Marker> {
+    match outcome {
+        Outcome::Success => None,
+        Outcome::Collision => Some(Marker::Triangle),
+        Outcome::Timeout => Some(Marker::Square),
+        Outcome::Failed => Some(Marker::Cross),
+    }
+}
+
+/// Adds an episode's path to `panel` as a line in `color` labelled `label`,
+/// its last point marked by [`outcome_marker`] in the same colour.
+pub fn episode_path(panel: Panel, label: &str, path: &[(f64, f64)], color: usize, outcome: Outcome) -> Panel {
+    let panel = panel.with(Series::line(label, path, color));
+    match (outcome_marker(outcome), path.last()) {
+        (Some(marker), Some(&end)) => panel.with(Series::markers("", &[end], color, marker).unlabelled()),
+        _ => panel,
+    }
+}
+
+/// Adds legend entries (in black, without points) for the end markers of
+/// `outcomes` (each once, successes need none).
+pub fn outcome_legend(mut panel: Panel, outcomes: impl IntoIterator<Item = Outcome>) -> Panel {
+    let mut seen: Vec<Outcome> = Vec::new();
+    for outcome in outcomes {
+        if seen.contains(&outcome) {
+            continue;
+        }
+        seen.push(outcome);
+        if let Some(marker) = outcome_marker(outcome) {
+            let label = match outcome {
+                Outcome::Collision => "ends in a collision",
+                Outcome::Timeout => "ends at the time limit",
+                _ => "stopped, grasp judged failed",
+            };
+            panel = panel.with(Series::markers(label, &[], Color::Reference, marker));
+        }
+    }
+    panel
+}
 
 /// Training and validation loss per epoch (log10), one panel.
 ///
@@ -166,7 +222,8 @@ pub fn training_curves(
         returns = returns.with(Series::line(name, &smoothed(&r), color));
     }
     let seeds = runs.first().map_or(0, |r| r.1.len());
-    render_panels(&format!("Training the arbiter with DDPG (mean of {seeds} seeds)"), &[success, returns], 560, 400)
+    let of = if seeds == 1 { "one seed".to_string() } else { format!("mean of {seeds} seeds") };
+    render_panels(&format!("Training the arbiter with DDPG ({of})"), &[success, returns], 560, 400)
 }
 
 /// Fig. 6.5: distance of the executed command to the user's and to the
@@ -176,7 +233,7 @@ pub fn training_curves(
 /// Plotting errors.
 pub fn authority_curves(curves: &[super::learned::AuthorityCurve]) -> Result<String, FigureError> {
     let at = |v: &[f64]| v.iter().enumerate().map(|(k, y)| (10.0 * k as f64 + 5.0, *y)).collect::<Vec<_>>();
-    let panels: Vec<Panel> = curves
+    let mut panels: Vec<Panel> = curves
         .iter()
         .map(|c| {
             Panel::new(&c.method, "episode duration (%)", "‖û − â‖ (unit directions)")
@@ -184,5 +241,10 @@ pub fn authority_curves(curves: &[super::learned::AuthorityCurve]) -> Result<Str
                 .with(Series::line("to the predicted sub-policy", &at(&c.to_robot), 1))
         })
         .collect();
+    // Compared across methods: one y axis from 0 (distances of unit vectors).
+    crate::figures::share_y(&mut panels);
+    for p in &mut panels {
+        p.y_range = p.y_range.map(|(_, hi)| (0.0, hi));
+    }
     render_panels("Who has authority along the episode (straight user)", &panels, 420, 380)
 }

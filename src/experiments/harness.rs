@@ -204,7 +204,7 @@ pub fn run<E: Experiment>(experiment: &E, settings: &HarnessSettings) -> Result<
         Context { progress: &progress, verbose: settings.progress != Progress::Quiet, out: settings.out.as_deref() };
     let results = pool.install(|| experiment.run(&cx))?;
     progress.finish();
-    let json = experiment.json(&results);
+    let json = tidy_json(experiment.json(&results));
     let mut written = Vec::new();
     if settings.out.is_some() {
         let text = serde_json::to_string_pretty(&json)? + "\n";
@@ -227,4 +227,22 @@ pub fn mean_std(values: impl Iterator<Item = f64>) -> [f64; 2] {
     let mean = v.iter().sum::<f64>() / v.len() as f64;
     let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64;
     [mean, var.sqrt()]
+}
+
+/// `value` with every number rounded to 12 significant digits: means and
+/// sums of simulated times print as 16.914, not 16.913999999999998 (the
+/// noise of binary fractions), while keeping far more digits than any
+/// result has.
+pub fn tidy_json(value: serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match value {
+        Value::Number(n) if n.is_f64() => {
+            let x = n.as_f64().unwrap_or(f64::NAN);
+            let rounded: f64 = format!("{x:.11e}").parse().unwrap_or(x);
+            serde_json::Number::from_f64(rounded).map_or(Value::Null, Value::Number)
+        }
+        Value::Array(items) => Value::Array(items.into_iter().map(tidy_json).collect()),
+        Value::Object(map) => Value::Object(map.into_iter().map(|(k, v)| (k, tidy_json(v))).collect()),
+        other => other,
+    }
 }

@@ -212,7 +212,7 @@ fn episode_runs(
                 true_goal: task.target,
                 settings: EpisodeSettings { max_time: settings.max_time, record: true },
             };
-            let record = episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut |q| judge.succeeded(q))?;
+            let record = episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut judge)?;
             runs.push(summarise(&record, u, m, settings.speed));
         }
     }

@@ -36,6 +36,8 @@ mod reach_grasp;
 #[cfg(feature = "learn")]
 pub mod traded;
 
-pub use harness::{Context, Experiment, ExperimentError, HarnessSettings, MAX_THREADS, Report, mean_std, run};
+pub use harness::{
+    Context, Experiment, ExperimentError, HarnessSettings, MAX_THREADS, Report, mean_std, run, tidy_json,
+};
 pub use planar::{PLANAR_METHODS, PlanarEpisode, PlanarResults, PlanarSettings, run_planar};
 pub use reach_grasp::{Cell, EpisodeSummary, Method, ReachGraspResults, ReachGraspSettings, run_reach_grasp};

@@ -20,10 +20,11 @@ use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode, BlendingStyle, MetricSpace, ProblemGoal,
 };
 use crate::collision::CollisionWorkspace;
-use crate::figures::{Panel, Series, SeriesKind, render_panels};
+use crate::experiments::figures::{episode_path, outcome_legend};
+use crate::figures::{Color, Marker, Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::sim::{
-    Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarTask, PlanarUser, TaskJudge, sample_planar_task,
+    Episode, EpisodeRecord, EpisodeSettings, Outcome, PlanarTask, PlanarUser, Reason, TaskJudge, sample_planar_task,
 };
 use rayon::prelude::*;
 use std::fmt::Write;
@@ -80,6 +81,8 @@ pub struct PlanarEpisode {
     pub method: usize,
     /// How it ended.
     pub outcome: Outcome,
+    /// Why (the last phase's reason).
+    pub reason: Reason,
     /// Seconds, centimetres, centimetres, and the mean cosine distance.
     pub duration: f64,
     /// Gripper path length (cm).
@@ -163,17 +166,21 @@ fn run_phases(
     let first_goal = &task.reach[task.target];
     let speed = settings.speed;
     let first = phase(reach, &first_goal.problem.start, first_goal, task.target, user, speed, seed, settings.max_time)?;
-    let mut outcome = first.outcome;
+    let (mut outcome, mut reason) = (first.outcome, first.reason.clone());
     let mut records = vec![first];
     if outcome == Outcome::Success {
         let remaining = settings.max_time - records[0].duration;
         if remaining > 0.0 {
             let start = records[0].final_q.clone();
             let second = phase(place, &start, &task.place, 0, user, speed, seed ^ 0xABCD, remaining)?;
-            outcome = second.outcome;
+            (outcome, reason) = (second.outcome, second.reason.clone());
             records.push(second);
         } else {
             outcome = Outcome::Timeout;
+            let end = records[0].gripper.last().copied().unwrap_or_default();
+            let to = task.place.position;
+            let distance = ((end[0] - to[0]).powi(2) + (end[1] - to[1]).powi(2) + (end[2] - to[2]).powi(2)).sqrt();
+            reason = Reason::Timeout { distance };
         }
     }
     let duration = records.iter().map(|r| r.duration).sum();
@@ -192,6 +199,7 @@ fn run_phases(
         user: u,
         method: m,
         outcome,
+        reason,
         duration,
         travel_cm: travel * 100.0,
         proximity_cm: proximity * 100.0,
@@ -221,7 +229,7 @@ fn phase(
         true_goal,
         settings: EpisodeSettings { max_time, record: true },
     };
-    Ok(episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut |q| judge.succeeded(q))?)
+    Ok(episode.run(&mut arbiter.workspace(), operator.as_mut(), &mut judge)?)
 }
 
 /// Smallest distance (m) between the pole and the gripper (phase 1) or the
@@ -277,6 +285,7 @@ impl Experiment for PlanarSettings {
                     "proximity_cm": mean_std(cell.iter().map(|e| e.proximity_cm)),
                     "cosine_distance": mean_std(cell.iter().map(|e| e.cosine_distance)),
                     "hard_violations": cell.iter().map(|e| e.hard_violations).sum::<usize>(),
+                    "reasons": reasons(&cell),
                 }));
             }
         }
@@ -322,6 +331,13 @@ impl Experiment for PlanarSettings {
                 pm("cosine_distance", 100.0),
             );
         }
+        let _ = writeln!(out, "\nfailures by reason, all users:");
+        for (m, method) in r.settings.methods.iter().enumerate() {
+            let cell: Vec<&PlanarEpisode> = r.episodes.iter().filter(|e| e.method == m).collect();
+            let listed: Vec<String> = reasons(&cell).iter().map(|(reason, n)| format!("{reason} {n}")).collect();
+            let listed = if listed.is_empty() { "none".to_string() } else { listed.join(", ") };
+            let _ = writeln!(out, "{:<37}{listed}", method.as_str());
+        }
         let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
         let _ = writeln!(
             out,
@@ -337,12 +353,24 @@ impl Experiment for PlanarSettings {
     }
 }
 
+/// The episodes of `cell` that did not succeed, by reason.
+fn reasons(cell: &[&PlanarEpisode]) -> std::collections::BTreeMap<&'static str, usize> {
+    let mut counts = std::collections::BTreeMap::new();
+    for e in cell.iter().filter(|e| e.outcome != Outcome::Success) {
+        *counts.entry(e.reason.as_str()).or_default() += 1;
+    }
+    counts
+}
+
 /// Fig. 4.5: the first task's gripper paths, one panel per method, every user.
 fn figure(r: &PlanarResults) -> Result<Option<String>, ExperimentError> {
     let s = &r.settings;
     let Some(task) = r.tasks.first() else { return Ok(None) };
     let problem = &task.reach[task.target].problem;
-    let pole = problem.scene.obstacle("pole").map(|o| (o.pose.translation.x, o.pose.translation.y)).unwrap_or_default();
+    let pole = problem
+        .scene
+        .obstacle("pole")
+        .map(|o| ((o.pose.translation.x, o.pose.translation.y), o.shape.extents().x.min(o.shape.extents().y) / 2.0));
     let objects: Vec<(f64, f64)> = task.reach.iter().map(|g| (g.position[0], g.position[1])).collect();
     let place = (task.place.position[0], task.place.position[1]);
     let panels: Vec<Panel> = s
@@ -351,15 +379,28 @@ fn figure(r: &PlanarResults) -> Result<Option<String>, ExperimentError> {
         .enumerate()
         .map(|(m, method)| {
             let mut panel = Panel::new(method.as_str(), "x (m)", "y (m)").ranges((0.0, 0.5), (0.0, 0.5)).equal();
+            let mut outcomes = Vec::new();
             for (u, user) in s.users.iter().enumerate() {
                 if let Some(e) = r.episodes.iter().find(|e| e.task == task.index && e.user == u && e.method == m) {
-                    panel = panel.with(Series::line(&format!("{} ({})", user.name(), e.outcome.as_str()), &e.path, u));
+                    panel = episode_path(panel, &user.name(), &e.path, u, e.outcome);
+                    outcomes.push(e.outcome);
                 }
             }
+            panel = outcome_legend(panel, outcomes);
+            if let Some((centre, radius)) = pole {
+                panel = panel.with(Series::discs("pole", &[centre], radius));
+            }
+            let start: Vec<(f64, f64)> = r
+                .episodes
+                .iter()
+                .find(|e| e.task == task.index)
+                .and_then(|e| e.path.first().copied())
+                .into_iter()
+                .collect();
             panel
-                .with(Series { label: None, points: vec![pole], color: 7, kind: SeriesKind::Circles(0.03) })
-                .with(Series::points("cylinders", &objects, 3))
-                .with(Series::points("place", &[place], 2))
+                .with(Series::markers("start", &start, Color::Reference, Marker::Dot))
+                .with(Series::markers("cylinders", &objects, Color::Reference, Marker::Ring))
+                .with(Series::markers("place", &[place], Color::Reference, Marker::Diamond))
         })
         .collect();
     let title = "planar pick-and-place, task 0: gripper paths by method (top view)";

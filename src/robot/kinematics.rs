@@ -148,6 +148,26 @@ impl RobotModel {
         f.placement.after(&ws.body_poses[f.body])
     }
 
+    /// The world position (m) of `frame` at each configuration (a path
+    /// to draw or measure; allocates).
+    ///
+    /// # Errors
+    /// A configuration of the wrong length or with non-finite entries.
+    pub fn frame_path<'q>(
+        &self,
+        frame: FrameId,
+        configurations: impl IntoIterator<Item = &'q [f64]>,
+    ) -> Result<Vec<[f64; 3]>, RobotError> {
+        let mut ws = KinematicsWorkspace::new(self);
+        configurations
+            .into_iter()
+            .map(|q| {
+                self.forward_kinematics(&mut ws, q)?;
+                Ok(self.frame_pose(&ws, frame).translation.vector.into())
+            })
+            .collect()
+    }
+
     /// Geometric Jacobian (6 × nq, linear rows then angular) of `frame`,
     /// from the last forward kinematics, written into `out`. Returns the
     /// frame's world pose, which the Jacobian needs anyway, so callers that

@@ -263,6 +263,13 @@ impl RobotModel {
         &self.active
     }
 
+    /// The unit of active joint `j`'s value: "m" for a prismatic joint,
+    /// "rad" otherwise (for axis labels and messages); `None` past nq.
+    pub fn joint_unit(&self, j: usize) -> Option<&'static str> {
+        let joint = &self.description.joints()[*self.active.get(j)?];
+        Some(if joint.kind.name() == "prismatic" { "m" } else { "rad" })
+    }
+
     /// All frames: one per link, then one per joint, in URDF order.
     pub fn frames(&self) -> &[Frame] {
         &self.frames

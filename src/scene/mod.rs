@@ -36,7 +36,17 @@ pub struct Obstacle {
     pub pose: IsometryMatrix3<f64>,
 }
 
+/// `shape`'s silhouette points at `pose`, as arrays (world, m).
+fn world_points(shape: &Shape, pose: &IsometryMatrix3<f64>) -> Vec<[f64; 3]> {
+    shape.silhouette_points().iter().map(|p| (pose * p).coords.into()).collect()
+}
+
 impl Obstacle {
+    /// Its shape's [`Shape::silhouette_points`] at its pose (world, m).
+    pub fn silhouette_points(&self) -> Vec<[f64; 3]> {
+        world_points(&self.shape, &self.pose)
+    }
+
     /// An obstacle of `shape` at `pose`.
     pub fn new(name: impl Into<String>, shape: Shape, pose: IsometryMatrix3<f64>) -> Obstacle {
         Obstacle { name: name.into(), shape, pose }
@@ -96,6 +106,11 @@ impl SceneObject {
     /// Adds a grasp frame at `pose` in the object frame.
     pub fn add_grasp(&mut self, name: impl Into<String>, pose: IsometryMatrix3<f64>) {
         self.grasps.push(GraspFrame { name: name.into(), pose });
+    }
+
+    /// Its shape's [`Shape::silhouette_points`] at its pose (world, m).
+    pub fn silhouette_points(&self) -> Vec<[f64; 3]> {
+        world_points(&self.shape, &self.pose)
     }
 }
 

@@ -204,6 +204,47 @@ impl Shape {
         }
     }
 
+    /// Points of the shape (m, its frame) whose projection along any axis of
+    /// its frame has the shape's silhouette as convex hull: a box's
+    /// corners, a hull's vertices, and for round parts 48 points on each
+    /// circle that bounds them seen along x, y or z (exact along those
+    /// axes; along others, within 0.2 % of the radius).
+    pub fn silhouette_points(&self) -> Vec<Point3<f64>> {
+        const N: usize = 48;
+        // The three great circles of a ball of `radius` about `centre`.
+        let ball = |centre: Point3<f64>, radius: f64, out: &mut Vec<Point3<f64>>| {
+            for k in 0..N {
+                let (s, c) = (std::f64::consts::TAU * k as f64 / N as f64).sin_cos();
+                let (s, c) = (radius * s, radius * c);
+                out.extend(
+                    [Vector3::new(c, s, 0.0), Vector3::new(c, 0.0, s), Vector3::new(0.0, c, s)].map(|v| centre + v),
+                );
+            }
+        };
+        let mut out = vec![];
+        match self {
+            Shape::Sphere { radius } => ball(Point3::origin(), *radius, &mut out),
+            Shape::Capsule { radius, half_length } => {
+                ball(Point3::new(0.0, 0.0, -half_length), *radius, &mut out);
+                ball(Point3::new(0.0, 0.0, *half_length), *radius, &mut out);
+            }
+            Shape::Box { half_extents: h } => {
+                for k in 0..8 {
+                    let sign = |bit: usize| if k >> bit & 1 == 1 { 1.0 } else { -1.0 };
+                    out.push(Point3::new(sign(0) * h.x, sign(1) * h.y, sign(2) * h.z));
+                }
+            }
+            Shape::Cylinder { radius, half_length } => {
+                for k in 0..N {
+                    let (s, c) = (std::f64::consts::TAU * k as f64 / N as f64).sin_cos();
+                    out.extend([-half_length, *half_length].map(|z| Point3::new(radius * c, radius * s, z)));
+                }
+            }
+            Shape::Convex(hull) => out.extend(hull.polyhedron.points().iter().map(|p| Point3::new(p.x, p.y, p.z))),
+        }
+        out
+    }
+
     /// Checks that every dimension is finite and positive.
     ///
     /// # Errors

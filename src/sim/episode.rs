@@ -7,7 +7,9 @@
 //! touches anything first, as failed when the operator stops where the task
 //! is not done (it believes it has arrived), or in a timeout.
 
+use super::judge::Judge;
 use super::operator::{Observation, Operator, OperatorAction};
+use super::reason::Reason;
 use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand, TickInput, TickStatus};
 use crate::collision::CollisionWorkspace;
 use crate::control::RobotPolicyWorkspace;
@@ -64,6 +66,8 @@ impl Outcome {
 pub struct EpisodeRecord {
     /// How it ended.
     pub outcome: Outcome,
+    /// Why it ended (its [`Outcome`] is `reason.outcome()`).
+    pub reason: Reason,
     /// Control ticks run.
     pub steps: usize,
     /// Simulated duration (s).
@@ -136,8 +140,10 @@ pub struct Episode<'a> {
 }
 
 impl Episode<'_> {
-    /// Runs the episode with `operator`; `judge(q)` says whether the task
-    /// is done, at the start and after every step.
+    /// Runs the episode with `operator`; `judge` says whether the task is
+    /// done, at the start and after every step, and why not when the
+    /// operator stops ([`TaskJudge`](super::TaskJudge), or any closure
+    /// `FnMut(&[f64]) -> bool`).
     ///
     /// # Errors
     /// A bad start configuration.
@@ -145,7 +151,7 @@ impl Episode<'_> {
         &self,
         ws: &mut ArbiterWorkspace,
         operator: &mut dyn Operator,
-        judge: &mut dyn FnMut(&[f64]) -> bool,
+        judge: &mut dyn Judge,
     ) -> Result<EpisodeRecord, RobotError> {
         let arbiter = self.arbiter;
         let dt = arbiter.settings().period;
@@ -158,7 +164,7 @@ impl Episode<'_> {
         live.record.tick_us.reserve(steps_max);
         let mut outcome = Outcome::Timeout;
         for step in 0..steps_max {
-            if judge(live.q()) {
+            if judge.succeeded(live.q()) {
                 outcome = Outcome::Success;
                 break;
             }
@@ -187,10 +193,14 @@ impl Episode<'_> {
                 break;
             }
         }
-        if outcome == Outcome::Timeout && judge(live.q()) {
+        if outcome == Outcome::Timeout && judge.succeeded(live.q()) {
             outcome = Outcome::Success;
         }
-        Ok(live.finish(outcome, dt))
+        let reason = match outcome {
+            Outcome::Failed => judge.diagnose(live.q(), live.gripper(), self.target),
+            _ => live.reason(outcome, self.target),
+        };
+        Ok(live.finish(reason, dt))
     }
 }
 
@@ -227,6 +237,8 @@ pub struct LiveEpisode {
     nearest: Option<usize>,
     keep: bool,
     record: EpisodeRecord,
+    /// The bodies of the first contact, once the arm collided.
+    contact: Option<[String; 2]>,
 }
 
 impl LiveEpisode {
@@ -260,8 +272,10 @@ impl LiveEpisode {
             clearance,
             nearest: nearest.map(|d| d.pair),
             keep,
+            contact: None,
             record: EpisodeRecord {
                 outcome: Outcome::Timeout,
+                reason: Reason::Timeout { distance: f64::NAN },
                 steps: 0,
                 duration: 0.0,
                 tick_us: vec![],
@@ -382,6 +396,13 @@ impl LiveEpisode {
         if !within_limits || (safety.collisions && !free) {
             record.hard_violations += 1;
         }
+        if !free && self.contact.is_none() {
+            // Allocates once, at the end of the episode.
+            if let Some(d) = model.min_distance(&mut self.cws, &self.next)? {
+                let (a, b) = model.pair_names(d.pair);
+                self.contact = Some([a.to_string(), b.to_string()]);
+            }
+        }
         self.q.copy_from_slice(&self.next);
         let nearest = model.min_distance(&mut self.cws, &self.q)?;
         self.clearance = nearest.map_or(f64::INFINITY, |d| d.signed.distance);
@@ -397,9 +418,27 @@ impl LiveEpisode {
         Ok(LiveStep { status, collided: !free, tick_us, clearance: self.clearance })
     }
 
-    /// Ends the episode with `outcome`; `dt` is the control period (s).
-    pub fn finish(mut self, outcome: Outcome, dt: f64) -> EpisodeRecord {
-        self.record.outcome = outcome;
+    /// The reason of an episode ending now in `outcome` that the simulator
+    /// can tell by itself: success, the collision's pair, or how far from
+    /// `target` (m, world) time ran out. A `Failed` episode's reason is its
+    /// judge's ([`Judge::diagnose`]): this one says only how far short.
+    pub fn reason(&self, outcome: Outcome, target: [f64; 3]) -> Reason {
+        let distance = super::operator::distance(self.gripper, target);
+        match outcome {
+            Outcome::Success => Reason::Success,
+            Outcome::Collision => Reason::Collision {
+                pair: self.contact.clone().unwrap_or_else(|| ["the arm".into(), "something".into()]),
+            },
+            Outcome::Timeout => Reason::Timeout { distance },
+            _ => Reason::StoppedShort { distance },
+        }
+    }
+
+    /// Ends the episode for `reason` (its outcome is `reason.outcome()`);
+    /// `dt` is the control period (s).
+    pub fn finish(mut self, reason: Reason, dt: f64) -> EpisodeRecord {
+        self.record.outcome = reason.outcome();
+        self.record.reason = reason;
         self.record.duration = self.record.steps as f64 * dt;
         self.record.final_q = self.q;
         self.record

@@ -8,14 +8,43 @@
 //! ([`GraspJudge`], clearance ≥ 0). Any other goal succeeds with the
 //! gripper within 1 cm of the goal's final gripper position.
 
+use super::reason::Reason;
 use crate::arbitration::ProblemGoal;
-use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
+use crate::problem::{Goal, GraspCriteria, GraspJudge, GraspReport, Problem};
 use crate::robot::KinematicsWorkspace;
 
 /// Largest tilt of a successful teleoperated grasp (rad).
 pub const GRASP_MAX_TILT: f64 = 0.2;
 /// Distance to the goal position of a successful reach (m).
 pub const REACH_TOLERANCE: f64 = 0.01;
+
+/// What an episode asks of its task: whether the task is done at a
+/// configuration, and why not when the operator stops. A closure
+/// `FnMut(&[f64]) -> bool` is a judge that gives no reason beyond the
+/// distance to the goal.
+pub trait Judge {
+    /// Whether the task is done at `q`.
+    fn succeeded(&mut self, q: &[f64]) -> bool;
+
+    /// Why the task is not done at `q`, the gripper at `gripper` and the
+    /// goal's grasp point at `target` (m, world).
+    fn diagnose(&mut self, q: &[f64], gripper: [f64; 3], target: [f64; 3]) -> Reason {
+        let _ = q;
+        stopped_short(gripper, target).unwrap_or(Reason::JudgeDeclined)
+    }
+}
+
+impl<F: FnMut(&[f64]) -> bool> Judge for F {
+    fn succeeded(&mut self, q: &[f64]) -> bool {
+        self(q)
+    }
+}
+
+/// `StoppedShort` when `gripper` is farther than [`REACH_TOLERANCE`] from `target`.
+fn stopped_short(gripper: [f64; 3], target: [f64; 3]) -> Option<Reason> {
+    let distance = super::operator::distance(gripper, target);
+    (distance > REACH_TOLERANCE).then_some(Reason::StoppedShort { distance })
+}
 
 /// A judge of task success at a configuration.
 pub struct TaskJudge {
@@ -76,5 +105,47 @@ impl TaskJudge {
                 d <= REACH_TOLERANCE
             }
         }
+    }
+}
+
+impl Judge for TaskJudge {
+    fn succeeded(&mut self, q: &[f64]) -> bool {
+        TaskJudge::succeeded(self, q)
+    }
+
+    /// Reaches: how far short. Grasps: how far short when the gripper is
+    /// not at the object, else which criterion the grasp fails.
+    fn diagnose(&mut self, q: &[f64], gripper: [f64; 3], target: [f64; 3]) -> Reason {
+        let Kind::Grasp { judge, object, criteria } = &self.kind else {
+            return stopped_short(gripper, target).unwrap_or(Reason::JudgeDeclined);
+        };
+        let robot = judge.robot();
+        if robot.forward_kinematics(&mut self.kin, q).is_err() {
+            return Reason::JudgeDeclined;
+        }
+        let tcp = robot.frame_pose(&self.kin, judge.geometry().gripper_frame()).translation.vector;
+        let reach = object.shape.bounding_radius() + 0.05;
+        if (tcp - object.pose.translation.vector).norm() > reach && object.attachment.is_none() {
+            return stopped_short(gripper, target).unwrap_or(Reason::JudgeDeclined);
+        }
+        match judge.judge(&mut self.kin, q, object, criteria) {
+            Ok(report) => grasp_reason(&report, criteria),
+            Err(_) => Reason::JudgeDeclined,
+        }
+    }
+}
+
+/// The first grasp criterion `report` fails, in the judge's order.
+fn grasp_reason(report: &GraspReport, criteria: &GraspCriteria) -> Reason {
+    if !report.between_pads {
+        Reason::NotBetweenPads
+    } else if !report.in_footprint {
+        Reason::OutsideFootprint
+    } else if report.tilt > criteria.max_tilt {
+        Reason::OrientationOff { angle: report.tilt }
+    } else if report.palm_clearance < criteria.margin || report.finger_clearance < criteria.margin {
+        Reason::TouchingObject { clearance: report.palm_clearance.min(report.finger_clearance) }
+    } else {
+        Reason::JudgeDeclined
     }
 }

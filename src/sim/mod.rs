@@ -11,7 +11,7 @@
 //! let arbiter = Arbiter::for_problem(&problem, &goals, ArbiterSettings::default())?;
 //! let mut judge = TaskJudge::new(&goals[0]);
 //! let episode = Episode { arbiter: &arbiter, start: &problem.start, target: goals[0].position, true_goal: 0, settings: EpisodeSettings::default() };
-//! let record = episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut |q| judge.succeeded(q))?;
+//! let record = episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut judge)?;
 //! println!("{} after {} ticks", record.outcome.as_str(), record.steps);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
@@ -21,6 +21,7 @@ mod arbitration_env;
 mod episode;
 mod judge;
 mod operator;
+mod reason;
 #[cfg(feature = "data")]
 mod record;
 mod tasks;
@@ -30,11 +31,12 @@ pub use arbitration_env::{
     ArbitrationEnv, ArbitrationEnvSettings, EnvError, EnvOutcome, EnvTask, RewardKind, StepResult, reward,
 };
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, LiveEpisode, LiveStep, Outcome, percentiles};
-pub use judge::{GRASP_MAX_TILT, REACH_TOLERANCE, TaskJudge};
+pub use judge::{GRASP_MAX_TILT, Judge, REACH_TOLERANCE, TaskJudge};
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, OperatorKind, Pace, PlanarUser,
     PolicyFollower, Straightline,
 };
+pub use reason::Reason;
 #[cfg(feature = "data")]
 pub use record::write_episodes;
 #[cfg(feature = "experiments")]

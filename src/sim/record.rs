@@ -7,7 +7,7 @@
 //! m, and the executed joint velocity), `human` and `executed` (the
 //! operator's gripper velocity command and the executed gripper velocity,
 //! m/s, world axes), `robot` (the most likely goal's robot action), `beliefs`
-//! (one per goal), `status` (the tick's status) and `outcome` (the
+//! (one per goal), `status` (the tick's status), `outcome` and `reason` (the
 //! episode's, on every row).
 //!
 //! ```python
@@ -47,7 +47,7 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
     let mut executed = FixedSizeListBuilder::new(Float64Builder::new(), 3);
     let mut robot = ListBuilder::new(Float64Builder::new());
     let mut beliefs = ListBuilder::new(Float64Builder::new());
-    let (mut status, mut outcome) = (StringBuilder::new(), StringBuilder::new());
+    let (mut status, mut outcome, mut reason) = (StringBuilder::new(), StringBuilder::new(), StringBuilder::new());
     for (name, record, period) in episodes {
         for t in 0..record.statuses.len() {
             label.append_value(name);
@@ -67,6 +67,7 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
             beliefs.append(true);
             status.append_value(record.statuses[t].as_str());
             outcome.append_value(record.outcome.as_str());
+            reason.append_value(record.reason.to_string());
         }
     }
     let columns: Vec<(&str, ArrayRef)> = vec![
@@ -81,6 +82,7 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
         ("beliefs", Arc::new(beliefs.finish())),
         ("status", Arc::new(status.finish())),
         ("outcome", Arc::new(outcome.finish())),
+        ("reason", Arc::new(reason.finish())),
     ];
     let fields: Vec<Field> = columns.iter().map(|(name, a)| Field::new(*name, a.data_type().clone(), false)).collect();
     let schema = Arc::new(Schema::new(fields));

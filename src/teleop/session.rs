@@ -377,6 +377,19 @@ impl TeleopSession {
         let mode = self.ws.mode();
         let mut record = self.live.record().clone();
         record.outcome = outcome;
+        // Why, measured from the goal the beliefs favour (a person's goal is theirs to know).
+        let beliefs = self.ws.beliefs();
+        let likely = (0..beliefs.len()).max_by(|&a, &b| beliefs[a].total_cmp(&beliefs[b])).unwrap_or(0);
+        let target = p.goals.get(likely).map_or(self.live.gripper(), |g| g.position);
+        record.reason = match outcome {
+            Outcome::Failed => {
+                let g = self.live.gripper();
+                let distance =
+                    ((g[0] - target[0]).powi(2) + (g[1] - target[1]).powi(2) + (g[2] - target[2]).powi(2)).sqrt();
+                crate::sim::Reason::StoppedShort { distance }
+            }
+            other => self.live.reason(other, target),
+        };
         let label = format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed);
         std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
         let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());

@@ -14,16 +14,19 @@
 //! the grasp point (then [`TaskJudge`] decides success or failure), on a
 //! collision, or after 20 s.
 
+mod figures;
+
 use super::{Context, Experiment, ExperimentError};
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, BlendingStyle, MetricSpace};
-use crate::figures::{Panel, Series, render_panels};
 use crate::problem::Problem;
 use crate::robot::KinematicsWorkspace;
 use crate::sim::{
-    Arm, Episode, EpisodeRecord, EpisodeSettings, OperatorKind, Outcome, Task, TaskJudge, mix, percentiles, sample_task,
+    Arm, Episode, EpisodeRecord, EpisodeSettings, OperatorKind, Outcome, Reason, Task, TaskJudge, mix, percentiles,
+    sample_task,
 };
 use nalgebra::{IsometryMatrix3, Rotation3};
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 use std::fmt::Write;
 
 /// An arbitration method of the experiment.
@@ -125,6 +128,8 @@ pub struct EpisodeSummary {
     pub method: usize,
     /// How it ended.
     pub outcome: Outcome,
+    /// Why.
+    pub reason: Reason,
     /// |cos| between the gripper's x, y axes and the box's, and cos between
     /// the gripper's z and the box's −z, at the end.
     pub cos: [f64; 3],
@@ -136,8 +141,11 @@ pub struct EpisodeSummary {
     pub hard_violations: usize,
     /// Smallest signed distance over the episode (m).
     pub min_clearance: f64,
-    /// The gripper path (first task of each arm, when kept).
+    /// The gripper path (first task of each arm, when kept; m, world).
     pub path: Vec<[f64; 3]>,
+    /// The gripper's approach axis (its z, world) at the last
+    /// `approach.len()` points of `path` (kept with it).
+    pub approach: Vec<[f64; 3]>,
 }
 
 /// Every episode, in (arm, task, operator, method) order, and the tasks.
@@ -230,9 +238,17 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 start: &problem.start,
                 target: task.goal.position,
                 true_goal: 0,
-                settings: EpisodeSettings { max_time: settings.max_time, record },
+                settings: EpisodeSettings { max_time: settings.max_time, record: record || keep },
             };
-            let mut record = episode.run(&mut ws, operator.as_mut(), &mut |q| judge.succeeded(q))?;
+            let mut record = episode.run(&mut ws, operator.as_mut(), &mut judge)?;
+            let mut approach = vec![];
+            if keep {
+                for q in &record.q {
+                    problem.robot.forward_kinematics(&mut kin, q)?;
+                    let z = problem.robot.frame_pose(&kin, gripper).rotation.matrix().column(2).into_owned();
+                    approach.push([z.x, z.y, z.z]);
+                }
+            }
             problem.robot.forward_kinematics(&mut kin, &record.final_q)?;
             let g = problem.robot.frame_pose(&kin, gripper).rotation;
             let b = box_pose.rotation;
@@ -248,12 +264,14 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 operator: o,
                 method: m,
                 outcome: record.outcome,
+                reason: record.reason.clone(),
                 cos,
                 duration: record.duration,
                 tick_us: std::mem::take(&mut record.tick_us),
                 hard_violations: record.hard_violations,
                 min_clearance: record.min_clearance,
                 path: if keep { std::mem::take(&mut record.gripper) } else { vec![] },
+                approach,
             });
             if settings.record_dir.is_some() {
                 let label = format!("{}/{}/{}/{}", task.arm.as_str(), kind.name(), method.name(), task.index);
@@ -285,6 +303,8 @@ pub struct Cell {
     pub cos: [f64; 3],
     /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
+    /// The episodes that did not succeed, by reason.
+    pub reasons: BTreeMap<&'static str, usize>,
 }
 
 impl ReachGraspResults {
@@ -303,6 +323,9 @@ impl ReachGraspResults {
                 c.cos[k] += e.cos[k];
             }
             c.hard_violations += e.hard_violations;
+            if e.outcome != Outcome::Success {
+                *c.reasons.entry(e.reason.as_str()).or_default() += 1;
+            }
             count += 1;
         }
         if count > 0 {
@@ -344,7 +367,7 @@ impl Experiment for ReachGraspSettings {
                     rows.push(serde_json::json!({
                         "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
                         "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
-                        "cos_sim": c.cos, "hard_violations": c.hard_violations,
+                        "cos_sim": c.cos, "hard_violations": c.hard_violations, "reasons": c.reasons,
                     }));
                 }
             }
@@ -369,24 +392,40 @@ impl Experiment for ReachGraspSettings {
         for &arm in &s.arms {
             let _ = write!(out, "\n{:<24}", arm.as_str().to_uppercase());
             for op in &s.operators {
-                let _ = write!(out, "{:^18}", op.name());
+                let _ = write!(out, "{:^19}", op.name());
             }
             let _ = writeln!(out, "   avg. cos sim");
             let _ = write!(out, "{:<24}", "");
             for _ in &s.operators {
-                let _ = write!(out, "{:^18}", "col  to fail succ");
+                let _ = write!(out, "{:^19}", "col t/o fail succ");
             }
             let _ = writeln!(out, "   x     y     z");
             for (m, method) in s.methods.iter().enumerate() {
                 let _ = write!(out, "{:<24}", method.name());
                 for o in 0..s.operators.len() {
                     let c = r.cell(arm, o, m);
-                    let _ = write!(out, " {:>3} {:>3} {:>3} {:>4}  ", c.collision, c.timeout, c.failed, c.success);
+                    let _ = write!(out, " {:>3} {:>3} {:>4} {:>4} ", c.collision, c.timeout, c.failed, c.success);
                 }
                 let cos = r.method_cos(arm, m);
                 let _ = writeln!(out, "  {:.2}  {:.2}  {:.2}", cos[0], cos[1], cos[2]);
             }
+            let _ = writeln!(out, "  failures by reason, all operators:");
+            for (m, method) in s.methods.iter().enumerate() {
+                let mut reasons: BTreeMap<&str, usize> = BTreeMap::new();
+                for o in 0..s.operators.len() {
+                    for (reason, n) in r.cell(arm, o, m).reasons {
+                        *reasons.entry(reason).or_default() += n;
+                    }
+                }
+                let listed: Vec<String> = reasons.iter().map(|(reason, n)| format!("{reason} {n}")).collect();
+                let listed = if listed.is_empty() { "none".to_string() } else { listed.join(", ") };
+                let _ = writeln!(out, "  {:<24}{listed}", method.name());
+            }
         }
+        let _ = writeln!(
+            out,
+            "\ncol: collision, t/o: timeout (20 s), fail: the operator stopped where the task is not done, succ: success"
+        );
         let resampled: usize = r.tasks.iter().map(|t| t.resampled).sum();
         let _ = writeln!(
             out,
@@ -405,50 +444,8 @@ impl Experiment for ReachGraspSettings {
     }
 
     fn figures(&self, r: &ReachGraspResults) -> Result<Vec<(String, String)>, ExperimentError> {
-        Ok(figure(r)?.map(|svg| ("reach_grasp.svg".to_string(), svg)).into_iter().collect())
+        let mut out = vec![("reach_grasp_success.svg".to_string(), figures::success(r)?)];
+        out.extend(figures::paths(r)?.map(|svg| ("reach_grasp.svg".to_string(), svg)));
+        Ok(out)
     }
-}
-
-/// Fig. 5.4: the first task's gripper paths (top views) per operator, for
-/// NoAssist and the dissertation's two methods, with the robot's reference.
-fn figure(r: &ReachGraspResults) -> Result<Option<String>, ExperimentError> {
-    let s = &r.settings;
-    let Some(&arm) = s.arms.first() else { return Ok(None) };
-    let Some(task) = r.tasks.iter().find(|t| t.arm == arm && t.index == 0) else { return Ok(None) };
-    let robot = &task.goal.problem.robot;
-    let gripper = robot.frame_id(task.goal.problem.robot_spec.gripper.as_deref().unwrap_or_default())?;
-    let mut kin = KinematicsWorkspace::new(robot);
-    let reference = task.goal.policy.reference();
-    let mut planned = vec![];
-    for i in 0..reference.len() {
-        robot.forward_kinematics(&mut kin, reference.position(i))?;
-        let p = robot.frame_pose(&kin, gripper).translation.vector;
-        planned.push((p.x, p.y));
-    }
-    let shown = [
-        Method::NoAssist,
-        s.methods.get(1).copied().unwrap_or(Method::NoAssist),
-        s.methods.get(2).copied().unwrap_or(Method::NoAssist),
-    ];
-    let operators: Vec<(usize, &OperatorKind)> = s.operators.iter().enumerate().take(4).collect();
-    let panels: Vec<Panel> = operators
-        .iter()
-        .map(|&(o, op)| {
-            let mut panel =
-                Panel::new(&op.name(), "x (m)", "y (m)").with(Series::dashed("reference", &planned, 7)).equal();
-            for (k, method) in shown.iter().enumerate() {
-                let Some(m) = s.methods.iter().position(|x| x == method) else { continue };
-                if let Some(e) =
-                    r.episodes.iter().find(|e| e.arm == arm && e.task == 0 && e.operator == o && e.method == m)
-                {
-                    let path: Vec<(f64, f64)> = e.path.iter().map(|p| (p[0], p[1])).collect();
-                    panel = panel.with(Series::line(&format!("{} ({})", method.name(), e.outcome.as_str()), &path, k));
-                }
-            }
-            let goal = task.goal.position;
-            panel.with(Series::points("grasp point", &[(goal[0], goal[1])], 3))
-        })
-        .collect();
-    let title = format!("reach-and-grasp, {} arm, task 0: gripper paths (top view)", arm.as_str());
-    Ok(Some(render_panels(&title, &panels, 380, 420)?))
 }
