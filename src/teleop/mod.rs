@@ -19,7 +19,9 @@
 //! read as NaN and makes the arbiter hold), `{"type":"mode","mode":"sos"}`
 //! and `{"type":"reset","task":"planar","seed":3}`; the server sends
 //! `hello`, `preparing`, `scene`, `state` (at most 60 per second),
-//! `episode` (an episode ended and where it was saved) and `error`.
+//! `episode` (an episode ended: its outcome, its reason by name and in
+//! words — `reason`, `reason_detail`, as in [`StateView`] — and where it was
+//! saved; once per episode) and `error`.
 //!
 //! ```no_run
 //! use tandem::teleop::{SessionSettings, TeleopSession, TeleopTask};

@@ -168,6 +168,14 @@ pub struct StateView {
     /// How the episode ended (`success`, `collision`, `timeout`, `failed`),
     /// or `null` while it runs.
     pub outcome: Option<&'static str>,
+    /// Why it ended, by name ([`Reason::as_str`](crate::sim::Reason::as_str):
+    /// `success`, `collision`, `timeout`, `stopped_short`,
+    /// `orientation_off`, …), or `null` while it runs.
+    pub reason: Option<&'static str>,
+    /// Why it ended, in words ([`Reason`](crate::sim::Reason)'s `Display`:
+    /// `panda_hand touched table`, `time ran out 4.2 cm from the goal`), or
+    /// `null` while it runs.
+    pub reason_detail: Option<String>,
     /// Whether the operator's commands stopped arriving (the arm holds).
     pub stale_command: bool,
     /// Commands received and messages rejected in this session.

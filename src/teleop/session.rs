@@ -9,7 +9,7 @@ use crate::arbitration::{
 };
 use crate::problem::Problem;
 use crate::robot::{FrameId, KinematicsWorkspace};
-use crate::sim::{Arm, LiveEpisode, Outcome, TaskJudge, sample_planar_task, sample_task};
+use crate::sim::{Arm, Judge, LiveEpisode, Outcome, Reason, TaskJudge, sample_planar_task, sample_task};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -116,6 +116,8 @@ pub struct TeleopSession {
     /// The collision pair named in [`StateView::nearest`].
     nearest: Option<usize>,
     outcome: Option<Outcome>,
+    /// Why the episode ended, once it has.
+    reason: Option<Reason>,
     saved: bool,
     episode: usize,
     state: StateView,
@@ -182,6 +184,7 @@ impl TeleopSession {
             driven: false,
             nearest: None,
             outcome: None,
+            reason: None,
             saved: false,
             episode: 0,
             state: StateView { status: "waiting", ..StateView::default() },
@@ -223,6 +226,11 @@ impl TeleopSession {
     /// How the episode ended, if it has.
     pub fn outcome(&self) -> Option<Outcome> {
         self.outcome
+    }
+
+    /// Why the episode ended, if it has.
+    pub fn reason(&self) -> Option<&Reason> {
+        self.reason.as_ref()
     }
 
     /// Sets the operator's command (m/s, world axes), received at `at`.
@@ -299,7 +307,7 @@ impl TeleopSession {
         let q = self.live.q();
         let done = self.judges.iter_mut().any(|j| j.succeeded(q));
         let time = self.live.record().steps as f64 * arbiter.settings().period;
-        self.outcome = if step.collided {
+        let outcome = if step.collided {
             Some(Outcome::Collision)
         } else if done {
             Some(Outcome::Success)
@@ -308,6 +316,9 @@ impl TeleopSession {
         } else {
             None
         };
+        if let Some(outcome) = outcome {
+            self.end(outcome);
+        }
         self.state.human = command;
         self.state.status = step.status.as_str();
         self.state.tick_us = step.tick_us;
@@ -320,6 +331,27 @@ impl TeleopSession {
     /// the first to use it (the start of the command → state latency).
     pub fn used_command_at(&self) -> Option<Instant> {
         self.used_command_at
+    }
+
+    /// Ends the episode in `outcome` and says why: success, the colliding
+    /// pair, or, on a timeout, how far the gripper is from the goal the
+    /// beliefs favour (a person's goal is theirs to know); an episode the
+    /// person stopped (`Failed`) gets that goal's judge's diagnosis (how far
+    /// short, or which grasp criterion fails at the object).
+    fn end(&mut self, outcome: Outcome) {
+        let beliefs = self.ws.beliefs();
+        let likely = (0..beliefs.len()).max_by(|&a, &b| beliefs[a].total_cmp(&beliefs[b])).unwrap_or(0);
+        let gripper = self.live.gripper();
+        let target = self.prepared.goals.get(likely).map_or(gripper, |g| g.position);
+        let reason = match (outcome, self.judges.get_mut(likely)) {
+            (Outcome::Failed, Some(judge)) => judge.diagnose(self.live.q(), gripper, target),
+            (other, _) => self.live.reason(other, target),
+        };
+        self.outcome = Some(outcome);
+        self.state.outcome = Some(outcome.as_str());
+        self.state.reason = Some(reason.as_str());
+        self.state.reason_detail = Some(reason.to_string());
+        self.reason = Some(reason);
     }
 
     fn refresh_state(&mut self, time: f64) -> Result<(), TeleopError> {
@@ -357,7 +389,7 @@ impl TeleopSession {
     }
 
     /// Ends the episode (as `failed` when it was still running: the person
-    /// stopped it) and saves it to the record directory when it has ticks,
+    /// stopped it, its [`reason`](Self::reason) the judge's diagnosis) and saves it to the record directory when it has ticks,
     /// once. Returns the file written. An episode never [`driven`](Self::driven)
     /// has not started: nothing ends and nothing is saved.
     ///
@@ -367,8 +399,9 @@ impl TeleopSession {
         if !self.driven {
             return Ok(None);
         }
-        let outcome = *self.outcome.get_or_insert(Outcome::Failed);
-        self.state.outcome = Some(outcome.as_str());
+        if self.outcome.is_none() {
+            self.end(Outcome::Failed);
+        }
         let (Some(dir), true, false) = (&self.settings.record_dir, self.live.record().steps > 0, self.saved) else {
             return Ok(None);
         };
@@ -376,20 +409,10 @@ impl TeleopSession {
         let p = &self.prepared;
         let mode = self.ws.mode();
         let mut record = self.live.record().clone();
-        record.outcome = outcome;
-        // Why, measured from the goal the beliefs favour (a person's goal is theirs to know).
-        let beliefs = self.ws.beliefs();
-        let likely = (0..beliefs.len()).max_by(|&a, &b| beliefs[a].total_cmp(&beliefs[b])).unwrap_or(0);
-        let target = p.goals.get(likely).map_or(self.live.gripper(), |g| g.position);
-        record.reason = match outcome {
-            Outcome::Failed => {
-                let g = self.live.gripper();
-                let distance =
-                    ((g[0] - target[0]).powi(2) + (g[1] - target[1]).powi(2) + (g[2] - target[2]).powi(2)).sqrt();
-                crate::sim::Reason::StoppedShort { distance }
-            }
-            other => self.live.reason(other, target),
-        };
+        if let Some(reason) = &self.reason {
+            record.outcome = reason.outcome();
+            record.reason = reason.clone();
+        }
         let label = format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed);
         std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
         let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());
@@ -420,6 +443,9 @@ impl TeleopSession {
         }
         self.live = LiveEpisode::new(&self.prepared.arbiter, &mut self.ws, &self.prepared.problem.start, true)?;
         self.outcome = None;
+        self.reason = None;
+        self.state.reason = None;
+        self.state.reason_detail = None;
         self.saved = false;
         self.driven = false;
         self.command = [0.0; 3];

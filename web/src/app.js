@@ -458,6 +458,16 @@ const fmt = {
 // A body's name as a person reads it: the other Panda's spheres are one arm.
 const bodyName = (name) => name.replace(/^other_arm_\d+$/, 'other arm');
 
+// An episode's outcome and why, from a state or an episode message
+// (`outcome`, `reason`: the reason's name, `reason_detail`: it in words):
+// "collision — panda_hand touched table", "failed (stopped short) — the
+// operator stopped 3.2 cm from the goal (within 1 cm counts)".
+function ending({ outcome, reason, reason_detail: detail }) {
+  const named = reason && reason !== outcome ? ` (${reason.replaceAll('_', ' ')})` : '';
+  const why = detail ? ` — ${detail.replace(/other_arm_\d+/g, 'other arm')}` : '';
+  return `${outcome}${named}${why}`;
+}
+
 function showState(state) {
   const waiting = state.status === 'waiting';
   $('status').textContent = waiting
@@ -472,9 +482,20 @@ function showState(state) {
   $('minClearance').textContent = fmt.mm(state.min_clearance);
   $('time').textContent = `${state.time.toFixed(1)} s / ${state.steps}`;
   $('counts').textContent = `${state.commands} / ${state.rejected}`;
+  // How and why the episode ended; after a reset, the last episode's
+  // until the next one starts.
   const outcome = $('outcome');
-  outcome.textContent = state.outcome ? `Episode over: ${state.outcome}. Reset to drive again.` : '';
-  outcome.className = state.outcome || '';
+  const last = page.episodes[page.episodes.length - 1];
+  if (state.outcome) {
+    outcome.textContent = `Episode over: ${ending(state)}. Reset to drive again.`;
+    outcome.className = state.outcome;
+  } else if (waiting && last) {
+    outcome.textContent = `Last episode: ${ending(last)}.`;
+    outcome.className = 'last';
+  } else {
+    outcome.textContent = '';
+    outcome.className = '';
+  }
   const bars = $('beliefs');
   if (bars.childNodes.length !== state.beliefs.length) {
     bars.innerHTML = '';
@@ -556,7 +577,7 @@ function receive(message) {
       break;
     case 'episode':
       page.episodes.push(message);
-      log(`episode ${message.outcome} after ${message.time.toFixed(1)} s${message.file ? `, saved to ${message.file}` : ''}`, message.outcome !== 'success');
+      log(`episode ${ending(message)}, after ${message.time.toFixed(1)} s${message.file ? `, saved to ${message.file}` : ''}`, message.outcome !== 'success');
       break;
     case 'error':
       page.errors.push(message.message);

@@ -5,7 +5,8 @@
 // the way the triad's x arrow points when W is held (both tasks), draws
 // each goal in its belief bar's colour, a scripted keyboard drives the
 // gripper toward the box under every mode without a collision, each driven
-// episode is recorded, and NaN, malformed and oversized messages from the
+// episode is recorded and reported once, a finished episode shows why it
+// ended (the server's reason), and NaN, malformed and oversized messages from the
 // page leave the server healthy. Every
 // configuration the page was shown is judged independently of tandem's
 // sphere model: example-robot-data's Panda meshes against the box, through
@@ -81,6 +82,10 @@ async function startServer(recordDir) {
 async function waitFor(page, predicate, arg, timeout = 30000) {
   await page.waitForFunction(predicate, arg, { timeout, polling: 50 });
 }
+
+// The server's reasons (tandem::sim::Reason::NAMES).
+const REASONS = ['success', 'collision', 'timeout', 'stopped_short', 'orientation_off', 'not_between_pads',
+  'outside_footprint', 'touching_object', 'judge_declined'];
 
 const parquetFiles = (dir) => readdirSync(dir).filter((f) => f.endsWith('.parquet'));
 const cosine = (a, b) => (a[0] * b[0] + a[1] * b[1]) / (Math.hypot(...a) * Math.hypot(...b) || 1);
@@ -265,6 +270,7 @@ async function main() {
 
     // Every mode: reset, drive toward the box, no collision.
     const shown = [];
+    const endings = []; // the episodes that ended while driving: mode, state, what the page said
     for (const mode of scene.modes) {
       const scenes = await page.evaluate(() => window.tandem.scenesReceived);
       await page.selectOption('#mode', mode);
@@ -281,7 +287,10 @@ async function main() {
       check(d1 < 0.5 * d0, `${mode}: the gripper came from ${(d0 * 100).toFixed(1)} cm to ${(d1 * 100).toFixed(1)} cm of the box (${last.outcome ?? 'running'})`);
       check(!collided && minClearance >= 0, `${mode}: no collision (closest ${(minClearance * 1000).toFixed(1)} mm)`);
       shown.push(...(await page.evaluate(() => window.tandem.trace)));
+      if (last.outcome) endings.push([mode, last, await page.evaluate(() => document.getElementById('outcome').textContent)]);
     }
+    check(endings.every(([, s, text]) => REASONS.includes(s.reason) && s.reason_detail && text.startsWith(`Episode over: ${s.outcome}`) && text.includes(s.reason_detail)),
+      `every episode that ended while driving says why on the page (${endings.map(([m, , text]) => `${m}: "${text}"`).join('; ') || 'none ended by itself'})`);
     const box = scene.objects.find((o) => o.name === 'box');
     const worst = meshClearances(scene.joints, box, shown);
     const parts = Object.entries(worst).map(([k, v]) => `${k} ${(v * 1000).toFixed(1)} mm`).join(', ');
@@ -297,6 +306,14 @@ async function main() {
     await sleep(1000);
     const files = parquetFiles(recordDir);
     check(files.length === scene.modes.length + 1, `each driven episode was saved as Parquet (${files.length} files for ${scene.modes.length + 1} episodes)`);
+    const [episodes, shownEnding] = await page.evaluate(() => [window.tandem.episodes, document.getElementById('outcome').textContent]);
+    check(episodes.length === scene.modes.length + 1, `each driven episode was reported to the page once (${episodes.length} episode messages)`);
+    // The last one (ended by this reset, or by itself): its outcome and
+    // reason stay on the page until the next episode starts.
+    const lastEpisode = episodes[episodes.length - 1] ?? {};
+    check(REASONS.includes(lastEpisode.reason) && lastEpisode.reason_detail?.length > 0
+      && shownEnding.startsWith(`Last episode: ${lastEpisode.outcome}`) && shownEnding.includes(lastEpisode.reason_detail),
+    `a finished episode shows why it ended ("${shownEnding}"; reason ${lastEpisode.reason})`);
 
     // The gamepad: the left stick pushed forward commands +x at the slider's speed.
     await page.evaluate(() => { window.testPad = { id: 'test pad', connected: true, axes: [0, -1, 0, 0], buttons: [] }; });
