@@ -42,6 +42,7 @@ fn a_person_driving_toward_a_cylinder_gets_there_and_the_episode_is_recorded() {
     }
     let state = session.state().clone();
     assert_eq!(state.outcome, Some("success"), "driving straight at a cylinder succeeds: {state:?}");
+    assert_eq!((state.reason, state.reason_detail.as_deref()), (Some("success"), Some("the task is done")));
     assert!(state.min_clearance >= 0.0);
     assert!(state.beliefs[0] > state.beliefs[1], "the beliefs follow the driven goal: {:?}", state.beliefs);
     assert!(distance(state.gripper, goal) < distance(start, goal));
@@ -63,6 +64,74 @@ fn a_person_driving_toward_a_cylinder_gets_there_and_the_episode_is_recorded() {
         "episode", "step", "time", "q", "qdot", "human", "executed", "robot", "beliefs", "status", "outcome", "reason",
     ];
     assert_eq!(columns, layout, "the simulator's episode layout");
+}
+
+#[test]
+fn the_episode_starts_at_the_first_command_and_an_undriven_one_is_not_saved() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut session = planar(Some(dir.path().into()));
+    let start = session.state().clone();
+    assert_eq!(start.status, "waiting");
+    let [link, obstacle] = start.nearest.clone().expect("the planar scene has obstacles");
+    assert_eq!(link, "gripper_body", "the finger-pad group of the gripper link");
+    assert!(["pole", "red", "yellow"].contains(&obstacle.as_str()), "{obstacle}");
+    assert!(start.clearance.is_finite());
+    // The page sends zeros while no key is held: the clock stays at zero.
+    let mut now = Instant::now();
+    for k in 0..30 {
+        if k % 2 == 0 {
+            session.set_command([0.0; 3], now);
+        }
+        session.tick(now).unwrap();
+        now += Duration::from_millis(33);
+    }
+    let idle = session.state().clone();
+    assert_eq!((idle.steps, idle.time, idle.status), (0, 0.0, "waiting"));
+    assert!(!session.driven() && distance(idle.gripper, start.gripper) == 0.0);
+    assert!(session.finish().unwrap().is_none() && session.outcome().is_none(), "an undriven page saves nothing");
+    assert_eq!(std::fs::read_dir(dir.path()).map_or(0, |d| d.count()), 0);
+    // The first command that is not zero starts it.
+    session.set_command([0.05, 0.0, 0.0], now);
+    session.tick(now).unwrap();
+    let moving = session.state().clone();
+    assert!(session.driven() && moving.steps == 1 && moving.status != "waiting", "{moving:?}");
+    assert!(moving.time > 0.0 && moving.time < 0.05, "the clock starts at the first command: {}", moving.time);
+    // The gripper frame's pose goes with its position.
+    assert_eq!(&moving.gripper_pose[..3], &moving.gripper[..]);
+    assert!(session.finish().unwrap().is_some(), "a driven episode is saved");
+    // Stopped by the person far from both cylinders: how far short.
+    let stopped = session.state().clone();
+    assert_eq!((stopped.outcome, stopped.reason), (Some("failed"), Some("stopped_short")), "{stopped:?}");
+    let detail = stopped.reason_detail.expect("the reason in words");
+    assert!(detail.starts_with("the operator stopped ") && detail.contains(" cm from the goal"), "{detail}");
+    // A restart waits for the next first command, its reason cleared.
+    session.restart(TeleopTask::Planar, 0).unwrap();
+    assert!(!session.driven() && session.state().status == "waiting" && session.state().steps == 0);
+    assert!(session.state().reason.is_none() && session.state().reason_detail.is_none() && session.reason().is_none());
+}
+
+#[test]
+fn a_timeout_says_how_far_the_gripper_is_from_the_goal_the_beliefs_favour() {
+    let settings = SessionSettings { max_episode_time: 0.5, ..SessionSettings::default() };
+    let mut session = TeleopSession::prepare(&settings, TeleopTask::Planar, 0).unwrap();
+    let goal = session.scene().goals[0].position;
+    let mut now = Instant::now();
+    while session.outcome().is_none() {
+        let g = session.state().gripper;
+        let d = distance(goal, g).max(1e-9);
+        session.set_command([0.05 * (goal[0] - g[0]) / d, 0.05 * (goal[1] - g[1]) / d, 0.0], now);
+        session.tick(now).unwrap();
+        now += Duration::from_millis(33);
+    }
+    let state = session.state().clone();
+    assert_eq!((state.outcome, state.reason), (Some("timeout"), Some("timeout")), "{state:?}");
+    assert!(state.beliefs[0] > state.beliefs[1], "{:?}", state.beliefs);
+    let cm = format!("{:.1} cm", 100.0 * distance(state.gripper, goal));
+    assert_eq!(state.reason_detail.as_deref(), Some(format!("time ran out {cm} from the goal").as_str()));
+    // Ticks after the end hold the reason; finishing keeps it.
+    session.tick(now).unwrap();
+    session.finish().unwrap();
+    assert_eq!(session.state().reason, Some("timeout"));
 }
 
 #[test]
@@ -159,7 +228,7 @@ async fn until(client: &mut Client, kind: &str) -> Vec<serde_json::Value> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_server_survives_garbage_floods_and_disconnects() {
-    let (address, _dir) = start().await;
+    let (address, dir) = start().await;
     let mut client = connect(address).await;
     let opening = until(&mut client, "state").await;
     let kinds: Vec<&str> = opening.iter().filter_map(|m| m["type"].as_str()).collect();
@@ -212,9 +281,25 @@ async fn the_server_survives_garbage_floods_and_disconnects() {
     }
     assert_eq!(code, Some(1009));
 
-    // A client that vanishes mid-flood, without a close frame.
+    // A page that never drives: its states hold at zero time, its status
+    // waits, and leaving saves nothing.
+    let mut idle = connect(address).await;
+    let mut state = until(&mut idle, "state").await.pop().unwrap();
+    for _ in 0..20 {
+        idle.send(Message::Text(r#"{"type":"command","linear":[0,0,0]}"#.into())).await.unwrap();
+        state = until(&mut idle, "state").await.pop().unwrap();
+    }
+    assert_eq!((state["steps"].as_u64(), state["time"].as_f64()), (Some(0), Some(0.0)), "{state}");
+    assert_eq!(state["status"], "waiting", "{state}");
+    assert_eq!(state["nearest"][0], "gripper_body", "{state}");
+    idle.close(None).await.unwrap();
+    drop(idle);
+
+    // A client that drives, then vanishes mid-flood, without a close frame.
     let mut rude = connect(address).await;
     until(&mut rude, "scene").await;
+    rude.send(Message::Text(r#"{"type":"command","linear":[0.01,0,0]}"#.into())).await.unwrap();
+    while until(&mut rude, "state").await.pop().unwrap()["steps"].as_u64().unwrap_or(0) == 0 {}
     for _ in 0..1000 {
         rude.feed(Message::Text(r#"{"type":"command","linear":[0.01,0,0]}"#.into())).await.unwrap();
     }
@@ -229,6 +314,16 @@ async fn the_server_survives_garbage_floods_and_disconnects() {
     let health = stats(address).await;
     assert_eq!(health["sessions_open"], 1, "{health}");
     assert_eq!(health["closed_oversized"], 1, "{health}");
-    assert!(health["episodes_saved"].as_u64().unwrap() >= 2, "{health}");
+    // The flooding page's and the rude one's: not the idle one's.
+    assert_eq!(health["episodes_saved"], 2, "{health}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     assert!(health["tick_us"]["count"].as_u64().unwrap() > 50, "{health}");
+
+    // A reset ends the driven episode; the page is told how and why.
+    fresh.send(Message::Text(r#"{"type":"command","linear":[0.01,0,0]}"#.into())).await.unwrap();
+    while until(&mut fresh, "state").await.pop().unwrap()["steps"].as_u64().unwrap_or(0) == 0 {}
+    fresh.send(Message::Text(r#"{"type":"reset"}"#.into())).await.unwrap();
+    let episode = until(&mut fresh, "episode").await.pop().unwrap();
+    assert_eq!((episode["outcome"].as_str(), episode["reason"].as_str()), (Some("failed"), Some("stopped_short")));
+    assert!(episode["reason_detail"].as_str().unwrap().contains("cm from the goal"), "{episode}");
 }

@@ -235,6 +235,7 @@ pub struct LiveEpisode {
     next: Vec<f64>,
     gripper: [f64; 3],
     clearance: f64,
+    nearest: Option<usize>,
     keep: bool,
     record: EpisodeRecord,
     /// The bodies of the first contact, once the arm collided.
@@ -257,7 +258,8 @@ impl LiveEpisode {
         robot.check_configuration(start)?;
         let n = robot.nq();
         let mut cws = CollisionWorkspace::new(model);
-        let clearance = model.min_distance(&mut cws, start)?.map_or(f64::INFINITY, |d| d.signed.distance);
+        let nearest = model.min_distance(&mut cws, start)?;
+        let clearance = nearest.map_or(f64::INFINITY, |d| d.signed.distance);
         arbiter.reset(ws);
         let mut live = LiveEpisode {
             kin: KinematicsWorkspace::new(robot),
@@ -269,6 +271,7 @@ impl LiveEpisode {
             next: vec![0.0; n],
             gripper: [0.0; 3],
             clearance,
+            nearest: nearest.map(|d| d.pair),
             keep,
             contact: None,
             record: EpisodeRecord {
@@ -323,6 +326,14 @@ impl LiveEpisode {
     /// Signed distance to the nearest obstacle at [`Self::q`] (m).
     pub fn clearance(&self) -> f64 {
         self.clearance
+    }
+
+    /// The collision pair behind [`Self::clearance`] (`None` without
+    /// obstacles); its names from
+    /// [`CollisionModel::pair_names`](crate::collision::CollisionModel::pair_names)
+    /// of the arbiter's collision model.
+    pub fn nearest_pair(&self) -> Option<usize> {
+        self.nearest
     }
 
     /// The record so far (its outcome is set by [`Self::finish`]).
@@ -394,7 +405,9 @@ impl LiveEpisode {
             }
         }
         self.q.copy_from_slice(&self.next);
-        self.clearance = model.min_distance(&mut self.cws, &self.q)?.map_or(f64::INFINITY, |d| d.signed.distance);
+        let nearest = model.min_distance(&mut self.cws, &self.q)?;
+        self.clearance = nearest.map_or(f64::INFINITY, |d| d.signed.distance);
+        self.nearest = nearest.map(|d| d.pair);
         self.record.min_clearance = self.record.min_clearance.min(self.clearance);
         let before = self.gripper;
         self.update_gripper(arbiter)?;

@@ -8,6 +8,8 @@
 //!   reach-and-grasp or the planar pick), its arbiter, the arm stepped by a
 //!   [`LiveEpisode`](crate::sim::LiveEpisode), the latest command, and the
 //!   recording of every driven episode (Parquet, the simulator's layout);
+//!   an episode starts at the first command that is not zero, so a page
+//!   left open is neither timed nor recorded;
 //! - [`SceneView`] and [`StateView`]: what the page draws, as JSON;
 //! - [`serve`]: the axum web server, the page at `/`, the WebSocket at
 //!   `/ws` (one session per connection), health and timing at `/stats`.
@@ -17,7 +19,9 @@
 //! read as NaN and makes the arbiter hold), `{"type":"mode","mode":"sos"}`
 //! and `{"type":"reset","task":"planar","seed":3}`; the server sends
 //! `hello`, `preparing`, `scene`, `state` (at most 60 per second),
-//! `episode` (an episode ended and where it was saved) and `error`.
+//! `episode` (an episode ended: its outcome, its reason by name and in
+//! words — `reason`, `reason_detail`, as in [`StateView`] — and where it was
+//! saved; once per episode) and `error`.
 //!
 //! ```no_run
 //! use tandem::teleop::{SessionSettings, TeleopSession, TeleopTask};

@@ -137,13 +137,18 @@ pub struct StateView {
     pub links: Vec<[f64; 7]>,
     /// Gripper position (m).
     pub gripper: [f64; 3],
+    /// The gripper frame's pose: the page draws the gripper's outline
+    /// there (the robot's own geometry is collision spheres only).
+    pub gripper_pose: [f64; 7],
     /// The operator's last command (m/s; after the speed clamp).
     pub human: [f64; 3],
     /// The executed gripper velocity `J q̇` (m/s).
     pub executed: [f64; 3],
     /// Beliefs over the goals.
     pub beliefs: Vec<f64>,
-    /// The tick's status (`nominal`, `constrained`, `invalid_command`, …).
+    /// The tick's status (`nominal`, `constrained`, `invalid_command`, …),
+    /// or `waiting` before the operator's first command (the episode's
+    /// clock has not started).
     pub status: &'static str,
     /// The mode that ran the tick.
     pub mode: &'static str,
@@ -151,6 +156,9 @@ pub struct StateView {
     pub tick_us: f64,
     /// Signed distance to the nearest obstacle (m; `null` without obstacles).
     pub clearance: f64,
+    /// The pair at that distance: the robot link, then the obstacle or
+    /// object (`null` without obstacles).
+    pub nearest: Option<[String; 2]>,
     /// Smallest clearance of the episode so far (m).
     pub min_clearance: f64,
     /// The metric's ellipsoid at the gripper: its three semi-axes (m/s per
@@ -160,6 +168,14 @@ pub struct StateView {
     /// How the episode ended (`success`, `collision`, `timeout`, `failed`),
     /// or `null` while it runs.
     pub outcome: Option<&'static str>,
+    /// Why it ended, by name ([`Reason::as_str`](crate::sim::Reason::as_str):
+    /// `success`, `collision`, `timeout`, `stopped_short`,
+    /// `orientation_off`, …), or `null` while it runs.
+    pub reason: Option<&'static str>,
+    /// Why it ended, in words ([`Reason`](crate::sim::Reason)'s `Display`:
+    /// `panda_hand touched table`, `time ran out 4.2 cm from the goal`), or
+    /// `null` while it runs.
+    pub reason_detail: Option<String>,
     /// Whether the operator's commands stopped arriving (the arm holds).
     pub stale_command: bool,
     /// Commands received and messages rejected in this session.

@@ -396,7 +396,7 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
                                 conn.error("a task is being prepared; reset again when it is ready");
                             } else {
                                 let mut old = session.take();
-                                if let Some(s) = old.as_mut() {
+                                if let Some(s) = old.as_mut().filter(|s| s.outcome().is_none()) {
                                     finish_episode(&conn, s, &stats);
                                 }
                                 let task = task.unwrap_or(old.as_ref().map_or(settings.task, TeleopSession::task));
@@ -426,7 +426,7 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
             }
         }
     }
-    if let Some(s) = session.as_mut() {
+    if let Some(s) = session.as_mut().filter(|s| s.outcome().is_none()) {
         finish_episode(&conn, s, &stats);
     }
     drop(conn);
@@ -459,8 +459,14 @@ async fn close_handshake(stream: &mut futures_util::stream::SplitStream<WebSocke
     let _ = tokio::time::timeout(Duration::from_secs(2), drain).await;
 }
 
-/// Ends the session's episode, saves it, and tells the page where.
+/// Ends the session's episode, saves it, and tells the page how, why and
+/// where. A page that never drove has no episode to end: nothing is saved
+/// or said. Called once per episode: when it ends by itself (at that tick),
+/// else when the page resets or leaves while it runs.
 fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &ServerStats) {
+    if !session.driven() {
+        return;
+    }
     match session.finish() {
         Ok(file) => {
             if file.is_some() {
@@ -472,6 +478,8 @@ fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &Server
                 "episode",
                 &serde_json::json!({
                     "outcome": outcome,
+                    "reason": state.reason,
+                    "reason_detail": state.reason_detail,
                     "steps": state.steps,
                     "time": state.time,
                     "min_clearance": state.min_clearance,

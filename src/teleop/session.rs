@@ -2,14 +2,14 @@
 //! at a time, the latest command, and the recording of each episode.
 
 use super::TeleopError;
-use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, robot_links, tick_ellipsoid};
+use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, pose7, robot_links, tick_ellipsoid};
 use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalSettings,
     HumanCommand, ProblemGoal, problem_goals,
 };
 use crate::problem::Problem;
 use crate::robot::{FrameId, KinematicsWorkspace};
-use crate::sim::{Arm, LiveEpisode, Outcome, TaskJudge, sample_planar_task, sample_task};
+use crate::sim::{Arm, Judge, LiveEpisode, Outcome, Reason, TaskJudge, sample_planar_task, sample_task};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -110,7 +110,15 @@ pub struct TeleopSession {
     command_at: Option<Instant>,
     used_command_at: Option<Instant>,
     new_command: bool,
+    /// Whether the operator has asked for motion in this episode: the
+    /// episode (its clock, its ticks, its recording) starts then, not when
+    /// the page opened.
+    driven: bool,
+    /// The collision pair named in [`StateView::nearest`].
+    nearest: Option<usize>,
     outcome: Option<Outcome>,
+    /// Why the episode ended, once it has.
+    reason: Option<Reason>,
     saved: bool,
     episode: usize,
     state: StateView,
@@ -174,10 +182,13 @@ impl TeleopSession {
             command_at: None,
             used_command_at: None,
             new_command: false,
+            driven: false,
+            nearest: None,
             outcome: None,
+            reason: None,
             saved: false,
             episode: 0,
-            state: StateView::default(),
+            state: StateView { status: "waiting", ..StateView::default() },
         };
         session.refresh_state(0.0)?;
         Ok(session)
@@ -218,10 +229,18 @@ impl TeleopSession {
         self.outcome
     }
 
+    /// Why the episode ended, if it has.
+    pub fn reason(&self) -> Option<&Reason> {
+        self.reason.as_ref()
+    }
+
     /// Sets the operator's command (m/s, world axes), received at `at`.
     /// Commands faster than the speed limit are scaled down to it; NaN is
-    /// kept, so that the arbiter reports it and holds.
+    /// kept, so that the arbiter reports it and holds. The first command
+    /// that is not zero (NaN included) starts the episode.
     pub fn set_command(&mut self, linear: [f64; 3], at: Instant) {
+        // The page sends zeros while no key is held: those start nothing.
+        self.driven |= linear.iter().any(|v| *v != 0.0);
         let norm = linear.iter().map(|v| v * v).sum::<f64>().sqrt();
         let scale = if norm > self.settings.max_speed { self.settings.max_speed / norm } else { 1.0 };
         self.command = linear.map(|v| v * scale);
@@ -253,10 +272,17 @@ impl TeleopSession {
         Ok(mode)
     }
 
+    /// Whether the episode has started: the operator sent a command that
+    /// is not zero since the last start. Only such episodes are saved.
+    pub fn driven(&self) -> bool {
+        self.driven
+    }
+
     /// One control tick at wall-clock time `now`: the arbiter blends the
     /// latest command (zero when older than the command timeout), the arm
     /// moves, and the episode ends on success, collision or timeout. After
-    /// the end the arm holds until [`Self::restart`].
+    /// the end the arm holds until [`Self::restart`]; before the first
+    /// command it holds too, its status `waiting`, and no tick counts.
     ///
     /// # Errors
     /// The simulator's kinematics or collision queries failing.
@@ -266,6 +292,14 @@ impl TeleopSession {
         }
         let fresh =
             self.command_at.is_some_and(|t| now.duration_since(t).as_secs_f64() <= self.settings.command_timeout);
+        if !self.driven {
+            self.used_command_at = None;
+            self.new_command = false;
+            self.state.status = "waiting";
+            self.state.stale_command = false;
+            self.state.human = [0.0; 3];
+            return Ok(&self.state);
+        }
         let command = if fresh { self.command } else { [0.0; 3] };
         self.used_command_at = if fresh && self.new_command { self.command_at } else { None };
         self.new_command = false;
@@ -274,7 +308,7 @@ impl TeleopSession {
         let q = self.live.q();
         let done = self.judges.iter_mut().any(|j| j.succeeded(q));
         let time = self.live.record().steps as f64 * arbiter.settings().period;
-        self.outcome = if step.collided {
+        let outcome = if step.collided {
             Some(Outcome::Collision)
         } else if done {
             Some(Outcome::Success)
@@ -283,6 +317,9 @@ impl TeleopSession {
         } else {
             None
         };
+        if let Some(outcome) = outcome {
+            self.end(outcome);
+        }
         self.state.human = command;
         self.state.status = step.status.as_str();
         self.state.tick_us = step.tick_us;
@@ -297,6 +334,27 @@ impl TeleopSession {
         self.used_command_at
     }
 
+    /// Ends the episode in `outcome` and says why: success, the colliding
+    /// pair, or, on a timeout, how far the gripper is from the goal the
+    /// beliefs favour (a person's goal is theirs to know); an episode the
+    /// person stopped (`Failed`) gets that goal's judge's diagnosis (how far
+    /// short, or which grasp criterion fails at the object).
+    fn end(&mut self, outcome: Outcome) {
+        let beliefs = self.ws.beliefs();
+        let likely = (0..beliefs.len()).max_by(|&a, &b| beliefs[a].total_cmp(&beliefs[b])).unwrap_or(0);
+        let gripper = self.live.gripper();
+        let target = self.prepared.goals.get(likely).map_or(gripper, |g| g.position);
+        let reason = match (outcome, self.judges.get_mut(likely)) {
+            (Outcome::Failed, Some(judge)) => judge.diagnose(self.live.q(), gripper, target),
+            (other, _) => self.live.reason(other, target),
+        };
+        self.outcome = Some(outcome);
+        self.state.outcome = Some(outcome.as_str());
+        self.state.reason = Some(reason.as_str());
+        self.state.reason_detail = Some(reason.to_string());
+        self.reason = Some(reason);
+    }
+
     fn refresh_state(&mut self, time: f64) -> Result<(), TeleopError> {
         let robot = &self.prepared.problem.robot;
         robot.forward_kinematics(&mut self.kin, self.live.q())?;
@@ -307,6 +365,7 @@ impl TeleopSession {
         s.q.clear();
         s.q.extend_from_slice(self.live.q());
         s.gripper = self.live.gripper();
+        s.gripper_pose = pose7(&robot.frame_pose(&self.kin, self.prepared.arbiter.gripper_frame()));
         s.executed = self.live.record().executed.last().copied().unwrap_or([0.0; 3]);
         s.beliefs.clear();
         s.beliefs.extend_from_slice(self.ws.beliefs());
@@ -315,6 +374,15 @@ impl TeleopSession {
         }
         s.mode = self.ws.mode().as_str();
         s.clearance = self.live.clearance();
+        // Names change only when the pair does: no strings per tick.
+        let nearest = self.live.nearest_pair();
+        if nearest != self.nearest {
+            self.nearest = nearest;
+            s.nearest = nearest.map(|pair| {
+                let (a, b) = self.prepared.arbiter.collision_model().pair_names(pair);
+                [a.to_string(), b.to_string()]
+            });
+        }
         s.min_clearance = self.live.record().min_clearance;
         s.ellipsoid = if s.steps > 0 { tick_ellipsoid(&self.ws, self.ws.mode()) } else { [[0.0; 3]; 3] };
         s.outcome = self.outcome.map(|o| o.as_str());
@@ -322,14 +390,19 @@ impl TeleopSession {
     }
 
     /// Ends the episode (as `failed` when it was still running: the person
-    /// stopped it) and saves it to the record directory when it has ticks,
-    /// once. Returns the file written.
+    /// stopped it, its [`reason`](Self::reason) the judge's diagnosis) and saves it to the record directory when it has ticks,
+    /// once. Returns the file written. An episode never [`driven`](Self::driven)
+    /// has not started: nothing ends and nothing is saved.
     ///
     /// # Errors
     /// Writing the recording.
     pub fn finish(&mut self) -> Result<Option<PathBuf>, TeleopError> {
-        let outcome = *self.outcome.get_or_insert(Outcome::Failed);
-        self.state.outcome = Some(outcome.as_str());
+        if !self.driven {
+            return Ok(None);
+        }
+        if self.outcome.is_none() {
+            self.end(Outcome::Failed);
+        }
         let (Some(dir), true, false) = (&self.settings.record_dir, self.live.record().steps > 0, self.saved) else {
             return Ok(None);
         };
@@ -337,20 +410,10 @@ impl TeleopSession {
         let p = &self.prepared;
         let mode = self.ws.mode();
         let mut record = self.live.record().clone();
-        record.outcome = outcome;
-        // Why, measured from the goal the beliefs favour (a person's goal is theirs to know).
-        let beliefs = self.ws.beliefs();
-        let likely = (0..beliefs.len()).max_by(|&a, &b| beliefs[a].total_cmp(&beliefs[b])).unwrap_or(0);
-        let target = p.goals.get(likely).map_or(self.live.gripper(), |g| g.position);
-        record.reason = match outcome {
-            Outcome::Failed => {
-                let g = self.live.gripper();
-                let distance =
-                    ((g[0] - target[0]).powi(2) + (g[1] - target[1]).powi(2) + (g[2] - target[2]).powi(2)).sqrt();
-                crate::sim::Reason::StoppedShort { distance }
-            }
-            other => self.live.reason(other, target),
-        };
+        if let Some(reason) = &self.reason {
+            record.outcome = reason.outcome();
+            record.reason = reason.clone();
+        }
         let label = format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed);
         std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
         let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());
@@ -373,16 +436,23 @@ impl TeleopSession {
             self.judges = self.prepared.goals.iter().map(TaskJudge::new).collect();
             self.kin = KinematicsWorkspace::new(&self.prepared.problem.robot);
         }
+        // Pair indices belong to the old collision model.
+        self.nearest = None;
+        self.state.nearest = None;
         if self.prepared.modes.contains(&mode) {
             self.ws.set_mode(mode);
         }
         self.live = LiveEpisode::new(&self.prepared.arbiter, &mut self.ws, &self.prepared.problem.start, true)?;
         self.outcome = None;
+        self.reason = None;
+        self.state.reason = None;
+        self.state.reason_detail = None;
         self.saved = false;
+        self.driven = false;
         self.command = [0.0; 3];
         self.command_at = None;
         self.episode += 1;
-        self.state.status = "nominal";
+        self.state.status = "waiting";
         self.refresh_state(0.0)
     }
 }
