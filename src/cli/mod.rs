@@ -249,10 +249,11 @@ pub enum Command {
     ///   tandem arbitrate builtin:panda_grasp_box --mode sos --json
     #[command(verbatim_doc_comment)]
     Arbitrate(arbitrate::ArbitrateArgs),
-    /// Train networks on tandem's datasets: `tandem learn policy --data DIR
-    /// --out policy.safetensors` fits the robot policy network (§3.3.3 of the
-    /// dissertation).
-    /// See `tandem learn policy --help`.
+    /// Train networks: `tandem learn policy --data DIR --out
+    /// policy.safetensors` fits the robot policy network to a dataset
+    /// (§3.3.3 of the dissertation); `tandem learn arbitration --out
+    /// arbiter.safetensors` trains an arbitration actor with DDPG (chapter
+    /// 6). See `tandem learn <name> --help`.
     Learn(learn::LearnArgs),
     /// Run the dissertation's experiments with simulated operators:
     /// reach-grasp (Table 5.1), planar (Table 4.1), policy (the learned

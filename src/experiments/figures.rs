@@ -1,5 +1,5 @@
 //! Figures of learning: loss curves, the training data's joint values
-//! against the limits (the seed's Fig. 3.8), and success against the
+//! against the limits (the dissertation's Fig. 3.8), and success against the
 //! start's distance from the data; and how episodes end on their paths.
 
 use crate::figures::{Color, FigureError, Marker, Panel, Series, render_panels};
