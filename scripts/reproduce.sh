@@ -29,7 +29,8 @@
 # The runs that train a candle network (learned, traded's network
 # predictor, policy) are rendered and checked for shape only: candle's
 # matrix kernels choose their SIMD path by the CPU at run time, so their
-# numbers are the same on one machine and not across machines.
+# numbers are the same on one machine and not across machines (and traded
+# charges the planning time it measures).
 #
 # Exit status: 0 reproduced (or check passed), 1 a run or a check failed,
 # 2 usage error.
@@ -124,8 +125,10 @@ for name in $names; do
       policy) run policy "$bin" experiment policy --tasks 200 --train-count 20000 --rounds 2 --out "$out" ;;
     esac
   fi
-  # Episode recordings are data for analysis, not published results.
+  # Episode recordings, generated datasets and trained weights are data for
+  # analysis, not published results.
   find "$root/$name" \( -name episodes -o -name '*.safetensors' -o -name '*.parquet' \) -prune -exec rm -rf {} +
+  rm -rf "$root/$name/data"
 done
 
 python=python3

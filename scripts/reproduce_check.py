@@ -21,7 +21,8 @@ import sys
 import tempfile
 
 # Runs whose numbers depend on candle's CPU kernels (chosen by the CPU at
-# run time): rendered and checked for their files, not their numbers.
+# run time), and traded's on the planning time it measures and charges:
+# rendered and checked for their files, not their numbers.
 CANDLE_RUNS = {"learned", "traded", "policy"}
 
 # Published figure (docs/figures/NAME) <- its source under docs/results/.

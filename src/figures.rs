@@ -215,6 +215,8 @@ pub struct Panel {
     pub equal_axes: bool,
     /// Names of x = 0, 1, 2, …: a categorical x axis.
     pub categories: Vec<String>,
+    /// x counts something (epochs, episodes): ticks on whole numbers only.
+    pub integer_x: bool,
 }
 
 impl Panel {
@@ -229,6 +231,7 @@ impl Panel {
             y_range: None,
             equal_axes: false,
             categories: vec![],
+            integer_x: false,
         }
     }
 
@@ -254,6 +257,12 @@ impl Panel {
     /// Equal scales on both axes (when the data's shape allows it).
     pub fn equal(mut self) -> Panel {
         self.equal_axes = true;
+        self
+    }
+
+    /// Ticks x on whole numbers only (x counts epochs, episodes, …).
+    pub fn integer_x(mut self) -> Panel {
+        self.integer_x = true;
         self
     }
 
@@ -465,6 +474,7 @@ fn draw_panel(panel: &Panel, area: &DrawingArea<SVGBackend<'_>, Shift>) -> Resul
     // 1-2-5 step with at most the given count of ticks, so the count of our
     // step's multiples in range makes it pick exactly our step.
     let (x_step, y_step) = (tick_step((x0, x1), 5), tick_step((y0, y1), 5));
+    let x_step = if panel.integer_x { x_step.max(1.0) } else { x_step };
     let x_labels = if panel.categories.is_empty() { ticks((x0, x1), x_step) } else { panel.categories.len() * 2 + 1 };
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, ("sans-serif", 15))

@@ -86,8 +86,9 @@ pub fn loss_curves(report: &crate::learn::TrainReport, title: &str) -> Result<St
         .filter(|l| l.validation_speed.is_finite())
         .map(|l| (l.epoch as f64, log(l.validation_speed)))
         .collect();
-    let mut panel =
-        Panel::new("loss (direction MSE + speed MSE)", "epoch", "log10 loss").with(Series::line("train", &train, 0));
+    let mut panel = Panel::new("loss (direction MSE + speed MSE)", "epoch", "log10 loss")
+        .integer_x()
+        .with(Series::line("train", &train, 0));
     if !validation.is_empty() {
         panel = panel
             .with(Series::line("validation", &validation, 1))
@@ -213,8 +214,8 @@ pub fn training_curves(
         let len = seeds.iter().map(Vec::len).min().unwrap_or(0);
         (0..len).map(|i| seeds.iter().map(|s| f(&s[i])).sum::<f64>() / seeds.len() as f64).collect::<Vec<f64>>()
     };
-    let mut success = Panel::new("success rate", "training episode", "share of episodes (moving average)");
-    let mut returns = Panel::new("return", "training episode", "episode return (moving average)");
+    let mut success = Panel::new("success rate", "training episode", "share of episodes (moving average)").integer_x();
+    let mut returns = Panel::new("return", "training episode", "episode return (moving average)").integer_x();
     for (color, (name, seeds)) in runs.iter().enumerate() {
         let s = mean_over(seeds, &|e| f64::from(u8::from(e.outcome == "success")));
         let r = mean_over(seeds, &|e| e.episode_return);
