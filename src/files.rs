@@ -38,3 +38,22 @@ impl FileError {
         FileError::Format { path: path.into(), message: e.to_string() }
     }
 }
+
+/// Checks, before long work, that `path` can be written: its folder is
+/// created when missing and the file opened for writing (an existing file
+/// is left as it is; a new one is removed again), so that a run of minutes
+/// does not end in "cannot write".
+///
+/// # Errors
+/// [`FileError::Io`] naming the folder or the file.
+pub fn check_writable(path: &Path) -> Result<(), FileError> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(FileError::io(dir))?;
+    }
+    let existed = path.exists();
+    std::fs::OpenOptions::new().append(true).create(true).open(path).map_err(FileError::io(path))?;
+    if !existed {
+        std::fs::remove_file(path).map_err(FileError::io(path))?;
+    }
+    Ok(())
+}

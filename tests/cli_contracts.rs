@@ -247,3 +247,38 @@ fn tandem_simd_chooses_the_fast_path_variant() {
         assert_eq!(run("avx2").0, "avx2");
     }
 }
+
+#[test]
+fn arbitrate_ranges_and_the_learned_mode_are_usage_errors() {
+    for (option, value) in [("--rate", "0"), ("--rate", "NaN"), ("--rate", "1001"), ("--speed", "3"), ("--speed", "0")]
+    {
+        let o = expect(&["arbitrate", "builtin:panda_grasp_box", option, value], 2, "outside the allowed range");
+        assert!(stderr(&o).contains(option), "{option} {value}: {}", stderr(&o));
+    }
+    expect(&["arbitrate", "builtin:panda_grasp_box", "--rate", "fast"], 2, "is not a number");
+    // The learned mode names the option it needs, not a Rust function.
+    let o = expect(&["arbitrate", "builtin:planar_pick", "--mode", "learned"], 2, "--arbiter");
+    assert!(!stderr(&o).contains("with_arbitration_policy"), "{}", stderr(&o));
+}
+
+/// Training commands check their output before training: a path that
+/// cannot be written fails at once, with no training progress printed.
+#[test]
+fn training_checks_its_output_before_it_trains() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let out = file.join("actor.safetensors");
+    let o = expect(&["learn", "arbitration", "--episodes", "20", "--out", out.to_str().unwrap()], 1, "cannot access");
+    assert!(stderr(&o).contains("a-file"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("episode 10"), "trained before checking --out: {}", stderr(&o));
+    // learn policy: the output is checked before the dataset is even read.
+    let out = file.join("policy.safetensors");
+    let o =
+        expect(&["learn", "policy", "--data", "no-such-dataset", "--out", out.to_str().unwrap()], 1, "cannot access");
+    assert!(stderr(&o).contains("a-file") && !stderr(&o).contains("no-such-dataset"), "{}", stderr(&o));
+    // A good --out is left without stray files when training fails later.
+    let good = dir.path().join("sub").join("p.safetensors");
+    expect(&["learn", "policy", "--data", "no-such-dataset", "--out", good.to_str().unwrap()], 1, "no-such-dataset");
+    assert!(!good.exists(), "the writability check left {}", good.display());
+}

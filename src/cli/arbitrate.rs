@@ -25,8 +25,9 @@ pub struct ArbitrateArgs {
     #[arg(long, default_value = "sos")]
     pub mode: ArbitrationMode,
     /// The trained arbitration actor of `--mode learned` (`tandem learn
-    /// arbitration`; trained for the problem's number of goals).
-    #[arg(long, value_name = "FILE")]
+    /// arbitration`; trained for the problem's number of goals). Required
+    /// with `--mode learned`.
+    #[arg(long, value_name = "FILE", required_if_eq("mode", "learned"))]
     pub arbiter: Option<PathBuf>,
     /// Simulated operator: straightline (straight at the grasp point) or
     /// approach (to a point 10 cm above it, then down).
@@ -35,11 +36,12 @@ pub struct ArbitrateArgs {
     /// Seed of the planner that seeds each goal's reference.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Operator speed (m/s).
-    #[arg(long, default_value_t = 0.1)]
+    /// Operator speed (m/s), 0.001 to 2.
+    #[arg(long, default_value_t = 0.1, value_parser = |s: &str| super::number_in(s, 0.001..=2.0))]
     pub speed: f64,
-    /// Control rate (Hz; the dissertation's 15 Hz by default).
-    #[arg(long, default_value_t = 15.0)]
+    /// Control rate (Hz; the dissertation's 15 Hz by default), 1 to 1000
+    /// as `tandem serve` takes.
+    #[arg(long, default_value_t = 15.0, value_parser = |s: &str| super::number_in(s, 1.0..=1000.0))]
     pub rate: f64,
     /// Write the gripper path (top and side views, with the reference) as SVG.
     #[arg(long, value_name = "FILE")]
@@ -60,12 +62,6 @@ pub struct ArbitrateArgs {
 
 /// Runs the episode; [`Outcome::Unsuccessful`](super::Outcome) (exit 3) unless it succeeds.
 pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::error::Error>> {
-    if !(args.rate.is_finite() && args.rate > 0.0 && args.rate <= 10_000.0) {
-        return Err(format!("--rate {} Hz: give a rate in (0, 10000]", args.rate).into());
-    }
-    if !(args.speed.is_finite() && args.speed > 0.0 && args.speed <= 2.0) {
-        return Err(format!("--speed {} m/s: give a speed in (0, 2]", args.speed).into());
-    }
     let problem = load(&args.problem)?;
     let began = Instant::now();
     let options = GoalSettings { seed: Some(args.seed), ..GoalSettings::default() };

@@ -258,8 +258,11 @@ fn summarise(record: &EpisodeRecord, user: usize, method: usize, speed: f64) -> 
 /// training curves (`.svg`).
 ///
 /// # Errors
-/// Training, or a file that cannot be written.
+/// A file that cannot be written (checked before training), training.
 pub fn train_and_save(settings: &DdpgSettings, out: &Path) -> Result<DdpgReport, ExperimentError> {
+    for path in [out.to_path_buf(), out.with_extension("json"), out.with_extension("svg")] {
+        crate::files::check_writable(&path)?;
+    }
     let report = train_arbitration(settings, &mut |_| {})?;
     report.actor.save(out)?;
     let json = out.with_extension("json");

@@ -203,13 +203,17 @@ impl PolicyReport {
 /// curves (`.svg`); returns the network and the report.
 ///
 /// # Errors
-/// An unreadable dataset, training, or a file that cannot be written.
+/// A file that cannot be written (checked first), an unreadable dataset,
+/// training.
 pub fn train_and_save(
     data: &Path,
     family: &ProblemFamily,
     options: &LearnSettings,
     out: &Path,
 ) -> Result<(PolicyNetwork, PolicyReport), ExperimentError> {
+    for path in [out.to_path_buf(), out.with_extension("json"), out.with_extension("svg")] {
+        crate::files::check_writable(&path)?;
+    }
     let demos = Demonstrations::read(data)?;
     let (network, report) = train_on(&demos, family, options, None)?;
     network.save(out)?;
