@@ -282,3 +282,56 @@ fn training_checks_its_output_before_it_trains() {
     expect(&["learn", "policy", "--data", "no-such-dataset", "--out", good.to_str().unwrap()], 1, "no-such-dataset");
     assert!(!good.exists(), "the writability check left {}", good.display());
 }
+
+/// The planar task on arms of one and two joints (the planar gripper's
+/// chain cut short; on one joint, the cylinders moved onto its line).
+fn small_planar_problems(dir: &Path) -> [(String, &'static str); 2] {
+    let two = problem_with(
+        dir,
+        "planar_pick.toml",
+        r#"chain = ["world", "gripper_tcp"]"#,
+        r#"chain = ["world", "carriage_y"]"#,
+    );
+    let text = std::fs::read_to_string(&two).unwrap().replace("q = [0.25, 0.05, 0.0]", "q = [0.25, 0.05]");
+    let urdf = common::repo().join("problems/robots/planar/planar_gripper.urdf");
+    let text = text.replace("robots/planar/planar_gripper.urdf", urdf.to_str().unwrap());
+    std::fs::write(&two, &text).unwrap();
+    let one = dir.join("one_joint.toml");
+    let text = text
+        .replace(r#"chain = ["world", "carriage_y"]"#, r#"chain = ["world", "carriage_x"]"#)
+        .replace("q = [0.25, 0.05]", "q = [0.25]")
+        .replace("position = [0.12, 0.42, 0.075]", "position = [0.12, 0.0, 0.075]")
+        .replace("position = [0.38, 0.42, 0.075]", "position = [0.38, 0.0, 0.075]");
+    std::fs::write(&one, text).unwrap();
+    [(two, "two joints"), (one.to_str().unwrap().to_string(), "one joint")]
+}
+
+/// Every mode ticks on arms of one and two joints without panicking (the
+/// task-space natural gradient indexed a 3 × 3 metric in an n × n buffer),
+/// and --field, which draws joints 1 and 2, refuses a one-joint arm.
+#[test]
+fn every_mode_runs_on_arms_of_one_and_two_joints() {
+    let dir = tempfile::tempdir().unwrap();
+    for (problem, what) in small_planar_problems(dir.path()) {
+        for mode in [
+            "direct",
+            "blend-timid",
+            "blend-aggressive",
+            "avoid",
+            "natural-gradient",
+            "natural-gradient-joint",
+            "constrained",
+            "sos",
+        ] {
+            for operator in ["straightline", "approach"] {
+                let o = tandem(&["arbitrate", &problem, "--mode", mode, "--operator", operator, "--json"]);
+                assert!(matches!(o.status.code(), Some(0 | 3)), "{what}, {mode}, {operator}: {}", stderr(&o));
+                let report: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+                assert_eq!(report["hard_violations"], 0, "{what}, {mode}, {operator}: {report}");
+            }
+        }
+    }
+    let [_, (one, _)] = small_planar_problems(dir.path());
+    let field = dir.path().join("field.svg");
+    expect(&["arbitrate", &one, "--field", field.to_str().unwrap()], 1, "1 active joint");
+}

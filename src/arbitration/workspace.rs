@@ -223,7 +223,9 @@ impl Arbiter {
                 probe_jac: Matrix6xX::zeros(n),
                 scratch: MetricWorkspace::new(n),
                 task_scratch: MetricWorkspace::new(3),
-                raw: vec![0.0; n * n],
+                // n × n joint metrics and 3 × 3 task metrics, also on arms
+                // of fewer than three joints.
+                raw: vec![0.0; (n * n).max(9)],
                 goal_joint: Metric::identity(n),
                 joint: Metric::identity(n),
                 goal_task: Metric::identity(3),

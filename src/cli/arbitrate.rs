@@ -200,6 +200,14 @@ fn field_svg(
     use crate::arbitration::{ArbiterGoal, ObstacleRepulsion, metric_field};
     use crate::figures::SeriesKind;
     const GRID: usize = 11;
+    if problem.robot.nq() < 2 {
+        let n = problem.robot.nq();
+        return Err(format!(
+            "--field draws the metric over the first two joints; {} has {n} active joint",
+            problem.name
+        )
+        .into());
+    }
     let single = Arbiter::for_problem(problem, &goals[target..=target], *settings)?;
     let all = Arbiter::for_problem(problem, goals, *settings)?;
     let model = all.collision_model().clone();

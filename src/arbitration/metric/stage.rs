@@ -40,7 +40,7 @@ impl Arbiter {
                     &ws.input.velocity,
                     settings.step,
                     &mut ws.metric.scratch,
-                    &mut ws.metric.raw,
+                    &mut ws.metric.raw[..n * n],
                 ),
                 MetricKind::Fisher => {
                     let center = &ws.robot.actions[g * n..(g + 1) * n];
@@ -53,19 +53,20 @@ impl Arbiter {
                         center,
                         r,
                         &mut ws.metric.scratch,
-                        &mut ws.metric.raw,
+                        &mut ws.metric.raw[..n * n],
                     )
                 }
                 MetricKind::TaskFisher => self.task_fisher(ws, g, q),
             };
-            if result.is_err() || ws.metric.raw.iter().any(|x| !x.is_finite()) {
+            let size = if task { 9 } else { n * n };
+            if result.is_err() || ws.metric.raw[..size].iter().any(|x| !x.is_finite()) {
                 return false;
             }
             if task {
                 repair(&mut ws.metric.raw[..9], settings.floor, &mut ws.metric.task_scratch, &mut ws.metric.goal_task);
                 mixture.add(&mut ws.metric.task_scratch, belief, &ws.metric.goal_task);
             } else {
-                repair(&mut ws.metric.raw, settings.floor, &mut ws.metric.scratch, &mut ws.metric.goal_joint);
+                repair(&mut ws.metric.raw[..n * n], settings.floor, &mut ws.metric.scratch, &mut ws.metric.goal_joint);
                 mixture.add(&mut ws.metric.scratch, belief, &ws.metric.goal_joint);
             }
         }
