@@ -991,7 +991,7 @@ fn family_unknown_key() {
 #[test]
 fn family_negative_jitter() {
     let text = family_text("[start]\njitter = -0.1\n");
-    expect_family_error(&text, "jitter", "start.jitter", "must be zero or positive");
+    expect_family_error(&text, "jitter", "start.jitter", "must be between 0 and 10 rad, got -0.1");
 }
 
 #[test]
@@ -1012,18 +1012,29 @@ fn family_obstacle_ranges() {
     let text = family_text(&OBSTACLES.replace("[0, 2]", "[3, 2]"));
     expect_family_error(&text, "count", "obstacles.count", "min ≤ max ≤ 1000, got [3, 2]");
     let text = family_text(&OBSTACLES.replace("[0.04, 0.1]", "[0.1, 0.04]"));
-    expect_family_error(&text, "size", "obstacles.size", "0 < low ≤ high, got [0.1, 0.04]");
+    expect_family_error(&text, "size", "obstacles.size", "0 < low ≤ high ≤ 10 m, got [0.1, 0.04]");
     let text = family_text(&OBSTACLES.replace("[0.75, 0.6, 0.8]", "[0.75, 0.6, 0.2]"));
-    expect_family_error(
-        &text,
-        "region_max",
-        "obstacles.region_max[2]",
-        "must be finite and ≥ region_min[2], got 0.2 < 0.25",
-    );
+    expect_family_error(&text, "region_max", "obstacles.region_max[2]", "be ≥ region_min[2], got 0.2 < 0.25");
     let text = family_text(&OBSTACLES.replace("\"sphere\"", "\"mesh\""));
     expect_family_error(&text, "shapes", "obstacles.shapes[1]", "unknown shape 'mesh'");
     let text = family_text(&format!("{OBSTACLES}clearance = -0.01\n"));
-    expect_family_error(&text, "clearance", "obstacles.clearance", "must be zero or positive");
+    expect_family_error(&text, "clearance", "obstacles.clearance", "must be between 0 and 10 m, got -0.01");
+}
+
+/// Finite values far beyond any workspace are refused where they enter:
+/// they used to pass and then panic in sampling (a range of ±1.7e308) or in
+/// the collision solver (an obstacle of 1e300 m).
+#[test]
+fn family_values_beyond_any_workspace_are_refused() {
+    let text =
+        family_text(&OBSTACLES.replace("region_min = [0.25, -0.6, 0.25]", "region_min = [-1.7e308, -0.6, 0.25]"));
+    expect_family_error(&text, "region_min", "obstacles.region_min[0]", "within ±1000 m");
+    let text = family_text(&OBSTACLES.replace("[0.75, 0.6, 0.8]", "[1.7e308, 0.6, 0.8]"));
+    expect_family_error(&text, "region_max", "obstacles.region_max[0]", "within ±1000 m");
+    let text = family_text(&OBSTACLES.replace("[0.04, 0.1]", "[0.04, 1e300]"));
+    expect_family_error(&text, "size", "obstacles.size", "≤ 10 m, got [0.04, 1e300]");
+    let text = family_text("[[objects]]\nname = \"box\"\nx = [-1.7e308, 1.7e308]\n");
+    expect_family_error(&text, "x =", "objects[0].x", "within ±1000");
 }
 
 #[test]

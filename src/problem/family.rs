@@ -6,6 +6,7 @@ use super::toml_source::KeyPath;
 use super::{Problem, ProblemError, Source, SourceFile};
 use crate::collision::{CollisionModel, CollisionWorkspace, signed_distance};
 use crate::scene::{Obstacle, Scene, Shape};
+use crate::settings::readable;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -295,16 +296,29 @@ fn is_clear(problem: &Problem, o: &Obstacle, clearance: f64) -> Result<bool, cra
     Ok(near.iter().all(|d| model.pair_names(d.pair).1 != o.name))
 }
 
+/// The largest coordinate, range end or size a family may give (m or rad):
+/// finite values far beyond any workspace (±1.7e308) overflow the samplers
+/// and the collision solvers, so they are refused where they enter.
+const FAMILY_LIMIT: f64 = 1000.0;
+
+/// The largest random obstacle and start jitter (m, rad).
+const MAX_OBSTACLE_SIZE: f64 = 10.0;
+const MAX_JITTER: f64 = 10.0;
+
 impl RawFamily {
     fn build(self, src: &Source, base: Problem) -> Result<ProblemFamily, ProblemError> {
         let root = KeyPath::root();
         let jitter = self.start.jitter;
-        if !(jitter.is_finite() && jitter >= 0.0) {
-            return Err(src.error(&root.key("start").key("jitter"), format!("must be zero or positive, got {jitter}")));
+        if !(jitter.is_finite() && (0.0..=MAX_JITTER).contains(&jitter)) {
+            let msg = format!("must be between 0 and {MAX_JITTER} rad, got {jitter}");
+            return Err(src.error(&root.key("start").key("jitter"), msg));
         }
         let range = |path: KeyPath, r: Option<Range2>| match r {
-            Some([a, b]) if !(a.is_finite() && b.is_finite() && a <= b) => {
-                Err(src.error(&path, format!("must be [low, high] with low ≤ high, got [{a}, {b}]")))
+            Some([a, b]) if !(a.is_finite() && b.is_finite() && a <= b) => Err(src
+                .error(&path, format!("must be [low, high] with low ≤ high, got [{}, {}]", readable(a), readable(b)))),
+            Some([a, b]) if a.abs().max(b.abs()) > FAMILY_LIMIT => {
+                Err(src
+                    .error(&path, format!("must lie within ±{FAMILY_LIMIT}, got [{}, {}]", readable(a), readable(b))))
             }
             _ => Ok(r),
         };
@@ -355,16 +369,25 @@ impl RawObstacleDistribution {
             }
         }
         let [lo, hi] = self.size;
-        if !(lo > 0.0 && lo <= hi && hi.is_finite()) {
-            return Err(src.error(&p.key("size"), format!("must be [low, high] with 0 < low ≤ high, got [{lo}, {hi}]")));
+        if !(lo > 0.0 && lo <= hi && hi <= MAX_OBSTACLE_SIZE) {
+            let (lo, hi) = (readable(lo), readable(hi));
+            let msg = format!("must be [low, high] with 0 < low ≤ high ≤ {MAX_OBSTACLE_SIZE} m, got [{lo}, {hi}]");
+            return Err(src.error(&p.key("size"), msg));
         }
         let (min, max) = (Vector3::from(self.region_min), Vector3::from(self.region_max));
-        if let Some(i) = (0..3).find(|&i| !(min[i].is_finite() && max[i].is_finite() && min[i] <= max[i])) {
-            let msg = format!("must be finite and ≥ region_min[{i}], got {} < {}", max[i], min[i]);
+        let within = |v: f64| v.is_finite() && v.abs() <= FAMILY_LIMIT;
+        if let Some(i) = (0..3).find(|&i| !within(min[i])) {
+            let msg = format!("must lie within ±{FAMILY_LIMIT} m, got {}", readable(min[i]));
+            return Err(src.error(&p.key("region_min").index(i), msg));
+        }
+        if let Some(i) = (0..3).find(|&i| !(within(max[i]) && min[i] <= max[i])) {
+            let msg =
+                format!("must lie within ±{FAMILY_LIMIT} m and be ≥ region_min[{i}], got {} < {}", max[i], min[i]);
             return Err(src.error(&p.key("region_max").index(i), msg));
         }
-        if !(self.clearance.is_finite() && self.clearance >= 0.0) {
-            return Err(src.error(&p.key("clearance"), format!("must be zero or positive, got {}", self.clearance)));
+        if !(self.clearance.is_finite() && (0.0..=MAX_OBSTACLE_SIZE).contains(&self.clearance)) {
+            let msg = format!("must be between 0 and {MAX_OBSTACLE_SIZE} m, got {}", self.clearance);
+            return Err(src.error(&p.key("clearance"), msg));
         }
         Ok(ObstacleDistribution {
             count: self.count,
