@@ -335,3 +335,16 @@ fn every_mode_runs_on_arms_of_one_and_two_joints() {
     let field = dir.path().join("field.svg");
     expect(&["arbitrate", &one, "--field", field.to_str().unwrap()], 1, "1 active joint");
 }
+
+/// serve checks its recording folder before it listens: an unwritable one
+/// is an error at start, not a failure at every save shown only on the page.
+#[test]
+fn serve_refuses_a_recording_folder_it_cannot_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "").unwrap();
+    let bad = file.join("recordings");
+    let o =
+        expect(&["serve", "--task", "planar", "--port", "0", "--record-dir", bad.to_str().unwrap()], 1, "--record-dir");
+    assert!(stderr(&o).contains("a-file") && stderr(&o).contains("--no-record"), "{}", stderr(&o));
+}

@@ -84,9 +84,14 @@ pub fn run(args: &ServeArgs) -> Result<(), Box<dyn std::error::Error>> {
         task,
         seed: args.seed,
     };
-    // A problem the task cannot use fails here, not in the first page.
+    // A problem the task cannot use, or a recording folder that cannot be
+    // written, fails here, not in the first page or at the first save.
     TeleopSession::prepare(&settings.session, task, args.seed)?;
     let record = settings.session.record_dir.clone();
+    if let Some(dir) = &record {
+        crate::files::check_writable(&dir.join(".tandem-write-check"))
+            .map_err(|e| format!("--record-dir: {e} (or give --no-record)"))?;
+    }
     serve(settings, |address| {
         println!("tandem serve: open http://{address}/ in a browser (Ctrl-C stops)");
         match &record {
