@@ -136,6 +136,14 @@ fn cli_prints_table_7_3_as_json() {
         .args(["experiment", "traded", "--planning-latency=-1"])
         .output()
         .expect("run tandem");
-    assert!(!bad.status.success());
+    assert_eq!(bad.status.code(), Some(2), "a value out of range is a usage error");
     assert!(String::from_utf8_lossy(&bad.stderr).contains("--planning-latency"));
+    // A huge value is quoted as typed, not as 301 digits.
+    let huge = Command::new(env!("CARGO_BIN_EXE_tandem"))
+        .args(["experiment", "traded", "--planning-latency", "1e300"])
+        .output()
+        .expect("run tandem");
+    let message = String::from_utf8_lossy(&huge.stderr);
+    assert_eq!(huge.status.code(), Some(2));
+    assert!(message.contains("1e300 is outside the allowed range [0, 3600]") && message.len() < 400, "{message}");
 }

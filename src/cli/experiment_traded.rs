@@ -21,8 +21,8 @@ pub struct TradedArgs {
     pub discard_steps: usize,
     /// Charge this planning time (s) per plan instead of the measured one
     /// (makes the times exactly reproducible; e.g. the dissertation's planner
-    /// took seconds).
-    #[arg(long, value_name = "SECONDS")]
+    /// took seconds), 0 to 3600.
+    #[arg(long, value_name = "SECONDS", value_parser = |s: &str| super::number_in(s, 0.0..=MAX_PLANNING_LATENCY))]
     pub planning_latency: Option<f64>,
     /// The predictor driving the robot: the trained classifier (the
     /// dissertation's) or the Bayesian goal posterior over the palm path
@@ -47,11 +47,6 @@ pub struct TradedArgs {
 }
 
 pub(super) fn traded(args: &TradedArgs) -> Result<(), Box<dyn std::error::Error>> {
-    if let Some(l) = args.planning_latency
-        && !(l.is_finite() && (0.0..=MAX_PLANNING_LATENCY).contains(&l))
-    {
-        return Err(format!("--planning-latency must be between 0 and {MAX_PLANNING_LATENCY} s, got {l}").into());
-    }
     if args.commit_steps == 0 {
         return Err("--commit-steps must be at least 1".into());
     }

@@ -316,7 +316,8 @@ where
     if range.contains(&value) {
         Ok(value)
     } else {
-        Err(format!("{value} is outside the allowed range [{}, {}]", range.start(), range.end()))
+        // The value as typed: 1e300 printed back would be 301 digits.
+        Err(format!("{} is outside the allowed range [{}, {}]", text.trim(), range.start(), range.end()))
     }
 }
 
