@@ -342,3 +342,30 @@ fn the_cli_trains_an_arbiter_and_runs_table_6_1() {
     assert_eq!(bad.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&bad.stderr).contains("not a safetensors file"));
 }
+
+/// `tandem serve --mode learned --arbiter FILE` starts in the learned mode
+/// (the session was built in that mode before the actor was attached, and
+/// refused to start); an actor for another goal count says why.
+#[test]
+fn a_teleop_session_starts_in_the_learned_mode_with_its_actor() {
+    use tandem::teleop::{SessionSettings, TeleopSession, TeleopTask};
+    let settings = SessionSettings {
+        mode: ArbitrationMode::Learned,
+        actor: Some(Arc::new(small_actor(3))),
+        record_dir: None,
+        ..SessionSettings::default()
+    };
+    let session = TeleopSession::prepare(&settings, TeleopTask::Planar, 0).expect("starts in the learned mode");
+    assert!(session.scene().modes.contains(&"learned"));
+    let three = {
+        let mut meta = small_actor(4).meta().clone();
+        meta.layout = StateLayout::planar(3);
+        let (head, tail) = meta.layer_shapes();
+        let layers: Vec<(Vec<f32>, Vec<f32>)> =
+            head.iter().chain(&tail).map(|(i, o)| (vec![0.01; i * o], vec![0.0; *o])).collect();
+        ArbitrationActor::from_parts(meta, &layers).unwrap()
+    };
+    let settings = SessionSettings { actor: Some(Arc::new(three)), ..settings };
+    let err = TeleopSession::prepare(&settings, TeleopTask::Planar, 0).err().expect("a 3-goal actor on 2 goals");
+    assert!(err.to_string().contains("3 goals"), "{err}");
+}

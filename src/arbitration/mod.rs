@@ -119,7 +119,10 @@ pub enum ArbitrationError {
     Robot(#[from] RobotError),
     /// [`ArbitrationMode::Learned`] asked of an arbiter without a policy
     /// ([`Arbiter::with_arbitration_policy`]).
-    #[error("the learned arbitration mode needs a trained policy (Arbiter::with_arbitration_policy); none is loaded")]
+    #[error(
+        "the learned arbitration mode needs a trained arbitration actor (from `tandem learn arbitration`: \
+         --arbiter FILE on the command line, Arbiter::with_arbitration_policy in Rust); none is loaded"
+    )]
     NoArbitrationPolicy,
     /// An arbitration policy trained for another number of goals (or with
     /// an invalid layout).

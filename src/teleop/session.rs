@@ -147,14 +147,25 @@ fn prepare(settings: &SessionSettings, task: TeleopTask, seed: u64) -> Result<Pr
     };
     let period = 1.0 / settings.rate_hz;
     let arbiter_settings = ArbiterSettings { mode: settings.mode, period, ..ArbiterSettings::default() };
-    let mut arbiter = Arbiter::for_problem(&problem, &goals, arbiter_settings).map_err(wrap)?;
+    // Built in a mode that needs no actor, the actor attached, then the
+    // requested mode: `--mode learned` with `--arbiter` failed here before
+    // the actor was loaded.
+    let plain = ArbiterSettings { mode: ArbiterSettings::default().mode, ..arbiter_settings };
+    let mut arbiter = Arbiter::for_problem(&problem, &goals, plain).map_err(wrap)?;
     let mut modes = ArbitrationMode::ALL.to_vec();
-    if let Some(actor) = &settings.actor
-        && let Ok(learned) = arbiter.with_arbitration_policy(actor.clone())
-    {
-        arbiter = learned;
-        modes.push(ArbitrationMode::Learned);
+    if let Some(actor) = &settings.actor {
+        match arbiter.with_arbitration_policy(actor.clone()) {
+            Ok(learned) => {
+                arbiter = learned;
+                modes.push(ArbitrationMode::Learned);
+            }
+            // Starting in the learned mode: say why the actor does not fit.
+            Err(e) if settings.mode == ArbitrationMode::Learned => return Err(wrap(e)),
+            // Else the page offers every other mode.
+            Err(_) => {}
+        }
     }
+    let arbiter = arbiter.with_settings(arbiter_settings).map_err(wrap)?;
     let (links, frames) = robot_links(&problem);
     Ok(Prepared { task, seed, problem, goals, arbiter, modes, links, frames })
 }
