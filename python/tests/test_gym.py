@@ -82,7 +82,7 @@ def test_bad_actions_and_tasks_raise_tandem_errors():
 
 def test_the_learned_mode_needs_an_actor_file(tmp_path):
     problem = tandem.Problem.builtin("planar_pick")
-    with pytest.raises(tandem.ArbitrationError, match="needs a trained policy"):
+    with pytest.raises(tandem.ArbitrationError, match="needs a trained arbitration actor"):
         tandem.Arbiter(problem, mode="learned")
     bad = tmp_path / "actor.safetensors"
     bad.write_bytes(b"not a tensor file")
