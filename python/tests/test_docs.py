@@ -18,7 +18,7 @@ BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
 def blocks():
     for doc in DOCS:
         text = doc.read_text()
-        for k, m in enumerate(BLOCK.finditer(text)):
+        for m in BLOCK.finditer(text):
             line = text[: m.start()].count("\n") + 2
             yield pytest.param(doc, line, m.group(1), id=f"{doc.relative_to(REPO)}:{line}")
 

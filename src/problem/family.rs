@@ -301,8 +301,9 @@ fn is_clear(problem: &Problem, o: &Obstacle, clearance: f64) -> Result<bool, cra
 /// and the collision solvers, so they are refused where they enter.
 const FAMILY_LIMIT: f64 = 1000.0;
 
-/// The largest random obstacle and start jitter (m, rad).
+/// The largest random obstacle size and clearance (m).
 const MAX_OBSTACLE_SIZE: f64 = 10.0;
+/// The largest start jitter (rad or m).
 const MAX_JITTER: f64 = 10.0;
 
 impl RawFamily {
@@ -310,7 +311,7 @@ impl RawFamily {
         let root = KeyPath::root();
         let jitter = self.start.jitter;
         if !(jitter.is_finite() && (0.0..=MAX_JITTER).contains(&jitter)) {
-            let msg = format!("must be between 0 and {MAX_JITTER} rad, got {jitter}");
+            let msg = format!("must be between 0 and {MAX_JITTER} rad, got {}", readable(jitter));
             return Err(src.error(&root.key("start").key("jitter"), msg));
         }
         let range = |path: KeyPath, r: Option<Range2>| match r {
@@ -381,12 +382,15 @@ impl RawObstacleDistribution {
             return Err(src.error(&p.key("region_min").index(i), msg));
         }
         if let Some(i) = (0..3).find(|&i| !(within(max[i]) && min[i] <= max[i])) {
-            let msg =
-                format!("must lie within ±{FAMILY_LIMIT} m and be ≥ region_min[{i}], got {} < {}", max[i], min[i]);
+            let msg = format!(
+                "must lie within ±{FAMILY_LIMIT} m and be ≥ region_min[{i}], got {} < {}",
+                readable(max[i]),
+                readable(min[i])
+            );
             return Err(src.error(&p.key("region_max").index(i), msg));
         }
         if !(self.clearance.is_finite() && (0.0..=MAX_OBSTACLE_SIZE).contains(&self.clearance)) {
-            let msg = format!("must be between 0 and {MAX_OBSTACLE_SIZE} m, got {}", self.clearance);
+            let msg = format!("must be between 0 and {MAX_OBSTACLE_SIZE} m, got {}", readable(self.clearance));
             return Err(src.error(&p.key("clearance"), msg));
         }
         Ok(ObstacleDistribution {
