@@ -348,3 +348,67 @@ fn serve_refuses_a_recording_folder_it_cannot_write() {
         expect(&["serve", "--task", "planar", "--port", "0", "--record-dir", bad.to_str().unwrap()], 1, "--record-dir");
     assert!(stderr(&o).contains("a-file") && stderr(&o).contains("--no-record"), "{}", stderr(&o));
 }
+
+/// A goal no configuration within limits reaches, one inside an obstacle
+/// and a start in collision: `plan`, `solve` and `arbitrate` exit 3 with
+/// the status and reason (as JSON under `--json`, the command's usual
+/// keys), where they exited 1 with nothing on stdout (a start in collision
+/// read "the optimizer ended plan_failed" under `arbitrate`).
+#[test]
+fn problems_without_a_solution_exit_3_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let block = |at: &str| {
+        format!(
+            "[[scene.obstacles]]\nname = \"block\"\nshape = \"box\"\nsize = [0.2, 0.2, 0.2]\nposition = {at}\n\n[scene]\nallowed"
+        )
+    };
+    let cases = [
+        (
+            "far",
+            "position = [0.5, 0.3, 0.3]",
+            "position = [3.0, 0.3, 0.3]".to_string(),
+            "goal_invalid",
+            "no joint configuration within limits reaches",
+        ),
+        (
+            "inside",
+            "[scene]\nallowed",
+            block("[0.5, 0.3, 0.3]"),
+            "goal_invalid",
+            "reach the target but all collide (first: ",
+        ),
+        (
+            "start",
+            "[scene]\nallowed",
+            block("[0.3, 0.0, 0.55]"),
+            "start_invalid",
+            "start: in collision: panda_hand and block",
+        ),
+    ];
+    for (name, from, to, status, reason) in cases {
+        let sub = dir.path().join(name);
+        std::fs::create_dir_all(&sub).unwrap();
+        let p = problem_with(&sub, "panda_reach.toml", from, &to);
+        for command in ["plan", "solve", "arbitrate"] {
+            expect(&[command, &p], 3, reason);
+            let o = expect(&[command, &p, "--json"], 3, status);
+            let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap_or_else(|e| panic!("{e}: {o:?}"));
+            let (got_status, got_reason) = match command {
+                "arbitrate" => (&v["reason"], &v["reason_detail"]),
+                _ => (&v["status"], &v["reason"]),
+            };
+            assert_eq!(got_status, status, "{command} {name}: {v}");
+            assert!(got_reason.as_str().unwrap().contains(reason), "{command} {name}: {v}");
+            if command != "arbitrate" {
+                assert_eq!(v["joints"].as_array().map(Vec::len), Some(7), "{command} {name}: {v}");
+            } else {
+                assert_eq!(v["outcome"], "failed", "{v}");
+            }
+        }
+    }
+    // A solved plan names its waypoints' joints too.
+    let o = expect(&["plan", "builtin:panda_reach", "--json"], 0, "solved");
+    let v: serde_json::Value = serde_json::from_str(stdout(&o).trim()).unwrap();
+    assert_eq!(v["joints"][0], "panda_joint1", "{v}");
+    assert_eq!(v["waypoints"][0].as_array().map(Vec::len), Some(7), "{v}");
+}

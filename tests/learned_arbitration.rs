@@ -369,3 +369,33 @@ fn a_teleop_session_starts_in_the_learned_mode_with_its_actor() {
     let err = TeleopSession::prepare(&settings, TeleopTask::Planar, 0).err().expect("a 3-goal actor on 2 goals");
     assert!(err.to_string().contains("3 goals"), "{err}");
 }
+
+/// An actor trained on the planar task's x-y plane, with as many goals as
+/// the Panda's task, is refused for the Panda (it ran to a timeout): when
+/// the session starts in the learned mode, and when the page asks for it.
+#[test]
+fn a_planar_actor_is_refused_for_the_panda() {
+    use tandem::teleop::{SessionSettings, TeleopSession, TeleopTask};
+    let panda_goals = 1;
+    let planar = {
+        let mut meta = small_actor(5).meta().clone();
+        meta.layout = StateLayout::planar(panda_goals);
+        let (head, tail) = meta.layer_shapes();
+        let layers: Vec<(Vec<f32>, Vec<f32>)> =
+            head.iter().chain(&tail).map(|(i, o)| (vec![0.01; i * o], vec![0.0; *o])).collect();
+        ArbitrationActor::from_parts(meta, &layers).unwrap()
+    };
+    let settings = SessionSettings {
+        mode: ArbitrationMode::Learned,
+        actor: Some(Arc::new(planar)),
+        record_dir: None,
+        ..SessionSettings::default()
+    };
+    let err = TeleopSession::prepare(&settings, TeleopTask::ReachGrasp, 0).err().expect("a planar actor on the Panda");
+    assert!(err.to_string().contains("in 2 task dimensions") && err.to_string().contains("in 3"), "{err}");
+    let settings = SessionSettings { mode: ArbitrationMode::SumOfSquares, ..settings };
+    let mut session = TeleopSession::prepare(&settings, TeleopTask::ReachGrasp, 0).expect("other modes run");
+    assert!(!session.scene().modes.contains(&"learned"));
+    let err = session.set_mode("learned").unwrap_err();
+    assert!(err.contains("task dimensions"), "{err}");
+}

@@ -159,6 +159,16 @@ fn nan_and_stale_commands_hold_the_arm_and_fast_ones_are_clamped() {
     session.tick(t0).unwrap();
     assert!((session.state().human[0] - SessionSettings::default().max_speed).abs() < 1e-12);
     assert_eq!(session.state().commands, 4);
+    // So do 1e308 m/s, whose squared norm overflows (it executed as zero,
+    // status nominal), along their direction.
+    for huge in [[1e308, 0.0, 0.0], [1e308, 1e308, 0.0], [f64::MAX, 0.0, 0.0]] {
+        session.set_command(huge, t0);
+        session.tick(t0).unwrap();
+        let state = session.state();
+        let speed = state.human.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((speed - SessionSettings::default().max_speed).abs() < 1e-12, "{huge:?}: {:?}", state.human);
+        assert!(state.human[0] > 0.0 && state.executed[0] > 1e-3, "{huge:?} moves along +x: {state:?}");
+    }
 }
 
 #[test]
@@ -181,12 +191,16 @@ fn modes_switch_and_unknown_or_unavailable_ones_are_refused() {
 // ------------------------------------------------------------------ server
 
 async fn start() -> (std::net::SocketAddr, tempfile::TempDir) {
+    start_with(ServeSettings::default()).await
+}
+
+async fn start_with(settings: ServeSettings) -> (std::net::SocketAddr, tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
     let settings = ServeSettings {
         address: "127.0.0.1:0".parse().unwrap(),
         session: SessionSettings { record_dir: Some(dir.path().into()), ..SessionSettings::default() },
         task: TeleopTask::Planar,
-        ..ServeSettings::default()
+        ..settings
     };
     let server = Server::bind(settings).await.unwrap();
     let address = server.local_addr().unwrap();
@@ -326,4 +340,121 @@ async fn the_server_survives_garbage_floods_and_disconnects() {
     let episode = until(&mut fresh, "episode").await.pop().unwrap();
     assert_eq!((episode["outcome"].as_str(), episode["reason"].as_str()), (Some("failed"), Some("stopped_short")));
     assert!(episode["reason_detail"].as_str().unwrap().contains("cm from the goal"), "{episode}");
+}
+
+/// How the server ended the connection (within 20 s): `Ok` with the close
+/// frame's code, or `Err` with the read error once the socket is gone (a
+/// client that answers the server's pings after the close finds a broken
+/// pipe first); "still open" if it did not.
+async fn closed(client: &mut Client) -> Result<Option<u16>, String> {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        match tokio::time::timeout_at(deadline, client.next()).await {
+            Ok(Some(Ok(Message::Close(frame)))) => return Ok(frame.map(|f| u16::from(f.code))),
+            Ok(Some(Ok(_))) => {}
+            Ok(Some(Err(e))) => return Err(e.to_string()),
+            Ok(None) => return Ok(None),
+            Err(_) => return Err("still open after 20 s".into()),
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_server_caps_sessions_and_closes_idle_pages_and_half_sent_requests() {
+    let settings = ServeSettings {
+        max_sessions: 2,
+        header_timeout: Duration::from_millis(500),
+        idle_timeout: Duration::from_millis(1500),
+        ..ServeSettings::default()
+    };
+    let (address, _dir) = start_with(settings).await;
+    let mut first = connect(address).await;
+    let mut second = connect(address).await;
+    until(&mut first, "scene").await;
+    until(&mut second, "scene").await;
+    // A third page is refused with the reason, and counted.
+    match tokio_tungstenite::connect_async(format!("ws://{address}/ws")).await {
+        Err(tokio_tungstenite::tungstenite::Error::Http(response)) => {
+            assert_eq!(response.status(), 503);
+            let body = String::from_utf8_lossy(response.body().as_deref().unwrap_or_default()).to_string();
+            assert!(body.contains("--max-sessions") && body.contains('2'), "{body}");
+        }
+        other => panic!("a third session was not refused: {other:?}"),
+    }
+    let health = stats(address).await;
+    assert_eq!((health["sessions_open"].as_u64(), health["refused_full"].as_u64()), (Some(2), Some(1)), "{health}");
+
+    // A page that keeps reading answers the pings and stays past the idle
+    // timeout; one that reads but sends nothing is closed with 1001.
+    let reading = tokio::spawn(async move {
+        let began = Instant::now();
+        while began.elapsed() < Duration::from_secs(3) {
+            let next = tokio::time::timeout(Duration::from_millis(200), first.next()).await;
+            assert!(!matches!(next, Ok(None | Some(Ok(Message::Close(_))))), "a reading page was closed");
+        }
+        first
+    });
+    tokio::time::sleep(Duration::from_millis(2500)).await;
+    let ended = closed(&mut second).await;
+    assert!(matches!(ended, Ok(Some(1001))) || ended.as_ref().is_err_and(|e| e.contains("pipe")), "{ended:?}");
+    let first = reading.await.unwrap();
+    let health = stats(address).await;
+    assert_eq!((health["sessions_open"].as_u64(), health["closed_idle"].as_u64()), (Some(1), Some(1)), "{health}");
+    drop(first);
+    drop(second);
+
+    // Half a frame, then nothing: the session is closed as idle and its
+    // place given back (the page may see a reset instead of the close frame:
+    // the server drops the socket with the rest of the frame unread).
+    let mut half_frame = connect(address).await;
+    until(&mut half_frame, "scene").await;
+    if let tokio_tungstenite::MaybeTlsStream::Plain(tcp) = half_frame.get_mut() {
+        // A masked text frame's first byte and a 16-bit length marker, then nothing.
+        tcp.write_all(&[0x81, 0xFE]).await.unwrap();
+    } else {
+        panic!("a plain TCP stream");
+    }
+    tokio::time::sleep(Duration::from_millis(2500)).await;
+    let health = stats(address).await;
+    assert_eq!(health["closed_idle"].as_u64(), Some(2), "{health}");
+    assert!(health["sessions_open"].as_u64() <= Some(1), "{health}");
+
+    // A request head that never ends is closed after the header timeout.
+    let mut half = tokio::net::TcpStream::connect(address).await.unwrap();
+    half.write_all(b"GET /stats HTTP/1.1\r\nHost: localhost\r\n").await.unwrap();
+    let began = Instant::now();
+    let mut rest = vec![];
+    let read = tokio::time::timeout(Duration::from_secs(10), half.read_to_end(&mut rest)).await;
+    assert!(read.is_ok(), "a half-sent request head held the connection for 10 s");
+    assert!(began.elapsed() < Duration::from_secs(5), "closed after {:?}", began.elapsed());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_mode_asked_for_while_a_task_is_prepared_is_applied_or_refused_when_it_is_ready() {
+    let (address, _dir) = start().await;
+    let mut client = connect(address).await;
+    until(&mut client, "scene").await;
+    // Right after a reset (the task is being prepared): a known mode is
+    // applied when the task is ready (it was dropped silently).
+    client.send(Message::Text(r#"{"type":"reset","seed":1}"#.into())).await.unwrap();
+    client.send(Message::Text(r#"{"type":"mode","mode":"constrained"}"#.into())).await.unwrap();
+    let seen = until(&mut client, "scene").await;
+    assert!(seen.iter().all(|m| m["type"] != "error"), "{seen:?}");
+    assert_eq!(seen.last().unwrap()["mode"], "constrained", "{:?}", seen.last());
+    // An unknown name is refused at once, one the task does not offer
+    // when it is ready; the mode stays.
+    client.send(Message::Text(r#"{"type":"reset","seed":2}"#.into())).await.unwrap();
+    client.send(Message::Text(r#"{"type":"mode","mode":"fly"}"#.into())).await.unwrap();
+    client.send(Message::Text(r#"{"type":"mode","mode":"learned"}"#.into())).await.unwrap();
+    let seen = until(&mut client, "scene").await;
+    let mut refused = vec![];
+    while let Ok(Some(Ok(Message::Text(text)))) = tokio::time::timeout(Duration::from_millis(500), client.next()).await
+    {
+        refused.push(serde_json::from_str::<serde_json::Value>(&text).unwrap());
+    }
+    let errors: Vec<&serde_json::Value> = seen.iter().chain(&refused).filter(|m| m["type"] == "error").collect();
+    assert!(errors.iter().any(|e| e["message"].as_str().unwrap().contains("'fly'")), "{errors:?}");
+    let kinds: Vec<_> = seen.iter().chain(&refused).map(|m| m["type"].as_str().unwrap_or_default()).collect();
+    assert!(errors.iter().any(|e| e["message"].as_str().unwrap().contains("--arbiter")), "{kinds:?} {errors:?}");
+    assert_eq!(seen.last().unwrap()["mode"], "constrained");
 }

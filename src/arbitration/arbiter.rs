@@ -104,13 +104,15 @@ impl Arbiter {
     /// [`ArbitrationMode::Learned`] (cheap: shares the rest).
     ///
     /// # Errors
-    /// A policy whose [`StateLayout`] has another number of goals, or an
-    /// invalid layout.
+    /// A policy whose [`StateLayout`] has another number of goals or
+    /// other task dimensions than [`Self::task_dims`], or an invalid layout.
     pub fn with_arbitration_policy(&self, policy: Arc<dyn ArbitrationPolicy>) -> Result<Arbiter, ArbitrationError> {
         let layout = policy.layout();
-        if layout.goals != self.goals.len() || !layout.is_valid() {
+        let expected_task_dims = self.task_dims();
+        if layout.goals != self.goals.len() || !layout.is_valid() || layout.task_dims != expected_task_dims {
             return Err(ArbitrationError::PolicyLayout {
                 expected_goals: self.goals.len(),
+                expected_task_dims,
                 goals: layout.goals,
                 task_dims: layout.task_dims,
             });
@@ -123,6 +125,31 @@ impl Arbiter {
             settings: self.settings,
             learned: Some(policy),
         })
+    }
+
+    /// The task dimensions the gripper moves in: 2 when no joint moves it
+    /// along the world's z axis (a planar robot: an arbitration policy
+    /// trained on the x–y plane), else 3. Read from the gripper's Jacobian
+    /// at the middle of the joint limits and two configurations beside it.
+    pub fn task_dims(&self) -> usize {
+        let robot = &self.robot;
+        let mut ws = crate::robot::KinematicsWorkspace::new(robot);
+        let mut jacobian = nalgebra::Matrix6xX::zeros(robot.nq());
+        let middle: Vec<f64> = robot.limits().iter().map(|l| 0.5 * (l.lower + l.upper)).collect();
+        for offset in [0.0, 0.3, -0.2] {
+            let q: Vec<f64> = middle
+                .iter()
+                .zip(robot.limits())
+                .map(|(m, l)| (m + offset * (l.upper - l.lower)).clamp(l.lower, l.upper))
+                .collect();
+            let moves_in_z = robot.forward_kinematics(&mut ws, &q).is_ok()
+                && robot.frame_jacobian(&ws, self.gripper, ReferenceFrame::WorldAligned, &mut jacobian).is_ok()
+                && (0..robot.nq()).any(|k| jacobian[(2, k)].abs() > 1e-9);
+            if moves_in_z {
+                return 3;
+            }
+        }
+        2
     }
 
     /// The policy of [`ArbitrationMode::Learned`], if any.

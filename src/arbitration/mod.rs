@@ -127,11 +127,13 @@ pub enum ArbitrationError {
     /// An arbitration policy trained for another number of goals (or with
     /// an invalid layout).
     #[error(
-        "the arbitration policy was trained for {goals} goals in {task_dims} task dimensions; this arbiter has {expected_goals} goals"
+        "the arbitration policy was trained for {goals} goals in {task_dims} task dimensions; this arbiter has {expected_goals} goals in {expected_task_dims} (2 for a planar robot's x-y, 3 for an arm)"
     )]
     PolicyLayout {
         /// The arbiter's goals.
         expected_goals: usize,
+        /// The arbiter's task dimensions ([`Arbiter::task_dims`]).
+        expected_task_dims: usize,
         /// The policy's goals.
         goals: usize,
         /// The policy's task dimensions.

@@ -1,5 +1,6 @@
 //! `tandem arbitrate`: one shared-control episode on a problem.
 
+use super::refusal::{Refusal, goal_refusal, start_refusal};
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalSettings, ProblemGoal, problem_goals};
 use crate::experiments::figures::{episode_path, outcome_legend, with_scene};
 use crate::figures::{Color, Marker, Panel, Series, render_panels};
@@ -54,8 +55,13 @@ pub struct ArbitrateArgs {
     #[arg(long, value_name = "FILE")]
     pub field: Option<PathBuf>,
     /// Print one JSON object: {"problem", "mode", "operator", "seed",
-    /// "outcome", "reason", "reason_detail", "steps", "tick_us": {"median",
-    /// "p99", "max"}, "hard_violations", "min_clearance_m", "fallbacks"}.
+    /// "outcome" (success, collision, timeout or failed), "reason" (the
+    /// simulator's, or start_invalid / goal_invalid when the start is
+    /// outside the limits or in collision, or no configuration within
+    /// limits reaches the goal without collision: no episode ran),
+    /// "reason_detail", "steps", "tick_us": {"median", "p99", "max"},
+    /// "hard_violations", "min_clearance_m" (null when no pair can
+    /// collide), "fallbacks"}. Exit status 3 unless the outcome is success.
     #[arg(long)]
     pub json: bool,
 }
@@ -63,9 +69,21 @@ pub struct ArbitrateArgs {
 /// Runs the episode; [`Outcome::Unsuccessful`](super::Outcome) (exit 3) unless it succeeds.
 pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::error::Error>> {
     let problem = load(&args.problem)?;
+    if let Some(refusal) = start_refusal(&problem)? {
+        return Ok(refused(&problem, &refusal, args));
+    }
     let began = Instant::now();
     let options = GoalSettings { seed: Some(args.seed), ..GoalSettings::default() };
-    let goals = problem_goals(&problem, &options)?;
+    let goals = match problem_goals(&problem, &options) {
+        Ok(goals) => goals,
+        Err(e) => {
+            let e: Box<dyn std::error::Error> = e.into();
+            return match goal_refusal(&*e) {
+                Some(refusal) => Ok(refused(&problem, &refusal, args)),
+                None => Err(e),
+            };
+        }
+    };
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
     let settings = ArbiterSettings { period: 1.0 / args.rate, ..ArbiterSettings::default() };
@@ -135,14 +153,40 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         record.reason
     );
     println!("tick: median {median:.1} µs, p99 {p99:.1} µs, max {max:.1} µs");
-    println!(
-        "hard-constraint violations {}, smallest clearance {:.4} m, fallbacks {}",
-        record.hard_violations, record.min_clearance, record.fallbacks
-    );
+    let clearance = match record.min_clearance {
+        c if c.is_finite() => format!("smallest clearance {c:.4} m"),
+        _ => "no collision pair to keep clear".to_string(),
+    };
+    println!("hard-constraint violations {}, {clearance}, fallbacks {}", record.hard_violations, record.fallbacks);
     for path in args.plot.iter().chain(&args.field) {
         println!("wrote {}", path.display());
     }
     Ok(outcome(&record))
+}
+
+/// Reports an episode that cannot start (exit 3): outcome `failed`, the
+/// refusal's status as the reason, the same JSON keys as an episode.
+fn refused(problem: &Problem, refusal: &Refusal, args: &ArbitrateArgs) -> super::Outcome {
+    if args.json {
+        let json = serde_json::json!({
+            "problem": problem.name,
+            "mode": args.mode.as_str(),
+            "operator": args.operator,
+            "seed": args.seed,
+            "outcome": "failed",
+            "reason": refusal.status,
+            "reason_detail": refusal.reason,
+            "steps": 0,
+            "tick_us": {"median": null, "p99": null, "max": null},
+            "hard_violations": 0,
+            "min_clearance_m": null,
+            "fallbacks": 0,
+        });
+        println!("{json}");
+    } else {
+        println!("{}: no episode ({}): {}", problem.name, refusal.status, refusal.reason);
+    }
+    super::Outcome::Unsuccessful
 }
 
 fn outcome(record: &EpisodeRecord) -> super::Outcome {

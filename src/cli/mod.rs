@@ -24,6 +24,7 @@ mod learned_arbitration;
 mod plan;
 mod policy;
 mod problem_args;
+mod refusal;
 mod serve;
 mod solve;
 

@@ -1,7 +1,7 @@
 //! `tandem plan`: RRT-Connect on a problem file or MoveIt inputs.
 
+use super::refusal::{Refusal, goal_refusal, why_invalid};
 use super::{Outcome, ProblemArgs};
-use crate::collision::CollisionWorkspace;
 use crate::experiments::figures::with_scene;
 use crate::figures::{Color, Marker, Panel, Series, render_panels};
 use crate::plan::{PlanStatus, path_length, plan_problem};
@@ -17,11 +17,14 @@ pub struct PlanArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Print exactly one JSON object: {"status", "time_ms", "iterations",
-    /// "waypoints" [[q], ...] (after shortcutting), "path_length" (rad,
+    /// "joints" (the waypoints' columns), "waypoints" [[q], ...] (after shortcutting), "path_length" (rad,
     /// joint space), "simplify_ms", "nodes", "raw_waypoints", "certified"
     /// (every edge passed the certified clearance check), "attempts",
-    /// "reason" (why the start or goal was refused, else null)}. Exit
-    /// status 3 unless "status" is "solved".
+    /// "reason" (why the start or goal was refused, else null)}; "status"
+    /// is "start_invalid" or "goal_invalid" when the start or every goal
+    /// configuration is outside the limits or collides, or no
+    /// configuration within limits reaches the goal. Exit status 3 unless
+    /// "status" is "solved".
     #[arg(long)]
     pub json: bool,
     /// Write an SVG of the gripper (or last link) path seen from above and
@@ -32,11 +35,24 @@ pub struct PlanArgs {
 
 pub(super) fn run(args: &PlanArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
-    let report = plan_problem(&problem, args.seed)?;
+    let report = match plan_problem(&problem, args.seed) {
+        Ok(report) => report,
+        Err(e) => {
+            let e: Box<dyn std::error::Error> = e.into();
+            return match goal_refusal(&*e) {
+                Some(refusal) => Ok(refused(&problem, &refusal, args.json)),
+                None => Err(e),
+            };
+        }
+    };
+    let invalid = |q: &[f64]| -> Result<String, Box<dyn std::error::Error>> {
+        Ok(why_invalid(&problem, q, true)?
+            .unwrap_or_else(|| "refused by the planner (no collision pair to blame)".into()))
+    };
     let reason = match report.result.status {
-        PlanStatus::StartInvalid => Some(format!("start: {}", why_invalid(&problem, &problem.start)?)),
+        PlanStatus::StartInvalid => Some(format!("start: {}", invalid(&problem.start)?)),
         PlanStatus::GoalInvalid => Some(match report.goals.first() {
-            Some(goal) => format!("goal: {}", why_invalid(&problem, goal)?),
+            Some(goal) => format!("goal: {}", invalid(goal)?),
             None => "no goal configuration".to_string(),
         }),
         _ => None,
@@ -53,8 +69,9 @@ pub(super) fn run(args: &PlanArgs) -> Result<Outcome, Box<dyn std::error::Error>
             "status": r.status.name(),
             "time_ms": ms(report.planning_time),
             "iterations": r.iterations,
+            "joints": problem.robot.joint_names(),
             "waypoints": report.path,
-            "path_length": path_length(&report.path),
+            "path_length": path_length(&report.path).max(0.0),
             "simplify_ms": ms(report.simplify_time),
             "nodes": r.nodes,
             "raw_waypoints": r.path.len(),
@@ -100,25 +117,30 @@ pub(super) fn run(args: &PlanArgs) -> Result<Outcome, Box<dyn std::error::Error>
     Ok(if r.status == PlanStatus::Solved { Outcome::Success } else { Outcome::Unsuccessful })
 }
 
-/// Why the planner refused configuration `q` as a start or goal: outside
-/// a limit, in collision, or closer to something than the clearance.
-fn why_invalid(problem: &Problem, q: &[f64]) -> Result<String, Box<dyn std::error::Error>> {
-    if let Err(e) = problem.robot.check_within_limits(q) {
-        return Ok(e.to_string());
-    }
-    let model = problem.collision_model()?;
-    let mut ws = CollisionWorkspace::new(&model);
-    let Some(closest) = model.min_distance(&mut ws, q)? else {
-        return Ok("refused by the planner (no collision pair to blame)".into());
-    };
-    let (a, b) = model.pair_names(closest.pair);
-    let d = closest.signed.distance;
-    let clearance = problem.planner.clearance;
-    Ok(if d < 0.0 {
-        format!("in collision: {a} and {b} penetrate by {:.4} m", -d)
+/// Reports a problem that cannot be attempted (exit 3): the status and the
+/// reason, as JSON with every key of a plan (no path) under `--json`.
+fn refused(problem: &Problem, refusal: &Refusal, json: bool) -> Outcome {
+    if json {
+        let out = serde_json::json!({
+            "status": refusal.status,
+            "time_ms": 0.0,
+            "iterations": 0,
+            "joints": problem.robot.joint_names(),
+            "waypoints": [],
+            "path_length": 0.0,
+            "simplify_ms": 0.0,
+            "nodes": 0,
+            "raw_waypoints": 0,
+            "certified": false,
+            "attempts": 0,
+            "reason": refusal.reason,
+        });
+        println!("{out}");
     } else {
-        format!("{a} and {b} are {d:.5} m apart, closer than the planner clearance of {clearance} m")
-    })
+        println!("problem {} ({}): {}", problem.name, problem.origin, refusal.status);
+        println!("{}", refusal.reason);
+    }
+    Outcome::Unsuccessful
 }
 
 /// Top (x, y) and side (x, z) views of the end-effector path through

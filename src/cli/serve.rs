@@ -53,6 +53,15 @@ pub struct ServeArgs {
     /// Keep no recordings.
     #[arg(long)]
     pub no_record: bool,
+    /// Sessions (pages) open at once at most; one more is refused with
+    /// HTTP 503 and the reason.
+    #[arg(long, default_value_t = 64, value_parser = |s: &str| super::number_in(s, 1usize..=4096))]
+    pub max_sessions: usize,
+    /// A page that sends nothing for this long is closed (s; 1001 "going
+    /// away"). The server pings every third of it; browsers answer by
+    /// themselves.
+    #[arg(long, default_value_t = 30.0, value_parser = |s: &str| super::number_in(s, 1.0..=3600.0))]
+    pub idle_timeout: f64,
 }
 
 /// Serves until interrupted.
@@ -83,6 +92,9 @@ pub fn run(args: &ServeArgs) -> Result<(), Box<dyn std::error::Error>> {
         state_rate_hz: args.state_rate.min(args.rate),
         task,
         seed: args.seed,
+        max_sessions: args.max_sessions,
+        idle_timeout: std::time::Duration::from_secs_f64(args.idle_timeout),
+        ..ServeSettings::default()
     };
     // A problem the task cannot use, or a recording folder that cannot be
     // written, fails here, not in the first page or at the first save.

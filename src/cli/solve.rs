@@ -2,6 +2,7 @@
 //! file or MoveIt inputs.
 
 use super::plan::gripper_path_svg;
+use super::refusal::{Refusal, goal_refusal, start_refusal};
 use super::{Outcome, ProblemArgs};
 use crate::figures::{Panel, Series, render_panels};
 use crate::pipeline::{ProblemSolution, SolveSettings, solve_problem};
@@ -32,15 +33,30 @@ pub struct SolveArgs {
     /// "T" (optimized configurations), "joints", "trajectory" [[q_0], …,
     /// [q_T]] (T + 1 rows, the start first, "time_step" apart), and "plan_ms",
     /// "optimize_ms", "outer_iterations", "evaluations", "within_limits",
-    /// "time_step"}.
+    /// "time_step", "reason"}. A start outside the limits or in collision,
+    /// or a goal no configuration within limits reaches (or only colliding
+    /// ones), is "status" "start_invalid" or "goal_invalid" with "reason"
+    /// in words and no trajectory (exit 3); else "reason" is null.
     #[arg(long)]
     pub json: bool,
 }
 
 pub(super) fn run(args: &SolveArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
+    if let Some(refusal) = start_refusal(&problem)? {
+        return Ok(refused(&problem, &refusal, args.json));
+    }
     let options = SolveSettings { seed: args.seed, horizon: args.horizon, ..SolveSettings::default() };
-    let solution = solve_problem(&problem, &options)?;
+    let solution = match solve_problem(&problem, &options) {
+        Ok(solution) => solution,
+        Err(e) => {
+            let e: Box<dyn std::error::Error> = e.into();
+            return match goal_refusal(&*e) {
+                Some(refusal) => Ok(refused(&problem, &refusal, args.json)),
+                None => Err(e),
+            };
+        }
+    };
     if let Some(dir) = &args.out {
         write_outputs(&problem, &solution, dir)?;
     }
@@ -83,7 +99,40 @@ fn solution_json(problem: &Problem, s: &ProblemSolution) -> serde_json::Value {
         "evaluations": r.evaluations,
         "within_limits": s.validation.within_limits,
         "time_step": s.time_step,
+        "reason": null,
     })
+}
+
+/// Reports a problem that cannot be attempted (exit 3): its status and
+/// reason, as JSON with every key of a solution (no trajectory) under `--json`.
+fn refused(problem: &Problem, refusal: &Refusal, json: bool) -> Outcome {
+    if json {
+        let out = serde_json::json!({
+            "status": refusal.status,
+            "time_ms": 0.0,
+            "iterations": 0,
+            "cost": null,
+            "eq_violation": null,
+            "ineq_violation": null,
+            "min_distance": null,
+            "collision_free": false,
+            "T": 0,
+            "joints": problem.robot.joint_names(),
+            "trajectory": [],
+            "plan_ms": 0.0,
+            "optimize_ms": 0.0,
+            "outer_iterations": 0,
+            "evaluations": 0,
+            "within_limits": false,
+            "time_step": null,
+            "reason": refusal.reason,
+        });
+        println!("{out}");
+    } else {
+        println!("problem {} ({}): {}", problem.name, problem.origin, refusal.status);
+        println!("{}", refusal.reason);
+    }
+    Outcome::Unsuccessful
 }
 
 pub(super) fn print_summary(problem: &Problem, s: &ProblemSolution, out: Option<&Path>) {

@@ -21,7 +21,10 @@
 //! `hello`, `preparing`, `scene`, `state` (at most 60 per second),
 //! `episode` (an episode ended: its outcome, its reason by name and in
 //! words — `reason`, `reason_detail`, as in [`StateView`] — and where it was
-//! saved; once per episode) and `error`.
+//! saved; once per episode) and `error`. Between `preparing` and `scene`
+//! a mode message is kept and applied (or refused with an `error`) when the
+//! task is ready, and commands are dropped. Limits: [`ServeSettings`]
+//! (sessions at once, request-head and idle timeouts).
 //!
 //! ```no_run
 //! use tandem::teleop::{SessionSettings, TeleopSession, TeleopTask};

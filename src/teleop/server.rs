@@ -38,6 +38,19 @@ pub struct ServeSettings {
     pub task: TeleopTask,
     /// Its seed.
     pub seed: u64,
+    /// Sessions open at once at most (default 64); a page beyond them is
+    /// refused with `503 Service Unavailable` and the reason. Each session
+    /// holds a prepared task (~2 MB) and ticks on the runtime: 1,000
+    /// sessions took 2 GB and made 86 % of ticks late on two cores.
+    pub max_sessions: usize,
+    /// A connection that has not sent a whole HTTP request head within this
+    /// long is closed (default 10 s).
+    pub header_timeout: Duration,
+    /// A page that sends no whole WebSocket frame for this long is closed
+    /// with code 1001 (default 30 s). The server pings every third of it,
+    /// and browsers answer pings by themselves, so an open page is never
+    /// idle; a half-sent frame is.
+    pub idle_timeout: Duration,
 }
 
 impl Default for ServeSettings {
@@ -48,6 +61,9 @@ impl Default for ServeSettings {
             state_rate_hz: 60.0,
             task: TeleopTask::ReachGrasp,
             seed: 0,
+            max_sessions: 64,
+            header_timeout: Duration::from_secs(10),
+            idle_timeout: Duration::from_secs(30),
         }
     }
 }
@@ -62,6 +78,8 @@ pub struct ServerStats {
     messages: AtomicU64,
     rejected: AtomicU64,
     closed_oversized: AtomicU64,
+    closed_idle: AtomicU64,
+    refused_full: AtomicU64,
     states_sent: AtomicU64,
     episodes_saved: AtomicU64,
     samples: Mutex<Samples>,
@@ -111,6 +129,8 @@ impl ServerStats {
             "messages": load(&self.messages),
             "rejected": load(&self.rejected),
             "closed_oversized": load(&self.closed_oversized),
+            "closed_idle": load(&self.closed_idle),
+            "refused_full": load(&self.refused_full),
             "states_sent": load(&self.states_sent),
             "episodes_saved": load(&self.episodes_saved),
             "tick_us": Percentiles::of(&samples.tick_us),
@@ -129,6 +149,7 @@ pub struct Server {
     listener: tokio::net::TcpListener,
     app: Router,
     stats: Arc<ServerStats>,
+    header_timeout: Duration,
 }
 
 impl Server {
@@ -139,6 +160,7 @@ impl Server {
     pub async fn bind(settings: ServeSettings) -> Result<Server, TeleopError> {
         let listener = tokio::net::TcpListener::bind(settings.address).await?;
         let stats = Arc::new(ServerStats::default());
+        let header_timeout = settings.header_timeout;
         let shared = Arc::new(Shared { settings, stats: stats.clone() });
         let app = Router::new()
             .route("/", get(|| async { Html(PAGE) }))
@@ -146,7 +168,7 @@ impl Server {
             .route("/stats", get(stats_page))
             .route("/ws", get(upgrade))
             .with_state(shared);
-        Ok(Server { listener, app, stats })
+        Ok(Server { listener, app, stats, header_timeout })
     }
 
     /// The address it listens on.
@@ -167,8 +189,25 @@ impl Server {
     /// # Errors
     /// The listener failing.
     pub async fn run(self) -> Result<(), TeleopError> {
-        axum::serve(self.listener, self.app).await?;
-        Ok(())
+        // axum::serve sets no timer, so hyper never times out a request
+        // head: connections are served here with one and a header timeout.
+        let mut http = hyper::server::conn::http1::Builder::new();
+        http.timer(hyper_util::rt::TokioTimer::new()).header_read_timeout(self.header_timeout);
+        loop {
+            let (stream, _) = match self.listener.accept().await {
+                Ok(accepted) => accepted,
+                // Out of file descriptors and the like: wait, do not spin.
+                Err(_) => {
+                    tokio::time::sleep(Duration::from_millis(50)).await;
+                    continue;
+                }
+            };
+            let service = hyper_util::service::TowerToHyperService::new(self.app.clone());
+            let connection = http.serve_connection(hyper_util::rt::TokioIo::new(stream), service).with_upgrades();
+            tokio::spawn(async move {
+                let _ = connection.await;
+            });
+        }
     }
 }
 
@@ -191,15 +230,45 @@ async fn stats_page(State(shared): State<Arc<Shared>>) -> Response {
 }
 
 async fn upgrade(ws: WebSocketUpgrade, State(shared): State<Arc<Shared>>) -> Response {
+    let Some(open) = OpenSession::claim(&shared) else {
+        shared.stats.refused_full.fetch_add(1, Ordering::Relaxed);
+        let message = format!(
+            "the server has its most sessions open ({}, `tandem serve --max-sessions`); try again later",
+            shared.settings.max_sessions
+        );
+        return (axum::http::StatusCode::SERVICE_UNAVAILABLE, message).into_response();
+    };
     ws.max_message_size(MAX_FRAME_BYTES)
         .max_frame_size(MAX_FRAME_BYTES)
-        .on_upgrade(move |socket| run_session(socket, shared))
+        .on_upgrade(move |socket| run_session(socket, shared, open))
+}
+
+/// A counted open session: claimed below the cap before the upgrade, given
+/// back when dropped — at the end of the session, if the upgrade fails, or
+/// if the session's task unwinds.
+struct OpenSession(Arc<ServerStats>);
+
+impl OpenSession {
+    fn claim(shared: &Shared) -> Option<OpenSession> {
+        let stats = &shared.stats;
+        let cap = shared.settings.max_sessions as u64;
+        stats.sessions_open.fetch_update(Ordering::AcqRel, Ordering::Acquire, |n| (n < cap).then_some(n + 1)).ok()?;
+        stats.sessions_total.fetch_add(1, Ordering::Relaxed);
+        Some(OpenSession(stats.clone()))
+    }
+}
+
+impl Drop for OpenSession {
+    fn drop(&mut self) {
+        self.0.sessions_open.fetch_sub(1, Ordering::AcqRel);
+    }
 }
 
 /// Messages to the page other than states, which go through a latest-wins
 /// channel.
 enum Outgoing {
     Text(String),
+    Ping,
     Close(u16, &'static str),
 }
 
@@ -224,6 +293,7 @@ async fn writer(
             biased;
             m = control.recv() => match m {
                 Some(Outgoing::Text(t)) => Message::Text(t.into()),
+                Some(Outgoing::Ping) => Message::Ping(Default::default()),
                 Some(Outgoing::Close(code, reason)) => {
                     let _ = sink.send(Message::Close(Some(CloseFrame { code, reason: reason.into() }))).await;
                     return;
@@ -317,10 +387,8 @@ fn start_preparing(settings: &SessionSettings, old: Option<TeleopSession>, task:
     })
 }
 
-async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
+async fn run_session(socket: WebSocket, shared: Arc<Shared>, open: OpenSession) {
     let stats = shared.stats.clone();
-    stats.sessions_open.fetch_add(1, Ordering::Relaxed);
-    stats.sessions_total.fetch_add(1, Ordering::Relaxed);
     let (sink, mut stream) = socket.split();
     let (control_tx, control_rx) = mpsc::channel(64);
     let (state_tx, state_rx) = watch::channel(None);
@@ -351,8 +419,24 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
     let mut clock = tokio::time::interval(period);
     clock.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut last_tick: Option<Instant> = None;
+    // A mode asked for while a task is being prepared: applied when it is
+    // ready (the page may switch right after a reset).
+    let mut pending_mode: Option<String> = None;
+    let idle = settings.idle_timeout;
+    let idle_deadline = tokio::time::sleep(idle);
+    tokio::pin!(idle_deadline);
+    let mut pings = tokio::time::interval_at(tokio::time::Instant::now() + idle / 3, idle / 3);
+    pings.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     loop {
         tokio::select! {
+            _ = pings.tick() => {
+                let _ = conn.control.try_send(Outgoing::Ping);
+            }
+            () = &mut idle_deadline => {
+                stats.closed_idle.fetch_add(1, Ordering::Relaxed);
+                let _ = conn.control.try_send(Outgoing::Close(1001, IDLE));
+                break;
+            }
             _ = clock.tick(), if session.is_some() => {
                 let now = Instant::now();
                 if last_tick.is_some_and(|t| now.duration_since(t) > period.mul_f64(1.5)) {
@@ -365,23 +449,29 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
             }
             done = async { preparing.as_mut().expect("guarded by the branch condition").await }, if preparing.is_some() => {
                 preparing = None;
-                match done {
-                    Ok((_, Ok(s))) => {
-                        conn.scene(&s);
-                        session = Some(s);
-                    }
+                let ready = match done {
+                    Ok((_, Ok(s))) => Some(s),
                     Ok((old, Err(e))) => {
                         conn.error(&format!("{e}"));
-                        if let Some(s) = old {
-                            conn.scene(&s);
-                            session = Some(s);
-                        }
+                        old
                     }
-                    Err(e) => conn.error(&format!("preparing the task panicked: {e}")),
+                    Err(e) => {
+                        conn.error(&format!("preparing the task panicked: {e}"));
+                        None
+                    }
+                };
+                if let Some(mut s) = ready {
+                    if let Some(Err(e)) = pending_mode.take().map(|mode| s.set_mode(&mode)) {
+                        s.reject();
+                        conn.error(&e);
+                    }
+                    conn.scene(&s);
+                    session = Some(s);
                 }
             }
             incoming = stream.next() => {
                 let Some(incoming) = incoming else { break };
+                idle_deadline.as_mut().reset(tokio::time::Instant::now() + idle);
                 stats.messages.fetch_add(1, Ordering::Relaxed);
                 if incoming.as_ref().is_ok_and(|m| payload_bytes(m) > MAX_MESSAGE_BYTES) {
                     stats.closed_oversized.fetch_add(1, Ordering::Relaxed);
@@ -391,7 +481,10 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
                 }
                 match incoming {
                     Ok(Message::Text(text)) => {
-                        if let Some((task, seed)) = handle_text(&mut conn, session.as_mut(), &text) {
+                        let action = handle_text(&mut conn, session.as_mut(), preparing.is_some(), &text);
+                        if let Some(Action::QueueMode(mode)) = action {
+                            pending_mode = Some(mode);
+                        } else if let Some(Action::Reset(task, seed)) = action {
                             if preparing.is_some() {
                                 conn.error("a task is being prepared; reset again when it is ready");
                             } else {
@@ -402,6 +495,7 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
                                 let task = task.unwrap_or(old.as_ref().map_or(settings.task, TeleopSession::task));
                                 let seed = seed.unwrap_or(old.as_ref().map_or(settings.seed, TeleopSession::seed));
                                 let body = serde_json::json!({ "task": task.as_str(), "seed": seed });
+                                pending_mode = None;
                                 conn.send(json_message("preparing", &body));
                                 preparing = Some(start_preparing(&settings.session, old, task, seed));
                             }
@@ -431,10 +525,11 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>) {
     }
     drop(conn);
     let _ = writer.await;
-    stats.sessions_open.fetch_sub(1, Ordering::Relaxed);
+    drop(open);
 }
 
 const OVERSIZED: &str = "message larger than 4096 bytes";
+const IDLE: &str = "no message from the page within the idle timeout";
 
 fn payload_bytes(message: &Message) -> usize {
     match message {
@@ -517,15 +612,24 @@ fn tick(conn: &mut Connection, session: &mut TeleopSession, now: Instant) {
     }
 }
 
-/// Applies a text message; returns a requested reset (task, seed). A
-/// message that cannot be applied is counted and explained to the page.
+/// What a message asks of the connection beyond its session.
+enum Action {
+    /// End the episode and start one on (task, seed).
+    Reset(Option<TeleopTask>, Option<u64>),
+    /// Switch to this mode (a valid name) once the task being prepared is ready.
+    QueueMode(String),
+}
+
+/// Applies a text message; returns what the connection must do. A message
+/// that cannot be applied is counted and explained to the page.
 fn handle_text(
     conn: &mut Connection,
     mut session: Option<&mut TeleopSession>,
+    preparing: bool,
     text: &str,
-) -> Option<(Option<TeleopTask>, Option<u64>)> {
-    match apply(session.as_deref_mut(), text) {
-        Ok(reset) => reset,
+) -> Option<Action> {
+    match apply(session.as_deref_mut(), preparing, text) {
+        Ok(action) => action,
         Err(e) => {
             if let Some(s) = session {
                 s.reject();
@@ -536,29 +640,33 @@ fn handle_text(
     }
 }
 
-type Reset = Option<(Option<TeleopTask>, Option<u64>)>;
-
-fn apply(session: Option<&mut TeleopSession>, text: &str) -> Result<Reset, String> {
+fn apply(session: Option<&mut TeleopSession>, preparing: bool, text: &str) -> Result<Option<Action>, String> {
     match parse_client_message(text)? {
         ClientMessage::Command { linear } => {
+            // While a task is being prepared there is no arm to move: the
+            // page shows "preparing" and its commands are dropped.
             if let Some(s) = session {
                 s.set_command(linear, Instant::now());
             }
             Ok(None)
         }
-        ClientMessage::Mode { mode } => {
-            if let Some(s) = session {
-                s.set_mode(&mode)?;
+        ClientMessage::Mode { mode } => match session {
+            Some(s) => s.set_mode(&mode).map(|_| None),
+            None if preparing => {
+                // Refuse an unknown name now; whether the task offers the
+                // mode is known once it is ready.
+                mode.parse::<crate::arbitration::ArbitrationMode>().map_err(|e| e.to_string())?;
+                Ok(Some(Action::QueueMode(mode)))
             }
-            Ok(None)
-        }
+            None => Err("no task is ready: send a reset to prepare one".into()),
+        },
         ClientMessage::Reset { task, seed } => match task.as_deref().map(TeleopTask::parse) {
             Some(None) => {
                 let known = TeleopTask::ALL.map(|t| t.as_str()).join(", ");
                 Err(format!("unknown task '{}' (known: {known})", task.unwrap_or_default()))
             }
-            Some(Some(t)) => Ok(Some((Some(t), seed))),
-            None => Ok(Some((None, seed))),
+            Some(Some(t)) => Ok(Some(Action::Reset(Some(t), seed))),
+            None => Ok(Some(Action::Reset(None, seed))),
         },
     }
 }

@@ -96,6 +96,8 @@ struct Prepared {
     modes: Vec<ArbitrationMode>,
     links: Vec<LinkView>,
     frames: Vec<FrameId>,
+    /// Why the learned mode is not offered, when an actor was given.
+    learned_unavailable: Option<String>,
 }
 
 /// One person's simulator.
@@ -153,6 +155,7 @@ fn prepare(settings: &SessionSettings, task: TeleopTask, seed: u64) -> Result<Pr
     let plain = ArbiterSettings { mode: ArbiterSettings::default().mode, ..arbiter_settings };
     let mut arbiter = Arbiter::for_problem(&problem, &goals, plain).map_err(wrap)?;
     let mut modes = ArbitrationMode::ALL.to_vec();
+    let mut learned_unavailable = None;
     if let Some(actor) = &settings.actor {
         match arbiter.with_arbitration_policy(actor.clone()) {
             Ok(learned) => {
@@ -161,13 +164,13 @@ fn prepare(settings: &SessionSettings, task: TeleopTask, seed: u64) -> Result<Pr
             }
             // Starting in the learned mode: say why the actor does not fit.
             Err(e) if settings.mode == ArbitrationMode::Learned => return Err(wrap(e)),
-            // Else the page offers every other mode.
-            Err(_) => {}
+            // Else the page offers every other mode, and says why not this one.
+            Err(e) => learned_unavailable = Some(e.to_string()),
         }
     }
     let arbiter = arbiter.with_settings(arbiter_settings).map_err(wrap)?;
     let (links, frames) = robot_links(&problem);
-    Ok(Prepared { task, seed, problem, goals, arbiter, modes, links, frames })
+    Ok(Prepared { task, seed, problem, goals, arbiter, modes, links, frames, learned_unavailable })
 }
 
 impl TeleopSession {
@@ -252,9 +255,7 @@ impl TeleopSession {
     pub fn set_command(&mut self, linear: [f64; 3], at: Instant) {
         // The page sends zeros while no key is held: those start nothing.
         self.driven |= linear.iter().any(|v| *v != 0.0);
-        let norm = linear.iter().map(|v| v * v).sum::<f64>().sqrt();
-        let scale = if norm > self.settings.max_speed { self.settings.max_speed / norm } else { 1.0 };
-        self.command = linear.map(|v| v * scale);
+        self.command = limit_speed(linear, self.settings.max_speed);
         self.command_at = Some(at);
         self.new_command = true;
         self.state.commands += 1;
@@ -273,11 +274,14 @@ impl TeleopSession {
     pub fn set_mode(&mut self, name: &str) -> Result<ArbitrationMode, String> {
         let mode: ArbitrationMode = name.parse().map_err(|e| format!("{e}"))?;
         if !self.prepared.modes.contains(&mode) {
-            return Err(format!(
-                "mode '{name}' is not available on the {} task (it needs `tandem serve --arbiter FILE` with an actor trained for {} goals)",
-                self.prepared.task.as_str(),
-                self.prepared.goals.len()
-            ));
+            let task = self.prepared.task.as_str();
+            return Err(match &self.prepared.learned_unavailable {
+                Some(why) => format!("mode '{name}' is not available on the {task} task: {why}"),
+                None => format!(
+                    "mode '{name}' is not available on the {task} task (it needs `tandem serve --arbiter FILE` with an actor trained for its {} goals)",
+                    self.prepared.goals.len()
+                ),
+            });
         }
         self.ws.set_mode(mode);
         Ok(mode)
@@ -467,6 +471,32 @@ impl TeleopSession {
     }
 }
 
+/// `linear` scaled down to `max_speed` (m/s) when faster, its direction
+/// kept; NaN stays NaN. The norm is taken of the vector divided by its
+/// largest component, so that 1e308 m/s (whose squares overflow to
+/// infinity, and whose plain scaling made it zero) becomes `max_speed` along
+/// the same direction; an infinite component points along its axes.
+fn limit_speed(linear: [f64; 3], max_speed: f64) -> [f64; 3] {
+    if linear.iter().any(|v| v.is_nan()) {
+        return linear;
+    }
+    let largest = linear.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if largest == 0.0 {
+        return linear;
+    }
+    let unit = if largest.is_infinite() {
+        linear.map(|v| if v.is_infinite() { v.signum() } else { 0.0 })
+    } else {
+        linear.map(|v| v / largest)
+    };
+    let norm = largest * unit.iter().map(|u| u * u).sum::<f64>().sqrt();
+    if norm <= max_speed {
+        return linear;
+    }
+    let unit_norm = unit.iter().map(|u| u * u).sum::<f64>().sqrt();
+    unit.map(|u| u / unit_norm * max_speed)
+}
+
 /// Recordings saved by this process so far: part of every recording's name.
 static RECORDINGS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
@@ -479,6 +509,33 @@ fn recording_path(dir: &std::path::Path, task: &str, episode: usize) -> PathBuf 
     let stamp = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis());
     let seq = RECORDINGS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     dir.join(format!("teleop-{task}-{stamp}-{}-{seq:06}-e{episode}.parquet", std::process::id()))
+}
+
+#[cfg(test)]
+mod speed_limit {
+    use super::limit_speed;
+
+    /// Huge commands (whose squared norm overflows) keep their direction at
+    /// the speed limit instead of turning into zero.
+    #[test]
+    fn commands_of_any_finite_size_are_scaled_to_the_limit() {
+        for (command, expected) in [
+            ([1e308, 0.0, 0.0], [0.25, 0.0, 0.0]),
+            ([-1e308, 1e308, 0.0], [-0.25 / 2f64.sqrt(), 0.25 / 2f64.sqrt(), 0.0]),
+            ([1e150, 0.0, 0.0], [0.25, 0.0, 0.0]),
+            ([0.0, 0.0, 1.3e154], [0.0, 0.0, 0.25]),
+            ([f64::INFINITY, 0.0, 1.0], [0.25, 0.0, 0.0]),
+            ([0.1, 0.0, 0.0], [0.1, 0.0, 0.0]),
+            ([3.0, 4.0, 0.0], [0.15, 0.2, 0.0]),
+            ([5e-324, 0.0, 0.0], [5e-324, 0.0, 0.0]),
+        ] {
+            let got = limit_speed(command, 0.25);
+            for (g, e) in got.iter().zip(expected) {
+                assert!((g - e).abs() <= 1e-15, "{command:?} -> {got:?}, expected {expected:?}");
+            }
+        }
+        assert!(limit_speed([f64::NAN, 0.0, 0.0], 0.25)[0].is_nan());
+    }
 }
 
 #[cfg(test)]
