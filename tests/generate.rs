@@ -159,3 +159,40 @@ fn bad_arguments_are_named() {
         run(&["--family", &fam, "--count", "100000", "--chunk-size", "100000", "-T", "100000", "--out", &out]);
     assert!(code == Some(1) && stderr.contains("slices per part file"), "{stderr}");
 }
+
+/// A dataset resumed after its robot's URDF changed was accepted and mixed
+/// parts made with two robots: `_dataset.json` records a hash over every
+/// file that shapes the robot, and a changed one is refused by name.
+#[test]
+fn resuming_after_the_robot_changed_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let copy = |from: &Path, to: &Path| {
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(from, to).unwrap();
+    };
+    let problems = repo().join("problems");
+    for file in ["panda_grasp_family.toml", "panda_grasp_box.toml", "robots/panda/panda.urdf"] {
+        copy(&problems.join(file), &tmp.path().join(file));
+    }
+    let family = tmp.path().join("panda_grasp_family.toml");
+    let out = tmp.path().join("d");
+    let run = || {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_tandem"));
+        cmd.args(["generate", "--count", "1", "-T", "10", "--quiet", "--family"]).arg(&family).arg("--out").arg(&out);
+        cmd.output().unwrap()
+    };
+    assert!(run().status.success());
+    let recorded = manifest(&out, "_dataset.json")["robot_sha256"].as_str().unwrap().to_string();
+    assert!(recorded.len() == 64 && recorded.chars().all(|c| c.is_ascii_hexdigit()), "{recorded}");
+    assert!(run().status.success(), "the same robot resumes");
+    // One joint's velocity limit changed.
+    let urdf = tmp.path().join("robots/panda/panda.urdf");
+    let text = std::fs::read_to_string(&urdf).unwrap();
+    let changed = text.replacen("velocity=\"2.175", "velocity=\"2.0", 1);
+    assert_ne!(text, changed);
+    std::fs::write(&urdf, changed).unwrap();
+    let output = run();
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("robot_sha256") && stderr.contains(&recorded), "{stderr}");
+}

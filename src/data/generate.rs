@@ -310,6 +310,7 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         family: family.name.clone(),
         family_sha256: hash(path)?,
         base_problem_sha256: hash(Path::new(&family.base.origin))?,
+        robot_sha256: robot_sha256(&family.base)?,
         seed: s.seed,
         count: s.count,
         horizon: s.pipeline.horizon.unwrap_or(family.base.optimizer.horizon),
@@ -320,6 +321,41 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         goal_tolerance: s.pipeline.goal_tolerance,
         goal_angle_tolerance: s.pipeline.goal_angle_tolerance,
     })
+}
+
+/// SHA-256 (hex) over every file that shapes `problem`'s robot: the URDF
+/// (for an embedded robot, its embedded text), the collision URDF and the
+/// SRDF when given, then each collision mesh of both URDFs, each file
+/// entering as its name's length-prefixed bytes and its own hash. A dataset
+/// resumed after any of them changed would mix two robots.
+///
+/// # Errors
+/// A file that cannot be read.
+pub fn robot_sha256(problem: &crate::problem::Problem) -> Result<String, GenerateError> {
+    use sha2::Digest;
+    let mut all = sha2::Sha256::new();
+    let mut add = |label: &str, bytes: &[u8]| {
+        all.update((label.len() as u64).to_le_bytes());
+        all.update(label.as_bytes());
+        all.update(sha2::Sha256::digest(bytes));
+    };
+    let read = |path: &Path| std::fs::read(path).map_err(|e| GenerateError::Read { path: path.into(), message: e.to_string() });
+    let descriptions: Vec<&crate::robot::RobotDescription> =
+        std::iter::once(&**problem.robot.description()).chain(problem.collision_geometry.as_deref()).collect();
+    let urdfs = std::iter::once(&problem.robot_spec.urdf).chain(&problem.robot_spec.collision_urdf);
+    for (description, path) in descriptions.iter().zip(urdfs) {
+        match description.embedded_urdf() {
+            Some(text) => add(description.source(), text.as_bytes()),
+            None => add("urdf", &read(path)?),
+        }
+    }
+    if let Some(srdf) = &problem.robot_spec.srdf {
+        add("srdf", &read(srdf)?);
+    }
+    for mesh in descriptions.iter().flat_map(|d| d.mesh_files()) {
+        add("mesh", &read(mesh)?);
+    }
+    Ok(all.finalize().iter().map(|b| format!("{b:02x}")).collect())
 }
 
 fn pretty(value: &impl serde::Serialize) -> String {

@@ -20,6 +20,13 @@ pub struct DatasetParameters {
     pub family_sha256: String,
     /// SHA-256 of the family's base problem file.
     pub base_problem_sha256: String,
+    /// SHA-256 over every file that shapes the robot: its URDF (the
+    /// embedded text for the shipped robots), the collision URDF and the
+    /// SRDF when given, and each collision mesh, in that order (see
+    /// [`robot_sha256`](super::generate::robot_sha256)). Empty in datasets
+    /// written before it was recorded, which then cannot be resumed.
+    #[serde(default)]
+    pub robot_sha256: String,
     /// Run seed S: sample i draws from a stream seeded by (S, i).
     pub seed: u64,
     /// Ids 0 … count − 1.
