@@ -77,6 +77,12 @@ fn inspect_and_fk_of_a_ten_thousand_link_chain_run_in_the_binary() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!((v["translation"][2].as_f64().unwrap() - 999.9).abs() < 1e-9);
+    // A wrong-length --q names the count and a few joints, not all 9,999
+    // (the full list made a 789 KB message on a 100,000-link robot).
+    let o = tandem(&["fk", urdf.to_str().unwrap(), "--frame", "l9999", "--q", "0,0"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.len() < 400 && err.contains("expected 9999 joint values") && err.contains("9989 more"), "{err}");
 }
 
 #[test]

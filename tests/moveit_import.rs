@@ -345,6 +345,18 @@ fn requests_are_read_strictly_and_limits_checked() {
         Problem::from_moveit(&urdf, &srdf, &scene, &path).map_err(|e| e.to_string())
     };
     load(&request).unwrap();
+    // A goal a rounding error beyond a limit is the limit, with a warning,
+    // as in MoveIt (it refused the whole request); 2e-4 beyond is refused.
+    let rounded = load(&request.replace("position: 0.4534448383669427", "position: 2.96715")).unwrap();
+    let Goal::Joints(goal) = &rounded.goal else { panic!("a joint goal") };
+    assert_eq!(goal[0], 2.9671);
+    assert!(
+        rounded.warnings.iter().any(|w| w.contains("'panda_joint1' = 2.96715") && w.contains("read as 2.9671")),
+        "{:?}",
+        rounded.warnings
+    );
+    let beyond = load(&request.replace("position: 0.4534448383669427", "position: 2.9673")).unwrap_err();
+    assert!(beyond.contains("2.9673 is outside its limits"), "{beyond}");
     let cases = [
         // A start beyond a limit was "valid … collision-free" in `check`.
         (

@@ -339,7 +339,9 @@ pub fn robot_sha256(problem: &crate::problem::Problem) -> Result<String, Generat
         all.update(label.as_bytes());
         all.update(sha2::Sha256::digest(bytes));
     };
-    let read = |path: &Path| std::fs::read(path).map_err(|e| GenerateError::Read { path: path.into(), message: e.to_string() });
+    let read = |path: &Path| {
+        std::fs::read(path).map_err(|e| GenerateError::Read { path: path.into(), message: e.to_string() })
+    };
     let descriptions: Vec<&crate::robot::RobotDescription> =
         std::iter::once(&**problem.robot.description()).chain(problem.collision_geometry.as_deref()).collect();
     let urdfs = std::iter::once(&problem.robot_spec.urdf).chain(&problem.robot_spec.collision_urdf);

@@ -195,6 +195,40 @@ fn pick(file: &Path, what: &str, joints: &[String], named: &[(String, f64)]) -> 
         .collect()
 }
 
+/// How far outside a joint limit (rad or m) a MoveIt start or goal value
+/// is read as the limit, with a warning: requests written with π rounded
+/// differently from the URDF's limit (±π against ±3.14159, 2.7e-6 apart)
+/// are what MoveIt plans, not errors.
+pub const MOVEIT_LIMIT_TOLERANCE: f64 = 1e-4;
+
+/// `value` of joint `name` within `[lower, upper]`: itself, or the limit
+/// when at most [`MOVEIT_LIMIT_TOLERANCE`] beyond it (a warning says so);
+/// `None` farther out (and for NaN).
+fn snap_to_limits(
+    name: &str,
+    value: f64,
+    lower: f64,
+    upper: f64,
+    what: &str,
+    warnings: &mut Vec<String>,
+) -> Option<f64> {
+    let limit = if value < lower {
+        lower
+    } else if value > upper {
+        upper
+    } else {
+        return (!value.is_nan()).then_some(value);
+    };
+    if (value - limit).abs() > MOVEIT_LIMIT_TOLERANCE {
+        return None;
+    }
+    warnings.push(format!(
+        "{what}: joint '{name}' = {value} is {:.1e} outside its limit {limit}; read as {limit}",
+        (value - limit).abs()
+    ));
+    Some(limit)
+}
+
 impl Problem {
     /// A problem from MoveIt inputs: the robot from `urdf` with the joints
     /// of the request's SRDF group active (a MoveIt group: chains, joints,
@@ -209,7 +243,9 @@ impl Problem {
     /// Any file unreadable or invalid; a group the SRDF lacks; a start
     /// naming a joint the URDF lacks, or missing an active joint; a goal
     /// constraining a joint outside the group or missing one; start, goal
-    /// or held values outside their joint limits (naming the joint).
+    /// or held values outside their joint limits (naming the joint) by
+    /// more than [`MOVEIT_LIMIT_TOLERANCE`] (closer ones are read as the
+    /// limit, with a warning, as MoveIt does).
     pub fn from_moveit(urdf: &Path, srdf: &Path, scene_file: &Path, request: &Path) -> Result<Problem, ProblemError> {
         let invalid = |file: &Path, key: Option<&str>, e: &dyn std::fmt::Display| ProblemError::Invalid {
             file: file.display().to_string(),
@@ -238,12 +274,12 @@ impl Problem {
             if probe.joint_names().contains(name) || !joint.kind.is_movable() || joint.mimic.is_some() {
                 continue;
             }
-            if !joint.limits.contains(*value) {
-                let (lo, hi) = (joint.limits.lower, joint.limits.upper);
+            let (lo, hi) = (joint.limits.lower, joint.limits.upper);
+            let Some(value) = snap_to_limits(name, *value, lo, hi, "start_state", &mut warnings) else {
                 let message = format!("joint '{name}' = {value} is outside its limits [{lo}, {hi}]");
                 return Err(invalid(request, start_key, &message));
-            }
-            hold.push((name.clone(), *value));
+            };
+            hold.push((name.clone(), value));
         }
         let mut builder = RobotModel::builder(desc.clone()).selection(selection.clone());
         for (n, v) in &hold {
@@ -255,9 +291,14 @@ impl Problem {
                 format!("joint '{name}' is not in group '{}' ({})", req.group, robot.joint_names().join(", "));
             return Err(invalid(request, Some("goal_constraints"), &message));
         }
-        let start = pick(request, "start_state", robot.joint_names(), &req.start)?;
-        let goal = pick(request, "goal_constraints", robot.joint_names(), &req.goal)?;
-        for (what, q) in [("start_state", &start), ("goal_constraints", &goal)] {
+        let mut start = pick(request, "start_state", robot.joint_names(), &req.start)?;
+        let mut goal = pick(request, "goal_constraints", robot.joint_names(), &req.goal)?;
+        for (what, q) in [("start_state", &mut start), ("goal_constraints", &mut goal)] {
+            for ((value, limits), name) in q.iter_mut().zip(robot.limits()).zip(robot.joint_names()) {
+                if let Some(snapped) = snap_to_limits(name, *value, limits.lower, limits.upper, what, &mut warnings) {
+                    *value = snapped;
+                }
+            }
             robot.check_within_limits(q).map_err(|e| invalid(request, Some(what), &e))?;
         }
         let read = read_moveit_scene(scene_file, &desc, Some(&srdf_data))?;

@@ -371,8 +371,12 @@ impl RobotDescription {
     /// prismatic `x` and `y` (m, over a 50 × 50 cm table) and a `yaw` joint,
     /// gripper frame `gripper_tcp` 10 cm above the table.
     pub fn planar_gripper() -> RobotDescription {
-        super::urdf::parse_urdf(EMBEDDED_PLANAR_URDF, "<embedded planar_gripper.urdf>", &super::MeshSearchPath::default())
-            .expect("embedded planar gripper URDF is valid")
+        super::urdf::parse_urdf(
+            EMBEDDED_PLANAR_URDF,
+            "<embedded planar_gripper.urdf>",
+            &super::MeshSearchPath::default(),
+        )
+        .expect("embedded planar gripper URDF is valid")
     }
 }
 

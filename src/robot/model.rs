@@ -299,14 +299,22 @@ impl RobotModel {
         &self.frames[frame.0].name
     }
 
+    /// The active joints' names for a message: all of them up to 12, else
+    /// the first and last five around how many are left out (a
+    /// 100,000-link robot's full list made a 789 KB message).
+    fn joint_list(&self) -> String {
+        let names = &self.joint_names;
+        if names.len() <= 12 {
+            return names.join(", ");
+        }
+        let n = names.len();
+        format!("{}, … {} more …, {}", names[..5].join(", "), n - 10, names[n - 5..].join(", "))
+    }
+
     /// Checks that `q` has one finite value per active joint.
     pub fn check_configuration(&self, q: &[f64]) -> Result<(), RobotError> {
         if q.len() != self.nq() {
-            return Err(RobotError::WrongDof {
-                expected: self.nq(),
-                got: q.len(),
-                joints: self.joint_names.join(", "),
-            });
+            return Err(RobotError::WrongDof { expected: self.nq(), got: q.len(), joints: self.joint_list() });
         }
         match q.iter().position(|v| !v.is_finite()) {
             None => Ok(()),

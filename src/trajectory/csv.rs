@@ -58,6 +58,8 @@ impl JointTrajectory {
     /// [`new`](Self::new) (values so far apart that a velocity overflows).
     pub fn from_csv_str(text: &str, origin: &str) -> Result<JointTrajectory, TrajectoryError> {
         let bad = |line: usize, message: String| TrajectoryError::Csv { origin: origin.to_string(), line, message };
+        // A byte-order mark (spreadsheets write one) is not part of `time`.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty());
         let (header_line, header) = lines.next().ok_or_else(|| bad(1, "the file is empty".into()))?;
         let joints = parse_header(header).map_err(|m| bad(header_line, m))?;
@@ -222,6 +224,16 @@ mod tests {
             let e = parse(text).unwrap_err();
             assert!(e.contains(expected), "{text:?}: {e}");
         }
+    }
+
+    /// Spreadsheets save CSV with a UTF-8 byte-order mark; it was refused
+    /// as a first column named "\u{feff}time", invisible in the message.
+    #[test]
+    fn a_byte_order_mark_is_skipped() {
+        let t = parse("\u{feff}time,j1\n0,0.5\n0.1,0.6\n").unwrap();
+        assert_eq!(t.joints(), ["j1"]);
+        let e = parse("\u{feff}\u{feff}time,j1\n0,0.5\n0.1,0.6\n").unwrap_err().to_string();
+        assert!(e.contains("t.csv:1"), "{e}");
     }
 
     #[test]
