@@ -283,6 +283,28 @@ fn training_checks_its_output_before_it_trains() {
     assert!(!good.exists(), "the writability check left {}", good.display());
 }
 
+/// Network sizes are bounded where they enter: `--hidden 50000,50000`
+/// aborted allocating 10 GB, 2^64 - 1 overflowed a capacity, 0 printed a
+/// candle backtrace; too many layers are named before the data is read.
+#[test]
+fn network_sizes_are_bounded_before_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.safetensors");
+    let learn = |hidden: &str| {
+        ["learn", "policy", "--data", "no-such-dataset", "--hidden", hidden, "--out", out.to_str().unwrap()]
+            .map(String::from)
+    };
+    for (hidden, value) in [("50000,50000", "50000"), ("18446744073709551615", "18446744073709551615"), ("0", "0")] {
+        let args = learn(hidden);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        expect(&args, 2, &format!("invalid value '{value}' for '--hidden"));
+    }
+    let args = learn("1,2,3,4,5,6,7,8,9,10,11,12,13,14,15,16,17");
+    let o = expect(&args.iter().map(String::as_str).collect::<Vec<_>>(), 1, "--hidden must be 1 … 16 layer widths");
+    assert!(!stderr(&o).contains("no-such-dataset"), "{}", stderr(&o));
+    expect(&["learn", "policy", "--data", "d", "--learning-rate", "NaN", "--out", "p"], 2, "--learning-rate");
+}
+
 /// The planar task on arms of one and two joints (the planar gripper's
 /// chain cut short; on one joint, the cylinders moved onto its line).
 fn small_planar_problems(dir: &Path) -> [(String, &'static str); 2] {

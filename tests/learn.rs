@@ -92,6 +92,11 @@ fn files_round_trip_and_bad_files_are_named() {
     network.save(&path).unwrap();
     let loaded = PolicyNetwork::load(&path).unwrap();
     assert_eq!(loaded, network);
+    // A robot policy given where an arbitration actor goes says what it is
+    // (it said "missing field `layout`").
+    let e = tandem::learn::ArbitrationActor::load(&path).unwrap_err().to_string();
+    assert!(e.contains("this file is a learned robot policy (`tandem learn policy`"), "{e}");
+    assert!(e.contains("not a tandem arbitration actor"), "{e}");
 
     let bad = |bytes: &[u8]| {
         let p = dir.path().join("bad.safetensors");

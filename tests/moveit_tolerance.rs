@@ -161,6 +161,27 @@ fn a_group_of_two_arms_plans_both_at_once() {
     let report = planner.run(0).unwrap();
     assert_eq!(report.result.status, PlanStatus::Solved);
     assert!(report.certified);
+    // The request's goal lists the right arm first; `plan --json` names the
+    // columns of its waypoints (tandem's order, the SRDF's tree order), so a
+    // consumer reads each joint's goal where it is.
+    let reordered = [("r_j1", 0.9), ("r_j2", -0.3), ("l_j1", -0.9), ("l_j2", 0.3)];
+    let [urdf, srdf, scene, request] = dual_arm_inputs(dir.path(), "both_arms", &start, &reordered);
+    let flags = ["--urdf", "--srdf", "--scene", "--request"];
+    let paths = [&urdf, &srdf, &scene, &request];
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_tandem"));
+    command.args(["plan", "--json"]);
+    for (flag, path) in flags.iter().zip(paths) {
+        command.arg(flag).arg(path);
+    }
+    let out = command.output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {out:?}"));
+    let joints: Vec<&str> = v["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap()).collect();
+    assert_eq!(joints, ["l_j1", "l_j2", "r_j1", "r_j2"], "{v}");
+    let last = v["waypoints"].as_array().unwrap().last().unwrap().as_array().unwrap().clone();
+    for (name, value) in reordered {
+        let column = joints.iter().position(|j| *j == name).unwrap();
+        assert!((last[column].as_f64().unwrap() - value).abs() < 1e-9, "{name}: {v}");
+    }
     // The group with the lift: the prismatic joint moves too.
     let goal = [("lift", 0.25), ("l_j1", -0.9), ("l_j2", 0.3)];
     let [urdf, srdf, scene, request] = dual_arm_inputs(dir.path(), "lift_and_left", &start, &goal);

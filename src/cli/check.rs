@@ -26,7 +26,8 @@ pub struct CheckArgs {
     pub samples: u64,
     /// Print exactly one JSON object: {"valid", "collision_free",
     /// "min_distance" (m, negative when penetrating), "closest_pair"
-    /// [body, body], "problem", "q", "pairs_checked", "colliding_pairs"
+    /// [body, body], "problem", "joints" (the columns of "q"), "q",
+    /// "pairs_checked", "colliding_pairs"
     /// [[body, body, distance], ...], "goal_collision_free" (joint goals,
     /// else null), "fast_path" (the sphere fast path's variant: baseline,
     /// avx2 or avx512, from TANDEM_SIMD or the CPU; null off it),
@@ -198,6 +199,7 @@ fn report_json(r: &Report) -> serde_json::Value {
         "min_distance": distance,
         "closest_pair": pair,
         "problem": r.problem.name,
+        "joints": r.problem.robot.joint_names(),
         "q": r.q,
         "pairs_checked": r.pairs_checked,
         "colliding_pairs": colliding,

@@ -72,14 +72,15 @@ pub struct LearnPolicyArgs {
     /// Seed of the initial weights and the minibatch order.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Hidden layer widths.
-    #[arg(long, value_delimiter = ',', default_value = "128,128,128")]
+    /// Hidden layer widths: 1 to 16 layers of 1 to 4096 units.
+    #[arg(long, value_delimiter = ',', default_value = "128,128,128", num_args = 1..=crate::learn::MAX_HIDDEN_LAYERS,
+          value_parser = |s: &str| super::number_in(s, 1usize..=crate::learn::MAX_HIDDEN_WIDTH))]
     pub hidden: Vec<usize>,
     /// Pairs per minibatch.
     #[arg(long, default_value_t = 512, value_parser = |s: &str| super::number_in(s, 1usize..=1_000_000))]
     pub batch: usize,
-    /// Initial learning rate (cosine decay to 1 % of it).
-    #[arg(long, default_value_t = 2e-3)]
+    /// Initial learning rate (cosine decay to 1 % of it), 1e-8 to 1.
+    #[arg(long, default_value_t = 2e-3, value_parser = |s: &str| super::number_in(s, 1e-8..=1.0))]
     pub learning_rate: f64,
     /// Share of sample ids held out for validation.
     #[arg(long, default_value_t = 0.1, value_parser = |s: &str| super::number_in(s, 0.0..=0.9))]
@@ -133,6 +134,11 @@ fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> 
         },
         ..LearnSettings::default()
     };
+    // Before the dataset is read (it may take minutes): 17 layers named here.
+    options
+        .train
+        .validate()
+        .map_err(|e| crate::settings::InvalidSetting { field: format!("--{}", e.field.replace('_', "-")), ..e })?;
     let (_, report) = train_and_save(&args.data, &family, &options, &args.out)?;
     if args.json {
         println!("{}", serde_json::to_string(&report)?);

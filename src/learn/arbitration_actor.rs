@@ -169,7 +169,8 @@ impl ArbitrationActor {
     /// # Errors
     /// As [`ArbitrationActor::load`].
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<ArbitrationActor, LearnError> {
-        let (file, meta): (_, ArbitrationMeta) = read_with_meta(bytes, path, "a tandem arbitration actor")?;
+        let (file, meta): (_, ArbitrationMeta) =
+            read_with_meta(bytes, path, "a tandem arbitration actor", ARBITRATION_FORMAT)?;
         let metadata_error = |message: String| LearnError::Metadata { path: path.into(), message };
         meta.check().map_err(metadata_error)?;
         let (head, tail) = meta.layer_shapes();

@@ -312,7 +312,7 @@ impl PolicyNetwork {
     /// # Errors
     /// As [`PolicyNetwork::load`].
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PolicyNetwork, LearnError> {
-        let (file, meta): (_, PolicyMeta) = read_with_meta(bytes, path, "a tandem policy file")?;
+        let (file, meta): (_, PolicyMeta) = read_with_meta(bytes, path, "a tandem policy file", FORMAT)?;
         let metadata_error = |message: String| LearnError::Metadata { path: path.into(), message };
         if meta.format != FORMAT {
             return Err(metadata_error(format!("format is {:?}, expected {FORMAT:?}", meta.format)));
@@ -363,11 +363,14 @@ pub(crate) fn first_non_finite_layer(layers: &[DenseLayer], prefix: &str) -> Opt
 }
 
 /// Parses a safetensors file and its `tandem` metadata (JSON) as `T`;
-/// `what` names the kind of file in the error when the metadata is missing.
+/// `what` names the kind of file in errors, and a file of the other kind
+/// than `expected_format` (a robot policy given as an arbitration actor)
+/// says what it is.
 pub(crate) fn read_with_meta<'a, T: serde::de::DeserializeOwned>(
     bytes: &'a [u8],
     path: &Path,
     what: &str,
+    expected_format: &str,
 ) -> Result<(SafeTensors<'a>, T), LearnError> {
     let not_safetensors =
         |e: &dyn std::fmt::Display| LearnError::NotSafetensors { path: path.into(), message: e.to_string() };
@@ -379,7 +382,21 @@ pub(crate) fn read_with_meta<'a, T: serde::de::DeserializeOwned>(
         .as_ref()
         .and_then(|m| m.get("tandem"))
         .ok_or_else(|| metadata_error(format!("no `tandem` metadata: not {what}")))?;
-    let meta = serde_json::from_str(text).map_err(|e| metadata_error(format!("`tandem` metadata: {e}")))?;
+    // The other kind of tandem network says what it is, not which field it lacks.
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| metadata_error(format!("`tandem` metadata: {e}")))?;
+    let format = value.get("format").and_then(serde_json::Value::as_str).unwrap_or_default();
+    let kinds = [
+        (FORMAT, "a learned robot policy (`tandem learn policy`; read by `tandem experiment policy --policy`)"),
+        (
+            super::ARBITRATION_FORMAT,
+            "a learned arbitration actor (`tandem learn arbitration`; read by `--arbiter` with `--mode learned`)",
+        ),
+    ];
+    if let Some((_, kind)) = kinds.iter().find(|(f, _)| *f == format && *f != expected_format) {
+        return Err(metadata_error(format!("this file is {kind}, not {what}")));
+    }
+    let meta = serde_json::from_value(value).map_err(|e| metadata_error(format!("`tandem` metadata: {e}")))?;
     Ok((file, meta))
 }
 
