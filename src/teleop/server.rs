@@ -444,7 +444,15 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>, open: OpenSession) 
                 }
                 last_tick = Some(now);
                 if let Some(s) = session.as_mut() {
-                    tick(&mut conn, s, now);
+                    // A tick does not panic (every mode on arms of any size is
+                    // fuzzed); were one to, the page is told and the
+                    // connection closed cleanly instead of dropped.
+                    let ticked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| tick(&mut conn, s, now)));
+                    if ticked.is_err() {
+                        conn.error("internal error: the simulator panicked; this session ends (please report it)");
+                        let _ = conn.control.try_send(Outgoing::Close(1011, "internal error"));
+                        break;
+                    }
                 }
             }
             done = async { preparing.as_mut().expect("guarded by the branch condition").await }, if preparing.is_some() => {
@@ -521,7 +529,8 @@ async fn run_session(socket: WebSocket, shared: Arc<Shared>, open: OpenSession) 
         }
     }
     if let Some(s) = session.as_mut().filter(|s| s.outcome().is_none()) {
-        finish_episode(&conn, s, &stats);
+        // Saved even after a panicking tick, if the recording allows.
+        let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| finish_episode(&conn, s, &stats)));
     }
     drop(conn);
     let _ = writer.await;
