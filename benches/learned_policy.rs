@@ -53,11 +53,28 @@ fn bench(c: &mut Criterion) {
     let input: Vec<f32> = (0..d).map(|i| (i as f32 * 0.37).sin()).collect();
     let mut scratch = network.scratch();
     let mut raw = vec![0.0f32; 8];
+    // Each compiled variant of the forward pass this CPU runs; the default
+    // (the best, or TANDEM_SIMD's) is `network_forward`.
+    for level in tandem::collision::SimdLevel::available() {
+        let mut variant = (*network).clone();
+        variant.set_simd(level);
+        c.bench_function(&format!("learned_policy/network_forward_{}", level.name()), |b| {
+            b.iter(|| {
+                variant.forward(black_box(&input), &mut scratch, &mut raw);
+                black_box(raw[0])
+            })
+        });
+    }
     c.bench_function("learned_policy/network_forward", |b| {
         b.iter(|| {
             network.forward(black_box(&input), &mut scratch, &mut raw);
             black_box(raw[0])
         })
+    });
+    // The same network through candle (its CPU matmul), as trained.
+    let reference = tandem::learn::CandleNetwork::new(&network).expect("candle layers");
+    c.bench_function("learned_policy/network_forward_candle", |b| {
+        b.iter(|| reference.forward(black_box(&input)).expect("a forward pass")[0])
     });
     let mut state = policy.new_workspace();
     let zero = [0.0; 7];

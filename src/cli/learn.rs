@@ -99,6 +99,16 @@ pub struct LearnPolicyArgs {
     /// with extension .json, the loss curves to .svg.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+    /// Where the optimisation state is saved after every epoch (default:
+    /// --out with extension .checkpoint). A run stopped and started again
+    /// with the same arguments goes on from its last finished epoch and
+    /// ends with the same weights as one never stopped; a checkpoint of
+    /// other data or settings is refused. Removed when training ends.
+    #[arg(long, value_name = "FILE")]
+    pub checkpoint: Option<PathBuf>,
+    /// Keep no checkpoint.
+    #[arg(long, conflicts_with = "checkpoint")]
+    pub no_checkpoint: bool,
     /// Print the report as one JSON object.
     #[arg(long)]
     pub json: bool,
@@ -124,6 +134,8 @@ fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> 
             batch: args.batch,
             learning_rate: args.learning_rate,
             progress: !args.quiet && !args.json,
+            checkpoint: (!args.no_checkpoint)
+                .then(|| args.checkpoint.clone().unwrap_or_else(|| args.out.with_extension("checkpoint"))),
             ..TrainSettings::default()
         },
         validation: args.validation,

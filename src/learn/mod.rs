@@ -41,11 +41,16 @@
 
 mod arbitration_actor;
 #[cfg(feature = "learn")]
+mod candle_reference;
+#[cfg(feature = "learn")]
+pub mod checkpoint;
+#[cfg(feature = "learn")]
 pub mod dagger;
 #[cfg(feature = "learn")]
 mod dataset;
 #[cfg(feature = "learn")]
 mod ddpg;
+mod dense;
 #[cfg(feature = "learn")]
 pub mod evaluate;
 pub mod features;
@@ -59,6 +64,8 @@ mod train;
 pub use arbitration_actor::{
     ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta, LayerShapes,
 };
+#[cfg(feature = "learn")]
+pub use candle_reference::CandleNetwork;
 #[cfg(feature = "learn")]
 pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
 #[cfg(feature = "learn")]

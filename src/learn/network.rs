@@ -11,6 +11,7 @@
 //! [`PolicyMeta::speed_scale`].
 
 use super::LearnError;
+pub(crate) use super::dense::DenseLayer;
 use super::features::input_width;
 use safetensors::tensor::{Dtype, SafeTensors, TensorView};
 use std::collections::HashMap;
@@ -73,63 +74,6 @@ impl PolicyMeta {
         widths.extend(&self.hidden);
         widths.push(self.dof() + 1);
         widths.windows(2).map(|w| (w[0], w[1])).collect()
-    }
-}
-
-/// One dense layer, weights stored input-major (`weights[j * outputs + o]`
-/// multiplies input `j` into output `o`) so the product is a sequence of
-/// contiguous, vectorisable `axpy`s.
-#[derive(Debug, Clone, PartialEq)]
-pub(crate) struct DenseLayer {
-    pub(crate) inputs: usize,
-    pub(crate) outputs: usize,
-    weights: Vec<f32>,
-    bias: Vec<f32>,
-}
-
-impl DenseLayer {
-    /// A layer from row-major `[out, in]` weights (PyTorch's convention).
-    pub(crate) fn from_row_major(inputs: usize, outputs: usize, w: &[f32], bias: Vec<f32>) -> DenseLayer {
-        let mut weights = vec![0.0; w.len()];
-        for o in 0..outputs {
-            for j in 0..inputs {
-                weights[j * outputs + o] = w[o * inputs + j];
-            }
-        }
-        DenseLayer { inputs, outputs, weights, bias }
-    }
-
-    /// The weights row-major `[out, in]`, and the bias.
-    pub(crate) fn row_major(&self) -> (Vec<f32>, Vec<f32>) {
-        let mut w = vec![0.0f32; self.weights.len()];
-        for o in 0..self.outputs {
-            for j in 0..self.inputs {
-                w[o * self.inputs + j] = self.weights[j * self.outputs + o];
-            }
-        }
-        (w, self.bias.clone())
-    }
-
-    /// `y = W x + b`, then ReLU when `relu`. Allocates nothing.
-    pub(crate) fn apply(&self, x: &[f32], y: &mut [f32], relu: bool) {
-        let y = &mut y[..self.outputs];
-        y.copy_from_slice(&self.bias);
-        for (j, xj) in x[..self.inputs].iter().enumerate() {
-            let column = &self.weights[j * self.outputs..(j + 1) * self.outputs];
-            for (yo, w) in y.iter_mut().zip(column) {
-                *yo += xj * w;
-            }
-        }
-        if relu {
-            for v in y.iter_mut() {
-                *v = v.max(0.0);
-            }
-        }
-    }
-
-    /// Whether every weight and bias is finite.
-    pub(crate) fn is_finite(&self) -> (bool, bool) {
-        (self.weights.iter().all(|x| x.is_finite()), self.bias.iter().all(|x| x.is_finite()))
     }
 }
 
@@ -219,6 +163,19 @@ impl PolicyNetwork {
     /// The metadata.
     pub fn meta(&self) -> &PolicyMeta {
         &self.meta
+    }
+
+    /// Runs the forward pass compiled for `wanted` (or the best variant
+    /// below it this CPU has) and returns the one that runs. By default
+    /// the variant `TANDEM_SIMD` names, else the best available; all
+    /// agree with candle's forward pass to 1e-5 (tests/learn.rs).
+    pub fn set_simd(&mut self, wanted: crate::collision::SimdLevel) -> crate::collision::SimdLevel {
+        self.layers.iter_mut().fold(wanted, |_, layer| layer.set_simd(wanted))
+    }
+
+    /// The variant of the forward pass that runs.
+    pub fn simd(&self) -> crate::collision::SimdLevel {
+        self.layers.first().map_or(crate::collision::SimdLevel::Baseline, DenseLayer::simd)
     }
 
     /// Layer `i`'s weights (row-major `[out, in]`) and bias.

@@ -8,11 +8,12 @@
 //! the same seed and data give the same bytes of the weights.
 
 use super::LearnError;
+use super::checkpoint::{self, AdamW};
 use super::dataset::Pairs;
 use super::network::{PolicyMeta, PolicyNetwork};
 use crate::settings::{InvalidSetting, non_negative, positive, readable};
 use candle_core::{Device, Tensor, Var};
-use candle_nn::{AdamW, Optimizer, ParamsAdamW};
+use candle_nn::ParamsAdamW;
 use indicatif::{ProgressBar, ProgressStyle};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -38,6 +39,10 @@ pub struct TrainSettings {
     pub direction_speed: f64,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Save the optimisation state here after every epoch and resume from
+    /// it when it exists (see [`checkpoint`](super::checkpoint)); removed
+    /// when training ends. `None` (default): no checkpoint.
+    pub checkpoint: Option<std::path::PathBuf>,
 }
 
 /// Most hidden layers of a policy network.
@@ -85,12 +90,13 @@ impl Default for TrainSettings {
             speed_weight: 1.0,
             direction_speed: 0.05,
             progress: false,
+            checkpoint: None,
         }
     }
 }
 
 /// Mean losses of one epoch.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct EpochLoss {
     /// Epoch number, from 1.
     pub epoch: usize,
@@ -318,7 +324,7 @@ pub fn train(
     let prepare = |p: &Pairs| Prepared::new(p, &mean, &std, meta.speed_scale, settings.direction_speed);
     let (data, held_out) = (prepare(train), prepare(validation));
     let params = ParamsAdamW { lr: settings.learning_rate, weight_decay: 0.0, ..ParamsAdamW::default() };
-    let mut optimizer = AdamW::new(layers.vars(), params).map_err(candle)?;
+    let mut optimizer = AdamW::new(layers.vars(), params)?;
     let batches_per_epoch = data.len().div_ceil(settings.batch);
     let total = (batches_per_epoch * settings.epochs) as u64;
     let bar = settings.progress.then(|| progress_bar(total, "batches"));
@@ -332,7 +338,26 @@ pub fn train(
         validation_trajectories: validation.trajectories,
     };
     let mut step = 0u64;
-    for epoch in 0..settings.epochs {
+    let mut first_epoch = 0;
+    let mut progress = None;
+    if let Some(path) = &settings.checkpoint {
+        let initial_bytes = initial.map(PolicyNetwork::to_bytes).transpose()?;
+        let fingerprint =
+            checkpoint::fingerprint(&meta, settings, (&mean, &std), train, validation, initial_bytes.as_deref());
+        if let Some(saved) = checkpoint::load(path, &fingerprint)? {
+            checkpoint::restore(&mut optimizer, &saved, path)?;
+            order = saved.order;
+            step = saved.progress.batches_done;
+            rng.set_word_pos(saved.progress.rng_word_pos.parse().unwrap_or_default());
+            report.losses = saved.progress.losses.clone();
+            first_epoch = saved.progress.epochs_done;
+            if let Some(bar) = &bar {
+                bar.set_position(step);
+            }
+        }
+        progress = Some(checkpoint::Progress::new(fingerprint));
+    }
+    for epoch in first_epoch..settings.epochs {
         shuffle(&mut order, &mut rng);
         let mut sum = 0.0;
         for rows in order.chunks(settings.batch) {
@@ -365,9 +390,19 @@ pub fn train(
             None => {}
         }
         report.losses.push(loss);
+        if let (Some(path), Some(progress)) = (&settings.checkpoint, progress.as_mut()) {
+            progress.epochs_done = epoch + 1;
+            progress.batches_done = step;
+            progress.rng_word_pos = rng.get_word_pos().to_string();
+            progress.losses = report.losses.clone();
+            checkpoint::save(path, &optimizer, &order, progress)?;
+        }
     }
     if let Some(bar) = &bar {
         bar.finish();
+    }
+    if let Some(path) = &settings.checkpoint {
+        let _ = std::fs::remove_file(path);
     }
     let (weights, biases) = layers.values()?;
     let network = PolicyNetwork::from_parts(meta, mean, std, &weights, &biases)?;
