@@ -37,7 +37,8 @@
 //!   with feature `learn`);
 //! - `experiments` (feature `experiments`): the dissertation's experiments
 //!   and their one harness;
-//! - `teleop` (feature `serve`): `tandem serve`, shared control from a browser;
+//! - `teleop` (feature `experiments`; its web server, feature `serve`): `tandem
+//!   serve`, shared control from a browser;
 //! - `cli` (feature `cli`): the `tandem` command.
 //!
 //! The features are on by default; a control loop that embeds tandem can
@@ -74,7 +75,7 @@ pub mod robot;
 pub mod scene;
 pub mod settings;
 pub mod sim;
-#[cfg(feature = "serve")]
+#[cfg(feature = "experiments")]
 pub mod teleop;
 pub mod trajectory;
 

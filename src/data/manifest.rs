@@ -23,7 +23,7 @@ pub struct DatasetParameters {
     /// SHA-256 over every file that shapes the robot: its URDF (the
     /// embedded text for the shipped robots), the collision URDF and the
     /// SRDF when given, and each collision mesh, in that order (see
-    /// [`robot_sha256`](super::generate::robot_sha256)). Empty in datasets
+    /// [`robot_sha256`](super::robot_sha256)). Empty in datasets
     /// written before it was recorded, which then cannot be resumed.
     #[serde(default)]
     pub robot_sha256: String,

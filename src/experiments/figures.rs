@@ -61,6 +61,7 @@ pub fn outcome_legend(mut panel: Panel, outcomes: impl IntoIterator<Item = Outco
     panel
 }
 
+#[cfg(feature = "learn")]
 /// Training and validation loss per epoch (log10), one panel.
 ///
 /// # Errors
@@ -189,6 +190,7 @@ pub fn success_by_distance(outcomes: &[(String, Vec<(f64, bool)>)], bins: usize)
     )
 }
 
+#[cfg(feature = "learn")]
 /// Fig. 6.4: success rate and return per training episode, one line per
 /// reward (each the mean over its seeds' runs, smoothed by a moving
 /// average over `window` episodes).
@@ -227,6 +229,7 @@ pub fn training_curves(
     render_panels(&format!("Training the arbiter with DDPG ({of})"), &[success, returns], 560, 400)
 }
 
+#[cfg(feature = "learn")]
 /// Fig. 6.5: distance of the executed command to the user's and to the
 /// predicted sub-policy along normalised episode time, one panel per method.
 ///

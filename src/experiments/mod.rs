@@ -24,7 +24,6 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-#[cfg(feature = "learn")]
 pub mod figures;
 mod harness;
 #[cfg(feature = "learn")]

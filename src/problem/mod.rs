@@ -25,7 +25,9 @@ mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
 pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
-pub use moveit::{MOVEIT_CLEARANCE, MoveItRequest, moveit_request_from_str, read_moveit_request};
+pub use moveit::{
+    MOVEIT_CLEARANCE, MOVEIT_LIMIT_TOLERANCE, MoveItRequest, moveit_request_from_str, read_moveit_request,
+};
 pub use moveit_scene::{MoveItScene, PLANE_EXTENT, moveit_scene_from_str, read_moveit_scene};
 pub use planner::{DynamicDomain, PlannerSettings, RootBias};
 pub use problem_file::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};

@@ -11,7 +11,7 @@
 //!   an episode starts at the first command that is not zero, so a page
 //!   left open is neither timed nor recorded;
 //! - [`SceneView`] and [`StateView`]: what the page draws, as JSON;
-//! - [`serve`]: the axum web server, the page at `/`, the WebSocket at
+//! - `serve` (feature `serve`): the axum web server, the page at `/`, the WebSocket at
 //!   `/ws` (one session per connection), health and timing at `/stats`.
 //!
 //! The protocol (JSON text frames): the page sends
@@ -39,11 +39,13 @@
 
 mod protocol;
 mod scene_view;
+#[cfg(feature = "serve")]
 mod server;
 mod session;
 
-pub use protocol::{ClientMessage, parse_client_message};
+pub use protocol::{ClientMessage, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES, parse_client_message};
 pub use scene_view::{SceneView, ShapeView, StateView};
+#[cfg(feature = "serve")]
 pub use server::{ServeSettings, Server, ServerStats, serve};
 pub use session::{SessionSettings, TeleopSession, TeleopTask};
 
