@@ -49,7 +49,7 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   "$venv/bin/pip" install --quiet --disable-pip-version-check -r python_ref/requirements.txt
   echo "$want" > "$stamp"
 fi
-"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake" \
+"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake, rosbags" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
 
 # The Python package's environment: pytest and ray in python/.venv, which
@@ -78,16 +78,16 @@ disk "Python environment ready"
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
-cargo clippy --workspace --all-targets --features osqp --quiet -- -D warnings
+cargo clippy --workspace --all-targets --features osqp,ros2 --quiet -- -D warnings
 echo "== cargo doc (warnings are errors)"
-RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp --quiet
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp,ros2 --quiet
 echo "== cargo test"
-cargo test --workspace --all-targets --features osqp --no-run --quiet
+cargo test --workspace --all-targets --features osqp,ros2 --no-run --quiet
 disk "tests built"
-cargo test --workspace --all-targets --features osqp --no-fail-fast
-cargo test --workspace --doc --features osqp --no-fail-fast
+cargo test --workspace --all-targets --features osqp,ros2 --no-fail-fast
+cargo test --workspace --doc --features osqp,ros2 --no-fail-fast
 echo "== examples/arbiter_loop.rs"
-cargo run --quiet --features osqp --example arbiter_loop
+cargo run --quiet --features osqp,ros2 --example arbiter_loop
 disk "Rust tests done"
 
 # `pip install .` as a user runs it (maturin from PyPI in an isolated build

@@ -72,6 +72,8 @@ pub mod pipeline;
 pub mod plan;
 pub mod problem;
 pub mod robot;
+#[cfg(feature = "ros2")]
+pub mod ros2;
 pub mod scene;
 pub mod settings;
 pub mod sim;

@@ -27,6 +27,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("learning", &["learn"]),
     ("laboratory", &["experiments"]),
     ("teleoperation server", &["teleop"]),
+    ("ROS 2", &["ros2"]),
     ("command line", &["cli"]),
 ];
 

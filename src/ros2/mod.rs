@@ -1,0 +1,6 @@
+//! tandem on a ROS 2 system (feature `ros2`). For now the messages the
+//! shared-control node exchanges with standard ROS 2 nodes (MoveIt
+//! Servo's inputs, `/joint_states`, the controllers' commands), encoded as
+//! plain CDR as rclcpp and rclpy put them on the wire.
+
+pub mod messages;
