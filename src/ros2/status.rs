@@ -50,8 +50,7 @@ pub fn status_code(status: TickStatus, codes: ServoCodes) -> i8 {
         TickStatus::Infeasible => 12,
         TickStatus::SolverFailed => 13,
         TickStatus::PolicyFailed => 14,
-        // A status added later reads as Servo's INVALID until it has a code.
-        _ => -1,
+        // No wildcard: a new status must be given its code here.
     }
 }
 
