@@ -1030,7 +1030,8 @@ fn family_values_beyond_any_workspace_are_refused() {
         family_text(&OBSTACLES.replace("region_min = [0.25, -0.6, 0.25]", "region_min = [-1.7e308, -0.6, 0.25]"));
     expect_family_error(&text, "region_min", "obstacles.region_min[0]", "within ±1000 m");
     let text = family_text(&OBSTACLES.replace("[0.75, 0.6, 0.8]", "[1.7e308, 0.6, 0.8]"));
-    expect_family_error(&text, "region_max", "obstacles.region_max[0]", "within ±1000 m");
+    // Out of range, not "smaller than region_min" (it printed "got 1e308 < 0.25").
+    expect_family_error(&text, "region_max", "obstacles.region_max[0]", "must lie within ±1000 m, got 1.7e308");
     let text = family_text(&OBSTACLES.replace("[0.04, 0.1]", "[0.04, 1e300]"));
     expect_family_error(&text, "size", "obstacles.size", "≤ 10 m, got [0.04, 1e300]");
     let text = family_text("[[objects]]\nname = \"box\"\nx = [-1.7e308, 1.7e308]\n");

@@ -5,8 +5,8 @@
 use libfuzzer_sys::fuzz_target;
 use std::sync::{Arc, LazyLock};
 use tandem::collision::{CollisionModel, CollisionWorkspace};
-use tandem::robot::{MeshSearchPath, RobotDescription, RobotModel, Srdf};
 use tandem::problem::moveit_scene_from_str;
+use tandem::robot::{MeshSearchPath, RobotDescription, RobotModel, Srdf};
 
 struct Panda {
     description: Arc<RobotDescription>,

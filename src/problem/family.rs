@@ -381,12 +381,12 @@ impl RawObstacleDistribution {
             let msg = format!("must lie within ±{FAMILY_LIMIT} m, got {}", readable(min[i]));
             return Err(src.error(&p.key("region_min").index(i), msg));
         }
-        if let Some(i) = (0..3).find(|&i| !(within(max[i]) && min[i] <= max[i])) {
-            let msg = format!(
-                "must lie within ±{FAMILY_LIMIT} m and be ≥ region_min[{i}], got {} < {}",
-                readable(max[i]),
-                readable(min[i])
-            );
+        if let Some(i) = (0..3).find(|&i| !within(max[i])) {
+            let msg = format!("must lie within ±{FAMILY_LIMIT} m, got {}", readable(max[i]));
+            return Err(src.error(&p.key("region_max").index(i), msg));
+        }
+        if let Some(i) = (0..3).find(|&i| min[i] > max[i]) {
+            let msg = format!("must be ≥ region_min[{i}], got {} < {}", readable(max[i]), readable(min[i]));
             return Err(src.error(&p.key("region_max").index(i), msg));
         }
         if !(self.clearance.is_finite() && (0.0..=MAX_OBSTACLE_SIZE).contains(&self.clearance)) {
