@@ -12,12 +12,14 @@ command in them parses, and the commands themselves are the tests'."""
 import os
 import pathlib
 import re
+import shutil
 import subprocess
 import sys
 import time
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
 BLOCK = re.compile(r"^```sh\n(.*?)^```", re.S | re.M)
+DOCS_SCRATCH = "/tmp/tandem-docs"
 
 
 def main():
@@ -25,6 +27,10 @@ def main():
         sys.exit("usage: doc_examples.py PATH/TO/tandem")
     binary = pathlib.Path(sys.argv[1]).resolve()
     env = dict(os.environ, PATH=f"{binary.parent}:{os.environ['PATH']}")
+    # The pages write under /tmp/tandem-docs; start from nothing, so that
+    # what an older tandem left there (a dataset the examples would resume)
+    # does not decide the run.
+    shutil.rmtree(DOCS_SCRATCH, ignore_errors=True)
     failures, count = [], 0
     for page in sorted((REPO / "docs").glob("*.md")):
         text = page.read_text()

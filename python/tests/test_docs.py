@@ -5,6 +5,7 @@ repository's relative paths (problems/…) reachable through a symlink."""
 
 import os
 import re
+import shutil
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,14 @@ def blocks():
         for m in BLOCK.finditer(text):
             line = text[: m.start()].count("\n") + 2
             yield pytest.param(doc, line, m.group(1), id=f"{doc.relative_to(REPO)}:{line}")
+
+
+@pytest.fixture(scope="module", autouse=True)
+def fresh_docs_scratch():
+    """The pages write under /tmp/tandem-docs: start from nothing, so that
+    what an older tandem left there (a dataset the examples would resume)
+    does not decide the run."""
+    shutil.rmtree("/tmp/tandem-docs", ignore_errors=True)
 
 
 def test_the_docs_have_python_examples():
