@@ -1,6 +1,6 @@
 //! `tandem arbitrate`: one shared-control episode on a problem.
 
-use super::refusal::{Refusal, goal_refusal, start_refusal};
+use super::refusal::{Refusal, or_goal_refusal, start_refusal};
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, GoalSettings, ProblemGoal, problem_goals};
 use crate::experiments::figures::{episode_path, outcome_legend, with_scene};
 use crate::figures::{Color, Marker, Panel, Series, render_panels};
@@ -74,15 +74,9 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
     }
     let began = Instant::now();
     let options = GoalSettings { seed: Some(args.seed), ..GoalSettings::default() };
-    let goals = match problem_goals(&problem, &options) {
+    let goals = match or_goal_refusal(problem_goals(&problem, &options))? {
         Ok(goals) => goals,
-        Err(e) => {
-            let e: Box<dyn std::error::Error> = e.into();
-            return match goal_refusal(&*e) {
-                Some(refusal) => Ok(refused(&problem, &refusal, args)),
-                None => Err(e),
-            };
-        }
+        Err(refusal) => return Ok(refused(&problem, &refusal, args)),
     };
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);

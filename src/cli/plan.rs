@@ -1,6 +1,6 @@
 //! `tandem plan`: RRT-Connect on a problem file or MoveIt inputs.
 
-use super::refusal::{Refusal, goal_refusal, why_invalid};
+use super::refusal::{Refusal, or_goal_refusal, print_refusal, why_invalid};
 use super::{Outcome, ProblemArgs};
 use crate::experiments::figures::with_scene;
 use crate::figures::{Color, Marker, Panel, Series, render_panels};
@@ -35,15 +35,9 @@ pub struct PlanArgs {
 
 pub(super) fn run(args: &PlanArgs) -> Result<Outcome, Box<dyn std::error::Error>> {
     let problem = args.input.load()?;
-    let report = match plan_problem(&problem, args.seed) {
+    let report = match or_goal_refusal(plan_problem(&problem, args.seed))? {
         Ok(report) => report,
-        Err(e) => {
-            let e: Box<dyn std::error::Error> = e.into();
-            return match goal_refusal(&*e) {
-                Some(refusal) => Ok(refused(&problem, &refusal, args.json)),
-                None => Err(e),
-            };
-        }
+        Err(refusal) => return Ok(refused(&problem, &refusal, args.json)),
     };
     let invalid = |q: &[f64]| -> Result<String, Box<dyn std::error::Error>> {
         Ok(why_invalid(&problem, q, true)?
@@ -135,12 +129,10 @@ fn refused(problem: &Problem, refusal: &Refusal, json: bool) -> Outcome {
             "attempts": 0,
             "reason": refusal.reason,
         });
-        println!("{out}");
+        print_refusal(problem, refusal, Some(out))
     } else {
-        println!("problem {} ({}): {}", problem.name, problem.origin, refusal.status);
-        println!("{}", refusal.reason);
+        print_refusal(problem, refusal, None)
     }
-    Outcome::Unsuccessful
 }
 
 /// Top (x, y) and side (x, z) views of the end-effector path through

@@ -56,7 +56,7 @@ pub(super) fn start_refusal(problem: &Problem) -> Result<Option<Refusal>, Box<dy
 /// The goal's refusal inside `error`, if that is what it is: inverse
 /// kinematics found no configuration within limits that reaches the goal,
 /// or only colliding ones.
-pub(super) fn goal_refusal(error: &(dyn std::error::Error + 'static)) -> Option<Refusal> {
+fn goal_refusal(error: &(dyn std::error::Error + 'static)) -> Option<Refusal> {
     fn pipeline(e: &PipelineError) -> Option<&PlanError> {
         match e {
             PipelineError::Plan(plan) => Some(plan),
@@ -74,4 +74,32 @@ pub(super) fn goal_refusal(error: &(dyn std::error::Error + 'static)) -> Option<
         PlanError::Ik(ik) => Some(Refusal { status: "goal_invalid", reason: format!("goal: {ik}") }),
         _ => None,
     }
+}
+
+/// `result`'s value; or, when its error is a goal's refusal
+/// ([`goal_refusal`]), that refusal; or the error.
+pub(super) fn or_goal_refusal<T, E: Into<Box<dyn std::error::Error>>>(
+    result: Result<T, E>,
+) -> Result<Result<T, Refusal>, Box<dyn std::error::Error>> {
+    match result {
+        Ok(value) => Ok(Ok(value)),
+        Err(e) => {
+            let e: Box<dyn std::error::Error> = e.into();
+            goal_refusal(&*e).map(Err).ok_or(e)
+        }
+    }
+}
+
+/// Prints a refusal of `plan` or `solve`: `json` (the command's keys,
+/// without a path) when given, else the status and reason as text.
+/// Exit status 3.
+pub(super) fn print_refusal(problem: &Problem, refusal: &Refusal, json: Option<serde_json::Value>) -> super::Outcome {
+    match json {
+        Some(out) => println!("{out}"),
+        None => {
+            println!("problem {} ({}): {}", problem.name, problem.origin, refusal.status);
+            println!("{}", refusal.reason);
+        }
+    }
+    super::Outcome::Unsuccessful
 }

@@ -2,7 +2,7 @@
 //! file or MoveIt inputs.
 
 use super::plan::gripper_path_svg;
-use super::refusal::{Refusal, goal_refusal, start_refusal};
+use super::refusal::{Refusal, or_goal_refusal, print_refusal, start_refusal};
 use super::{Outcome, ProblemArgs};
 use crate::figures::{Panel, Series, render_panels};
 use crate::pipeline::{ProblemSolution, SolveSettings, solve_problem};
@@ -47,15 +47,9 @@ pub(super) fn run(args: &SolveArgs) -> Result<Outcome, Box<dyn std::error::Error
         return Ok(refused(&problem, &refusal, args.json));
     }
     let options = SolveSettings { seed: args.seed, horizon: args.horizon, ..SolveSettings::default() };
-    let solution = match solve_problem(&problem, &options) {
+    let solution = match or_goal_refusal(solve_problem(&problem, &options))? {
         Ok(solution) => solution,
-        Err(e) => {
-            let e: Box<dyn std::error::Error> = e.into();
-            return match goal_refusal(&*e) {
-                Some(refusal) => Ok(refused(&problem, &refusal, args.json)),
-                None => Err(e),
-            };
-        }
+        Err(refusal) => return Ok(refused(&problem, &refusal, args.json)),
     };
     if let Some(dir) = &args.out {
         write_outputs(&problem, &solution, dir)?;
@@ -127,12 +121,10 @@ fn refused(problem: &Problem, refusal: &Refusal, json: bool) -> Outcome {
             "time_step": null,
             "reason": refusal.reason,
         });
-        println!("{out}");
+        print_refusal(problem, refusal, Some(out))
     } else {
-        println!("problem {} ({}): {}", problem.name, problem.origin, refusal.status);
-        println!("{}", refusal.reason);
+        print_refusal(problem, refusal, None)
     }
-    Outcome::Unsuccessful
 }
 
 pub(super) fn print_summary(problem: &Problem, s: &ProblemSolution, out: Option<&Path>) {
