@@ -36,6 +36,32 @@ impl HumanCommand<'_> {
     }
 }
 
+/// `linear` scaled down to `max_speed` (m/s) when faster, its direction
+/// kept; NaN stays NaN. The norm is taken of the vector divided by its
+/// largest component, so that 1e308 m/s (whose squares overflow to
+/// infinity, and whose plain scaling made it zero) becomes `max_speed` along
+/// the same direction; an infinite component points along its axes.
+pub fn limit_speed(linear: [f64; 3], max_speed: f64) -> [f64; 3] {
+    if linear.iter().any(|v| v.is_nan()) {
+        return linear;
+    }
+    let largest = linear.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if largest == 0.0 {
+        return linear;
+    }
+    let unit = if largest.is_infinite() {
+        linear.map(|v| if v.is_infinite() { v.signum() } else { 0.0 })
+    } else {
+        linear.map(|v| v / largest)
+    };
+    let norm = largest * unit.iter().map(|u| u * u).sum::<f64>().sqrt();
+    if norm <= max_speed {
+        return linear;
+    }
+    let unit_norm = unit.iter().map(|u| u * u).sum::<f64>().sqrt();
+    unit.map(|u| u / unit_norm * max_speed)
+}
+
 /// Everything one tick reads.
 #[derive(Debug, Clone, Copy)]
 pub struct TickInput<'a> {

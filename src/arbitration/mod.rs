@@ -77,7 +77,7 @@ mod solve;
 pub mod workspace;
 
 pub use arbiter::{Arbiter, ArbiterGoal};
-pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
+pub use command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus, limit_speed};
 pub use field::{FieldSample, metric_field};
 pub use intent::{IntentEstimator, IntentSettings};
 pub use learned::{ArbitrationPolicy, StateLayout};

@@ -25,6 +25,8 @@ mod plan;
 mod policy;
 mod problem_args;
 mod refusal;
+#[cfg(feature = "ros2")]
+mod ros2;
 mod serve;
 mod solve;
 
@@ -284,6 +286,23 @@ pub enum Command {
     ///   tandem serve --task planar --arbiter combined.safetensors --mode learned
     #[command(verbatim_doc_comment)]
     Serve(serve::ServeArgs),
+    /// Run the shared-control node on a ROS 2 system, where MoveIt Servo
+    /// runs: it reads Servo's twist and joint commands and /joint_states,
+    /// blends them with the problem's goals under the arbitration mode, and
+    /// writes a JointTrajectory (or a Float64MultiArray of positions or
+    /// velocities) for ros2_control's controllers, a status code per tick
+    /// (Servo's codes, and tandem's own), the beliefs and diagnostics. The
+    /// mode is a ROS 2 parameter (`ros2 param set /tandem mode constrained`).
+    /// No ROS installation is needed: the node speaks DDS itself. Parameters:
+    /// docs/ros2.md. Runs until SIGINT or SIGTERM (or --duration); exit 3 when
+    /// the problem's start or goal is invalid.
+    ///
+    /// Examples:
+    ///   tandem ros2
+    ///   tandem ros2 builtin:panda_grasp_box --config node.yaml
+    #[cfg(feature = "ros2")]
+    #[command(verbatim_doc_comment)]
+    Ros2(ros2::Ros2Args),
 }
 
 /// Runs a parsed command line, writing results to stdout.
@@ -305,6 +324,8 @@ pub fn run(cli: Cli) -> Result<Outcome, Box<dyn std::error::Error>> {
         Command::Learn(args) => done(learn::run(&args)),
         Command::Experiment(args) => done(experiment::run(&args)),
         Command::Serve(args) => done(serve::run(&args)),
+        #[cfg(feature = "ros2")]
+        Command::Ros2(args) => ros2::run(&args),
     }
 }
 

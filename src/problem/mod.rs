@@ -18,7 +18,7 @@ mod family;
 pub mod grasp;
 mod moveit;
 mod moveit_scene;
-mod moveit_yaml;
+pub(crate) mod moveit_yaml;
 mod planner;
 mod problem_file;
 mod toml_source;

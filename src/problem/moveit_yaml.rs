@@ -10,19 +10,19 @@ use std::path::Path;
 use yaml_rust2::{Yaml, YamlLoader};
 
 /// A node of a YAML document with its key path, for errors.
-pub(super) struct Node<'a> {
-    pub(super) file: &'a str,
-    pub(super) path: KeyPath,
-    pub(super) value: &'a Yaml,
+pub(crate) struct Node<'a> {
+    pub(crate) file: &'a str,
+    pub(crate) path: KeyPath,
+    pub(crate) value: &'a Yaml,
 }
 
 impl<'a> Node<'a> {
     /// The document's root.
-    pub(super) fn root(file: &'a str, value: &'a Yaml) -> Node<'a> {
+    pub(crate) fn root(file: &'a str, value: &'a Yaml) -> Node<'a> {
         Node { file, path: KeyPath::root(), value }
     }
 
-    pub(super) fn error(&self, message: impl Into<String>) -> ProblemError {
+    pub(crate) fn error(&self, message: impl Into<String>) -> ProblemError {
         let key = self.path.to_string();
         ProblemError::Invalid {
             file: self.file.to_string(),
@@ -33,23 +33,23 @@ impl<'a> Node<'a> {
     }
 
     /// Whether the key is absent or null.
-    pub(super) fn is_absent(&self) -> bool {
+    pub(crate) fn is_absent(&self) -> bool {
         matches!(self.value, Yaml::BadValue | Yaml::Null)
     }
 
     /// Child `key` (absent when missing).
-    pub(super) fn get(&self, key: &str) -> Node<'a> {
+    pub(crate) fn get(&self, key: &str) -> Node<'a> {
         Node { file: self.file, path: self.path.key(key), value: &self.value[key] }
     }
 
-    pub(super) fn required(&self, key: &str) -> Result<Node<'a>, ProblemError> {
+    pub(crate) fn required(&self, key: &str) -> Result<Node<'a>, ProblemError> {
         let n = self.get(key);
         if n.is_absent() { Err(n.error("missing")) } else { Ok(n) }
     }
 
     /// Checks that the node is a mapping whose keys are all in `fields`
     /// (an absent node passes: every field is then absent too).
-    pub(super) fn fields(&self, what: &str, fields: &[&str]) -> Result<(), ProblemError> {
+    pub(crate) fn fields(&self, what: &str, fields: &[&str]) -> Result<(), ProblemError> {
         let map = match self.value {
             Yaml::Hash(map) => map,
             Yaml::BadValue | Yaml::Null => return Ok(()),
@@ -67,7 +67,7 @@ impl<'a> Node<'a> {
     }
 
     /// The items of a list (none when absent).
-    pub(super) fn items(&self) -> Result<Vec<Node<'a>>, ProblemError> {
+    pub(crate) fn items(&self) -> Result<Vec<Node<'a>>, ProblemError> {
         match self.value {
             Yaml::Array(items) => Ok(items
                 .iter()
@@ -79,7 +79,7 @@ impl<'a> Node<'a> {
         }
     }
 
-    pub(super) fn number(&self) -> Result<f64, ProblemError> {
+    pub(crate) fn number(&self) -> Result<f64, ProblemError> {
         let v = match self.value {
             Yaml::Integer(i) => *i as f64,
             other => other.as_f64().ok_or_else(|| self.error("must be a number"))?,
@@ -87,20 +87,20 @@ impl<'a> Node<'a> {
         if v.is_finite() { Ok(v) } else { Err(self.error(format!("must be finite, got {v}"))) }
     }
 
-    pub(super) fn numbers(&self) -> Result<Vec<f64>, ProblemError> {
+    pub(crate) fn numbers(&self) -> Result<Vec<f64>, ProblemError> {
         self.items()?.iter().map(Node::number).collect()
     }
 
-    pub(super) fn text(&self) -> Result<&'a str, ProblemError> {
+    pub(crate) fn text(&self) -> Result<&'a str, ProblemError> {
         self.value.as_str().ok_or_else(|| self.error("must be a string"))
     }
 
     /// A string, empty when absent.
-    pub(super) fn text_or_empty(&self) -> Result<&'a str, ProblemError> {
+    pub(crate) fn text_or_empty(&self) -> Result<&'a str, ProblemError> {
         if self.is_absent() { Ok("") } else { self.text() }
     }
 
-    pub(super) fn texts(&self) -> Result<Vec<&'a str>, ProblemError> {
+    pub(crate) fn texts(&self) -> Result<Vec<&'a str>, ProblemError> {
         self.items()?.iter().map(Node::text).collect()
     }
 
@@ -120,7 +120,7 @@ impl<'a> Node<'a> {
 
     /// A one-field message in its message form (`{key: value}`: the node at
     /// `key`) or its short form (the value itself: this node).
-    pub(super) fn one_field(&self, what: &str, key: &str) -> Result<Node<'a>, ProblemError> {
+    pub(crate) fn one_field(&self, what: &str, key: &str) -> Result<Node<'a>, ProblemError> {
         match self.value {
             Yaml::Hash(_) => {
                 self.fields(what, &[key])?;
@@ -131,12 +131,12 @@ impl<'a> Node<'a> {
     }
 
     /// A point or vector: `[x, y, z]` or `{x, y, z}`.
-    pub(super) fn vector3(&self) -> Result<Vector3<f64>, ProblemError> {
+    pub(crate) fn vector3(&self) -> Result<Vector3<f64>, ProblemError> {
         Ok(Vector3::from(self.components(["x", "y", "z"])?))
     }
 
     /// A unit quaternion: `[x, y, z, w]` or `{x, y, z, w}`, norm 1 within 1e-3.
-    pub(super) fn quaternion(&self) -> Result<UnitQuaternion<f64>, ProblemError> {
+    pub(crate) fn quaternion(&self) -> Result<UnitQuaternion<f64>, ProblemError> {
         let [x, y, z, w] = self.components(["x", "y", "z", "w"])?;
         let q = Quaternion::new(w, x, y, z);
         if (q.norm() - 1.0).abs() > 1e-3 {
@@ -146,7 +146,7 @@ impl<'a> Node<'a> {
     }
 
     /// A `geometry_msgs/Pose`: `{position, orientation}`.
-    pub(super) fn pose(&self) -> Result<IsometryMatrix3<f64>, ProblemError> {
+    pub(crate) fn pose(&self) -> Result<IsometryMatrix3<f64>, ProblemError> {
         self.fields("a pose", &["position", "orientation"])?;
         let position = self.required("position")?.vector3()?;
         let rotation = self.required("orientation")?.quaternion()?.to_rotation_matrix();
@@ -154,7 +154,7 @@ impl<'a> Node<'a> {
     }
 
     /// A `geometry_msgs/Transform`: `{translation, rotation}`.
-    pub(super) fn transform(&self) -> Result<IsometryMatrix3<f64>, ProblemError> {
+    pub(crate) fn transform(&self) -> Result<IsometryMatrix3<f64>, ProblemError> {
         self.fields("a transform", &["translation", "rotation"])?;
         let translation = self.required("translation")?.vector3()?;
         let rotation = self.required("rotation")?.quaternion()?.to_rotation_matrix();
@@ -162,7 +162,7 @@ impl<'a> Node<'a> {
     }
 
     /// A `std_msgs/Header`: its `frame_id` (empty when absent).
-    pub(super) fn header_frame(&self) -> Result<&'a str, ProblemError> {
+    pub(crate) fn header_frame(&self) -> Result<&'a str, ProblemError> {
         let header = self.get("header");
         header.fields("a header", &["seq", "stamp", "frame_id"])?;
         header.get("frame_id").text_or_empty()
@@ -170,7 +170,7 @@ impl<'a> Node<'a> {
 }
 
 /// Reads one YAML document.
-pub(super) fn load(path: &Path) -> Result<(String, Yaml), ProblemError> {
+pub(crate) fn load(path: &Path) -> Result<(String, Yaml), ProblemError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|source| ProblemError::Io { path: path.into(), source })?;
     let doc = parse(&text, &file)?;
@@ -178,7 +178,7 @@ pub(super) fn load(path: &Path) -> Result<(String, Yaml), ProblemError> {
 }
 
 /// Parses one YAML document read from `file`.
-pub(super) fn parse(text: &str, file: &str) -> Result<Yaml, ProblemError> {
+pub(crate) fn parse(text: &str, file: &str) -> Result<Yaml, ProblemError> {
     let mut docs = YamlLoader::load_from_str(text).map_err(|e| ProblemError::Invalid {
         file: file.to_string(),
         line: Some(e.marker().line() as u32),

@@ -1,8 +1,22 @@
-//! tandem on a ROS 2 system (feature `ros2`). For now the messages the
-//! shared-control node exchanges with standard ROS 2 nodes (MoveIt
-//! Servo's inputs, `/joint_states`, the controllers' commands), encoded as
-//! plain CDR as rclcpp and rclpy put them on the wire, and the status
-//! topic's codes (MoveIt Servo's, and tandem's own).
+//! tandem on a ROS 2 system (feature `ros2`): the shared-control node
+//! `tandem ros2` runs where MoveIt Servo runs, reading Servo's inputs and
+//! `/joint_states` and writing what the ROS 2 controllers take, over the
+//! DDS wire protocol rclcpp and rclpy nodes speak (`ros2-client` over
+//! RustDDS: no ROS installation needed).
+//!
+//! - [`messages`]: the messages, encoded as plain CDR;
+//! - [`status`]: the status topic's codes (MoveIt Servo's, and tandem's own);
+//! - [`settings`]: the node's parameters file;
+//! - [`control`]: the control loop without the middleware (holds on stale
+//!   or malformed input);
+//! - [`node`]: the node on DDS.
 
+pub mod control;
 pub mod messages;
+pub mod node;
+pub mod settings;
 pub mod status;
+
+pub use control::{COMMAND_STALE, ControlLoop, ControlOutput, DIAGNOSTICS, STATE_STALE};
+pub use node::{NodeError, NodeReport, run_node};
+pub use settings::{CommandOut, NodeSettings};

@@ -5,7 +5,7 @@ use super::TeleopError;
 use super::scene_view::{LinkView, SceneParts, SceneView, StateView, link_poses, pose7, robot_links, tick_ellipsoid};
 use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, ArbitrationPolicy, GoalObjects, GoalSettings,
-    HumanCommand, ProblemGoal, problem_goals,
+    HumanCommand, ProblemGoal, limit_speed, problem_goals,
 };
 use crate::problem::Problem;
 use crate::robot::{FrameId, KinematicsWorkspace};
@@ -471,32 +471,6 @@ impl TeleopSession {
     }
 }
 
-/// `linear` scaled down to `max_speed` (m/s) when faster, its direction
-/// kept; NaN stays NaN. The norm is taken of the vector divided by its
-/// largest component, so that 1e308 m/s (whose squares overflow to
-/// infinity, and whose plain scaling made it zero) becomes `max_speed` along
-/// the same direction; an infinite component points along its axes.
-fn limit_speed(linear: [f64; 3], max_speed: f64) -> [f64; 3] {
-    if linear.iter().any(|v| v.is_nan()) {
-        return linear;
-    }
-    let largest = linear.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    if largest == 0.0 {
-        return linear;
-    }
-    let unit = if largest.is_infinite() {
-        linear.map(|v| if v.is_infinite() { v.signum() } else { 0.0 })
-    } else {
-        linear.map(|v| v / largest)
-    };
-    let norm = largest * unit.iter().map(|u| u * u).sum::<f64>().sqrt();
-    if norm <= max_speed {
-        return linear;
-    }
-    let unit_norm = unit.iter().map(|u| u * u).sum::<f64>().sqrt();
-    unit.map(|u| u / unit_norm * max_speed)
-}
-
 /// Recordings saved by this process so far: part of every recording's name.
 static RECORDINGS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
@@ -513,7 +487,7 @@ fn recording_path(dir: &std::path::Path, task: &str, episode: usize) -> PathBuf 
 
 #[cfg(test)]
 mod speed_limit {
-    use super::limit_speed;
+    use crate::arbitration::limit_speed;
 
     /// Huge commands (whose squared norm overflows) keep their direction at
     /// the speed limit instead of turning into zero.

@@ -1,0 +1,316 @@
+"""A robot and an operator on another DDS implementation (Eclipse Cyclone
+DDS, PyPI `cyclonedds`) for `tandem ros2`'s interop test
+(tests/ros2_node.rs) and its latency benchmark (benches/ros2_node.sh).
+
+Reads one JSON object on stdin:
+  {"domain": N, "ready": <the node's --json start line>, "urdf": PATH,
+   "command_out": "trajectory" | "velocities", "out_topic": "/...",
+   "node": "/tandem", "scenario": "grasp" | "latency", "seconds": S,
+   "command_hz": HZ}
+and prints one JSON object with what it saw.
+
+The robot publishes /joint_states at 250 Hz (the arm's joints, and the
+fingers the node does not drive) and executes what the node sends: a
+JointTrajectory's point positions at once (an ideal position controller), or
+Float64MultiArray velocities integrated every robot step. The operator
+publishes TwistStamped commands in the robot's root frame toward the goal's
+grasp point (10 cm above it first, then down), at 0.1 m/s, reading the
+gripper's position from the robot's own joint states with Pinocchio (not
+from tandem). Joint limits are Pinocchio's model's.
+
+DDS discovery runs on the loopback interface by unicast only: Cyclone is
+given 127.0.0.1 as its peer and multicast off (Linux does not route
+multicast on `lo` by default, and the test must not reach other machines);
+RustDDS sends its participant announcements to the same well-known
+localhost ports, so the two find each other without multicast.
+"""
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+REQUEST = json.load(sys.stdin)
+DOMAIN = int(REQUEST["domain"])
+
+_config = tempfile.NamedTemporaryFile("w", suffix=".xml", delete=False)
+_config.write(
+    '<CycloneDDS><Domain Id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
+    "<AllowMulticast>false</AllowMulticast></General><Discovery><ParticipantIndex>auto</ParticipantIndex>"
+    '<MaxAutoParticipantIndex>30</MaxAutoParticipantIndex><Peers><Peer address="127.0.0.1"/></Peers>'
+    "</Discovery></Domain></CycloneDDS>"
+)
+_config.close()
+os.environ["CYCLONEDDS_URI"] = "file://" + _config.name
+
+from cyclonedds.core import Policy, Qos  # noqa: E402  (after the configuration)
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.idl import IdlStruct  # noqa: E402
+from cyclonedds.idl.types import float64, int8, int32, sequence, uint32  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.sub import DataReader  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+from cyclonedds.util import duration  # noqa: E402
+
+
+# The ROS 2 messages as IDL structs under their DDS type names.
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+class Duration(IdlStruct, typename="builtin_interfaces::msg::dds_::Duration_"):
+    sec: int32 = 0
+    nanosec: uint32 = 0
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time = field(default_factory=Time)
+    frame_id: str = ""
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64 = 0.0
+    y: float64 = 0.0
+    z: float64 = 0.0
+
+
+@dataclass
+class Twist(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):
+    linear: Vector3 = field(default_factory=Vector3)
+    angular: Vector3 = field(default_factory=Vector3)
+
+
+@dataclass
+class TwistStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TwistStamped_"):
+    header: Header = field(default_factory=Header)
+    twist: Twist = field(default_factory=Twist)
+
+
+@dataclass
+class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    header: Header
+    name: sequence[str]
+    position: sequence[float64]
+    velocity: sequence[float64]
+    effort: sequence[float64]
+
+
+@dataclass
+class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectoryPoint_"):
+    positions: sequence[float64]
+    velocities: sequence[float64]
+    accelerations: sequence[float64]
+    effort: sequence[float64]
+    time_from_start: Duration
+
+
+@dataclass
+class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectory_"):
+    header: Header
+    joint_names: sequence[str]
+    points: sequence[JointTrajectoryPoint]
+
+
+@dataclass
+class MultiArrayDimension(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayDimension_"):
+    label: str
+    size: uint32
+    stride: uint32
+
+
+@dataclass
+class MultiArrayLayout(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayLayout_"):
+    dim: sequence[MultiArrayDimension]
+    data_offset: uint32
+
+
+@dataclass
+class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiArray_"):
+    layout: MultiArrayLayout
+    data: sequence[float64]
+
+
+@dataclass
+class Int8(IdlStruct, typename="std_msgs::msg::dds_::Int8_"):
+    data: int8
+
+
+def now_stamp(t):
+    sec = math.floor(t)
+    return Time(sec=sec, nanosec=int(round((t - sec) * 1e9)) % 1_000_000_000)
+
+
+def stamp_seconds(stamp):
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def main():
+    ready = REQUEST["ready"]
+    node = REQUEST["node"]
+    model = pin.buildModelFromUrdf(REQUEST["urdf"])
+    data = model.createData()
+    tcp = model.getFrameId(ready["gripper_frame"])
+    names = [model.names[j] for j in range(1, model.njoints)]
+    arm = [names.index(j) for j in ready["joints"]]
+    q = pin.neutral(model)
+    for i, v in zip(arm, ready["start"]):
+        q[model.joints[i + 1].idx_q] = v
+    fingers = [i for i in range(len(names)) if i not in arm]
+    for i in fingers:
+        q[model.joints[i + 1].idx_q] = 0.04
+    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+
+    dp = DomainParticipant(DOMAIN)
+    reliable = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(200))
+    latest = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(1))
+    states_w = DataWriter(dp, Topic(dp, "rt/joint_states", JointState), qos=latest)
+    twist_w = DataWriter(dp, Topic(dp, f"rt{node}/delta_twist_cmds", TwistStamped), qos=latest)
+    status_r = DataReader(dp, Topic(dp, f"rt{node}/status", Int8), qos=reliable)
+    diag_r = DataReader(dp, Topic(dp, f"rt{node}/diagnostics", Float64MultiArray), qos=reliable)
+    out_type = JointTrajectory if REQUEST["command_out"] == "trajectory" else Float64MultiArray
+    out_r = DataReader(dp, Topic(dp, "rt" + REQUEST["out_topic"], out_type), qos=reliable)
+
+    qdot = np.zeros(model.nv)
+    step = 1.0 / 250.0
+    goal = np.array(ready["goals"][0]["position"])
+    seen = {"limit_excess": 0.0, "min_distance": math.inf, "commands": 0, "diagnostics": 0, "statuses": 0}
+    log = []  # (time, phase, status)
+    motion = []  # (time, phase, joint change)
+    latencies = []
+    sent = {}
+    ticks_seen = []
+
+    def gripper():
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        return data.oMf[tcp].translation.copy()
+
+    def robot_step(phase, t):
+        nonlocal q
+        before = q.copy()
+        for s in out_r.take(N=1000):
+            seen["commands"] += 1
+            if out_type is JointTrajectory and s.points:
+                for name, v in zip(s.joint_names, s.points[0].positions):
+                    q[model.joints[names.index(name) + 1].idx_q] = v
+            elif out_type is Float64MultiArray:
+                for k, i in enumerate(arm):
+                    qdot[model.joints[i + 1].idx_v] = s.data[k]
+        if out_type is Float64MultiArray:
+            q = q + qdot * step
+        change = float(np.max(np.abs(q - before)))
+        if change > 0:
+            motion.append((t, phase, change))
+        seen["limit_excess"] = max(seen["limit_excess"], float(np.max(np.maximum(q - upper, lower - q))))
+        states_w.write(JointState(header=Header(stamp=now_stamp(t)), name=names, position=list(map(float, q)),
+                                  velocity=[], effort=[]))
+        for s in status_r.take(N=1000):
+            seen["statuses"] += 1
+            log.append((t, phase, int(s.data)))
+        for s in diag_r.take(N=1000):
+            seen["diagnostics"] += 1
+            d = s.data
+            seen["min_distance"] = min(seen["min_distance"], d[6])
+            ticks_seen.append(d[0])
+            if not math.isnan(d[1]) and d[1] in sent:
+                latencies.append(time.time() - sent.pop(d[1]))
+
+    def command(t, v, frame="panda_link0"):
+        stamp = now_stamp(t)
+        sent[stamp_seconds(stamp)] = time.time()
+        twist_w.write(TwistStamped(header=Header(stamp=stamp, frame_id=frame),
+                                   twist=Twist(linear=Vector3(*map(float, v)))))
+
+    def run(phase, seconds, operator=None, until=None):
+        began = time.time()
+        k = 0
+        next_t = began
+        while time.time() - began < seconds:
+            t = time.time()
+            robot_step(phase, t)
+            if operator is not None and k % 5 == 0:
+                operator(t)
+            if until is not None and until():
+                return True
+            k += 1
+            next_t += step
+            time.sleep(max(0.0, next_t - time.time()))
+        return False
+
+    if REQUEST["scenario"] == "latency":
+        # Commands at command_hz (small, alternating directions) for `seconds`.
+        every = max(1, round(250 / REQUEST["command_hz"]))
+        run("wait", 2.0)
+        k = [0]
+
+        def operator_latency(t):
+            k[0] += 1
+            command(t, (0.0, 0.0, 0.01 if (k[0] // 50) % 2 else -0.01))
+
+        began = time.time()
+        i = 0
+        next_t = began
+        while time.time() - began < REQUEST["seconds"]:
+            t = time.time()
+            robot_step("measure", t)
+            if i % every == 0:
+                operator_latency(t)
+            i += 1
+            next_t += step
+            time.sleep(max(0.0, next_t - time.time()))
+        run("drain", 0.3)
+        print(json.dumps({"latency_s": latencies, "unanswered": len(sent), "tick_us": ticks_seen, **seen}))
+        return
+
+    # The grasp scenario.
+    run("idle", 1.5)  # discovery, then no command: the node holds (15)
+    above = goal + np.array([0.0, 0.0, 0.1])
+    state = {"target": above}
+
+    def approach(t):
+        p = gripper()
+        if np.linalg.norm(p - state["target"]) < 0.01 and state["target"] is above:
+            state["target"] = goal
+        d = state["target"] - p
+        dist = np.linalg.norm(d)
+        command(t, d / dist * min(0.1, 2.0 * dist) if dist > 1e-9 else np.zeros(3))
+
+    began = time.time()
+    reached = run("approach", 40.0, approach, lambda: np.linalg.norm(gripper() - goal) < 0.005)
+    time_to_reach = time.time() - began
+    stopped = time.time()
+    run("stopped", 0.6)
+    run("nan", 0.5, lambda t: command(t, (math.nan, 0.0, 0.0)))
+    run("frame", 0.4, lambda t: command(t, (0.05, 0.0, 0.0), frame="camera_link"))
+    run("end", 0.3)
+
+    last_motion_after_stop = max([t for t, ph, _ in motion if ph == "stopped"], default=stopped) - stopped
+    codes = {}
+    for _, phase, code in log:
+        codes.setdefault(phase, {}).setdefault(str(code), 0)
+        codes[phase][str(code)] += 1
+    result = {
+        "reached": bool(reached),
+        "time_to_reach_s": time_to_reach,
+        "final_distance_m": float(np.linalg.norm(gripper() - goal)),
+        "hold_after_stop_s": last_motion_after_stop,
+        "moved_in": sorted({ph for _, ph, _ in motion}),
+        "codes": codes,
+        "latency_s": latencies,
+        **seen,
+    }
+    print(json.dumps(result))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,357 @@
+//! The node's control loop without the middleware: the latest joint state
+//! and command as messages deliver them, then one arbiter tick per period
+//! and what to publish. Holds (zero velocity, the measured position) when
+//! the command or the joint states are stale or malformed, and never
+//! panics on what arrives. Allocation-free after the first messages: the
+//! joint-name mapping is rebuilt only when a message's names change.
+
+use super::messages::{JointJog, JointState, Time, TwistStamped};
+use super::settings::NodeSettings;
+use super::status::status_code;
+use crate::arbitration::{
+    Arbiter, ArbiterWorkspace, ArbitrationMode, HumanCommand, TickInput, TickStatus, limit_speed,
+};
+use crate::robot::{FrameId, KinematicsWorkspace};
+use std::time::Instant;
+
+/// The status code of a hold for a command older than
+/// `incoming_command_timeout` (or none yet).
+pub const COMMAND_STALE: i8 = 15;
+/// The status code of a hold for joint states older than
+/// `joint_state_timeout` (or none yet).
+pub const STATE_STALE: i8 = 16;
+
+/// The diagnostics topic's values, in order (`std_msgs/Float64MultiArray`;
+/// the layout's one dimension is labelled with these names).
+pub const DIAGNOSTICS: [&str; 15] = [
+    "tick_us",
+    "command_stamp_s",
+    "status",
+    "gripper_x_m",
+    "gripper_y_m",
+    "gripper_z_m",
+    "min_distance_m",
+    "rows",
+    "active_rows",
+    "solves",
+    "step_fraction",
+    "confidence",
+    "mode",
+    "late_ticks",
+    "ticks",
+];
+
+/// What the latest command was.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum CommandKind {
+    None,
+    /// A twist in the root frame (world axes).
+    Twist,
+    /// A twist in the gripper frame: rotated into world axes each tick.
+    GripperTwist,
+    Joint,
+    /// Unreadable (NaN arrive as values; this is a wrong frame, size or
+    /// joint name): holds with `invalid_command` until the next command.
+    Invalid,
+}
+
+/// What a tick decided.
+#[derive(Debug, Clone, Default)]
+pub struct ControlOutput {
+    /// The joint velocity to execute this period (rad/s or m/s).
+    pub qdot: Vec<f64>,
+    /// Where it takes the arm after one period (rad or m): the measured
+    /// configuration plus `qdot` × period.
+    pub positions: Vec<f64>,
+    /// The status topic's value.
+    pub code: i8,
+    /// The arbiter's status (`None` for the node's own holds, codes 15–16).
+    pub status: Option<TickStatus>,
+    /// Why the node held, when it was not the arbiter's decision.
+    pub hold_reason: Option<&'static str>,
+    /// The stamp of the command this tick used, the first time a tick used
+    /// it (s since the epoch, from its header); NaN otherwise.
+    pub command_stamp: f64,
+    /// The diagnostics topic's values ([`DIAGNOSTICS`]).
+    pub diagnostics: [f64; DIAGNOSTICS.len()],
+}
+
+/// The node's state between ticks.
+pub struct ControlLoop {
+    arbiter: Arbiter,
+    ws: ArbiterWorkspace,
+    kinematics: KinematicsWorkspace,
+    gripper: FrameId,
+    settings: NodeSettings,
+    /// The root link: twists in this frame (or with an empty frame) are in world axes.
+    root_frame: String,
+    gripper_frame: String,
+    /// Measured configuration and when it arrived.
+    q: Vec<f64>,
+    q_at: Option<Instant>,
+    state_valid: bool,
+    /// For each of the arbiter's joints, its index in the last JointState's names.
+    state_map: Vec<usize>,
+    state_names: Vec<String>,
+    /// The latest command.
+    kind: CommandKind,
+    twist: [f64; 6],
+    joint: Vec<f64>,
+    command_at: Option<Instant>,
+    command_stamp: f64,
+    stamp_used: bool,
+    /// The velocity executed last tick (the robot policies' state).
+    qdot_prev: Vec<f64>,
+    out: ControlOutput,
+    ticks: u64,
+    late_ticks: u64,
+}
+
+impl ControlLoop {
+    /// A loop for `arbiter` (its mode replaced by the settings').
+    ///
+    /// # Errors
+    /// The settings' mode not one the arbiter runs (`learned` without an actor).
+    pub fn new(arbiter: &Arbiter, settings: &NodeSettings) -> Result<ControlLoop, String> {
+        let arbiter_settings = crate::arbitration::ArbiterSettings {
+            mode: settings.mode,
+            period: settings.period(),
+            ..*arbiter.settings()
+        };
+        let arbiter = arbiter.with_settings(arbiter_settings).map_err(|e| e.to_string())?;
+        let robot = arbiter.robot().clone();
+        let n = robot.nq();
+        let gripper = arbiter.gripper_frame();
+        let out = ControlOutput {
+            qdot: vec![0.0; n],
+            positions: vec![0.0; n],
+            command_stamp: f64::NAN,
+            ..ControlOutput::default()
+        };
+        Ok(ControlLoop {
+            ws: arbiter.workspace(),
+            kinematics: KinematicsWorkspace::new(&robot),
+            gripper,
+            root_frame: robot.description().root_link().to_string(),
+            gripper_frame: robot.frame_name(gripper).to_string(),
+            settings: settings.clone(),
+            q: vec![0.0; n],
+            q_at: None,
+            state_valid: false,
+            state_map: vec![usize::MAX; n],
+            state_names: Vec::new(),
+            kind: CommandKind::None,
+            twist: [0.0; 6],
+            joint: vec![0.0; n],
+            command_at: None,
+            command_stamp: f64::NAN,
+            stamp_used: true,
+            qdot_prev: vec![0.0; n],
+            out,
+            ticks: 0,
+            late_ticks: 0,
+            arbiter,
+        })
+    }
+
+    /// The arbiter (its goals, robot, settings).
+    pub fn arbiter(&self) -> &Arbiter {
+        &self.arbiter
+    }
+
+    /// The mode running.
+    pub fn mode(&self) -> ArbitrationMode {
+        self.ws.mode()
+    }
+
+    /// Switches the mode (from the next tick).
+    ///
+    /// # Errors
+    /// An unknown name, or `learned` without an actor.
+    pub fn set_mode(&mut self, name: &str) -> Result<ArbitrationMode, String> {
+        let mode: ArbitrationMode = name.trim().parse().map_err(|e| format!("{e}"))?;
+        if mode == ArbitrationMode::Learned && self.arbiter.arbitration_policy().is_none() {
+            return Err("mode learned needs an arbitration actor (--arbiter)".into());
+        }
+        self.ws.set_mode(mode);
+        Ok(mode)
+    }
+
+    /// The beliefs over the goals after the last tick.
+    pub fn beliefs(&self) -> &[f64] {
+        self.ws.beliefs()
+    }
+
+    /// Reads a `/joint_states` message received at `now`. Joints the
+    /// arbiter does not drive are ignored; a missing joint, a wrong-length
+    /// position list or a non-finite position makes the state invalid
+    /// (the arm holds) until a good message arrives.
+    pub fn joint_state(&mut self, msg: &JointState, now: Instant) {
+        if !same_names(&self.state_names, &msg.name) {
+            self.state_names.clear();
+            self.state_names.extend(msg.name.iter().cloned());
+            let joints = self.arbiter.robot().joint_names();
+            for (slot, joint) in self.state_map.iter_mut().zip(joints) {
+                *slot = msg.name.iter().position(|n| n == joint).unwrap_or(usize::MAX);
+            }
+        }
+        self.q_at = Some(now);
+        self.state_valid = msg.position.len() == msg.name.len()
+            && self.state_map.iter().all(|&i| msg.position.get(i).is_some_and(|p| p.is_finite()));
+        if self.state_valid {
+            for (q, &i) in self.q.iter_mut().zip(&self.state_map) {
+                *q = msg.position[i];
+            }
+        }
+    }
+
+    /// Reads a twist command (MoveIt Servo's `delta_twist_cmds`) received
+    /// at `now`: its frame the root link (or empty: the root link) or the
+    /// gripper frame; any other frame is refused (the arm holds with
+    /// `invalid_command`).
+    pub fn twist(&mut self, msg: &TwistStamped, now: Instant) {
+        let t = &msg.twist;
+        self.twist = [t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z];
+        let frame = msg.header.frame_id.as_str();
+        self.kind = if frame.is_empty() || frame == self.root_frame {
+            CommandKind::Twist
+        } else if frame == self.gripper_frame {
+            CommandKind::GripperTwist
+        } else {
+            CommandKind::Invalid
+        };
+        self.arrived(&msg.header.stamp, now);
+    }
+
+    /// Reads a joint command (MoveIt Servo's `delta_joint_cmds`) received
+    /// at `now`: velocities for some of the arbiter's joints (the others
+    /// zero). Displacements without velocities, an unknown joint or
+    /// lengths that differ are refused (hold with `invalid_command`).
+    pub fn joint_jog(&mut self, msg: &JointJog, now: Instant) {
+        self.joint.iter_mut().for_each(|v| *v = 0.0);
+        let joints = self.arbiter.robot().joint_names();
+        let mut ok = msg.velocities.len() == msg.joint_names.len() && !msg.joint_names.is_empty();
+        for (name, v) in msg.joint_names.iter().zip(&msg.velocities) {
+            match joints.iter().position(|j| j == name) {
+                Some(j) => self.joint[j] = *v,
+                None => ok = false,
+            }
+        }
+        self.kind = if ok { CommandKind::Joint } else { CommandKind::Invalid };
+        self.arrived(&msg.header.stamp, now);
+    }
+
+    fn arrived(&mut self, stamp: &Time, now: Instant) {
+        self.command_at = Some(now);
+        self.command_stamp = f64::from(stamp.sec) + f64::from(stamp.nanosec) * 1e-9;
+        self.stamp_used = false;
+    }
+
+    /// Counts a tick that started more than half a period late.
+    pub fn count_late(&mut self) {
+        self.late_ticks += 1;
+    }
+
+    /// One control tick at `now`: the arbiter's command for the latest
+    /// state and command, or a hold.
+    pub fn tick(&mut self, now: Instant) -> &ControlOutput {
+        let began = Instant::now();
+        self.ticks += 1;
+        let period = self.settings.period();
+        let fresh =
+            |at: Option<Instant>, timeout: f64| at.is_some_and(|t| now.duration_since(t).as_secs_f64() <= timeout);
+        let hold = if !fresh(self.q_at, self.settings.joint_state_timeout) {
+            Some((STATE_STALE, "joint states stale", None))
+        } else if !self.state_valid {
+            Some((
+                status_code(TickStatus::InvalidState, self.settings.status_codes),
+                "joint states invalid",
+                Some(TickStatus::InvalidState),
+            ))
+        } else if !fresh(self.command_at, self.settings.incoming_command_timeout) || self.kind == CommandKind::None {
+            Some((COMMAND_STALE, "command stale", None))
+        } else if self.kind == CommandKind::Invalid {
+            let status = TickStatus::InvalidCommand;
+            Some((
+                status_code(status, self.settings.status_codes),
+                "command invalid (frame, size or joint name)",
+                Some(status),
+            ))
+        } else {
+            None
+        };
+        // The gripper's pose at the measured configuration: for twists in
+        // its frame and for the diagnostics (NaN until a valid state).
+        let robot = self.arbiter.robot();
+        let pose = match self.state_valid && robot.forward_kinematics(&mut self.kinematics, &self.q).is_ok() {
+            true => robot.frame_pose(&self.kinematics, self.gripper),
+            false => nalgebra::IsometryMatrix3::translation(f64::NAN, f64::NAN, f64::NAN),
+        };
+        let out = &mut self.out;
+        out.command_stamp = f64::NAN;
+        if let Some((code, reason, status)) = hold {
+            out.qdot.iter_mut().for_each(|v| *v = 0.0);
+            out.code = code;
+            out.status = status;
+            out.hold_reason = Some(reason);
+            // No arbiter tick: nothing to say about distances or the solver.
+            out.diagnostics[6..12].iter_mut().for_each(|v| *v = f64::NAN);
+        } else {
+            if !self.stamp_used {
+                out.command_stamp = self.command_stamp;
+                self.stamp_used = true;
+            }
+            let twist = match self.kind {
+                CommandKind::GripperTwist => {
+                    let r = pose.rotation;
+                    let lin = r * nalgebra::Vector3::new(self.twist[0], self.twist[1], self.twist[2]);
+                    let ang = r * nalgebra::Vector3::new(self.twist[3], self.twist[4], self.twist[5]);
+                    [lin.x, lin.y, lin.z, ang.x, ang.y, ang.z]
+                }
+                _ => self.twist,
+            };
+            let linear = limit_speed([twist[0], twist[1], twist[2]], self.settings.max_speed);
+            let twist6 = [linear[0], linear[1], linear[2], twist[3], twist[4], twist[5]];
+            let command = match self.kind {
+                CommandKind::Joint => HumanCommand::Joint(&self.joint),
+                _ if self.settings.angular_commands => HumanCommand::Twist(&twist6),
+                _ => HumanCommand::Linear(&twist6[..3]),
+            };
+            let input = TickInput { q: &self.q, velocity: Some(&self.qdot_prev), command, beliefs: None };
+            let result = self.arbiter.tick(&mut self.ws, &input);
+            out.qdot.copy_from_slice(result.qdot);
+            out.code = status_code(result.status, self.settings.status_codes);
+            out.status = Some(result.status);
+            out.hold_reason = None;
+            let d = result.diagnostics;
+            out.diagnostics[6] = d.min_distance;
+            out.diagnostics[7] = d.rows as f64;
+            out.diagnostics[8] = d.active_rows as f64;
+            out.diagnostics[9] = f64::from(d.solves);
+            out.diagnostics[10] = d.step_fraction;
+            out.diagnostics[11] = d.confidence;
+        }
+        self.qdot_prev.copy_from_slice(&out.qdot);
+        for ((p, q), v) in out.positions.iter_mut().zip(&self.q).zip(&out.qdot) {
+            *p = q + v * period;
+        }
+        let g = pose.translation.vector;
+        out.diagnostics[0] = began.elapsed().as_secs_f64() * 1e6;
+        out.diagnostics[1] = out.command_stamp;
+        out.diagnostics[2] = f64::from(out.code);
+        out.diagnostics[3..6].copy_from_slice(g.as_slice());
+        out.diagnostics[12] = ArbitrationMode::ALL.iter().position(|m| *m == self.ws.mode()).map_or(-1.0, |i| i as f64);
+        out.diagnostics[13] = self.late_ticks as f64;
+        out.diagnostics[14] = self.ticks as f64;
+        &self.out
+    }
+
+    /// Whether a joint state has arrived (the node publishes no command before).
+    pub fn has_state(&self) -> bool {
+        self.q_at.is_some()
+    }
+}
+
+fn same_names(a: &[String], b: &[String]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x == y)
+}

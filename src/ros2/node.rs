@@ -1,0 +1,311 @@
+//! The node on DDS: topics and QoS, the fixed-rate loop, the `mode`
+//! parameter. `ros2-client` (pure Rust over RustDDS) speaks the RTPS wire
+//! protocol rclcpp and rclpy nodes use, so the node runs beside
+//! `ros2_control` and a robot driver without a ROS installation.
+//!
+//! QoS, chosen so that the node matches what standard nodes offer:
+//!
+//! | topic | direction | reliability | history | why |
+//! | --- | --- | --- | --- | --- |
+//! | `joint_topic` | in | best effort | keep last 1 | matches reliable and best-effort publishers (`joint_state_broadcaster` is reliable, drivers often best effort); only the latest state matters |
+//! | twist, joint commands | in | best effort | keep last 10 | matches any publisher (Servo's own reader is the system default, reliable); the latest of a tick's commands is used |
+//! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost |
+//! | `command_out_topic` | out | reliable | keep last 1 | the controllers subscribe reliably (system default); a reliable writer matches both kinds of reader |
+//! | status, beliefs, diagnostics | out | reliable | keep last 10 | readable by `ros2 topic echo` with its defaults |
+//!
+//! Every topic is volatile: nothing old is worth delivering to a late joiner.
+
+use super::control::{ControlLoop, DIAGNOSTICS};
+use super::messages::{
+    Duration as RosDuration, Float64MultiArray, Header, Int8, JointJog, JointState, JointTrajectory,
+    JointTrajectoryPoint, MultiArrayDimension, MultiArrayLayout, StringMessage, TwistStamped,
+};
+use super::settings::{CommandOut, NodeSettings};
+use crate::arbitration::ArbitrationMode;
+use ros2_client::{
+    Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, QosProfile,
+    qos::{History, WhenFull},
+};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Why the node could not start.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum NodeError {
+    /// A node or topic name ROS 2 does not accept.
+    #[error("{what} '{name}' is not a valid ROS 2 name: {reason}")]
+    Name {
+        /// Which setting.
+        what: &'static str,
+        /// The name.
+        name: String,
+        /// Why.
+        reason: String,
+    },
+    /// The DDS participant, a topic, a reader or a writer could not be made.
+    #[error("DDS: {0}")]
+    Dds(String),
+}
+
+/// What a run of the node did.
+#[derive(Debug, Clone, Default)]
+pub struct NodeReport {
+    /// Ticks run.
+    pub ticks: u64,
+    /// Ticks that started more than half a period late.
+    pub late_ticks: u64,
+    /// Commands published (none before the first joint state).
+    pub published: u64,
+    /// Messages that could not be read (wrong type on a topic, malformed CDR).
+    pub unreadable: u64,
+    /// The tick's own time (µs): median, 99th percentile, largest.
+    pub tick_us: [f64; 3],
+}
+
+/// `~/name` resolved against the node (`/ns/node/name`), other names as given.
+fn resolve(topic: &str, settings: &NodeSettings, what: &'static str) -> Result<Name, NodeError> {
+    let full = match topic.strip_prefix("~/") {
+        Some(rest) => {
+            let ns = settings.namespace.trim_end_matches('/');
+            format!("{ns}/{}/{rest}", settings.node_name)
+        }
+        None => topic.to_string(),
+    };
+    Name::parse(&full).map_err(|e| NodeError::Name { what, name: topic.to_string(), reason: format!("{e:?}") })
+}
+
+fn dds<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> NodeError + '_ {
+    move |e| NodeError::Dds(format!("{what}: {e:?}"))
+}
+
+/// Runs the node until `stop` is set (or `duration` has passed): reads
+/// the inputs, ticks at the settings' rate, publishes. `ready` is called
+/// once every topic exists.
+///
+/// # Errors
+/// A name ROS 2 refuses, or DDS failing to create an entity.
+pub fn run_node(
+    control: &mut ControlLoop,
+    settings: &NodeSettings,
+    stop: &AtomicBool,
+    duration: Option<Duration>,
+    ready: impl FnOnce(),
+) -> Result<NodeReport, NodeError> {
+    let context = Context::with_options(ContextOptions::new().domain_id(settings.domain_id))
+        .map_err(dds("cannot join the DDS domain"))?;
+    let node_name = NodeName::new(&settings.namespace, &settings.node_name).map_err(|e| NodeError::Name {
+        what: "node_name",
+        name: settings.node_name.clone(),
+        reason: format!("{e:?}"),
+    })?;
+    // The mode parameter: validated where it enters, applied by the loop.
+    let pending_mode: Arc<Mutex<Option<ArbitrationMode>>> = Arc::new(Mutex::new(None));
+    let learned_ok = control.arbiter().arbitration_policy().is_some();
+    let parse_mode = move |value: &ParameterValue| -> Result<ArbitrationMode, String> {
+        let ParameterValue::String(name) = value else { return Err("mode is a string".into()) };
+        let mode: ArbitrationMode = name.parse().map_err(|e| format!("{e}"))?;
+        if mode == ArbitrationMode::Learned && !learned_ok {
+            return Err("mode learned needs an arbitration actor (--arbiter)".into());
+        }
+        Ok(mode)
+    };
+    let apply = Arc::clone(&pending_mode);
+    let options = NodeOptions::new()
+        .enable_rosout(false)
+        .start_parameter_services(true)
+        .declare_parameter("mode", ParameterValue::String(control.mode().as_str().into()))
+        .parameter_validator(Box::new(
+            move |name, value| if name == "mode" { parse_mode(value).map(|_| ()) } else { Ok(()) },
+        ))
+        .parameter_set_action(Box::new(move |name, value| {
+            if name == "mode" {
+                let mode = parse_mode(value)?;
+                if let Ok(mut pending) = apply.lock() {
+                    *pending = Some(mode);
+                }
+            }
+            Ok(())
+        }));
+    let mut node = context.new_node(node_name, options).map_err(dds("cannot create the node"))?;
+
+    let latest = |depth| QosProfile::subscription_default().history(History::KeepLast { depth });
+    let reliable = |depth| {
+        QosProfile::publisher_default().reliability_reliable(WhenFull::DEFAULT).history(History::KeepLast { depth })
+    };
+    macro_rules! topic {
+        ($setting:ident, $package:literal, $type:literal, $qos:expr) => {{
+            let name = resolve(&settings.$setting, settings, stringify!($setting))?;
+            node.create_topic(&name, MessageTypeName::new($package, $type), &$qos)
+                .map_err(dds(concat!("cannot create the topic ", stringify!($setting))))?
+        }};
+    }
+    let joint_states = topic!(joint_topic, "sensor_msgs", "JointState", latest(1));
+    let twists = topic!(cartesian_command_in_topic, "geometry_msgs", "TwistStamped", latest(10));
+    let jogs = topic!(joint_command_in_topic, "control_msgs", "JointJog", latest(10));
+    let modes = topic!(mode_topic, "std_msgs", "String", reliable(1));
+    let (out_package, out_type) = match settings.command_out {
+        CommandOut::Trajectory => ("trajectory_msgs", "JointTrajectory"),
+        CommandOut::Positions | CommandOut::Velocities => ("std_msgs", "Float64MultiArray"),
+    };
+    let out_name = resolve(&settings.command_out_topic, settings, "command_out_topic")?;
+    let command_out = node
+        .create_topic(&out_name, MessageTypeName::new(out_package, out_type), &reliable(1))
+        .map_err(dds("cannot create the topic command_out_topic"))?;
+    let status = topic!(status_topic, "std_msgs", "Int8", reliable(10));
+    let beliefs = topic!(beliefs_topic, "std_msgs", "Float64MultiArray", reliable(10));
+    let diagnostics = topic!(diagnostics_topic, "std_msgs", "Float64MultiArray", reliable(10));
+
+    let state_in = node.create_subscription::<JointState>(&joint_states, None).map_err(dds("joint_topic reader"))?;
+    let twist_in = node.create_subscription::<TwistStamped>(&twists, None).map_err(dds("twist reader"))?;
+    let jog_in = node.create_subscription::<JointJog>(&jogs, None).map_err(dds("joint command reader"))?;
+    let mode_in = node.create_subscription::<StringMessage>(&modes, None).map_err(dds("mode reader"))?;
+    let status_out = node.create_publisher::<Int8>(&status, None).map_err(dds("status writer"))?;
+    let beliefs_out = node.create_publisher::<Float64MultiArray>(&beliefs, None).map_err(dds("beliefs writer"))?;
+    let diagnostics_out =
+        node.create_publisher::<Float64MultiArray>(&diagnostics, None).map_err(dds("diagnostics writer"))?;
+    let trajectory_out = match settings.command_out {
+        CommandOut::Trajectory => {
+            Some(node.create_publisher::<JointTrajectory>(&command_out, None).map_err(dds("command writer"))?)
+        }
+        _ => None,
+    };
+    let array_out = match settings.command_out {
+        CommandOut::Trajectory => None,
+        _ => Some(node.create_publisher::<Float64MultiArray>(&command_out, None).map_err(dds("command writer"))?),
+    };
+    // Discovery, parameter services: on a thread of their own.
+    let spinner = node.spinner().map_err(dds("cannot start the node's spinner"))?;
+    std::thread::Builder::new()
+        .name("ros2-spinner".into())
+        .spawn(move || futures::executor::block_on(spinner.spin()))
+        .map_err(dds("cannot start the spinner thread"))?;
+
+    let joints: Vec<String> = control.arbiter().robot().joint_names().to_vec();
+    let goals = control.arbiter().goals().len() as u32;
+    // The messages, allocated once and refilled every tick.
+    let mut trajectory = JointTrajectory {
+        header: Header::default(),
+        joint_names: joints.clone(),
+        points: vec![JointTrajectoryPoint {
+            time_from_start: to_duration(settings.period()),
+            ..JointTrajectoryPoint::default()
+        }],
+    };
+    let flat = |label: &str, size: u32| MultiArrayLayout {
+        dim: vec![MultiArrayDimension { label: label.into(), size, stride: size }],
+        data_offset: 0,
+    };
+    let mut array = Float64MultiArray { layout: flat("joints", joints.len() as u32), data: Vec::new() };
+    let mut belief_msg = Float64MultiArray { layout: flat("goals", goals), data: Vec::new() };
+    let mut diagnostics_msg =
+        Float64MultiArray { layout: flat(&DIAGNOSTICS.join(","), DIAGNOSTICS.len() as u32), data: Vec::new() };
+
+    ready();
+    let mut report = NodeReport::default();
+    let mut tick_us = Vec::with_capacity(1 << 16);
+    let period = Duration::from_secs_f64(settings.period());
+    let began = Instant::now();
+    let mut deadline = began;
+    while !stop.load(Ordering::Relaxed) && duration.is_none_or(|d| began.elapsed() < d) {
+        let now = Instant::now();
+        if now < deadline {
+            std::thread::sleep(deadline - now);
+        }
+        let now = Instant::now();
+        if now > deadline + period / 2 {
+            control.count_late();
+            report.late_ticks += 1;
+        }
+        // The next deadline on the grid; a loop that fell behind by more
+        // than a period starts a new grid rather than ticking in a burst.
+        deadline = if now > deadline + period { now + period } else { deadline + period };
+
+        // Drain the readers: the latest of each kind counts.
+        loop {
+            match state_in.take() {
+                Ok(Some((msg, _))) => control.joint_state(&msg, now),
+                Ok(None) => break,
+                Err(_) => report.unreadable += 1,
+            }
+        }
+        loop {
+            match twist_in.take() {
+                Ok(Some((msg, _))) => control.twist(&msg, now),
+                Ok(None) => break,
+                Err(_) => report.unreadable += 1,
+            }
+        }
+        loop {
+            match jog_in.take() {
+                Ok(Some((msg, _))) => control.joint_jog(&msg, now),
+                Ok(None) => break,
+                Err(_) => report.unreadable += 1,
+            }
+        }
+        while let Ok(Some((msg, _))) = mode_in.take() {
+            match control.set_mode(&msg.data) {
+                Ok(mode) => {
+                    let _ = node.set_parameter("mode", ParameterValue::String(mode.as_str().into()));
+                    eprintln!("tandem ros2: mode {mode}");
+                }
+                Err(e) => eprintln!("tandem ros2: mode '{}' refused: {e}", msg.data),
+            }
+        }
+        if let Some(mode) = pending_mode.try_lock().ok().and_then(|mut p| p.take())
+            && mode != control.mode()
+            && control.set_mode(mode.as_str()).is_ok()
+        {
+            eprintln!("tandem ros2: mode {mode} (parameter)");
+        }
+
+        let has_state = control.has_state();
+        let out = control.tick(now);
+        report.ticks += 1;
+        tick_us.push(out.diagnostics[0]);
+        if has_state {
+            match (&trajectory_out, &array_out) {
+                (Some(writer), _) => {
+                    let point = &mut trajectory.points[0];
+                    fill(&mut point.positions, settings.publish_joint_positions.then_some(&out.positions[..]));
+                    fill(&mut point.velocities, settings.publish_joint_velocities.then_some(&out.qdot[..]));
+                    let _ = writer.publish(trajectory.clone());
+                }
+                (None, Some(writer)) => {
+                    let values = if settings.command_out == CommandOut::Positions { &out.positions } else { &out.qdot };
+                    fill(&mut array.data, Some(values));
+                    let _ = writer.publish(array.clone());
+                }
+                (None, None) => {}
+            }
+            report.published += 1;
+        }
+        let _ = status_out.publish(Int8 { data: out.code });
+        fill(&mut diagnostics_msg.data, Some(&out.diagnostics));
+        let _ = diagnostics_out.publish(diagnostics_msg.clone());
+        fill(&mut belief_msg.data, Some(control.beliefs()));
+        let _ = beliefs_out.publish(belief_msg.clone());
+    }
+    // A last hold, so that a controller does not keep executing the last velocity.
+    if let (Some(writer), true) = (&array_out, settings.command_out == CommandOut::Velocities) {
+        fill(&mut array.data, None);
+        array.data.resize(joints.len(), 0.0);
+        let _ = writer.publish(array.clone());
+    }
+    report.tick_us = crate::sim::percentiles(&tick_us).into();
+    Ok(report)
+}
+
+/// `into` = `values` (cleared when `None`), reusing its allocation.
+fn fill(into: &mut Vec<f64>, values: Option<&[f64]>) {
+    into.clear();
+    if let Some(v) = values {
+        into.extend_from_slice(v);
+    }
+}
+
+fn to_duration(seconds: f64) -> RosDuration {
+    let whole = seconds.floor();
+    RosDuration { sec: whole as i32, nanosec: ((seconds - whole) * 1e9).round() as u32 }
+}
