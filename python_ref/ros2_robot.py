@@ -5,8 +5,10 @@ DDS, PyPI `cyclonedds`) for `tandem ros2`'s interop test
 Reads one JSON object on stdin:
   {"domain": N, "ready": <the node's --json start line>, "urdf": PATH,
    "command_out": "trajectory" | "velocities", "out_topic": "/...",
-   "node": "/tandem", "scenario": "grasp" | "latency", "seconds": S,
-   "command_hz": HZ}
+   "node": "/tandem", "scenario": "grasp" | "latency" | "describe",
+   "seconds": S, "command_hz": HZ, "description": PATH}
+("describe" publishes the URDF at PATH on /robot_description, transient
+local, and stays for S seconds.)
 and prints one JSON object with what it saw.
 
 The robot publishes /joint_states at 250 Hz (the arm's joints, and the
@@ -154,7 +156,28 @@ def stamp_seconds(stamp):
     return stamp.sec + stamp.nanosec * 1e-9
 
 
+@dataclass
+class String_(IdlStruct, typename="std_msgs::msg::dds_::String_"):
+    data: str
+
+
+def describe():
+    """Publishes a URDF on /robot_description as robot_state_publisher
+    does (reliable, transient-local), then stays for `seconds`."""
+    dp = DomainParticipant(DOMAIN)
+    qos = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.Durability.TransientLocal,
+              Policy.History.KeepLast(1))
+    writer = DataWriter(dp, Topic(dp, "rt/robot_description", String_), qos=qos)
+    with open(REQUEST["description"]) as f:
+        writer.write(String_(data=f.read()))
+    print("published", flush=True)
+    time.sleep(REQUEST["seconds"])
+
+
 def main():
+    if REQUEST["scenario"] == "describe":
+        describe()
+        return
     ready = REQUEST["ready"]
     node = REQUEST["node"]
     model = pin.buildModelFromUrdf(REQUEST["urdf"])
@@ -195,6 +218,8 @@ def main():
         pin.updateFramePlacements(model, data)
         return data.oMf[tcp].translation.copy()
 
+    listening = {"thread": False}
+
     def robot_step(phase, t):
         nonlocal q
         before = q.copy()
@@ -217,13 +242,17 @@ def main():
         for s in status_r.take(N=1000):
             seen["statuses"] += 1
             log.append((t, phase, int(s.data)))
-        for s in diag_r.take(N=1000):
-            seen["diagnostics"] += 1
-            d = s.data
-            seen["min_distance"] = min(seen["min_distance"], d[6])
-            ticks_seen.append(d[0])
-            if not math.isnan(d[1]) and d[1] in sent:
-                latencies.append(time.time() - sent.pop(d[1]))
+        if not listening["thread"]:
+            for s in diag_r.take(N=1000):
+                diagnostics(s, time.time())
+
+    def diagnostics(s, arrived):
+        seen["diagnostics"] += 1
+        d = s.data
+        seen["min_distance"] = min(seen["min_distance"], d[6])
+        ticks_seen.append(d[0])
+        if not math.isnan(d[1]) and d[1] in sent:
+            latencies.append(arrived - sent.pop(d[1]))
 
     def command(t, v, frame="panda_link0"):
         stamp = now_stamp(t)
@@ -248,9 +277,23 @@ def main():
         return False
 
     if REQUEST["scenario"] == "latency":
-        # Commands at command_hz (small, alternating directions) for `seconds`.
+        # Commands at command_hz (small, alternating directions) for
+        # `seconds`; a thread blocks on the diagnostics reader and stamps
+        # each arrival at once (the robot's 4 ms step would quantise it).
+        import threading
+
         every = max(1, round(250 / REQUEST["command_hz"]))
         run("wait", 2.0)
+        listening["thread"] = True
+        stop_listening = threading.Event()
+
+        def listen():
+            while not stop_listening.is_set():
+                for s in diag_r.take_iter(timeout=duration(milliseconds=50)):
+                    diagnostics(s, time.time())
+
+        listener = threading.Thread(target=listen, daemon=True)
+        listener.start()
         k = [0]
 
         def operator_latency(t):
@@ -269,6 +312,8 @@ def main():
             next_t += step
             time.sleep(max(0.0, next_t - time.time()))
         run("drain", 0.3)
+        stop_listening.set()
+        listener.join(timeout=1.0)
         print(json.dumps({"latency_s": latencies, "unanswered": len(sent), "tick_us": ticks_seen, **seen}))
         return
 

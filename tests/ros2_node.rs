@@ -275,6 +275,73 @@ fn the_control_loop_holds_on_stale_or_malformed_input_and_ticks_without_allocati
     assert_eq!(allocations() - before, 0, "the loop allocated while ticking");
 }
 
+/// The node compares the URDF a robot publishes (Cyclone DDS, transient
+/// local, before the node starts) with the problem's robot: the same one
+/// starts, one with a joint's velocity limit edited stops it, naming the joint.
+#[test]
+fn the_node_starts_only_for_the_robot_it_models() {
+    let dir = tempfile::tempdir().unwrap();
+    let urdf = std::fs::read_to_string(common::repo().join("problems/robots/panda/panda.urdf")).unwrap();
+    let edited = urdf.replacen("velocity=\"2.175\"", "velocity=\"1.5\"", 1);
+    for (k, (text, starts)) in [(urdf, true), (edited, false)].into_iter().enumerate() {
+        let domain = domain(10 + k as u32);
+        let description = dir.path().join(format!("robot{k}.urdf"));
+        std::fs::write(&description, text).unwrap();
+        let request = serde_json::json!({
+            "domain": domain, "scenario": "describe", "seconds": 15, "description": description,
+        });
+        let mut robot = Command::new(common::python())
+            .arg(common::repo().join("python_ref/ros2_robot.py"))
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .spawn()
+            .unwrap();
+        robot.stdin.take().unwrap().write_all(request.to_string().as_bytes()).unwrap();
+        let mut published = String::new();
+        BufReader::new(robot.stdout.take().unwrap()).read_line(&mut published).unwrap();
+        assert_eq!(published.trim(), "published");
+        let robot = Node(robot);
+        let config = dir.path().join("node.yaml");
+        std::fs::write(&config, format!("domain_id: {domain}\nrobot_description_timeout: 10\n")).unwrap();
+        let mut node = Command::new(env!("CARGO_BIN_EXE_tandem"))
+            .args(["ros2", "--json", "--duration", "0.5", "--config"])
+            .arg(&config)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let began = Instant::now();
+        while node.try_wait().unwrap().is_none() {
+            assert!(began.elapsed() < Duration::from_secs(30), "the node neither started nor refused in 30 s");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let out = node.wait_with_output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if starts {
+            assert!(out.status.success(), "{stderr}");
+            assert!(stdout.lines().next().is_some_and(|l| l.contains("\"ready\":true")), "{stdout}");
+        } else {
+            assert_eq!(out.status.code(), Some(1), "{stdout}{stderr}");
+            assert!(stdout.is_empty(), "started: {stdout}");
+            assert!(
+                stderr.contains(
+                    "/robot_description is not the problem's robot: joint panda_joint1: velocity limit 1.5 there, 2.175"
+                ),
+                "{stderr}"
+            );
+        }
+        drop(robot);
+    }
+    // Nothing published: the node says so.
+    let config = dir.path().join("node.yaml");
+    std::fs::write(&config, format!("domain_id: {}\nrobot_description_timeout: 0.5\n", domain(12))).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_tandem")).args(["ros2", "--config"]).arg(&config).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("nothing was published within 0.5 s"), "{stderr}");
+}
+
 #[test]
 fn a_bad_settings_file_is_refused_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();

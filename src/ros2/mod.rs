@@ -9,11 +9,13 @@
 //! - [`settings`]: the node's parameters file;
 //! - [`control`]: the control loop without the middleware (holds on stale
 //!   or malformed input);
+//! - [`robot_description`]: the published robot checked against the problem's;
 //! - [`node`]: the node on DDS.
 
 pub mod control;
 pub mod messages;
 pub mod node;
+pub mod robot_description;
 pub mod settings;
 pub mod status;
 

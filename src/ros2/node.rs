@@ -47,6 +47,15 @@ pub enum NodeError {
     /// The DDS participant, a topic, a reader or a writer could not be made.
     #[error("DDS: {0}")]
     Dds(String),
+    /// The robot on `robot_description_topic` is not the problem's robot,
+    /// or none was published in time.
+    #[error("the robot on {topic} is not the problem's robot: {reason}")]
+    RobotDescription {
+        /// The topic.
+        topic: String,
+        /// What differs (the joint, the limit, the pose), or that nothing arrived.
+        reason: String,
+    },
 }
 
 /// What a run of the node did.
@@ -175,6 +184,34 @@ pub fn run_node(
         CommandOut::Trajectory => None,
         _ => Some(node.create_publisher::<Float64MultiArray>(&command_out, None).map_err(dds("command writer"))?),
     };
+    if settings.robot_description_timeout > 0.0 {
+        let name = resolve(&settings.robot_description_topic, settings, "robot_description_topic")?;
+        // MoveIt's QoS for the description: reliable, transient-local, so a
+        // description published before the node started still arrives.
+        let qos = reliable(1).durability(ros2_client::qos::Durability::TransientLocal);
+        let topic = node
+            .create_topic(&name, MessageTypeName::new("std_msgs", "String"), &qos)
+            .map_err(dds("cannot create the topic robot_description_topic"))?;
+        let reader =
+            node.create_subscription::<StringMessage>(&topic, None).map_err(dds("robot description reader"))?;
+        let waited = Instant::now();
+        let urdf = loop {
+            if let Ok(Some((msg, _))) = reader.take() {
+                break msg.data;
+            }
+            if waited.elapsed().as_secs_f64() > settings.robot_description_timeout || stop.load(Ordering::Relaxed) {
+                return Err(NodeError::RobotDescription {
+                    topic: settings.robot_description_topic.clone(),
+                    reason: format!("nothing was published within {} s", settings.robot_description_timeout),
+                });
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        let arbiter = control.arbiter();
+        super::robot_description::check_robot_description(arbiter.robot(), arbiter.gripper_frame(), &urdf).map_err(
+            |reason| NodeError::RobotDescription { topic: settings.robot_description_topic.clone(), reason },
+        )?;
+    }
     // Discovery, parameter services: on a thread of their own.
     let spinner = node.spinner().map_err(dds("cannot start the node's spinner"))?;
     std::thread::Builder::new()

@@ -79,6 +79,13 @@ pub struct NodeSettings {
     /// The arbitration mode by name (`std_msgs/String`), for tools without
     /// parameter services.
     pub mode_topic: String,
+    /// Where the robot's URDF is published (`std_msgs/String`,
+    /// transient-local, as MoveIt reads it).
+    pub robot_description_topic: String,
+    /// How long to wait at start for the robot's URDF (s, 0–60; default 0:
+    /// no check). When positive, the node starts only if the published
+    /// robot has the problem's joints, limits and gripper pose.
+    pub robot_description_timeout: f64,
 }
 
 impl Default for NodeSettings {
@@ -105,6 +112,8 @@ impl Default for NodeSettings {
             beliefs_topic: "~/beliefs".into(),
             diagnostics_topic: "~/diagnostics".into(),
             mode_topic: "~/mode".into(),
+            robot_description_topic: "/robot_description".into(),
+            robot_description_timeout: 0.0,
         }
     }
 }
@@ -132,6 +141,8 @@ const KEYS: &[&str] = &[
     "beliefs_topic",
     "diagnostics_topic",
     "mode_topic",
+    "robot_description_topic",
+    "robot_description_timeout",
 ];
 
 impl NodeSettings {
@@ -177,6 +188,7 @@ impl NodeSettings {
             ("beliefs_topic", &mut s.beliefs_topic),
             ("diagnostics_topic", &mut s.diagnostics_topic),
             ("mode_topic", &mut s.mode_topic),
+            ("robot_description_topic", &mut s.robot_description_topic),
         ] {
             text(key, field)?;
         }
@@ -196,6 +208,7 @@ impl NodeSettings {
         number("incoming_command_timeout", 0.001..=10.0, &mut s.incoming_command_timeout)?;
         number("joint_state_timeout", 0.001..=10.0, &mut s.joint_state_timeout)?;
         number("max_speed", 0.001..=2.0, &mut s.max_speed)?;
+        number("robot_description_timeout", 0.0..=60.0, &mut s.robot_description_timeout)?;
         let mut domain = f64::from(s.domain_id);
         number("domain_id", 0.0..=232.0, &mut domain)?;
         if domain.fract() != 0.0 {
@@ -267,6 +280,7 @@ fn parameters_of(root: Node<'_>) -> Result<Node<'_>, ProblemError> {
         && map.len() == 1
         && let Some(key) = map.keys().next().and_then(|k| k.as_str())
         && !KEYS.contains(&key)
+        && matches!(root.get(key).value, yaml_rust2::Yaml::Hash(_))
     {
         let node = root.get(key);
         node.fields("a node's entry", &["ros__parameters"])?;
