@@ -147,6 +147,33 @@ class Int8(IdlStruct, typename="std_msgs::msg::dds_::Int8_"):
     data: int8
 
 
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@dataclass
+class PoseArray(IdlStruct, typename="geometry_msgs::msg::dds_::PoseArray_"):
+    header: Header
+    poses: sequence[Pose]
+
+
 def now_stamp(t):
     sec = math.floor(t)
     return Time(sec=sec, nanosec=int(round((t - sec) * 1e9)) % 1_000_000_000)
@@ -198,6 +225,7 @@ def main():
     latest = Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(1))
     states_w = DataWriter(dp, Topic(dp, "rt/joint_states", JointState), qos=latest)
     twist_w = DataWriter(dp, Topic(dp, f"rt{node}/delta_twist_cmds", TwistStamped), qos=latest)
+    goals_w = DataWriter(dp, Topic(dp, f"rt{node}/goals", PoseArray), qos=latest)
     status_r = DataReader(dp, Topic(dp, f"rt{node}/status", Int8), qos=reliable)
     diag_r = DataReader(dp, Topic(dp, f"rt{node}/diagnostics", Float64MultiArray), qos=reliable)
     out_type = JointTrajectory if REQUEST["command_out"] == "trajectory" else Float64MultiArray
@@ -206,7 +234,8 @@ def main():
     qdot = np.zeros(model.nv)
     step = 1.0 / 250.0
     goal = np.array(ready["goals"][0]["position"])
-    seen = {"limit_excess": 0.0, "min_distance": math.inf, "commands": 0, "diagnostics": 0, "statuses": 0}
+    seen = {"limit_excess": 0.0, "min_distance": math.inf, "commands": 0, "diagnostics": 0, "statuses": 0,
+            "goal_updates": 0}
     log = []  # (time, phase, status)
     motion = []  # (time, phase, joint change)
     latencies = []
@@ -250,6 +279,7 @@ def main():
         seen["diagnostics"] += 1
         d = s.data
         seen["min_distance"] = min(seen["min_distance"], d[6])
+        seen["goal_updates"] = max(seen["goal_updates"], int(d[15]))
         ticks_seen.append(d[0])
         if not math.isnan(d[1]) and d[1] in sent:
             latencies.append(arrived - sent.pop(d[1]))
@@ -319,6 +349,15 @@ def main():
 
     # The grasp scenario.
     run("idle", 1.5)  # discovery, then no command: the node holds (15)
+    shift = np.array(REQUEST.get("move_box", [0.0, 0.0, 0.0]))
+    if np.any(shift != 0.0):
+        # A perception node reports the box elsewhere: the node re-plans
+        # its goal; the operator aims at the moved grasp point.
+        poses = [Pose(position=Point(*map(float, np.array(o["position"]) + shift)),
+                      orientation=Quaternion(*map(float, o["orientation"]))) for o in ready["graspable"]]
+        goals_w.write(PoseArray(header=Header(frame_id=ready["root_frame"]), poses=poses))
+        run("replan", 15.0, until=lambda: seen["goal_updates"] >= 1)
+        goal = goal + shift
     above = goal + np.array([0.0, 0.0, 0.1])
     state = {"target": above}
 

@@ -1,8 +1,8 @@
 //! `tandem ros2`: the shared-control node on a ROS 2 system.
 
 use super::refusal::{or_goal_refusal, start_refusal};
-use crate::arbitration::{Arbiter, ArbiterSettings, GoalSettings, problem_goals};
-use crate::ros2::{NodeSettings, run_node};
+use crate::arbitration::{Arbiter, ArbiterSettings, GoalObjects, GoalSettings, problem_goals};
+use crate::ros2::{GoalPreparer, NodeSettings, run_node};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -32,7 +32,8 @@ pub struct Ros2Args {
     pub duration: Option<f64>,
     /// Print the start line and the final report as JSON objects (one per
     /// line): {"ready": true, "node", "joints", "gripper_frame",
-    /// "root_frame", "start", "goals": [{"name", "position"}], "mode", "rate_hz"}
+    /// "root_frame", "start", "graspable": [{"name", "position", "orientation" (x, y, z,
+    /// w)}] (what a PoseArray on the goals topic places, in order), "goals": [{"name", "position"}], "mode", "rate_hz"}
     /// once every topic exists, then {"ticks", "late_ticks", "published",
     /// "unreadable", "tick_us": {"median", "p99", "max"}} at the end.
     #[arg(long)]
@@ -57,7 +58,7 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
         eprintln!("{}: no node ({}): {}", problem.name, refusal.status, refusal.reason);
         return Ok(super::Outcome::Unsuccessful);
     }
-    let options = GoalSettings { seed: Some(args.seed), ..GoalSettings::default() };
+    let options = GoalSettings { seed: Some(args.seed), objects: GoalObjects::AllGraspable, ..GoalSettings::default() };
     let goals = match or_goal_refusal(problem_goals(&problem, &options))? {
         Ok(goals) => goals,
         Err(refusal) => {
@@ -67,10 +68,13 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
     };
     let arbiter_settings = ArbiterSettings { period: settings.period(), ..ArbiterSettings::default() };
     let mut arbiter = Arbiter::for_problem(&problem, &goals, arbiter_settings)?;
+    let mut actor: Option<std::sync::Arc<dyn crate::arbitration::ArbitrationPolicy>> = None;
     if let Some(path) = &args.arbiter {
-        let actor = crate::learn::ArbitrationActor::load(path)?;
-        arbiter = arbiter.with_arbitration_policy(std::sync::Arc::new(actor))?;
+        let loaded = std::sync::Arc::new(crate::learn::ArbitrationActor::load(path)?);
+        arbiter = arbiter.with_arbitration_policy(loaded.clone())?;
+        actor = Some(loaded);
     }
+    let preparer = GoalPreparer::new(problem.clone(), args.seed, arbiter_settings, actor);
     let mut control = crate::ros2::ControlLoop::new(&arbiter, &settings)?;
     // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
     unsafe {
@@ -85,12 +89,17 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
         "gripper_frame": robot.frame_name(arbiter.gripper_frame()),
         "root_frame": robot.description().root_link(),
         "start": problem.start,
+        "graspable": preparer.graspable().iter().filter_map(|name| problem.scene.object(name)).map(|o| {
+            let q = nalgebra::UnitQuaternion::from_rotation_matrix(&o.pose.rotation);
+            json!({"name": o.name, "position": o.pose.translation.vector.as_slice(), "orientation": [q.i, q.j, q.k, q.w]})
+        }).collect::<Vec<_>>(),
         "goals": goals.iter().map(|g| json!({"name": g.name, "position": g.position})).collect::<Vec<_>>(),
         "mode": settings.mode.as_str(),
         "rate_hz": settings.rate_hz,
     });
     let json = args.json;
-    let report = run_node(&mut control, &settings, &STOP, args.duration.map(Duration::from_secs_f64), || {
+    let duration = args.duration.map(Duration::from_secs_f64);
+    let report = run_node(&mut control, &settings, &STOP, duration, Some(preparer), || {
         if json {
             println!("{ready}");
         } else {

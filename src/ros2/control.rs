@@ -23,7 +23,7 @@ pub const STATE_STALE: i8 = 16;
 
 /// The diagnostics topic's values, in order (`std_msgs/Float64MultiArray`;
 /// the layout's one dimension is labelled with these names).
-pub const DIAGNOSTICS: [&str; 15] = [
+pub const DIAGNOSTICS: [&str; 16] = [
     "tick_us",
     "command_stamp_s",
     "status",
@@ -39,6 +39,7 @@ pub const DIAGNOSTICS: [&str; 15] = [
     "mode",
     "late_ticks",
     "ticks",
+    "goal_updates",
 ];
 
 /// What the latest command was.
@@ -105,6 +106,7 @@ pub struct ControlLoop {
     out: ControlOutput,
     ticks: u64,
     late_ticks: u64,
+    goal_updates: u64,
 }
 
 impl ControlLoop {
@@ -150,6 +152,7 @@ impl ControlLoop {
             out,
             ticks: 0,
             late_ticks: 0,
+            goal_updates: 0,
             arbiter,
         })
     }
@@ -157,6 +160,28 @@ impl ControlLoop {
     /// The arbiter (its goals, robot, settings).
     pub fn arbiter(&self) -> &Arbiter {
         &self.arbiter
+    }
+
+    /// Replaces the arbiter (new goals, e.g. from a PoseArray) from the
+    /// next tick, keeping the mode, the rate and the latest state and
+    /// command; the intent estimate starts afresh.
+    ///
+    /// # Errors
+    /// A robot with other joints, or the mode not one the new arbiter runs.
+    pub fn replace_arbiter(&mut self, arbiter: &Arbiter) -> Result<(), String> {
+        if arbiter.robot().joint_names() != self.arbiter.robot().joint_names() {
+            return Err("the new arbiter's robot has other joints".into());
+        }
+        let settings = crate::arbitration::ArbiterSettings { mode: self.ws.mode(), ..*self.arbiter.settings() };
+        self.arbiter = arbiter.with_settings(settings).map_err(|e| e.to_string())?;
+        self.ws = self.arbiter.workspace();
+        self.goal_updates += 1;
+        Ok(())
+    }
+
+    /// The measured configuration, when the last joint state was valid.
+    pub fn measured(&self) -> Option<&[f64]> {
+        self.state_valid.then_some(&self.q[..])
     }
 
     /// The mode running.
@@ -343,6 +368,7 @@ impl ControlLoop {
         out.diagnostics[12] = ArbitrationMode::ALL.iter().position(|m| *m == self.ws.mode()).map_or(-1.0, |i| i as f64);
         out.diagnostics[13] = self.late_ticks as f64;
         out.diagnostics[14] = self.ticks as f64;
+        out.diagnostics[15] = self.goal_updates as f64;
         &self.out
     }
 

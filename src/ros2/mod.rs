@@ -9,10 +9,12 @@
 //! - [`settings`]: the node's parameters file;
 //! - [`control`]: the control loop without the middleware (holds on stale
 //!   or malformed input);
+//! - [`goals`]: goals placed by a PoseArray, re-planned while the node runs;
 //! - [`robot_description`]: the published robot checked against the problem's;
 //! - [`node`]: the node on DDS.
 
 pub mod control;
+pub mod goals;
 pub mod messages;
 pub mod node;
 pub mod robot_description;
@@ -20,5 +22,6 @@ pub mod settings;
 pub mod status;
 
 pub use control::{COMMAND_STALE, ControlLoop, ControlOutput, DIAGNOSTICS, STATE_STALE};
+pub use goals::GoalPreparer;
 pub use node::{NodeError, NodeReport, run_node};
 pub use settings::{CommandOut, NodeSettings};

@@ -10,15 +10,17 @@
 //! | `joint_topic` | in | best effort | keep last 1 | matches reliable and best-effort publishers (`joint_state_broadcaster` is reliable, drivers often best effort); only the latest state matters |
 //! | twist, joint commands | in | best effort | keep last 10 | matches any publisher (Servo's own reader is the system default, reliable); the latest of a tick's commands is used |
 //! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost |
+//! | `goals_topic` | in | reliable | keep last 1 | only the latest poses matter, and they must arrive |
 //! | `command_out_topic` | out | reliable | keep last 1 | the controllers subscribe reliably (system default); a reliable writer matches both kinds of reader |
 //! | status, beliefs, diagnostics | out | reliable | keep last 10 | readable by `ros2 topic echo` with its defaults |
 //!
 //! Every topic is volatile: nothing old is worth delivering to a late joiner.
 
 use super::control::{ControlLoop, DIAGNOSTICS};
+use super::goals::GoalPreparer;
 use super::messages::{
     Duration as RosDuration, Float64MultiArray, Header, Int8, JointJog, JointState, JointTrajectory,
-    JointTrajectoryPoint, MultiArrayDimension, MultiArrayLayout, StringMessage, TwistStamped,
+    JointTrajectoryPoint, MultiArrayDimension, MultiArrayLayout, PoseArray, StringMessage, TwistStamped,
 };
 use super::settings::{CommandOut, NodeSettings};
 use crate::arbitration::ArbitrationMode;
@@ -91,7 +93,8 @@ fn dds<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> NodeError + '_ {
 
 /// Runs the node until `stop` is set (or `duration` has passed): reads
 /// the inputs, ticks at the settings' rate, publishes. `ready` is called
-/// once every topic exists.
+/// once every topic exists. With `preparer`, poses on the goals topic
+/// re-plan the goals (on a thread of their own).
 ///
 /// # Errors
 /// A name ROS 2 refuses, or DDS failing to create an entity.
@@ -100,6 +103,7 @@ pub fn run_node(
     settings: &NodeSettings,
     stop: &AtomicBool,
     duration: Option<Duration>,
+    preparer: Option<GoalPreparer>,
     ready: impl FnOnce(),
 ) -> Result<NodeReport, NodeError> {
     let context = Context::with_options(ContextOptions::new().domain_id(settings.domain_id))
@@ -154,6 +158,7 @@ pub fn run_node(
     let twists = topic!(cartesian_command_in_topic, "geometry_msgs", "TwistStamped", latest(10));
     let jogs = topic!(joint_command_in_topic, "control_msgs", "JointJog", latest(10));
     let modes = topic!(mode_topic, "std_msgs", "String", reliable(1));
+    let goal_poses = topic!(goals_topic, "geometry_msgs", "PoseArray", reliable(1));
     let (out_package, out_type) = match settings.command_out {
         CommandOut::Trajectory => ("trajectory_msgs", "JointTrajectory"),
         CommandOut::Positions | CommandOut::Velocities => ("std_msgs", "Float64MultiArray"),
@@ -170,6 +175,7 @@ pub fn run_node(
     let twist_in = node.create_subscription::<TwistStamped>(&twists, None).map_err(dds("twist reader"))?;
     let jog_in = node.create_subscription::<JointJog>(&jogs, None).map_err(dds("joint command reader"))?;
     let mode_in = node.create_subscription::<StringMessage>(&modes, None).map_err(dds("mode reader"))?;
+    let goals_in = node.create_subscription::<PoseArray>(&goal_poses, None).map_err(dds("goals reader"))?;
     let status_out = node.create_publisher::<Int8>(&status, None).map_err(dds("status writer"))?;
     let beliefs_out = node.create_publisher::<Float64MultiArray>(&beliefs, None).map_err(dds("beliefs writer"))?;
     let diagnostics_out =
@@ -239,6 +245,29 @@ pub fn run_node(
     let mut diagnostics_msg =
         Float64MultiArray { layout: flat(&DIAGNOSTICS.join(","), DIAGNOSTICS.len() as u32), data: Vec::new() };
 
+    // Goal preparation: the latest poses and the measured configuration go
+    // to a thread that plans, optimizes and builds the new arbiter.
+    let (to_preparer, requests) = std::sync::mpsc::channel::<(PoseArray, Vec<f64>)>();
+    let (prepared_tx, prepared) = std::sync::mpsc::channel::<Result<(crate::arbitration::Arbiter, f64), String>>();
+    if let Some(preparer) = preparer {
+        std::thread::Builder::new()
+            .name("ros2-goals".into())
+            .spawn(move || {
+                while let Ok(mut request) = requests.recv() {
+                    while let Ok(newer) = requests.try_recv() {
+                        request = newer;
+                    }
+                    let began = Instant::now();
+                    let result = preparer.prepare(&request.0, &request.1).map(|a| (a, began.elapsed().as_secs_f64()));
+                    if prepared_tx.send(result).is_err() {
+                        break;
+                    }
+                }
+            })
+            .map_err(dds("cannot start the goal preparation thread"))?;
+    }
+    let mut pending_poses: Option<PoseArray> = None;
+
     ready();
     let mut report = NodeReport::default();
     let mut tick_us = Vec::with_capacity(1 << 16);
@@ -288,6 +317,22 @@ pub fn run_node(
                     eprintln!("tandem ros2: mode {mode}");
                 }
                 Err(e) => eprintln!("tandem ros2: mode '{}' refused: {e}", msg.data),
+            }
+        }
+        while let Ok(Some((msg, _))) = goals_in.take() {
+            pending_poses = Some(msg);
+        }
+        // Poses wait for a valid joint state: the references start there.
+        if let Some(q) = control.measured()
+            && let Some(poses) = pending_poses.take()
+            && to_preparer.send((poses, q.to_vec())).is_err()
+        {
+            eprintln!("tandem ros2: goals from poses are not enabled");
+        }
+        if let Ok(result) = prepared.try_recv() {
+            match result.and_then(|(arbiter, seconds)| control.replace_arbiter(&arbiter).map(|()| seconds)) {
+                Ok(seconds) => eprintln!("tandem ros2: goals re-planned for the new poses in {:.0} ms", seconds * 1e3),
+                Err(e) => eprintln!("tandem ros2: poses refused, the goals are unchanged: {e}"),
             }
         }
         if let Some(mode) = pending_mode.try_lock().ok().and_then(|mut p| p.take())

@@ -79,6 +79,9 @@ pub struct NodeSettings {
     /// The arbitration mode by name (`std_msgs/String`), for tools without
     /// parameter services.
     pub mode_topic: String,
+    /// Poses of the graspable objects (`geometry_msgs/PoseArray`, root
+    /// frame, in the problem's order): each new array re-plans the goals.
+    pub goals_topic: String,
     /// Where the robot's URDF is published (`std_msgs/String`,
     /// transient-local, as MoveIt reads it).
     pub robot_description_topic: String,
@@ -112,6 +115,7 @@ impl Default for NodeSettings {
             beliefs_topic: "~/beliefs".into(),
             diagnostics_topic: "~/diagnostics".into(),
             mode_topic: "~/mode".into(),
+            goals_topic: "~/goals".into(),
             robot_description_topic: "/robot_description".into(),
             robot_description_timeout: 0.0,
         }
@@ -141,6 +145,7 @@ const KEYS: &[&str] = &[
     "beliefs_topic",
     "diagnostics_topic",
     "mode_topic",
+    "goals_topic",
     "robot_description_topic",
     "robot_description_timeout",
 ];
@@ -188,6 +193,7 @@ impl NodeSettings {
             ("beliefs_topic", &mut s.beliefs_topic),
             ("diagnostics_topic", &mut s.diagnostics_topic),
             ("mode_topic", &mut s.mode_topic),
+            ("goals_topic", &mut s.goals_topic),
             ("robot_description_topic", &mut s.robot_description_topic),
         ] {
             text(key, field)?;
