@@ -49,7 +49,7 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   "$venv/bin/pip" install --quiet --disable-pip-version-check -r python_ref/requirements.txt
   echo "$want" > "$stamp"
 fi
-"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake, rosbags" \
+"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake, rosbags, cyclonedds, mujoco" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
 
 # The Python package's environment: pytest and ray in python/.venv, which
@@ -71,6 +71,16 @@ fi
 # libpython): cargo and `pip install .` then share pyo3's build.
 export PYO3_PYTHON="$PWD/$pyvenv/bin/python" PYO3_BUILD_EXTENSION_MODULE=1
 
+# MuJoCo for the `mujoco` feature: the libmujoco.so PyPI's wheel ships,
+# under the name the linker looks for (mujoco-rs reads the folder from
+# MUJOCO_DYNAMIC_LINK_DIR; tandem's build.rs makes it the run path).
+mjlib="$PWD/target/mujoco-lib"
+mkdir -p "$mjlib"
+mjso=$("$venv/bin/python" -c 'import mujoco, pathlib; print(next(pathlib.Path(mujoco.__file__).parent.glob("libmujoco.so.*")))')
+ln -sf "$mjso" "$mjlib/libmujoco.so"
+ln -sf "$mjso" "$mjlib/$(basename "$mjso")"
+export MUJOCO_DYNAMIC_LINK_DIR="$mjlib"
+
 # cmake for the OSQP backend's C sources (CMake 4 needs the policy floor).
 export PATH="$PWD/$venv/bin:$PATH" CMAKE_POLICY_VERSION_MINIMUM=3.5
 
@@ -78,16 +88,16 @@ disk "Python environment ready"
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy"
-cargo clippy --workspace --all-targets --features osqp,ros2 --quiet -- -D warnings
+cargo clippy --workspace --all-targets --features osqp,ros2,mujoco --quiet -- -D warnings
 echo "== cargo doc (warnings are errors)"
-RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp,ros2 --quiet
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp,ros2,mujoco --quiet
 echo "== cargo test"
-cargo test --workspace --all-targets --features osqp,ros2 --no-run --quiet
+cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-run --quiet
 disk "tests built"
-cargo test --workspace --all-targets --features osqp,ros2 --no-fail-fast
-cargo test --workspace --doc --features osqp,ros2 --no-fail-fast
+cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-fail-fast
+cargo test --workspace --doc --features osqp,ros2,mujoco --no-fail-fast
 echo "== examples/arbiter_loop.rs"
-cargo run --quiet --features osqp,ros2 --example arbiter_loop
+cargo run --quiet --features osqp,ros2,mujoco --example arbiter_loop
 disk "Rust tests done"
 
 # `pip install .` as a user runs it (maturin from PyPI in an isolated build

@@ -20,6 +20,8 @@
 mod arbitration_env;
 mod episode;
 mod judge;
+#[cfg(feature = "mujoco")]
+pub mod mujoco;
 mod operator;
 mod reason;
 #[cfg(feature = "data")]
