@@ -226,6 +226,7 @@ def main():
     states_w = DataWriter(dp, Topic(dp, "rt/joint_states", JointState), qos=latest)
     twist_w = DataWriter(dp, Topic(dp, f"rt{node}/delta_twist_cmds", TwistStamped), qos=latest)
     goals_w = DataWriter(dp, Topic(dp, f"rt{node}/goals", PoseArray), qos=latest)
+    mode_w = DataWriter(dp, Topic(dp, f"rt{node}/mode", String_), qos=latest)
     status_r = DataReader(dp, Topic(dp, f"rt{node}/status", Int8), qos=reliable)
     diag_r = DataReader(dp, Topic(dp, f"rt{node}/diagnostics", Float64MultiArray), qos=reliable)
     out_type = JointTrajectory if REQUEST["command_out"] == "trajectory" else Float64MultiArray
@@ -235,7 +236,7 @@ def main():
     step = 1.0 / 250.0
     goal = np.array(ready["goals"][0]["position"])
     seen = {"limit_excess": 0.0, "min_distance": math.inf, "commands": 0, "diagnostics": 0, "statuses": 0,
-            "goal_updates": 0}
+            "goal_updates": 0, "mode_index": -1}
     log = []  # (time, phase, status)
     motion = []  # (time, phase, joint change)
     latencies = []
@@ -280,6 +281,7 @@ def main():
         d = s.data
         seen["min_distance"] = min(seen["min_distance"], d[6])
         seen["goal_updates"] = max(seen["goal_updates"], int(d[15]))
+        seen["mode_index"] = int(d[12])
         ticks_seen.append(d[0])
         if not math.isnan(d[1]) and d[1] in sent:
             latencies.append(arrived - sent.pop(d[1]))
@@ -377,6 +379,15 @@ def main():
     run("nan", 0.5, lambda t: command(t, (math.nan, 0.0, 0.0)))
     run("frame", 0.4, lambda t: command(t, (0.05, 0.0, 0.0), frame="camera_link"))
     run("end", 0.3)
+    # The mode by name at run time: an unknown name is refused (the mode
+    # stays), then `direct` (index 0 of the mode table) takes over.
+    mode_before = seen["mode_index"]
+    mode_w.write(String_(data="fastest"))
+    run("mode", 0.3)
+    mode_after_unknown = seen["mode_index"]
+    mode_w.write(String_(data="direct"))
+    run("mode", 2.0, until=lambda: seen["mode_index"] == 0)
+    modes = [mode_before, mode_after_unknown, seen["mode_index"]]
 
     last_motion_after_stop = max([t for t, ph, _ in motion if ph == "stopped"], default=stopped) - stopped
     codes = {}
@@ -391,6 +402,7 @@ def main():
         "moved_in": sorted({ph for _, ph, _ in motion}),
         "codes": codes,
         "latency_s": latencies,
+        "modes": modes,
         **seen,
     }
     print(json.dumps(result))

@@ -113,6 +113,10 @@ fn the_node_drives_a_cyclone_dds_robot_to_the_grasp_and_holds_when_it_should() {
         // operator stops at 5 mm).
         assert_eq!(seen["reached"], true, "{label}");
         assert_eq!(seen["goal_updates"], if mode == "sos" { 1 } else { 0 }, "{label}");
+        // The mode topic: an unknown name leaves the mode (index in the
+        // mode table: constrained 6, sos 7), `direct` (0) takes over.
+        let index = if mode == "sos" { 7 } else { 6 };
+        assert_eq!(seen["modes"], serde_json::json!([index, index, 0]), "{label}");
         assert!(seen["final_distance_m"].as_f64().unwrap() < 0.01, "{label}");
         // Hard constraints: within Pinocchio's joint limits at every state
         // sent, and no distance below zero in any tick.
