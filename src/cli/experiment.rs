@@ -3,8 +3,9 @@
 //! become the experiment's settings and the harness's, nothing more.
 
 use crate::data::Progress;
-use crate::experiments::{HarnessSettings, PlanarSettings, ReachGraspSettings};
+use crate::experiments::{HarnessSettings, PlanarSettings, ReachGraspSettings, Simulator};
 use crate::sim::Arm;
+use crate::sim::PhysicsSettings;
 use std::path::PathBuf;
 
 /// Arguments of `tandem experiment`.
@@ -158,6 +159,16 @@ pub struct ReachGraspArgs {
     /// (episodes/<arm>-<task>.parquet).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// What moves the arm: `kinematic` (tandem's simulator; success is the
+    /// grasp judge's) or `mujoco` (MuJoCo physics, a build with `--features
+    /// mujoco`; the fingers close and success is the box lifted 5 cm and
+    /// held 1 s). See docs/physics.md.
+    #[arg(long, default_value = "kinematic", value_parser = ["kinematic", "mujoco"])]
+    pub physics: String,
+    /// With `--physics mujoco`: write the first task's MuJoCo scene (MJCF)
+    /// here, for MuJoCo's viewer.
+    #[arg(long, value_name = "FILE")]
+    pub scene_xml: Option<PathBuf>,
 }
 
 pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
@@ -203,12 +214,46 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         seed: args.seed,
         arms,
         record_dir: args.out.as_ref().map(|d| d.join("episodes")),
+        simulator: match args.physics.as_str() {
+            "mujoco" => Simulator::Mujoco(PhysicsSettings::default()),
+            _ => Simulator::Kinematic,
+        },
         ..ReachGraspSettings::default()
     };
+    if let Some(path) = &args.scene_xml {
+        write_scene_xml(&settings, path)?;
+    }
     run_in_harness(&settings, args.threads, args.json, args.out.clone())
 }
 
 fn planar(args: &PlanarArgs) -> Result<(), Box<dyn std::error::Error>> {
     let settings = PlanarSettings { tasks: args.tasks as usize, seed: args.seed, ..PlanarSettings::default() };
     run_in_harness(&settings, args.threads, args.json, args.out.clone())
+}
+
+/// Writes the first task's MuJoCo scene to `path` (before the run, so a
+/// bad path fails early).
+fn write_scene_xml(settings: &ReachGraspSettings, path: &std::path::Path) -> Result<(), Box<dyn std::error::Error>> {
+    let Simulator::Mujoco(physics) = &settings.simulator else {
+        return Err("--scene-xml needs --physics mujoco".into());
+    };
+    #[cfg(feature = "mujoco")]
+    {
+        let base = crate::problem::Problem::builtin("panda_grasp_box")?;
+        let arm = settings.arms.first().copied().unwrap_or(crate::sim::Arm::Right);
+        let task = crate::sim::sample_task(&base, arm, settings.seed, 0)?;
+        let scene = crate::sim::mujoco::PhysicsScene::new(&task.goal.problem, settings.arbiter.period, physics)
+            .map_err(|e| crate::experiments::ExperimentError::Physics(e.to_string()))?;
+        std::fs::write(path, scene.mjcf()).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        eprintln!("wrote the MuJoCo scene of task 0 ({}) to {}", arm.as_str(), path.display());
+        Ok(())
+    }
+    #[cfg(not(feature = "mujoco"))]
+    {
+        let _ = (physics, path);
+        Err(crate::experiments::ExperimentError::Physics(
+            "this tandem was built without MuJoCo: build with `--features mujoco` (see docs/physics.md)".into(),
+        )
+        .into())
+    }
 }

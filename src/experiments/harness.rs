@@ -55,6 +55,10 @@ pub enum ExperimentError {
     /// Results that cannot be encoded as JSON.
     #[error("encoding the results: {0}")]
     Json(#[from] serde_json::Error),
+    /// The physics simulator cannot run (not built in, or MuJoCo refused
+    /// the scene).
+    #[error("physics: {0}")]
+    Physics(String),
 }
 
 impl From<crate::arbitration::ArbitrationError> for ExperimentError {

@@ -39,4 +39,7 @@ pub use harness::{
     Context, Experiment, ExperimentError, HarnessSettings, MAX_THREADS, Report, mean_std, run, tidy_json,
 };
 pub use planar::{PLANAR_METHODS, PlanarEpisode, PlanarResults, PlanarSettings, run_planar};
-pub use reach_grasp::{Cell, EpisodeSummary, Method, ReachGraspResults, ReachGraspSettings, run_reach_grasp};
+pub use reach_grasp::{
+    Agreement, Cell, EpisodeSummary, Method, PhysicsOutcome, ReachGraspResults, ReachGraspSettings, Simulator,
+    run_reach_grasp,
+};

@@ -103,6 +103,10 @@ pub struct EpisodeRecord {
     pub statuses: Vec<TickStatus>,
     /// The final configuration.
     pub final_q: Vec<f64>,
+    /// The grasped object's pose at each configuration of `q` (position in
+    /// m, then the unit quaternion w, x, y, z; world frame) when a physics
+    /// simulator moves it; empty in the kinematic simulator.
+    pub object: Vec<[f64; 7]>,
 }
 
 impl EpisodeRecord {
@@ -156,11 +160,8 @@ impl Episode<'_> {
     ) -> Result<EpisodeRecord, RobotError> {
         let arbiter = self.arbiter;
         let dt = arbiter.settings().period;
-        let n = arbiter.robot().nq();
         let mut live = LiveEpisode::new(arbiter, ws, self.start, self.settings.record)?;
-        let true_policy = arbiter.goals().get(self.true_goal).map(|g| g.policy.clone());
-        let mut policy_state: Option<RobotPolicyWorkspace> = true_policy.as_ref().map(|p| p.new_workspace());
-        let mut policy_action = vec![0.0; if operator.needs_policy() { n } else { 0 }];
+        let mut feed = OperatorFeed::new(arbiter, self.true_goal, operator.needs_policy());
         let steps_max = (self.settings.max_time / dt).ceil() as usize;
         live.record.tick_us.reserve(steps_max);
         let mut outcome = Outcome::Timeout;
@@ -169,20 +170,7 @@ impl Episode<'_> {
                 outcome = Outcome::Success;
                 break;
             }
-            if let (Some(policy), Some(state), false) = (&true_policy, policy_state.as_mut(), policy_action.is_empty())
-                && policy.act(state, live.q(), live.velocity(), &mut policy_action).is_err()
-            {
-                policy_action.fill(0.0);
-            }
-            let seen = Observation {
-                q: live.q(),
-                gripper: live.gripper(),
-                goal: self.target,
-                jacobian: live.linear_jacobian(),
-                policy_action: &policy_action,
-                time: step as f64 * dt,
-            };
-            let v = match operator.act(&seen) {
+            let v = match feed.act(operator, &live, self.target, step as f64 * dt) {
                 OperatorAction::Done => {
                     outcome = Outcome::Failed;
                     break;
@@ -202,6 +190,49 @@ impl Episode<'_> {
             _ => live.reason(outcome, self.target),
         };
         Ok(live.finish(reason, dt))
+    }
+}
+
+/// What a simulated operator sees each tick: the live state, its goal,
+/// and (for operators that follow the robot) the true goal's policy action.
+pub(crate) struct OperatorFeed {
+    policy: Option<std::sync::Arc<dyn crate::control::RobotPolicy>>,
+    state: Option<RobotPolicyWorkspace>,
+    action: Vec<f64>,
+}
+
+impl OperatorFeed {
+    /// The feed of an episode whose true goal is `true_goal` among
+    /// `arbiter`'s goals; the policy runs only when `needs_policy`.
+    pub(crate) fn new(arbiter: &Arbiter, true_goal: usize, needs_policy: bool) -> OperatorFeed {
+        let policy = arbiter.goals().get(true_goal).map(|g| g.policy.clone());
+        let state = policy.as_ref().map(|p| p.new_workspace());
+        let action = vec![0.0; if needs_policy { arbiter.robot().nq() } else { 0 }];
+        OperatorFeed { policy, state, action }
+    }
+
+    /// `operator`'s action at `live`'s state, aiming at `goal` (m, world),
+    /// at `time` (s).
+    pub(crate) fn act(
+        &mut self,
+        operator: &mut dyn Operator,
+        live: &LiveEpisode,
+        goal: [f64; 3],
+        time: f64,
+    ) -> OperatorAction {
+        if let (Some(policy), Some(state), false) = (&self.policy, self.state.as_mut(), self.action.is_empty())
+            && policy.act(state, live.q(), live.velocity(), &mut self.action).is_err()
+        {
+            self.action.fill(0.0);
+        }
+        operator.act(&Observation {
+            q: live.q(),
+            gripper: live.gripper(),
+            goal,
+            jacobian: live.linear_jacobian(),
+            policy_action: &self.action,
+            time,
+        })
     }
 }
 
@@ -240,6 +271,8 @@ pub struct LiveEpisode {
     record: EpisodeRecord,
     /// The bodies of the first contact, once the arm collided.
     contact: Option<[String; 2]>,
+    /// The status and time (µs) of the tick [`Self::command`] ran last.
+    pending: (TickStatus, f64),
 }
 
 impl LiveEpisode {
@@ -274,6 +307,7 @@ impl LiveEpisode {
             nearest: nearest.map(|d| d.pair),
             keep,
             contact: None,
+            pending: (TickStatus::Nominal, 0.0),
             record: EpisodeRecord {
                 outcome: Outcome::Timeout,
                 reason: Reason::Timeout { distance: f64::NAN },
@@ -293,6 +327,7 @@ impl LiveEpisode {
                 beliefs: vec![],
                 statuses: vec![],
                 final_q: vec![],
+                object: vec![],
             },
         };
         live.update_gripper(arbiter)?;
@@ -353,8 +388,19 @@ impl LiveEpisode {
         ws: &mut ArbiterWorkspace,
         command: HumanCommand<'_>,
     ) -> Result<LiveStep, RobotError> {
-        let (robot, model) = (arbiter.robot(), arbiter.collision_model());
         let dt = arbiter.settings().period;
+        self.command(arbiter, ws, command);
+        for j in 0..self.q.len() {
+            self.next[j] = self.q[j] + dt * self.velocity[j];
+        }
+        self.arrive_at_next(arbiter)
+    }
+
+    /// The first half of a tick, for a simulator that moves the arm itself
+    /// (physics): the arbiter blends `command` at the current state and the
+    /// tick is recorded; returns the joint velocity to execute (rad/s or
+    /// m/s). [`Self::arrive`] then reports where the arm got to.
+    pub fn command(&mut self, arbiter: &Arbiter, ws: &mut ArbiterWorkspace, command: HumanCommand<'_>) -> &[f64] {
         let n = self.q.len();
         let began = Instant::now();
         let input = TickInput { q: &self.q, velocity: Some(&self.velocity), command, beliefs: None };
@@ -362,6 +408,7 @@ impl LiveEpisode {
         let tick_us = began.elapsed().as_secs_f64() * 1e6;
         let (status, goal) = (tick.status, tick.diagnostics.goal);
         self.velocity.copy_from_slice(tick.qdot);
+        self.pending = (status, tick_us);
         let record = &mut self.record;
         record.tick_us.push(tick_us);
         record.steps += 1;
@@ -370,9 +417,6 @@ impl LiveEpisode {
             TickStatus::Nominal | TickStatus::SingularityDamped | TickStatus::Constrained | TickStatus::StepShortened
         ) {
             record.fallbacks += 1;
-        }
-        for j in 0..n {
-            self.next[j] = self.q[j] + dt * self.velocity[j];
         }
         if self.keep {
             let linear = &self.linear;
@@ -388,6 +432,25 @@ impl LiveEpisode {
             record.beliefs.push(ws.beliefs().to_vec());
             record.statuses.push(status);
         }
+        &self.velocity
+    }
+
+    /// The second half of a tick begun by [`Self::command`]: the arm is at
+    /// `q` (rad or m) a period later; the configuration is checked against
+    /// the limits and for collision, as in [`Self::step`].
+    ///
+    /// # Errors
+    /// `q` of the wrong length; kinematics or collision queries failing.
+    pub fn arrive(&mut self, arbiter: &Arbiter, q: &[f64]) -> Result<LiveStep, RobotError> {
+        arbiter.robot().check_configuration(q)?;
+        self.next.copy_from_slice(q);
+        self.arrive_at_next(arbiter)
+    }
+
+    fn arrive_at_next(&mut self, arbiter: &Arbiter) -> Result<LiveStep, RobotError> {
+        let (robot, model) = (arbiter.robot(), arbiter.collision_model());
+        let (status, tick_us) = self.pending;
+        let record = &mut self.record;
         let safety = &arbiter.settings().safety;
         let within_limits = robot.limits().iter().zip(&self.next).zip(&self.velocity).all(|((l, x), v)| {
             let vmax = if l.velocity.is_finite() && l.velocity > 0.0 { l.velocity } else { f64::INFINITY };

@@ -23,6 +23,7 @@ mod judge;
 #[cfg(feature = "mujoco")]
 pub mod mujoco;
 mod operator;
+mod physics;
 mod reason;
 #[cfg(feature = "data")]
 mod record;
@@ -38,6 +39,7 @@ pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, OperatorKind, Pace, PlanarUser,
     PolicyFollower, Straightline,
 };
+pub use physics::PhysicsSettings;
 pub use reason::Reason;
 #[cfg(feature = "data")]
 pub use record::write_episodes;

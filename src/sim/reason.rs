@@ -55,6 +55,23 @@ pub enum Reason {
     /// The operator stopped at the goal, and a judge that gives no reason
     /// (a closure) said the task was not done.
     JudgeDeclined,
+    /// Physics: the arm pushed the object this far (m) before the fingers
+    /// closed (the dissertation's "has not deviated", §5.5.3; 2 cm).
+    Pushed {
+        /// How far the object's centre moved (m).
+        distance: f64,
+    },
+    /// Physics: the fingers closed and the arm lifted, but the object rose
+    /// only this much (m; at least 5 cm counts).
+    Slipped {
+        /// The object's rise when the lift ended (m).
+        lifted: f64,
+    },
+    /// Physics: the object was lifted, then fell below 5 cm during the hold.
+    Dropped {
+        /// The object's rise when the hold ended (m).
+        lifted: f64,
+    },
 }
 
 impl Reason {
@@ -63,7 +80,7 @@ impl Reason {
         use super::Outcome;
         match self {
             Reason::Success => Outcome::Success,
-            Reason::Collision { .. } => Outcome::Collision,
+            Reason::Collision { .. } | Reason::Pushed { .. } => Outcome::Collision,
             Reason::Timeout { .. } => Outcome::Timeout,
             _ => Outcome::Failed,
         }
@@ -71,7 +88,8 @@ impl Reason {
 
     /// The reason in snake case (`success`, `collision`, `timeout`,
     /// `stopped_short`, `orientation_off`, `not_between_pads`,
-    /// `outside_footprint`, `touching_object`, `judge_declined`).
+    /// `outside_footprint`, `touching_object`, `judge_declined`, and in
+    /// physics `pushed`, `slipped`, `dropped`).
     pub fn as_str(&self) -> &'static str {
         match self {
             Reason::Success => "success",
@@ -83,11 +101,14 @@ impl Reason {
             Reason::OutsideFootprint => "outside_footprint",
             Reason::TouchingObject { .. } => "touching_object",
             Reason::JudgeDeclined => "judge_declined",
+            Reason::Pushed { .. } => "pushed",
+            Reason::Slipped { .. } => "slipped",
+            Reason::Dropped { .. } => "dropped",
         }
     }
 
     /// Every reason's name, as [`as_str`](Self::as_str) gives them.
-    pub const NAMES: [&'static str; 9] = [
+    pub const NAMES: [&'static str; 12] = [
         "success",
         "collision",
         "timeout",
@@ -97,6 +118,9 @@ impl Reason {
         "outside_footprint",
         "touching_object",
         "judge_declined",
+        "pushed",
+        "slipped",
+        "dropped",
     ];
 }
 
@@ -125,6 +149,19 @@ impl std::fmt::Display for Reason {
                 write!(f, "the palm or a finger's outer side touches the object ({:.1} mm)", 1e3 * clearance)
             }
             Reason::JudgeDeclined => write!(f, "the operator stopped at the goal, but the task is not done"),
+            Reason::Pushed { distance } => {
+                write!(
+                    f,
+                    "the arm pushed the object {:.1} cm before the fingers closed (under 2 cm counts)",
+                    cm(*distance)
+                )
+            }
+            Reason::Slipped { lifted } => {
+                write!(f, "the object slipped from the fingers: lifted {:.1} cm (at least 5 cm counts)", cm(*lifted))
+            }
+            Reason::Dropped { lifted } => {
+                write!(f, "the object was lifted, then dropped: {:.1} cm at the end of the hold", cm(*lifted))
+            }
         }
     }
 }

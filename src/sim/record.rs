@@ -8,7 +8,9 @@
 //! operator's gripper velocity command and the executed gripper velocity,
 //! m/s, world axes), `robot` (the most likely goal's robot action), `beliefs`
 //! (one per goal), `status` (the tick's status), `outcome` and `reason` (the
-//! episode's, on every row).
+//! episode's, on every row); from a physics simulator also `object` (the
+//! grasped object's pose before the tick: x, y, z in m, then the unit
+//! quaternion w, x, y, z; world frame).
 //!
 //! ```python
 //! import pyarrow.parquet as pq
@@ -48,6 +50,9 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
     let mut robot = ListBuilder::new(Float64Builder::new());
     let mut beliefs = ListBuilder::new(Float64Builder::new());
     let (mut status, mut outcome, mut reason) = (StringBuilder::new(), StringBuilder::new(), StringBuilder::new());
+    // Physics records carry the object's pose at every configuration.
+    let with_object = !episodes.is_empty() && episodes.iter().all(|(_, r, _)| r.object.len() >= r.statuses.len());
+    let mut object = FixedSizeListBuilder::new(Float64Builder::new(), 7);
     for (name, record, period) in episodes {
         for t in 0..record.statuses.len() {
             label.append_value(name);
@@ -65,12 +70,16 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
             robot.append(true);
             beliefs.values().append_slice(&record.beliefs[t]);
             beliefs.append(true);
+            if with_object {
+                object.values().append_slice(&record.object[t]);
+                object.append(true);
+            }
             status.append_value(record.statuses[t].as_str());
             outcome.append_value(record.outcome.as_str());
             reason.append_value(record.reason.to_string());
         }
     }
-    let columns: Vec<(&str, ArrayRef)> = vec![
+    let mut columns: Vec<(&str, ArrayRef)> = vec![
         ("episode", Arc::new(label.finish())),
         ("step", Arc::new(UInt32Array::from(step))),
         ("time", Arc::new(Float64Array::from(time))),
@@ -84,6 +93,9 @@ pub fn write_episodes(path: &Path, episodes: &[(String, &EpisodeRecord, f64)]) -
         ("outcome", Arc::new(outcome.finish())),
         ("reason", Arc::new(reason.finish())),
     ];
+    if with_object {
+        columns.push(("object", Arc::new(object.finish())));
+    }
     let fields: Vec<Field> = columns.iter().map(|(name, a)| Field::new(*name, a.data_type().clone(), false)).collect();
     let schema = Arc::new(Schema::new(fields));
     let batch =

@@ -15,6 +15,9 @@
 //! collision, or after 20 s.
 
 mod figures;
+mod physics;
+
+pub use physics::{Agreement, PhysicsOutcome, Simulator};
 
 use super::{Context, Experiment, ExperimentError};
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationMode, BlendingStyle, MetricSpace};
@@ -92,6 +95,8 @@ pub struct ReachGraspSettings {
     pub arbiter: ArbiterSettings,
     /// Keep the gripper paths of the first task per arm (for the figure).
     pub keep_paths: bool,
+    /// Which simulator moves the arm (default: the kinematic one).
+    pub simulator: Simulator,
     /// Write every episode, tick by tick, to `DIR/<arm>-<task>.parquet`
     /// (see [`write_episodes`](crate::sim::write_episodes)); created if
     /// missing.
@@ -110,6 +115,7 @@ impl Default for ReachGraspSettings {
             max_time: 20.0,
             arbiter: ArbiterSettings::default(),
             keep_paths: true,
+            simulator: Simulator::Kinematic,
             record_dir: None,
         }
     }
@@ -146,6 +152,8 @@ pub struct EpisodeSummary {
     /// The gripper's approach axis (its z, world) at the last
     /// `approach.len()` points of `path` (kept with it).
     pub approach: Vec<[f64; 3]>,
+    /// What physics adds (the kinematic judge's verdict, steps).
+    pub physics: PhysicsOutcome,
 }
 
 /// Every episode, in (arm, task, operator, method) order, and the tasks.
@@ -226,6 +234,10 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
     let mut out = vec![];
     let record = settings.record_dir.is_some();
     let mut records = vec![];
+    let mut physics = match &settings.simulator {
+        Simulator::Kinematic => None,
+        Simulator::Mujoco(p) => Some(physics::Runner::new(task, &base, p)?),
+    };
     for (m, method) in settings.methods.iter().enumerate() {
         let arbiter = base.with_settings(method.settings(&settings.arbiter))?;
         let mut ws = arbiter.workspace();
@@ -240,7 +252,10 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 true_goal: 0,
                 settings: EpisodeSettings { max_time: settings.max_time, record: record || keep },
             };
-            let mut record = episode.run(&mut ws, operator.as_mut(), &mut judge)?;
+            let (mut record, physical) = match physics.as_mut() {
+                Some(runner) => runner.run(&episode, &mut ws, operator.as_mut(), &mut judge)?,
+                None => (episode.run(&mut ws, operator.as_mut(), &mut judge)?, PhysicsOutcome::default()),
+            };
             let mut approach = vec![];
             if keep {
                 for q in &record.q {
@@ -272,6 +287,7 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 min_clearance: record.min_clearance,
                 path: if keep { std::mem::take(&mut record.gripper) } else { vec![] },
                 approach,
+                physics: physical,
             });
             if settings.record_dir.is_some() {
                 let label = format!("{}/{}/{}/{}", task.arm.as_str(), kind.name(), method.name(), task.index);
@@ -354,9 +370,12 @@ impl Experiment for ReachGraspSettings {
         run_reach_grasp(self, &|| cx.done())
     }
 
-    /// `{"tasks", "seed", "results": [{"arm", "operator", "method",
+    /// `{"tasks", "seed", "simulator", "physics": {"steps",
+    /// "step_seconds"}, "results": [{"arm", "operator", "method",
     /// "success", "collision", "timeout", "failed", "cos_sim": [x, y, z],
-    /// "hard_violations"}], "resampled_tasks", "seconds", "tick_us"}`.
+    /// "hard_violations", "reasons", and with physics "kinematic_judge":
+    /// {"both", "kinematic_only", "physics_only", "neither",
+    /// "never_closed"}}], "resampled_tasks", "seconds", "tick_us"}`.
     fn json(&self, r: &ReachGraspResults) -> serde_json::Value {
         let s = &r.settings;
         let mut rows = vec![];
@@ -364,19 +383,28 @@ impl Experiment for ReachGraspSettings {
             for (o, op) in s.operators.iter().enumerate() {
                 for (m, method) in s.methods.iter().enumerate() {
                     let c = r.cell(arm, o, m);
-                    rows.push(serde_json::json!({
+                    let mut row = serde_json::json!({
                         "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
                         "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
                         "cos_sim": c.cos, "hard_violations": c.hard_violations, "reasons": c.reasons,
-                    }));
+                    });
+                    if s.simulator != Simulator::Kinematic {
+                        let cell = r.episodes.iter().filter(|e| e.arm == arm && e.operator == o && e.method == m);
+                        row["kinematic_judge"] = Agreement::of(cell).json();
+                    }
+                    rows.push(row);
                 }
             }
         }
         let ticks: Vec<f64> = r.episodes.iter().flat_map(|e| e.tick_us.iter().copied()).collect();
         let (median, p99, max) = percentiles(&ticks);
+        let (steps, seconds) =
+            r.episodes.iter().fold((0, 0.0), |(n, t), e| (n + e.physics.steps, t + e.physics.seconds));
         serde_json::json!({
             "tasks": s.tasks,
             "seed": s.seed,
+            "simulator": s.simulator.name(),
+            "physics": {"steps": steps, "step_seconds": seconds},
             "results": rows,
             "resampled_tasks": r.tasks.iter().map(|t| t.resampled).sum::<usize>(),
             "seconds": {"wall": r.wall_seconds, "prepare_cpu": r.prepare_seconds, "episodes_cpu": r.episode_seconds},
@@ -440,6 +468,9 @@ impl Experiment for ReachGraspSettings {
         );
         let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
         let _ = writeln!(out, "hard-constraint violations: {violations}");
+        if s.simulator != Simulator::Kinematic {
+            out.push_str(&physics::table(r));
+        }
         out
     }
 

@@ -1,13 +1,29 @@
-//! MuJoCo physics beside the kinematic simulator (feature `mujoco`): the
-//! robot loaded by MuJoCo's own URDF compiler from the same URDF tandem's
-//! model reads, so that the arbiter and the physics see the same arm — a
-//! claim the test suite checks (the gripper frame's pose over random
-//! configurations, against tandem's forward kinematics).
+//! MuJoCo physics beside the kinematic simulator (feature `mujoco`).
+//!
+//! - [`MujocoArm`]: the robot alone, loaded by MuJoCo's own URDF compiler
+//!   from the same URDF tandem's model reads, so that the arbiter and the
+//!   physics see the same arm — a claim the test suite checks (the gripper
+//!   frame's pose over 1,000 configurations, against tandem's forward
+//!   kinematics).
+//! - [`PhysicsScene`]: a problem's world (robot, obstacles, free objects,
+//!   servos, grasp contact settings) compiled once and shared by threads.
+//! - [`PhysicsEpisode`]: a shared-control episode on it — approach under
+//!   the arbiter, close, lift 10 cm, hold 1 s; success is the object lifted
+//!   (see [`PhysicsSettings`](crate::sim::PhysicsSettings)).
 //!
 //! MuJoCo comes from PyPI's `mujoco` wheel (3.17, the version `mujoco-rs`
 //! 7 wraps): the build links its `libmujoco.so` through
 //! `MUJOCO_DYNAMIC_LINK_DIR` (`scripts/test.sh` prepares the folder), with
-//! no download at build or run time.
+//! no download at build or run time. Why this and not Python driving
+//! MuJoCo: the arbiter and the physics in one process, one step a few
+//! microseconds of Rust away from the next, no interpreter in the loop, and
+//! the same library a Rust user links.
+
+mod episode;
+mod scene;
+
+pub use episode::{PhysicsEpisode, PhysicsRecord, PhysicsWorkspace, lift_arbiter};
+pub use scene::{GeomRole, PhysicsScene};
 
 use crate::robot::RobotModel;
 use mujoco_rs::prelude::*;
@@ -29,10 +45,13 @@ pub enum PhysicsError {
     /// MuJoCo's compiler refused the model.
     #[error("MuJoCo cannot compile the robot: {0}")]
     Compile(String),
+    /// A physics setting out of range.
+    #[error("{0}")]
+    Settings(String),
     /// A joint or frame tandem's model has and MuJoCo's has not.
     #[error("MuJoCo's model has no {kind} '{name}'")]
     Missing {
-        /// `joint` or `body`.
+        /// `joint`, `body` or `actuator`.
         kind: &'static str,
         /// Its name.
         name: String,
@@ -61,13 +80,7 @@ impl MujocoArm {
     /// The URDF unreadable, MuJoCo's compiler refusing it, a joint or the
     /// gripper missing from MuJoCo's model.
     pub fn from_robot(robot: &RobotModel, gripper: &str) -> Result<MujocoArm, PhysicsError> {
-        let description = robot.description();
-        let text = match description.embedded_urdf() {
-            Some(text) => text.to_string(),
-            None => std::fs::read_to_string(description.source())
-                .map_err(|e| PhysicsError::Urdf { path: description.source().to_string(), reason: e.to_string() })?,
-        };
-        let xml = with_compiler_settings(&text)?;
+        let xml = with_compiler_settings(&robot_urdf(robot)?)?;
         let model = MjModel::from_xml_string(&xml).map_err(|e| PhysicsError::Compile(format!("{e:?}")))?;
         let adr = model.jnt_qposadr();
         let qpos_index = robot
@@ -115,6 +128,16 @@ impl MujocoArm {
     pub fn gripper_pose(&self, data: &mut MjData<Arc<MjModel>>) -> ([f64; 3], [f64; 9]) {
         data.kinematics();
         (data.xpos()[self.gripper_body], data.xmat()[self.gripper_body])
+    }
+}
+
+/// The text of `robot`'s URDF (embedded, or read again from its file).
+fn robot_urdf(robot: &RobotModel) -> Result<String, PhysicsError> {
+    let description = robot.description();
+    match description.embedded_urdf() {
+        Some(text) => Ok(text.to_string()),
+        None => std::fs::read_to_string(description.source())
+            .map_err(|e| PhysicsError::Urdf { path: description.source().to_string(), reason: e.to_string() }),
     }
 }
 
