@@ -7,9 +7,11 @@
 # docs/results/NAME/ (table.txt: what the command printed; its JSON; its
 # figures); the published figures are copied to docs/figures/ and the
 # tables in docs/experiments.md between `<!-- reproduce: NAME -->` and
-# `<!-- /reproduce -->` are replaced by table.txt. Sizes and times on a
-# 2-core machine (release build): demo, figures, planar, reach-grasp and
-# traded together take about 5 minutes; learned trains four DDPG actors
+# `<!-- /reproduce -->` are replaced by table.txt. The binary must be built
+# with `--features mujoco` (reach-grasp-physics; MUJOCO_DYNAMIC_LINK_DIR as
+# scripts/test.sh sets it). Sizes and times on a 2-core machine (release
+# build): demo, figures, planar, reach-grasp and traded together take about
+# 5 minutes, reach-grasp-physics about 9; learned trains four DDPG actors
 # (about an hour); policy generates 20,000 optimized trajectories and
 # trains a network (hours) and runs only when named in --only.
 #
@@ -52,7 +54,7 @@ done
 if [ "$check" = 1 ] && [ "$quick" = 0 ]; then
   echo "error: --check compares quick runs; use it with --quick" >&2; exit 2
 fi
-all="demo figures planar reach-grasp traded learned"
+all="demo figures planar reach-grasp reach-grasp-physics traded learned"
 [ "$quick" = 1 ] && all="$all policy"
 names=${only//,/ }
 names=${names:-$all}
@@ -61,8 +63,13 @@ for n in $names; do
 done
 
 if [ -z "$bin" ]; then
-  echo "== cargo build --release --bin tandem"
-  cargo build --release --quiet --bin tandem
+  export MUJOCO_DYNAMIC_LINK_DIR=${MUJOCO_DYNAMIC_LINK_DIR:-$PWD/target/mujoco-lib}
+  [ -e "$MUJOCO_DYNAMIC_LINK_DIR/libmujoco.so" ] || {
+    echo "error: no libmujoco.so in MUJOCO_DYNAMIC_LINK_DIR ($MUJOCO_DYNAMIC_LINK_DIR): run scripts/test.sh once (it links PyPI mujoco 3.17's library there), or point the variable at that library's folder" >&2
+    exit 1
+  }
+  echo "== cargo build --release --features mujoco --bin tandem"
+  cargo build --release --quiet --features mujoco --bin tandem
   bin=target/release/tandem
 fi
 [ -x "$bin" ] || { echo "error: --bin: '$bin' is not an executable" >&2; exit 2; }
@@ -110,6 +117,7 @@ for name in $names; do
       figures) run figures gallery ;;
       planar) run planar "$bin" experiment planar --tasks 8 --out "$out" ;;
       reach-grasp) run reach-grasp "$bin" experiment reach-grasp --tasks 4 --out "$out" ;;
+      reach-grasp-physics) run reach-grasp-physics "$bin" experiment reach-grasp --physics mujoco --tasks 1 --out "$out" ;;
       traded) run traded "$bin" experiment traded --episodes 2 --training 5 --out "$out" ;;
       learned) run learned "$bin" experiment learned --episodes 2 --train-episodes 3 --train-seeds 1 --out "$out" ;;
       policy) run policy "$bin" experiment policy --tasks 4 --train-count 40 --epochs 2 --arbitration-tasks 1 --out "$out" ;;
@@ -120,6 +128,7 @@ for name in $names; do
       figures) run figures gallery ;;
       planar) run planar "$bin" experiment planar --out "$out" ;;
       reach-grasp) run reach-grasp "$bin" experiment reach-grasp --out "$out" ;;
+      reach-grasp-physics) run reach-grasp-physics "$bin" experiment reach-grasp --physics mujoco --out "$out" ;;
       traded) run traded "$bin" experiment traded --out "$out" ;;
       learned) run learned "$bin" experiment learned --out "$out" ;;
       policy) run policy "$bin" experiment policy --tasks 200 --train-count 20000 --rounds 2 --out "$out" ;;

@@ -139,10 +139,10 @@ disk "fuzz smoke done"
 
 # The stress test in release: 1,000,000 random ticks (20,000 in the debug run above).
 echo "== arbitration stress test (release, 1,000,000 ticks)"
-cargo test --release --features osqp --test arbitration_stress -- --nocapture
+cargo test --release --features osqp,mujoco --test arbitration_stress -- --nocapture
 
-# The release binary the stress test built runs the user pages' shell
-# examples and the quick reproduction.
+# The release binary the stress test built (with MuJoCo, for the physics
+# run) runs the user pages' shell examples and the quick reproduction.
 echo "== the shell examples of docs/"
 "$venv/bin/python" scripts/doc_examples.py target/release/tandem
 echo "== reproduction check (scripts/reproduce.sh --quick --check)"

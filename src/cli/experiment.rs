@@ -165,6 +165,11 @@ pub struct ReachGraspArgs {
     /// held 1 s). See docs/physics.md.
     #[arg(long, default_value = "kinematic", value_parser = ["kinematic", "mujoco"])]
     pub physics: String,
+    /// Control rate (Hz, 15 … 1000; default 15 as in §5.6 of the
+    /// dissertation). Laggy operators lag by ticks, so their delay in
+    /// seconds shrinks as the rate grows.
+    #[arg(long, default_value_t = 15.0, value_parser = rate_hz)]
+    pub rate: f64,
     /// With `--physics mujoco`: write the first task's MuJoCo scene (MJCF)
     /// here, for MuJoCo's viewer.
     #[arg(long, value_name = "FILE")]
@@ -214,6 +219,7 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         seed: args.seed,
         arms,
         record_dir: args.out.as_ref().map(|d| d.join("episodes")),
+        arbiter: crate::arbitration::ArbiterSettings { period: 1.0 / args.rate, ..Default::default() },
         simulator: match args.physics.as_str() {
             "mujoco" => Simulator::Mujoco(PhysicsSettings::default()),
             _ => Simulator::Kinematic,
@@ -256,4 +262,10 @@ fn write_scene_xml(settings: &ReachGraspSettings, path: &std::path::Path) -> Res
         )
         .into())
     }
+}
+
+/// A control rate in Hz between 15 and 1000.
+fn rate_hz(text: &str) -> Result<f64, String> {
+    let rate: f64 = text.parse().map_err(|_| format!("'{text}' is not a number"))?;
+    if (15.0..=1000.0).contains(&rate) { Ok(rate) } else { Err(format!("{rate} Hz is outside 15 … 1000")) }
 }

@@ -305,13 +305,17 @@ impl ControlLoop {
         } else {
             None
         };
-        // The gripper's pose at the measured configuration: for twists in
-        // its frame and for the diagnostics (NaN until a valid state).
+        // The gripper's pose at the measured configuration, needed before
+        // the tick for twists in its frame and for the diagnostics of a
+        // hold (NaN until a valid state); a tick finds the position itself.
         let robot = self.arbiter.robot();
-        let pose = match self.state_valid && robot.forward_kinematics(&mut self.kinematics, &self.q).is_ok() {
-            true => robot.frame_pose(&self.kinematics, self.gripper),
-            false => nalgebra::IsometryMatrix3::translation(f64::NAN, f64::NAN, f64::NAN),
-        };
+        let pose_first = hold.is_some() || self.kind == CommandKind::GripperTwist;
+        let pose =
+            match pose_first && self.state_valid && robot.forward_kinematics(&mut self.kinematics, &self.q).is_ok() {
+                true => robot.frame_pose(&self.kinematics, self.gripper),
+                false => nalgebra::IsometryMatrix3::translation(f64::NAN, f64::NAN, f64::NAN),
+            };
+        let mut gripper: [f64; 3] = pose.translation.vector.into();
         let out = &mut self.out;
         out.command_stamp = f64::NAN;
         if let Some((code, reason, status)) = hold {
@@ -355,16 +359,16 @@ impl ControlLoop {
             out.diagnostics[9] = f64::from(d.solves);
             out.diagnostics[10] = d.step_fraction;
             out.diagnostics[11] = d.confidence;
+            gripper = self.ws.gripper_position();
         }
         self.qdot_prev.copy_from_slice(&out.qdot);
         for ((p, q), v) in out.positions.iter_mut().zip(&self.q).zip(&out.qdot) {
             *p = q + v * period;
         }
-        let g = pose.translation.vector;
         out.diagnostics[0] = began.elapsed().as_secs_f64() * 1e6;
         out.diagnostics[1] = out.command_stamp;
         out.diagnostics[2] = f64::from(out.code);
-        out.diagnostics[3..6].copy_from_slice(g.as_slice());
+        out.diagnostics[3..6].copy_from_slice(&gripper);
         out.diagnostics[12] = ArbitrationMode::ALL.iter().position(|m| *m == self.ws.mode()).map_or(-1.0, |i| i as f64);
         out.diagnostics[13] = self.late_ticks as f64;
         out.diagnostics[14] = self.ticks as f64;

@@ -249,6 +249,7 @@ pub fn run_node(
     // to a thread that plans, optimizes and builds the new arbiter.
     let (to_preparer, requests) = std::sync::mpsc::channel::<(PoseArray, Vec<f64>)>();
     let (prepared_tx, prepared) = std::sync::mpsc::channel::<Result<(crate::arbitration::Arbiter, f64), String>>();
+    let preparing = preparer.is_some();
     if let Some(preparer) = preparer {
         std::thread::Builder::new()
             .name("ros2-goals".into())
@@ -289,27 +290,9 @@ pub fn run_node(
         deadline = if now > deadline + period { now + period } else { deadline + period };
 
         // Drain the readers: the latest of each kind counts.
-        loop {
-            match state_in.take() {
-                Ok(Some((msg, _))) => control.joint_state(&msg, now),
-                Ok(None) => break,
-                Err(_) => report.unreadable += 1,
-            }
-        }
-        loop {
-            match twist_in.take() {
-                Ok(Some((msg, _))) => control.twist(&msg, now),
-                Ok(None) => break,
-                Err(_) => report.unreadable += 1,
-            }
-        }
-        loop {
-            match jog_in.take() {
-                Ok(Some((msg, _))) => control.joint_jog(&msg, now),
-                Ok(None) => break,
-                Err(_) => report.unreadable += 1,
-            }
-        }
+        drain(&state_in, &mut report.unreadable, |msg| control.joint_state(&msg, now));
+        drain(&twist_in, &mut report.unreadable, |msg| control.twist(&msg, now));
+        drain(&jog_in, &mut report.unreadable, |msg| control.joint_jog(&msg, now));
         while let Ok(Some((msg, _))) = mode_in.take() {
             match control.set_mode(&msg.data) {
                 Ok(mode) => {
@@ -327,7 +310,11 @@ pub fn run_node(
             && let Some(poses) = pending_poses.take()
             && to_preparer.send((poses, q.to_vec())).is_err()
         {
-            eprintln!("tandem ros2: goals from poses are not enabled");
+            if preparing {
+                eprintln!("tandem ros2: the goal preparation thread has stopped; the goals stay as they are");
+            } else {
+                eprintln!("tandem ros2: goals from poses are not enabled");
+            }
         }
         if let Ok(result) = prepared.try_recv() {
             match result.and_then(|(arbiter, seconds)| control.replace_arbiter(&arbiter).map(|()| seconds)) {
@@ -390,4 +377,20 @@ fn fill(into: &mut Vec<f64>, values: Option<&[f64]>) {
 fn to_duration(seconds: f64) -> RosDuration {
     let whole = seconds.floor();
     RosDuration { sec: whole as i32, nanosec: ((seconds - whole) * 1e9).round() as u32 }
+}
+
+/// Takes every sample waiting in `reader`, oldest first, handing each to
+/// `take`; samples that do not decode are counted in `unreadable`.
+fn drain<M: 'static + serde::de::DeserializeOwned>(
+    reader: &ros2_client::Subscription<M>,
+    unreadable: &mut u64,
+    mut take: impl FnMut(M),
+) {
+    loop {
+        match reader.take() {
+            Ok(Some((msg, _))) => take(msg),
+            Ok(None) => break,
+            Err(_) => *unreadable += 1,
+        }
+    }
 }

@@ -371,6 +371,13 @@ impl LiveEpisode {
         self.nearest
     }
 
+    /// The first pair of the arbiter's collision model the arm entered
+    /// (names from
+    /// [`CollisionModel::pair_names`](crate::collision::CollisionModel::pair_names)).
+    pub fn first_contact(&self) -> Option<&[String; 2]> {
+        self.contact.as_ref()
+    }
+
     /// The record so far (its outcome is set by [`Self::finish`]).
     pub fn record(&self) -> &EpisodeRecord {
         &self.record

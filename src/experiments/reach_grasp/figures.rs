@@ -73,7 +73,14 @@ pub(super) fn success(r: &ReachGraspResults) -> Result<String, ExperimentError> 
         })
         .collect();
     share_y(&mut panels);
-    let title = "reach-and-grasp: success by operator and method (dots: tandem; rings: Table 5.1)";
+    let title = match r.settings.simulator {
+        super::Simulator::Kinematic => {
+            "reach-and-grasp: success by operator and method (dots: tandem; rings: Table 5.1)"
+        }
+        super::Simulator::Mujoco(_) => {
+            "reach-and-grasp in MuJoCo: box lifted, by operator and method (dots: tandem; rings: Table 5.1)"
+        }
+    };
     Ok(render_panels(title, &panels, 620, 380)?)
 }
 

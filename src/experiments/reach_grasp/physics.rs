@@ -98,7 +98,9 @@ mod runner {
                 settings: episode.settings,
                 physics: self.settings,
             };
-            let r = physical.run(ws, &mut self.workspace, operator, judge)?;
+            let r = physical
+                .run(ws, &mut self.workspace, operator, judge)
+                .map_err(|e| ExperimentError::Physics(e.to_string()))?;
             Ok((
                 r.record,
                 PhysicsOutcome { kinematic: r.kinematic, steps: r.physics_steps, seconds: r.physics_seconds },

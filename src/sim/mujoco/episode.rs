@@ -12,6 +12,7 @@
 //! read: the robot touching an obstacle is a collision, the object moving
 //! more than 2 cm before the fingers close is a push.
 
+use super::PhysicsError;
 use super::scene::{GeomRole, PhysicsScene};
 use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand};
 use crate::robot::RobotError;
@@ -97,6 +98,10 @@ pub struct PhysicsRecord {
     pub closed_at: Option<[f64; 3]>,
     /// How far the object moved before the fingers closed (m).
     pub pushed: f64,
+    /// The first pair of the arbiter's (conservative) collision model the
+    /// measured arm entered during the approach: the physical arm lags or
+    /// overshoots the commanded one, and the box may have moved.
+    pub model_contact: Option<[String; 2]>,
     /// The object's rise at the end (m).
     pub lifted: f64,
     /// Physics steps run.
@@ -120,15 +125,20 @@ impl PhysicsEpisode<'_> {
     /// decides the outcome.
     ///
     /// # Errors
-    /// A bad start configuration; kinematics failing on a measured one.
+    /// A bad start configuration, an object index the scene does not have;
+    /// kinematics failing on a measured configuration.
     pub fn run(
         &self,
         ws: &mut ArbiterWorkspace,
         pw: &mut PhysicsWorkspace,
         operator: &mut dyn Operator,
         judge: &mut dyn Judge,
-    ) -> Result<PhysicsRecord, RobotError> {
+    ) -> Result<PhysicsRecord, PhysicsError> {
         let (scene, arbiter, p) = (self.scene, self.arbiter, &self.physics);
+        let count = scene.object_names().len();
+        if self.object >= count {
+            return Err(PhysicsError::NoObject { index: self.object, count });
+        }
         let dt = arbiter.settings().period;
         let h = scene.timestep();
         let substeps = (dt / h).round().max(1.0) as usize;
@@ -136,9 +146,9 @@ impl PhysicsEpisode<'_> {
         let (approach_ticks, close_ticks) = (ticks(self.settings.max_time), ticks(p.close_time));
         let (lift_ticks, hold_ticks) = (ticks(p.lift_height / p.lift_speed), ticks(p.hold_time));
         let limits = arbiter.robot().limits();
+        let mut live = LiveEpisode::new(arbiter, ws, self.start, self.settings.record)?;
         scene.reset(&mut pw.data, self.start);
         let origin = scene.object_start(self.object);
-        let mut live = LiveEpisode::new(arbiter, ws, self.start, self.settings.record)?;
         let keep = self.settings.record;
         let mut object_path = vec![];
         if keep {
@@ -239,10 +249,20 @@ impl PhysicsEpisode<'_> {
         if phase == Phase::Approach {
             hard_violations = live.record().hard_violations;
         }
+        let model_contact = if hard_violations > 0 { live.first_contact().cloned() } else { None };
         let mut record = live.finish(reason, dt);
         record.hard_violations = hard_violations;
         record.object = object_path;
-        Ok(PhysicsRecord { record, kinematic, closed_at, pushed, lifted: rise, physics_steps: steps, physics_seconds })
+        Ok(PhysicsRecord {
+            record,
+            kinematic,
+            closed_at,
+            pushed,
+            model_contact,
+            lifted: rise,
+            physics_steps: steps,
+            physics_seconds,
+        })
     }
 
     /// One approach tick's decision: `Some(judge's verdict)` when the

@@ -48,6 +48,18 @@ pub enum PhysicsError {
     /// A physics setting out of range.
     #[error("{0}")]
     Settings(String),
+    /// An episode names an object the scene does not have.
+    #[error("object {index} requested, the scene has {count}")]
+    NoObject {
+        /// The index asked for.
+        index: usize,
+        /// How many movable objects the scene has.
+        count: usize,
+    },
+    /// Kinematics refused a configuration (a start of the wrong length,
+    /// not finite).
+    #[error(transparent)]
+    Robot(#[from] crate::robot::RobotError),
     /// A joint or frame tandem's model has and MuJoCo's has not.
     #[error("MuJoCo's model has no {kind} '{name}'")]
     Missing {
