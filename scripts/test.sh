@@ -104,7 +104,7 @@ disk "Rust tests done"
 # environment), but with the dev profile: it reuses the test build above
 # (only pyo3, numpy and the bindings compile) instead of a release build.
 echo "== pip install . (the Python package)"
-MATURIN_PEP517_ARGS="--profile dev" "$pyvenv/bin/pip" install --quiet --disable-pip-version-check \
+MATURIN_PEP517_ARGS="--profile dev --features mujoco" "$pyvenv/bin/pip" install --quiet --disable-pip-version-check \
   --force-reinstall --no-deps .
 echo "== pytest python/tests"
 TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:cacheprovider python/tests

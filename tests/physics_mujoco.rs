@@ -250,3 +250,40 @@ mod episodes {
         }
     }
 }
+
+#[test]
+fn the_arbitration_environment_runs_on_physics() {
+    use tandem::sim::{ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, EnvTask, PhysicsSettings};
+    let settings = ArbitrationEnvSettings {
+        task: EnvTask::PandaGrasp,
+        speed: 0.1,
+        physics: Some(PhysicsSettings::default()),
+        ..ArbitrationEnvSettings::default()
+    };
+    let mut env = ArbitrationEnv::new(settings.clone()).unwrap();
+    let h = env.layout().human_offset();
+    let mut outcomes = vec![];
+    for seed in 0..3 {
+        let mut state = env.reset(seed).unwrap().to_vec();
+        let mut outcome = EnvOutcome::Running;
+        for _ in 0..1000 {
+            // Follow the user: its command in units of the user speed.
+            let action = [state[h], state[h + 1], state[h + 2]];
+            let step = env.step(&action).unwrap();
+            assert!(step.state.iter().all(|v| v.is_finite()) && step.env_reward.is_finite());
+            (outcome, state) = (step.outcome, step.state.to_vec());
+            if outcome != EnvOutcome::Running {
+                break;
+            }
+        }
+        outcomes.push(outcome);
+    }
+    println!("{outcomes:?}");
+    assert!(!outcomes.contains(&EnvOutcome::Collision), "{outcomes:?}");
+    assert!(outcomes.contains(&EnvOutcome::Success), "{outcomes:?}");
+    // Physics on the planar task is refused by name.
+    let planar =
+        ArbitrationEnvSettings { physics: Some(PhysicsSettings::default()), ..ArbitrationEnvSettings::default() };
+    let e = ArbitrationEnv::new(planar).err().unwrap();
+    assert!(e.to_string().contains("Panda task only"), "{e}");
+}

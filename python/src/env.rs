@@ -42,13 +42,14 @@ fn env_error(e: impl std::fmt::Display) -> PyErr {
 #[pymethods]
 impl PyArbitrationEnv {
     #[new]
-    #[pyo3(signature = (task="planar", *, reward="combined", max_time=None, hard_collisions=true))]
+    #[pyo3(signature = (task="planar", *, reward="combined", max_time=None, hard_collisions=true, physics=false))]
     fn py_new(
         py: Python<'_>,
         task: &str,
         reward: &str,
         max_time: Option<f64>,
         hard_collisions: bool,
+        physics: bool,
     ) -> PyResult<Self> {
         let kind = match reward {
             "combined" => RewardKind::Combined,
@@ -66,6 +67,9 @@ impl PyArbitrationEnv {
         }
         if let Some(t) = max_time {
             settings.max_time = t;
+        }
+        if physics {
+            settings.physics = Some(tandem::sim::PhysicsSettings::default());
         }
         let decision = settings.decision;
         let env = py.detach(|| ArbitrationEnv::new(settings)).py()?;

@@ -26,7 +26,12 @@ Ray cluster: :mod:`tandem.distributed`. Gymnasium environments for learning
 arbitration: :mod:`tandem.gym`.
 """
 
-from ._native import (
+try:  # a build with MuJoCo physics links PyPI's libmujoco: load it first
+    import mujoco  # noqa: F401
+except ImportError:
+    pass
+
+from ._native import (  # noqa: E402
     Arbiter,
     ArbitrationEnv,
     ArbitrationError,

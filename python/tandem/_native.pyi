@@ -402,6 +402,7 @@ class ArbitrationEnv:
         reward: Literal["combined", "environment"] = "combined",
         max_time: Optional[float] = None,
         hard_collisions: bool = True,
+        physics: bool = False,
     ) -> ArbitrationEnv: ...
     def reset(self, seed: int) -> _Vector:
         """Starts episode ``seed`` and returns the first state (17 values)."""

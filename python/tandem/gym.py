@@ -23,6 +23,11 @@ Registered ids:
 - ``tandem/PandaArbitration-v0``: the Panda reach-and-grasp task of Table 5.1
   (a box on the table, the seven operators of Table 5.1 at 10 cm/s);
   actions are 3-D gripper velocities.
+- ``tandem/PandaArbitrationPhysics-v0``: the same task with MuJoCo moving the
+  arm (a build with the ``mujoco`` feature, ``pip install mujoco==3.17.0``):
+  the goal counts once the fingers close on the box, lift it 10 cm and hold
+  it 1 s; touching the table or the other arm, or pushing the box 2 cm, is a
+  collision.
 
 Episodes are deterministic per ``reset(seed=...)``. ``reward="environment"``
 gives the environment reward alone.
@@ -45,7 +50,7 @@ from gymnasium import spaces
 
 from ._native import ArbitrationEnv as _NativeEnv
 
-__all__ = ["ArbitrationEnv", "PlanarArbitrationEnv", "PandaArbitrationEnv"]
+__all__ = ["ArbitrationEnv", "PlanarArbitrationEnv", "PandaArbitrationEnv", "PandaArbitrationPhysicsEnv"]
 
 
 class ArbitrationEnv(gymnasium.Env):
@@ -53,8 +58,10 @@ class ArbitrationEnv(gymnasium.Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, task: str = "planar", reward: str = "combined", max_time: float | None = None):
-        self._env = _NativeEnv(task, reward=reward, max_time=max_time)
+    def __init__(
+        self, task: str = "planar", reward: str = "combined", max_time: float | None = None, physics: bool = False
+    ):
+        self._env = _NativeEnv(task, reward=reward, max_time=max_time, physics=physics)
         width, dims = self._env.state_width, self._env.action_width
         # Normalised actions (as Stable-Baselines3 advises): ±1 is the
         # environment's largest command, twice the user speed.
@@ -97,10 +104,18 @@ class PandaArbitrationEnv(ArbitrationEnv):
         super().__init__("panda", reward=reward, max_time=max_time)
 
 
+class PandaArbitrationPhysicsEnv(ArbitrationEnv):
+    """``tandem/PandaArbitrationPhysics-v0``: the Panda task with MuJoCo under the arm."""
+
+    def __init__(self, reward: str = "combined", max_time: float | None = None):
+        super().__init__("panda", reward=reward, max_time=max_time, physics=True)
+
+
 def _register() -> None:
     for name, entry in (
         ("tandem/PlanarArbitration-v0", "tandem.gym:PlanarArbitrationEnv"),
         ("tandem/PandaArbitration-v0", "tandem.gym:PandaArbitrationEnv"),
+        ("tandem/PandaArbitrationPhysics-v0", "tandem.gym:PandaArbitrationPhysicsEnv"),
     ):
         if name not in gymnasium.registry:
             gymnasium.register(id=name, entry_point=entry)

@@ -9,7 +9,7 @@ from gymnasium.utils.env_checker import check_env
 import tandem
 import tandem.gym  # noqa: F401  (registers the environments)
 
-IDS = ["tandem/PlanarArbitration-v0", "tandem/PandaArbitration-v0"]
+IDS = ["tandem/PlanarArbitration-v0", "tandem/PandaArbitration-v0", "tandem/PandaArbitrationPhysics-v0"]
 
 
 @pytest.mark.parametrize("env_id", IDS)
@@ -104,3 +104,34 @@ def test_the_simulator_experiments_run_from_python():
     assert {e["outcome"] for e in grasp} <= {"success", "collision", "failed", "timeout"}
     with pytest.raises(tandem.ArbitrationError, match="'right', 'left' or 'both'"):
         tandem.run_reach_grasp_experiment(arm="middle")
+
+
+def test_the_physics_variant_ends_as_the_kinematic_one_when_the_user_is_followed():
+    """MuJoCo moves the arm. Following the user (direct control, which never
+    turns the gripper) touches nothing and ends as the kinematic variant
+    does on these seeds: the grasp judge refuses the tilted gripper, so the
+    fingers never close. (A lifted box: tests/physics_mujoco.rs.)"""
+
+    def outcomes(env_id):
+        env = gym.make(env_id)
+        seen = []
+        for seed in range(4):
+            obs, _ = env.reset(seed=seed)
+            info = {}
+            for _ in range(1000):
+                obs, reward, terminated, truncated, info = env.step(env.unwrapped.follow_user(obs))
+                assert np.all(np.isfinite(obs)) and np.isfinite(reward)
+                if terminated or truncated:
+                    break
+            seen.append(info["outcome"])
+        return seen
+
+    physics = outcomes("tandem/PandaArbitrationPhysics-v0")
+    assert "collision" not in physics, physics
+    assert all(o in ("success", "failed", "timeout") for o in physics)
+    assert physics == outcomes("tandem/PandaArbitration-v0")
+
+
+def test_physics_is_refused_on_the_planar_task():
+    with pytest.raises(tandem.TandemError, match="Panda task only"):
+        tandem.gym.ArbitrationEnv("planar", physics=True)

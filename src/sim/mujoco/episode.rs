@@ -13,16 +13,15 @@
 //! more than 2 cm before the fingers close is a push.
 
 use super::PhysicsError;
-use super::scene::{GeomRole, PhysicsScene};
+use super::arm::{GraspTicks, PhysicsArm, close_lift_hold, push_check};
+use super::scene::PhysicsScene;
 use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand};
-use crate::robot::RobotError;
 use crate::sim::episode::{LiveEpisode, OperatorFeed};
 use crate::sim::{
     EpisodeRecord, EpisodeSettings, Judge, Operator, OperatorAction, PhysicsSettings, REACH_TOLERANCE, Reason,
 };
 use mujoco_rs::prelude::*;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// One physics episode's setup.
 #[derive(Clone, Copy)]
@@ -61,27 +60,17 @@ pub fn lift_arbiter(arbiter: &Arbiter) -> Result<Arbiter, crate::arbitration::Ar
     arbiter.with_settings(settings)
 }
 
-/// Per-thread state of physics episodes: MuJoCo's data, the lift arbiter's
-/// workspace, the servo targets.
+/// Per-thread state of physics episodes: MuJoCo's data, the servo
+/// targets, the lift arbiter's workspace.
 pub struct PhysicsWorkspace {
-    data: MjData<Arc<MjModel>>,
+    arm: PhysicsArm,
     lift: ArbiterWorkspace,
-    measured: Vec<f64>,
-    target: Vec<f64>,
-    qdot: Vec<f64>,
 }
 
 impl PhysicsWorkspace {
     /// A workspace for episodes in `scene` lifted by `lift`.
     pub fn new(scene: &PhysicsScene, lift: &Arbiter) -> PhysicsWorkspace {
-        let n = lift.robot().nq();
-        PhysicsWorkspace {
-            data: scene.data(),
-            lift: lift.workspace(),
-            measured: vec![0.0; n],
-            target: vec![0.0; n],
-            qdot: vec![0.0; n],
-        }
+        PhysicsWorkspace { arm: PhysicsArm::new(scene, lift.robot().nq()), lift: lift.workspace() }
     }
 }
 
@@ -110,14 +99,6 @@ pub struct PhysicsRecord {
     pub physics_seconds: f64,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
-    Approach,
-    Close,
-    Lift,
-    Hold,
-}
-
 impl PhysicsEpisode<'_> {
     /// Runs the episode with `operator`; `judge` decides when the gripper
     /// is in position (as in the kinematic simulator) and what it would
@@ -140,115 +121,65 @@ impl PhysicsEpisode<'_> {
             return Err(PhysicsError::NoObject { index: self.object, count });
         }
         let dt = arbiter.settings().period;
-        let h = scene.timestep();
-        let substeps = (dt / h).round().max(1.0) as usize;
-        let ticks = |seconds: f64| (seconds / dt).ceil() as usize;
-        let (approach_ticks, close_ticks) = (ticks(self.settings.max_time), ticks(p.close_time));
-        let (lift_ticks, hold_ticks) = (ticks(p.lift_height / p.lift_speed), ticks(p.hold_time));
+        let approach_ticks = (self.settings.max_time / dt).ceil() as usize;
         let limits = arbiter.robot().limits();
         let mut live = LiveEpisode::new(arbiter, ws, self.start, self.settings.record)?;
-        scene.reset(&mut pw.data, self.start);
-        let origin = scene.object_start(self.object);
+        let arm = &mut pw.arm;
+        arm.start(scene, self.start);
         let keep = self.settings.record;
         let mut object_path = vec![];
         if keep {
-            object_path.push(scene.object_pose(&pw.data, self.object));
+            object_path.push(scene.object_pose(arm.data(), self.object));
         }
         arbiter.reset(&mut pw.lift);
-        pw.target.copy_from_slice(self.start);
         let mut feed = OperatorFeed::new(arbiter, self.true_goal, operator.needs_policy());
-        let (mut phase, mut phase_tick) = (Phase::Approach, 0usize);
-        let (mut kinematic, mut ending, mut closed_at) = (None, None, None);
-        let (mut pushed, mut lowest_hold, mut rise) = (0.0_f64, f64::INFINITY, 0.0);
-        let (mut steps, mut physics_seconds, mut hard_violations) = (0usize, 0.0, 0usize);
+        let (mut kinematic, mut ending, mut closed_at, mut pushed) = (None, None, None, 0.0_f64);
         let mut command = [0.0; 6];
-        for tick in 0.. {
-            if phase == Phase::Approach {
-                match self.approach(&mut live, &mut feed, operator, judge, tick, &mut command) {
-                    Some(reason) => {
-                        kinematic = Some(reason);
-                        closed_at = Some(live.gripper());
-                        hard_violations = live.record().hard_violations;
-                        (phase, phase_tick) = (Phase::Close, 0);
-                    }
-                    None => {
-                        pw.qdot.copy_from_slice(live.command(arbiter, ws, HumanCommand::Linear(&command[..3])));
-                        ending = self.advance(
-                            pw,
-                            substeps,
-                            h,
-                            limits,
-                            false,
-                            &mut steps,
-                            &mut physics_seconds,
-                            |scene, data| {
-                                let moved = distance(&scene.object_pose(data, self.object), &origin);
-                                pushed = pushed.max(moved);
-                                (moved > p.push_tolerance).then_some(Reason::Pushed { distance: moved })
-                            },
-                        );
-                        self.arrive(&mut live, pw, keep, &mut object_path)?;
-                        if ending.is_none() && tick + 1 >= approach_ticks {
-                            ending = Some(live.reason(crate::sim::Outcome::Timeout, self.target));
-                        }
-                        if ending.is_some() {
-                            break;
-                        }
-                        continue;
-                    }
-                }
+        for tick in 0..approach_ticks {
+            if let Some(reason) = self.approach(&mut live, &mut feed, operator, judge, tick, &mut command) {
+                kinematic = Some(reason);
+                closed_at = Some(live.gripper());
+                break;
             }
-            command = [0.0; 6];
-            if phase == Phase::Lift {
-                command[2] = p.lift_speed;
-            }
-            pw.qdot.copy_from_slice(live.command(self.lift, &mut pw.lift, HumanCommand::Twist(&command)));
-            let hold = phase == Phase::Hold;
-            let z0 = origin[2];
-            ending = self.advance(pw, substeps, h, limits, true, &mut steps, &mut physics_seconds, |scene, data| {
-                if hold {
-                    lowest_hold = lowest_hold.min(scene.object_pose(data, self.object)[2] - z0);
-                }
-                None
+            arm.qdot_mut().copy_from_slice(live.command(arbiter, ws, HumanCommand::Linear(&command[..3])));
+            ending = arm.advance(scene, limits, dt, false, |data| {
+                let (moved, push) = push_check(scene, data, self.object, p.push_tolerance);
+                pushed = pushed.max(moved);
+                push
             });
-            self.arrive(&mut live, pw, keep, &mut object_path)?;
-            rise = scene.object_pose(&pw.data, self.object)[2] - origin[2];
+            let mut sink = Recorder {
+                live: &mut live,
+                arbiter,
+                lift: None,
+                scene,
+                object: self.object,
+                keep,
+                path: &mut object_path,
+            };
+            let q = arm.measured(scene).to_vec();
+            sink.arrive(&q, arm.data())?;
             if ending.is_some() {
                 break;
             }
-            phase_tick += 1;
-            match phase {
-                Phase::Close if phase_tick >= close_ticks => {
-                    // Fingers closed on nothing: the operator stopped where
-                    // no grasp was, and the kinematic judge says why.
-                    if !touches_object(scene, &pw.data, self.object) {
-                        ending = Some(match kinematic.clone() {
-                            Some(reason) if reason != Reason::Success => reason,
-                            _ => Reason::Slipped { lifted: rise },
-                        });
-                        break;
-                    }
-                    (phase, phase_tick) = (Phase::Lift, 0);
-                }
-                Phase::Lift if phase_tick >= lift_ticks => {
-                    if rise < p.lifted {
-                        ending = Some(Reason::Slipped { lifted: rise });
-                        break;
-                    }
-                    (phase, phase_tick) = (Phase::Hold, 0);
-                }
-                Phase::Hold if phase_tick >= hold_ticks => {
-                    ending =
-                        Some(if lowest_hold >= p.lifted { Reason::Success } else { Reason::Dropped { lifted: rise } });
-                    break;
-                }
-                _ => {}
+        }
+        let hard_violations = live.record().hard_violations;
+        let reason = match (ending, &kinematic) {
+            (Some(reason), _) => reason,
+            (None, None) => live.reason(crate::sim::Outcome::Timeout, self.target),
+            (None, Some(verdict)) => {
+                let mut sink = Recorder {
+                    live: &mut live,
+                    arbiter,
+                    lift: Some((self.lift, &mut pw.lift)),
+                    scene,
+                    object: self.object,
+                    keep,
+                    path: &mut object_path,
+                };
+                close_lift_hold(arm, scene, limits, dt, p, self.object, Some(verdict), &mut sink)?
             }
-        }
-        let reason = ending.unwrap_or(Reason::Timeout { distance: f64::NAN });
-        if phase == Phase::Approach {
-            hard_violations = live.record().hard_violations;
-        }
+        };
+        let lifted = scene.object_pose(arm.data(), self.object)[2] - scene.object_start(self.object)[2];
         let model_contact = if hard_violations > 0 { live.first_contact().cloned() } else { None };
         let mut record = live.finish(reason, dt);
         record.hard_violations = hard_violations;
@@ -259,9 +190,9 @@ impl PhysicsEpisode<'_> {
             closed_at,
             pushed,
             model_contact,
-            lifted: rise,
-            physics_steps: steps,
-            physics_seconds,
+            lifted,
+            physics_steps: arm.steps,
+            physics_seconds: arm.seconds,
         })
     }
 
@@ -294,79 +225,34 @@ impl PhysicsEpisode<'_> {
             }
         }
     }
+}
 
-    /// Runs one control period of physics: the servo targets integrate
-    /// `pw.qdot` (within the joint limits) at each step; after each step
-    /// the robot's contacts with obstacles end the episode, and `check`
-    /// may.
-    #[allow(clippy::too_many_arguments)]
-    fn advance(
-        &self,
-        pw: &mut PhysicsWorkspace,
-        substeps: usize,
-        h: f64,
-        limits: &[crate::robot::JointLimits],
-        closed: bool,
-        steps: &mut usize,
-        seconds: &mut f64,
-        mut check: impl FnMut(&PhysicsScene, &MjData<Arc<MjModel>>) -> Option<Reason>,
-    ) -> Option<Reason> {
-        let scene = self.scene;
-        for _ in 0..substeps {
-            for ((t, v), l) in pw.target.iter_mut().zip(&pw.qdot).zip(limits) {
-                *t = (*t + h * v).clamp(l.lower, l.upper);
-            }
-            scene.set_targets(&mut pw.data, &pw.target, Some(&pw.qdot), closed);
-            let began = Instant::now();
-            pw.data.step();
-            *seconds += began.elapsed().as_secs_f64();
-            *steps += 1;
-            if let Some(reason) = robot_collision(scene, &pw.data).or_else(|| check(scene, &pw.data)) {
-                return Some(reason);
-            }
+/// Records the ticks of a physics episode in its [`LiveEpisode`]: the
+/// measured configurations and the object's pose; while the grasp closes
+/// and lifts, the lift arbiter commands.
+struct Recorder<'a, 'w> {
+    live: &'a mut LiveEpisode,
+    arbiter: &'a Arbiter,
+    lift: Option<(&'a Arbiter, &'w mut ArbiterWorkspace)>,
+    scene: &'a PhysicsScene,
+    object: usize,
+    keep: bool,
+    path: &'a mut Vec<[f64; 7]>,
+}
+
+impl GraspTicks for Recorder<'_, '_> {
+    fn command(&mut self, twist: &[f64; 6], qdot: &mut [f64]) {
+        match self.lift.as_mut() {
+            Some((lift, ws)) => qdot.copy_from_slice(self.live.command(lift, ws, HumanCommand::Twist(twist))),
+            None => qdot.fill(0.0),
         }
-        None
     }
 
-    /// Ends a tick at the measured configuration.
-    fn arrive(
-        &self,
-        live: &mut LiveEpisode,
-        pw: &mut PhysicsWorkspace,
-        keep: bool,
-        object_path: &mut Vec<[f64; 7]>,
-    ) -> Result<(), RobotError> {
-        self.scene.arm_positions(&pw.data, &mut pw.measured);
-        live.arrive(self.arbiter, &pw.measured)?;
-        if keep {
-            object_path.push(self.scene.object_pose(&pw.data, self.object));
+    fn arrive(&mut self, q: &[f64], data: &MjData<Arc<MjModel>>) -> Result<(), PhysicsError> {
+        self.live.arrive(self.arbiter, q)?;
+        if self.keep {
+            self.path.push(self.scene.object_pose(data, self.object));
         }
         Ok(())
     }
-}
-
-/// The first contact of the robot with an obstacle, as a collision.
-fn robot_collision(scene: &PhysicsScene, data: &MjData<Arc<MjModel>>) -> Option<Reason> {
-    data.contact().iter().find_map(|c| {
-        let (a, b) = (c.geom[0] as usize, c.geom[1] as usize);
-        match (scene.role(a), scene.role(b)) {
-            (GeomRole::Robot, GeomRole::Obstacle) => Some((a, b)),
-            (GeomRole::Obstacle, GeomRole::Robot) => Some((b, a)),
-            _ => None,
-        }
-        .map(|(robot, other)| Reason::Collision { pair: [scene.geom_label(robot), scene.geom_label(other)] })
-    })
-}
-
-/// Whether the robot touches object `k`.
-fn touches_object(scene: &PhysicsScene, data: &MjData<Arc<MjModel>>, k: usize) -> bool {
-    data.contact().iter().any(|c| {
-        let roles = (scene.role(c.geom[0] as usize), scene.role(c.geom[1] as usize));
-        roles == (GeomRole::Robot, GeomRole::Object(k)) || roles == (GeomRole::Object(k), GeomRole::Robot)
-    })
-}
-
-/// Distance between the positions of two poses (m).
-fn distance(a: &[f64; 7], b: &[f64; 7]) -> f64 {
-    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

@@ -19,9 +19,14 @@
 //! microseconds of Rust away from the next, no interpreter in the loop, and
 //! the same library a Rust user links.
 
+mod arm;
+#[cfg(feature = "experiments")]
+mod env;
 mod episode;
 mod scene;
 
+#[cfg(feature = "experiments")]
+pub(crate) use env::EnvPhysics;
 pub use episode::{PhysicsEpisode, PhysicsRecord, PhysicsWorkspace, lift_arbiter};
 pub use scene::{GeomRole, PhysicsScene};
 

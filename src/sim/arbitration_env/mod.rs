@@ -39,11 +39,16 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod reward;
+
+pub use reward::{RewardKind, reward};
+
+use super::PhysicsSettings;
 use super::judge::TaskJudge;
 use super::operator::{Observation, Operator, OperatorAction};
 use super::operator::{OperatorKind, PlanarUser};
 use super::tasks::{Arm, sample_planar_task, sample_task};
-use crate::arbitration::decision::{DecisionSettings, planar_modality, spatial_modality};
+use crate::arbitration::decision::DecisionSettings;
 use crate::arbitration::{
     Arbiter, ArbiterSettings, ArbiterWorkspace, ArbitrationError, HumanCommand, ProblemGoal, StateLayout, TickInput,
 };
@@ -96,6 +101,13 @@ pub struct ArbitrationEnvSettings {
     pub decision: DecisionSettings,
     /// The arbiter's settings (its mode is ignored: actions are executed as given).
     pub arbiter: ArbiterSettings,
+    /// MuJoCo moves the arm (the Panda task, a build with the `mujoco`
+    /// feature; default `None`: the kinematic simulator). Touching an
+    /// obstacle or pushing the box 2 cm is a collision; the goal counts
+    /// once the judge agrees with the gripper within 1 cm of the grasp
+    /// point *and* the fingers close, lift the box 10 cm and hold it 1 s
+    /// (else the episode fails). See [`PhysicsSettings`].
+    pub physics: Option<PhysicsSettings>,
 }
 
 impl Default for ArbitrationEnvSettings {
@@ -114,6 +126,7 @@ impl Default for ArbitrationEnvSettings {
             border_band: 0.002,
             decision: DecisionSettings::default(),
             arbiter: ArbiterSettings { period: 1.0 / 30.0, ..ArbiterSettings::default() },
+            physics: None,
         }
     }
 }
@@ -186,6 +199,9 @@ struct Running {
     gripper: [f64; 3],
     steps: usize,
     travel: f64,
+    /// MuJoCo's world, when physics moves the arm.
+    #[cfg(feature = "mujoco")]
+    physics: Option<Box<crate::sim::mujoco::EnvPhysics>>,
 }
 
 /// The arbitration-learning environment (see the module docs).
@@ -218,6 +234,10 @@ pub enum EnvError {
     /// A setting out of range, a task or an arbiter that cannot be set up.
     #[error(transparent)]
     Arbitration(#[from] ArbitrationError),
+    /// Physics asked of the planar task or of a build without MuJoCo, or
+    /// MuJoCo refusing the scene.
+    #[error("physics: {0}")]
+    Physics(String),
 }
 
 impl ArbitrationEnv {
@@ -244,6 +264,14 @@ impl ArbitrationEnv {
                 StateLayout { task_dims: 3, goals: 1, length_scale: 0.1, speed_scale: settings.speed },
             ),
         };
+        if settings.physics.is_some() && settings.task != EnvTask::PandaGrasp {
+            return Err(EnvError::Physics("physics runs the Panda task only".into()));
+        }
+        if settings.physics.is_some() && !cfg!(feature = "mujoco") {
+            return Err(EnvError::Physics(
+                "this tandem was built without MuJoCo: build with the `mujoco` feature (see docs/physics.md)".into(),
+            ));
+        }
         let base = Problem::builtin(name).map_err(ArbitrationError::from)?;
         Ok(ArbitrationEnv { base, layout, state: vec![0.0; layout.width()], running: None, settings })
     }
@@ -316,6 +344,14 @@ impl ArbitrationEnv {
             gripper: [0.0; 3],
             steps: 0,
             travel: 0.0,
+            #[cfg(feature = "mujoco")]
+            physics: match &self.settings.physics {
+                Some(p) => Some(Box::new(
+                    crate::sim::mujoco::EnvPhysics::new(&goal.problem, &arbiter, p, &goal.problem.start)
+                        .map_err(|e| EnvError::Physics(e.to_string()))?,
+                )),
+                None => None,
+            },
             arbiter,
             goals,
             target,
@@ -379,8 +415,8 @@ impl ArbitrationEnv {
             TickInput { q: &r.q, velocity: Some(&r.velocity), command: HumanCommand::Linear(&r.human), beliefs: None };
         let qdot = r.arbiter.act_observed(&mut r.ws, &input, &command).qdot.to_vec();
         r.velocity.copy_from_slice(&qdot);
-        for (q, v) in r.q.iter_mut().zip(&qdot) {
-            *q += dt * v;
+        if move_arm(r, &qdot) {
+            return Ok((s.obstacle_reward, EnvOutcome::Collision, [0.0; 3]));
         }
         r.steps += 1;
         let before = r.gripper;
@@ -390,7 +426,8 @@ impl ArbitrationEnv {
         let mut reward = 0.0;
         let model = r.arbiter.collision_model().clone();
         let mut cws = crate::collision::CollisionWorkspace::new(&model);
-        if !model.collision_free(&mut cws, &r.q)? {
+        // With physics, MuJoCo's contacts decide (in `move_arm`).
+        if s.physics.is_none() && !model.collision_free(&mut cws, &r.q)? {
             return Ok((s.obstacle_reward, EnvOutcome::Collision, executed));
         }
         let bounded = if s.task == EnvTask::Planar { 2 } else { r.q.len() };
@@ -405,8 +442,15 @@ impl ArbitrationEnv {
         if at_border {
             reward += s.border_reward;
         }
-        if r.judge.succeeded(&r.q) {
+        if s.physics.is_none() && r.judge.succeeded(&r.q) {
             return Ok((reward + s.goal_reward, EnvOutcome::Success, executed));
+        }
+        let at_grasp = super::operator::distance(r.gripper, r.goals[r.target].position) <= super::REACH_TOLERANCE;
+        if s.physics.is_some() && at_grasp && r.judge.succeeded(&r.q) {
+            return Ok(match grasp(r)? {
+                true => (reward + s.goal_reward, EnvOutcome::Success, executed),
+                false => (reward, EnvOutcome::Failed, executed),
+            });
         }
         if r.steps as f64 * dt >= s.max_time {
             return Ok((reward, EnvOutcome::Timeout, executed));
@@ -448,6 +492,34 @@ impl ArbitrationEnv {
     }
 }
 
+/// Moves the arm by `qdot` for a period: integrated, or by MuJoCo. True
+/// when physics saw a collision (an obstacle touched, the box pushed).
+fn move_arm(r: &mut Running, qdot: &[f64]) -> bool {
+    #[cfg(feature = "mujoco")]
+    if let Some(physics) = r.physics.as_mut() {
+        return physics.step(&r.arbiter, qdot, &mut r.q).is_some();
+    }
+    let dt = r.arbiter.settings().period;
+    for (q, v) in r.q.iter_mut().zip(qdot) {
+        *q += dt * v;
+    }
+    false
+}
+
+/// Closes, lifts and holds (physics only): whether the box stayed lifted.
+fn grasp(r: &mut Running) -> Result<bool, ArbitrationError> {
+    #[cfg(feature = "mujoco")]
+    if let Some(physics) = r.physics.as_mut() {
+        let reason = physics
+            .grasp(&r.arbiter, &mut r.q, &mut r.velocity)
+            .map_err(|e| crate::settings::InvalidSetting::new("physics", e, "a grasp MuJoCo can simulate"))?;
+        r.gripper = gripper_state(r)?;
+        return Ok(reason == super::Reason::Success);
+    }
+    let _ = r;
+    Ok(false)
+}
+
 fn arbiter_reset(r: &mut Running) {
     r.arbiter.reset(&mut r.ws);
 }
@@ -463,79 +535,4 @@ fn gripper_state(r: &mut Running) -> Result<[f64; 3], ArbitrationError> {
         }
     }
     Ok(pose.translation.vector.into())
-}
-
-/// Which reward trains the arbiter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum RewardKind {
-    /// `r_agree + r_env` (Algorithm 5).
-    Combined,
-    /// `r_env` only (the dissertation's comparison).
-    Environment,
-}
-
-impl RewardKind {
-    /// `combined` or `environment`.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            RewardKind::Combined => "combined",
-            RewardKind::Environment => "environment",
-        }
-    }
-}
-
-/// Algorithm 5: the reward of taking `action` (units of the user speed) in
-/// `state` (of `layout`) when the user meant goal `true_goal`, given the
-/// step's environment reward. At a decision point (the sub-policies' von
-/// Mises mixture multimodal) the agreement term is `−‖â_H − û‖²`, else
-/// `−‖â_{g*} − û‖²` (hats: unit directions, as the dissertation normalises the
-/// actions); both minus the speed difference `|‖a_H‖ − ‖u‖|` (units of the
-/// user speed).
-pub fn reward(
-    layout: &StateLayout,
-    state: &[f64],
-    action: &[f64],
-    true_goal: usize,
-    env_reward: f64,
-    kind: RewardKind,
-    decision: &DecisionSettings,
-) -> f64 {
-    if kind == RewardKind::Environment {
-        return env_reward;
-    }
-    let d = layout.task_dims.min(3);
-    let vector = |at: usize| {
-        let mut v = [0.0; 3];
-        v[..d].copy_from_slice(&state[at..at + d]);
-        v
-    };
-    let human = vector(layout.human_offset());
-    let goals = layout.goals.min(8);
-    let mut actions = [[0.0; 3]; 8];
-    for (g, a) in actions.iter_mut().enumerate().take(goals) {
-        // In m/s for the mixture's speed floor.
-        *a = vector(layout.action_offset(g)).map(|x| x * layout.speed_scale);
-    }
-    let beliefs = &state[layout.belief_offset()..layout.belief_offset() + goals];
-    let multimodal = if d == 2 {
-        let planar: [[f64; 2]; 8] = actions.map(|a| [a[0], a[1]]);
-        planar_modality(&planar[..goals], beliefs, decision).multimodal
-    } else {
-        spatial_modality(&actions[..goals], beliefs, decision).multimodal
-    };
-    let mut u = [0.0; 3];
-    u[..d].copy_from_slice(&action[..d]);
-    let toward = if multimodal { human } else { vector(layout.action_offset(true_goal.min(goals.saturating_sub(1)))) };
-    let unit = |v: [f64; 3]| {
-        let n = norm(v);
-        if n > 1e-9 { v.map(|x| x / n) } else { [0.0; 3] }
-    };
-    let (a, b) = (unit(toward), unit(u));
-    let agree = -(0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>();
-    let speed = -(norm(human) - norm(u)).abs();
-    agree + speed + env_reward
-}
-
-fn norm(v: [f64; 3]) -> f64 {
-    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
