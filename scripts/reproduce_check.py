@@ -20,9 +20,10 @@ import subprocess
 import sys
 import tempfile
 
-# Runs whose numbers depend on candle's CPU kernels (chosen by the CPU at
-# run time), and traded's on the planning time it measures and charges:
-# rendered and checked for their files, not their numbers.
+# Runs whose numbers depend on candle's CPU kernels or the policy network's
+# (chosen by the CPU at run time), and traded's on the planning time it
+# measures and charges: rendered and checked for their files, not their
+# numbers.
 CANDLE_RUNS = {"learned", "traded", "policy"}
 
 # Published figure (docs/figures/NAME) <- its source under docs/results/.

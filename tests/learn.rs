@@ -372,6 +372,15 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
         json["training"]["pairs"].as_u64().unwrap() as usize / (2 * 51)
     );
     assert!(json["training"]["seconds"].as_f64().unwrap() > 0.0);
+    for (policy, r) in ["learned", "lqr"].iter().zip(results) {
+        let failures = &json["failures"][policy];
+        let by_reason: u64 = failures["reasons"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum();
+        assert_eq!(by_reason, 3, "{failures}");
+        let collisions = (r["collision"].as_f64().unwrap() * 3.0).round() as u64;
+        let by_phase: u64 =
+            failures["collision_phases"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum();
+        assert_eq!(by_phase, collisions, "{failures}");
+    }
     assert_eq!(json["arbitration"].as_array().unwrap().len(), 4);
     for figure in ["joint_histograms.svg", "success_by_distance.svg"] {
         let svg = std::fs::read_to_string(dir.path().join("experiment").join(figure)).unwrap();
@@ -386,4 +395,126 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
     assert!(!bad.status.success());
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert!(stderr.contains("Cargo.toml") && stderr.contains("safetensors"), "{stderr}");
+
+    // Without --policy: the shipped policy; DAgger needs the data.
+    let shipped = |extra: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_tandem"))
+            .args(["experiment", "policy", "--tasks", "3", "--arbitration-tasks", "0", "--no-lqr", "--json"])
+            .args(extra)
+            .arg("--out")
+            .arg(dir.path().join("shipped"))
+            .current_dir(common::repo())
+            .output()
+            .unwrap()
+    };
+    let output = shipped(&[]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(json["policy"], "shipped");
+    assert_eq!(json["results"].as_array().unwrap().len(), 1);
+    let output = shipped(&["--rounds", "1"]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("--rounds") && stderr.contains("--data"), "{stderr}");
+}
+
+/// A policy that commands one constant joint velocity everywhere.
+#[derive(Debug)]
+struct ConstantPolicy(Vec<f64>);
+
+impl RobotPolicy for ConstantPolicy {
+    fn dof(&self) -> usize {
+        self.0.len()
+    }
+    fn new_workspace(&self) -> tandem::control::RobotPolicyWorkspace {
+        tandem::control::RobotPolicyWorkspace::new(())
+    }
+    fn act(
+        &self,
+        _: &mut tandem::control::RobotPolicyWorkspace,
+        _: &[f64],
+        _: &[f64],
+        action: &mut [f64],
+    ) -> Result<(), tandem::control::ControlError> {
+        action.copy_from_slice(&self.0);
+        Ok(())
+    }
+    fn probe(
+        &self,
+        state: &mut tandem::control::RobotPolicyWorkspace,
+        q: &[f64],
+        v: &[f64],
+        action: &mut [f64],
+    ) -> Result<(), tandem::control::ControlError> {
+        self.act(state, q, v, action)
+    }
+    fn reset(&self, _: &mut tandem::control::RobotPolicyWorkspace) {}
+}
+
+/// Rollouts say why they ended: the colliding pair and where the gripper
+/// was, how far short time ran out, success at the grasp; the breakdown
+/// counts them by reason, phase and pair.
+#[test]
+fn rollouts_name_why_they_ended() {
+    use tandem::learn::evaluate::{FailureBreakdown, RolloutOutcome};
+    use tandem::sim::Reason;
+    let problem = family().sample(11, 0).unwrap().problem;
+    let task = Task::new(problem.clone(), RolloutSettings::default().max_tilt).unwrap();
+    let settings = RolloutSettings { max_time: 3.0, ..RolloutSettings::default() };
+    // The shoulder pitched forward drives the hand down into the table.
+    let down =
+        task.rollout(&ConstantPolicy(vec![0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), &problem.start, &settings).unwrap();
+    assert_eq!(down.outcome, RolloutOutcome::Collision, "{down:?}");
+    let Some(Reason::Collision { pair: [a, b] }) = &down.reason else { panic!("{:?}", down.reason) };
+    assert!(a.starts_with("panda_") || b.starts_with("panda_"), "{a}–{b}");
+    assert!(down.distance.is_finite() && down.distance > 0.0, "{}", down.distance);
+
+    let still = task.rollout(&ConstantPolicy(vec![0.0; 7]), &problem.start, &settings).unwrap();
+    assert_eq!(still.outcome, RolloutOutcome::Timeout);
+    let Some(Reason::Timeout { distance }) = still.reason else { panic!("{:?}", still.reason) };
+    assert!(distance > 0.05 && (distance - still.distance).abs() < 1e-12, "{distance}");
+    assert_eq!(still.steps, 45, "3 s at 15 Hz");
+
+    // The LQR tracking policy of an optimized reference grasps.
+    let options = tandem::arbitration::GoalSettings {
+        seed: Some(0),
+        objects: tandem::arbitration::GoalObjects::Goal,
+        ..Default::default()
+    };
+    let goals = tandem::arbitration::problem_goals(&problem, &options).unwrap();
+    let lqr = task.rollout(goals[0].policy.as_ref(), &problem.start, &RolloutSettings::default()).unwrap();
+    assert_eq!((lqr.outcome, lqr.reason.clone()), (RolloutOutcome::Success, Some(Reason::Success)));
+    assert!(lqr.distance < 0.05, "{}", lqr.distance);
+
+    let breakdown = FailureBreakdown::of(&[down.clone(), still, lqr]);
+    for reason in ["collision", "timeout", "success"] {
+        assert_eq!(breakdown.reasons.get(reason), Some(&1), "{breakdown:?}");
+    }
+    assert_eq!(breakdown.collision_phases.values().sum::<usize>(), 1);
+    assert_eq!(breakdown.collision_pairs.get(&format!("{a}–{b}")), Some(&1), "{breakdown:?}");
+}
+
+/// The shipped policy (embedded; `policies/panda_grasp_family.json` says
+/// how it was made) on tasks of a seed it never saw: what `tandem
+/// experiment policy` reports by default, and what its provenance claims.
+#[test]
+fn the_shipped_policy_grasps_on_unseen_tasks() {
+    use tandem::learn::evaluate::{OutcomeCounts, RolloutOutcome};
+    let network = Arc::new(tandem::learn::shipped_policy().unwrap());
+    let family = family();
+    let settings = RolloutSettings::default();
+    let outcomes: Vec<RolloutOutcome> = (0..300)
+        .map(|i| {
+            let problem = family.sample(77, i).unwrap().problem;
+            let task = Task::new(problem, settings.max_tilt).unwrap();
+            let policy = LearnedPolicy::for_problem(network.clone(), &task.problem).unwrap();
+            task.rollout(&policy, &task.problem.start, &settings).unwrap().outcome
+        })
+        .collect();
+    let counts = OutcomeCounts::from_outcomes(outcomes);
+    let provenance: serde_json::Value = serde_json::from_str(tandem::learn::SHIPPED_POLICY_PROVENANCE).unwrap();
+    let claimed = provenance["evaluation"]["success"].as_f64().unwrap();
+    eprintln!("shipped policy, 300 tasks of seed 77: {counts:?} (claimed {claimed} on seed 1000)");
+    // 300 tasks: a binomial standard deviation of about 1.4 points at 94 %.
+    assert!(counts.success_rate() >= claimed - 0.05, "{counts:?} against the claimed {claimed}");
 }

@@ -54,8 +54,9 @@ pub enum Experiment {
     /// the finger pads, gripper within 0.1 rad of the approach axis, palm
     /// and fingers clear), beside the LQR tracking policy of a reference
     /// optimized from each start, and report success, collisions and
-    /// timeouts (20 s; the dissertation's policy reached 92–97 %, §3.3.3).
-    /// Also: the training data's joint values against the limits (Fig. 3.8),
+    /// timeouts (20 s; the dissertation's policy reached 92–97 %, §3.3.3),
+    /// with why each rollout ended (reasons; collisions by phase and pair).
+    /// With --data: the training data's joint values against the limits (Fig. 3.8),
     /// success by the start's distance from the data, DAgger rounds (--rounds:
     /// follow fresh tasks, optimize expert trajectories from where the
     /// policy failed and where the data is thin, retrain) and shared
@@ -63,11 +64,14 @@ pub enum Experiment {
     /// sum-of-squares arbitration, judged by the same grasp judge) on top
     /// of either policy. Figures go to --out.
     ///
-    /// Without --policy it generates a dataset (--train-count) and trains
-    /// a policy in --out first.
+    /// Without --policy it evaluates the policy tandem ships
+    /// (policies/panda_grasp_family.safetensors, embedded; its provenance in
+    /// policies/panda_grasp_family.json); --train generates a dataset
+    /// (--train-count) and trains a policy in --out first.
     ///
     /// Examples:
-    ///   tandem experiment policy --tasks 100
+    ///   tandem experiment policy --tasks 1000
+    ///   tandem experiment policy --train --train-count 2000 --epochs 30
     ///   tandem experiment policy --policy policy.safetensors --data grasps/ --tasks 500 --rounds 3 --json
     #[command(verbatim_doc_comment)]
     Policy(super::experiment_policy::PolicyExperimentArgs),

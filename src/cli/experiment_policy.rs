@@ -17,22 +17,28 @@ pub struct PolicyExperimentArgs {
     /// The problem family of the tasks and the data.
     #[arg(long, default_value = "problems/panda_grasp_family.toml", value_name = "FAMILY.toml")]
     pub family: PathBuf,
-    /// A trained policy (default: train one in --out).
-    #[arg(long, value_name = "FILE")]
+    /// A trained policy (default: the shipped one,
+    /// policies/panda_grasp_family.safetensors, embedded in tandem).
+    #[arg(long, value_name = "FILE", conflicts_with = "train")]
     pub policy: Option<PathBuf>,
-    /// Its training data (default: OUT/data, generated when missing).
+    /// Train a policy in --out and evaluate it (on --data, or on a dataset
+    /// of --train-count trajectories generated into OUT/data).
+    #[arg(long)]
+    pub train: bool,
+    /// The policy's training data: joint histograms, success by distance
+    /// from the data, DAgger (default: none; OUT/data with --train).
     #[arg(long, value_name = "DIR")]
     pub data: Option<PathBuf>,
     /// Folder for the dataset, policy and figures.
     #[arg(long, default_value = "policy-experiment", value_name = "DIR")]
     pub out: PathBuf,
-    /// Trajectories of the generated dataset (seed 0).
+    /// Trajectories of the dataset --train generates (seed 0).
     #[arg(long, default_value_t = 2000, value_parser = |s: &str| super::number_in(s, 1u64..=crate::data::MAX_COUNT))]
     pub train_count: u64,
-    /// Epochs of the first training.
+    /// Epochs of --train's training.
     #[arg(long, default_value_t = 30, value_parser = |s: &str| super::number_in(s, 1usize..=100_000))]
     pub epochs: usize,
-    /// DAgger rounds after it.
+    /// DAgger rounds after it (needs --data or --train).
     #[arg(long, default_value_t = 0, value_parser = |s: &str| super::number_in(s, 0usize..=100))]
     pub rounds: usize,
     /// Fresh tasks followed per DAgger round.
@@ -47,10 +53,12 @@ pub struct PolicyExperimentArgs {
     /// Skip the LQR policy (it optimizes a reference per task).
     #[arg(long)]
     pub no_lqr: bool,
-    /// Print one JSON object: {"tasks", "results": [{"policy", "success",
-    /// "collision", "timeout", "no_reference", "failed"}], "training": {"samples",
-    /// "pairs", "seconds"}, "rounds": [...], "arbitration": [...],
-    /// "seed_success": [0.92, 0.97]}; rates are shares of the tasks.
+    /// Print one JSON object: {"tasks", "policy" ("shipped", "trained" or
+    /// the file), "results": [{"policy", "success", "collision", "timeout",
+    /// "no_reference", "failed"}], "failures": {"learned": {"reasons",
+    /// "collision_phases", "collision_pairs"}, "lqr": {...}}, "training":
+    /// {"samples", "pairs", "seconds"}, "rounds": [...], "arbitration":
+    /// [...], "seed_success": [0.92, 0.97]}; rates are shares of the tasks.
     #[arg(long)]
     pub json: bool,
 }
@@ -62,6 +70,7 @@ pub(super) fn run_policy(args: &PolicyExperimentArgs) -> Result<(), Box<dyn std:
         tasks: args.tasks,
         seed: args.seed,
         policy: args.policy.clone(),
+        train: args.train,
         data: args.data.clone(),
         train_count: args.train_count,
         epochs: args.epochs,

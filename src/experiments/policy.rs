@@ -13,9 +13,12 @@ use crate::control::RobotPolicy;
 use crate::data::{GenerateSettings, Progress, generate};
 use crate::files::FileError;
 use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
-use crate::learn::evaluate::{OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances};
+use crate::learn::evaluate::{
+    FailureBreakdown, OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances,
+};
 use crate::learn::{
-    Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, TrainReport, TrainSettings, train_on,
+    Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, SHIPPED_POLICY_PATH, TrainReport,
+    TrainSettings, shipped_policy, train_on,
 };
 use crate::problem::ProblemFamily;
 use crate::robot::KinematicsWorkspace;
@@ -71,6 +74,8 @@ pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Resu
                     steps: 0,
                     clamped: 0,
                     path: vec![task.problem.start.clone()],
+                    reason: None,
+                    distance: f64::NAN,
                 }),
             }
         })
@@ -236,9 +241,14 @@ pub struct PolicyExperiment {
     pub tasks: usize,
     /// Seed of the evaluation tasks (another than the training data's).
     pub seed: u64,
-    /// A trained policy (default: train one in the output folder).
+    /// A trained policy (default: the shipped one, [`shipped_policy`]).
     pub policy: Option<PathBuf>,
-    /// Its training data (default: `OUT/data`, generated when missing).
+    /// Train a policy in the output folder instead (on `data`, or on a
+    /// generated dataset of `train_count` trajectories in `OUT/data`).
+    pub train: bool,
+    /// The policy's training data: for the joint histograms, the success
+    /// by distance from the data and DAgger (default: none for a given or
+    /// shipped policy; `OUT/data`, generated when missing, with `train`).
     pub data: Option<PathBuf>,
     /// Trajectories of the generated dataset (seed 0).
     pub train_count: u64,
@@ -263,6 +273,7 @@ impl Default for PolicyExperiment {
             tasks: 100,
             seed: 1000,
             policy: None,
+            train: false,
             data: None,
             train_count: 2000,
             epochs: 30,
@@ -288,8 +299,13 @@ pub struct PolicyResults {
     pub rounds: Vec<serde_json::Value>,
     /// Shared control on top of each policy.
     pub arbitration: Vec<serde_json::Value>,
-    /// Median distance of the task starts from the training data (rad).
+    /// Which policy was evaluated: `shipped`, `trained` or the file given.
+    pub source: String,
+    /// Median distance of the task starts from the training data (rad;
+    /// NaN without the data).
     pub median_start_distance: f64,
+    /// Why each policy's rollouts ended (`learned`, then `lqr` when it ran).
+    pub failures: Vec<(String, FailureBreakdown)>,
     /// The figures: joint values of the data against the limits (Fig. 3.8)
     /// and success by the start's distance from the data.
     pub figures: Vec<(String, String)>,
@@ -320,6 +336,24 @@ fn median(values: &[f64]) -> f64 {
 
 fn paired(distances: &[f64], rollouts: &[Rollout]) -> Vec<(f64, bool)> {
     distances.iter().zip(rollouts).map(|(d, r)| (*d, r.outcome == RolloutOutcome::Success)).collect()
+}
+
+/// Why the rollouts of each policy ended: reasons, collision phases and pairs.
+fn failures_table(failures: &[(String, FailureBreakdown)]) -> String {
+    let mut out = String::new();
+    let list = |m: &std::collections::BTreeMap<String, usize>| {
+        let mut v: Vec<_> = m.iter().collect();
+        v.sort_by(|a, b| b.1.cmp(a.1).then(a.0.cmp(b.0)));
+        v.iter().map(|(k, n)| format!("{k} {n}")).collect::<Vec<_>>().join(", ")
+    };
+    for (policy, b) in failures {
+        let _ = writeln!(out, "  {policy:<8} ended: {}", list(&b.reasons));
+        if !b.collision_phases.is_empty() {
+            let _ = writeln!(out, "  {:<8} collisions by phase: {}", "", list(&b.collision_phases));
+            let _ = writeln!(out, "  {:<8} collisions by pair: {}", "", list(&b.collision_pairs));
+        }
+    }
+    out
 }
 
 fn rates_table(results: &[serde_json::Value]) -> String {
@@ -482,31 +516,67 @@ impl Experiment for PolicyExperiment {
             return Err(ExperimentError::from(crate::settings::InvalidSetting::new("--tasks", 0, "at least 1")));
         }
         let family = ProblemFamily::from_file(&self.family)?;
-        let data = self.data.clone().unwrap_or_else(|| out.join("data"));
-        if self.policy.is_none() && !data.join("_manifest.json").exists() {
+        let invalid = |option: &str, value: &str, expected: &str| {
+            ExperimentError::from(crate::settings::InvalidSetting::new(option, value, expected))
+        };
+        if self.train && self.policy.is_some() {
+            return Err(invalid("--train", "with --policy", "one of them: train a policy, or evaluate one"));
+        }
+        let data = match (&self.data, self.train) {
+            (Some(d), _) => Some(d.clone()),
+            (None, true) => Some(out.join("data")),
+            (None, false) => None,
+        };
+        if self.rounds > 0 && data.is_none() {
+            return Err(invalid(
+                "--rounds",
+                &self.rounds.to_string(),
+                "0 without --data (DAgger adds to the training data)",
+            ));
+        }
+        if let Some(data) = data.as_ref().filter(|d| self.train && !d.join("_manifest.json").exists()) {
             cx.say(&format!("generating {} trajectories into {}", self.train_count, data.display()));
             let settings = GenerateSettings { count: self.train_count, seed: 0, ..GenerateSettings::default() };
-            generate(&self.family, &data, &settings, &Progress::quiet())?;
+            generate(&self.family, data, &settings, &Progress::quiet())?;
         }
         let options = LearnSettings {
             train: TrainSettings { epochs: self.epochs, progress: cx.verbose(), ..TrainSettings::default() },
             ..LearnSettings::default()
         };
-        let (network, training) = match &self.policy {
-            Some(path) => (PolicyNetwork::load(path)?, PolicyReport::read_beside(path)),
-            None => {
+        let (network, training) = match (&self.policy, &data) {
+            (Some(path), _) => (PolicyNetwork::load(path)?, PolicyReport::read_beside(path)),
+            (None, Some(data)) if self.train => {
                 let path = out.join("policy.safetensors");
                 cx.say(&format!("training {} epochs on {}", self.epochs, data.display()));
-                let (network, report) = train_and_save(&data, &family, &options, &path)?;
+                let (network, report) = train_and_save(data, &family, &options, &path)?;
                 cx.say(&format!("wrote {} ({:.1} s of training)", path.display(), report.seconds));
                 (network, Some(report))
             }
+            _ => {
+                let network = shipped_policy()?;
+                if network.meta().family != family.name {
+                    return Err(invalid(
+                        "--policy",
+                        "none (the shipped policy)",
+                        &format!(
+                            "a policy for {} (the shipped one is for {}): --policy FILE or --train",
+                            family.name,
+                            network.meta().family
+                        ),
+                    ));
+                }
+                cx.say(&format!("the shipped policy ({SHIPPED_POLICY_PATH})"));
+                (network, None)
+            }
         };
         let mut network = Arc::new(network);
-        let mut demos = Demonstrations::read(&data)?;
-        let states: Vec<Vec<f64>> = demos.items.iter().flat_map(|d| d.states.iter().cloned()).collect();
+        let mut demos = match &data {
+            Some(d) => Some(Demonstrations::read(d)?),
+            None => None,
+        };
+        let states: Vec<Vec<f64>> =
+            demos.iter().flat_map(|d| d.items.iter().flat_map(|d| d.states.iter().cloned())).collect();
         let robot = &family.base.robot;
-        let histograms = joint_histograms(&states, robot.joint_names(), robot.limits(), 40)?;
         let rollout = RolloutSettings::default();
         let began = Instant::now();
         let tasks = sample_tasks(&family, self.seed, self.tasks, rollout.max_tilt)?;
@@ -517,36 +587,51 @@ impl Experiment for PolicyExperiment {
         let learned_seconds = began.elapsed().as_secs_f64();
         let lqr = if self.lqr { Some(follow_lqr(&tasks, self.seed, &rollout)?) } else { None };
         let starts: Vec<Vec<f64>> = tasks.iter().map(|t| t.problem.start.clone()).collect();
-        let distances = nearest_distances(&starts, &states);
-        let mut by_distance = vec![("learned".to_string(), paired(&distances, &learned))];
-        if let Some(lqr) = &lqr {
-            by_distance.push(("lqr".to_string(), paired(&distances, lqr)));
+        // Without the training data there is nothing to measure distances to.
+        let distances = if demos.is_some() { nearest_distances(&starts, &states) } else { vec![] };
+        let mut figures = vec![];
+        if demos.is_some() {
+            let mut by_distance = vec![("learned".to_string(), paired(&distances, &learned))];
+            if let Some(lqr) = &lqr {
+                by_distance.push(("lqr".to_string(), paired(&distances, lqr)));
+            }
+            figures.push((
+                "joint_histograms.svg".to_string(),
+                joint_histograms(&states, robot.joint_names(), robot.limits(), 40)?,
+            ));
+            figures.push(("success_by_distance.svg".to_string(), success_by_distance(&by_distance, 5)?));
         }
-        let figures = vec![
-            ("joint_histograms.svg".to_string(), histograms),
-            ("success_by_distance.svg".to_string(), success_by_distance(&by_distance, 5)?),
-        ];
         let mut results = vec![rates("learned", &counts(&learned))];
+        let mut failures = vec![("learned".to_string(), FailureBreakdown::of(&learned))];
         if let Some(lqr) = &lqr {
             results.push(rates("lqr", &counts(lqr)));
+            failures.push(("lqr".to_string(), FailureBreakdown::of(lqr)));
         }
-        cx.say(&format!("{} tasks of {} (seed {}), followed alone at 15 Hz:", self.tasks, family.name, self.seed));
-        cx.say(rates_table(&results).trim_end());
         cx.say(&format!("learned rollouts: {learned_seconds:.1} s for {} tasks", self.tasks));
-        let rounds = self.dagger(cx, out, &family, &options, &mut network, &mut demos, &tasks, &rollout)?;
+        let rounds = match demos.as_mut() {
+            Some(demos) => self.dagger(cx, out, &family, &options, &mut network, demos, &tasks, &rollout)?,
+            None => vec![],
+        };
         let arbitration = self.arbitrate(&network, &tasks)?;
+        cx.say(&format!("{} tasks of {} (seed {}), followed alone at 15 Hz:", self.tasks, family.name, self.seed));
         Ok(PolicyResults {
             tasks: self.tasks,
             results,
             training,
+            source: match (&self.policy, self.train) {
+                (Some(path), _) => path.display().to_string(),
+                (None, true) => "trained".into(),
+                (None, false) => "shipped".into(),
+            },
             rounds,
             arbitration,
             median_start_distance: median(&distances),
+            failures,
             figures,
         })
     }
 
-    /// `{"tasks", "results": [{"policy", "success", "collision",
+    /// `{"tasks", "policy", "results": [{"policy", "success", "collision",
     /// "timeout", "no_reference", "failed", "episodes"}], "training":
     /// {"samples", "pairs", "seconds"}, "rounds": [...], "arbitration":
     /// [...], "seed_success": [0.92, 0.97], "median_start_distance"}`;
@@ -558,17 +643,20 @@ impl Experiment for PolicyExperiment {
         );
         serde_json::json!({
             "tasks": r.tasks,
+            "policy": r.source,
             "results": r.results,
             "training": training,
             "rounds": r.rounds,
             "arbitration": r.arbitration,
             "seed_success": [0.92, 0.97],
             "median_start_distance": r.median_start_distance,
+            "failures": r.failures.iter().map(|(p, b)| (p.clone(), serde_json::json!(b))).collect::<serde_json::Map<_, _>>(),
         })
     }
 
     fn table(&self, r: &PolicyResults) -> String {
         let mut out = rates_table(&r.results);
+        out.push_str(&failures_table(&r.failures));
         if !r.arbitration.is_empty() {
             let _ = writeln!(out, "shared control, Approach operator, {} tasks:", self.arbitration_tasks.min(r.tasks));
             for row in &r.arbitration {

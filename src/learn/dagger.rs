@@ -33,20 +33,29 @@ impl Default for DaggerSettings {
     }
 }
 
-/// States of a failed `rollout` to restart the expert from: evenly spaced
-/// along its path, the start included; for a collision, the states before
-/// the colliding one (which is not a valid start). None for a success.
+/// Steps before a collision (at 15 Hz, 2 s) that [`failure_states`] restarts from.
+pub const COLLISION_WINDOW: usize = 30;
+
+/// States of a failed `rollout` to restart the expert from, evenly spaced:
+/// along its whole path (the start included) for a timeout; for a
+/// collision, over the [`COLLISION_WINDOW`] states before the colliding
+/// one (which is not a valid start), where the policy went wrong. None
+/// for a success.
 pub fn failure_states(rollout: &Rollout, count: usize) -> Vec<Vec<f64>> {
-    let usable = match rollout.outcome {
+    let (first, usable) = match rollout.outcome {
         RolloutOutcome::Success | RolloutOutcome::NoPolicy => return vec![],
-        RolloutOutcome::Collision => rollout.path.len().saturating_sub(1),
-        RolloutOutcome::Timeout => rollout.path.len(),
+        RolloutOutcome::Collision => {
+            let end = rollout.path.len().saturating_sub(1);
+            (end.saturating_sub(COLLISION_WINDOW), end)
+        }
+        RolloutOutcome::Timeout => (0, rollout.path.len()),
     };
-    if usable == 0 || count == 0 {
+    let span = usable - first;
+    if span == 0 || count == 0 {
         return vec![];
     }
-    let mut picks: Vec<usize> = (0..count).map(|k| k * (usable - 1) / count.max(2).saturating_sub(1).max(1)).collect();
-    picks.iter_mut().for_each(|i| *i = (*i).min(usable - 1));
+    let mut picks: Vec<usize> =
+        (0..count).map(|k| first + (k * (span - 1) / count.max(2).saturating_sub(1).max(1)).min(span - 1)).collect();
     picks.dedup();
     picks.into_iter().map(|i| rollout.path[i].clone()).collect()
 }
@@ -92,7 +101,14 @@ mod tests {
     use super::*;
 
     fn rollout(outcome: RolloutOutcome, len: usize) -> Rollout {
-        Rollout { outcome, steps: len.saturating_sub(1), clamped: 0, path: (0..len).map(|i| vec![i as f64]).collect() }
+        Rollout {
+            outcome,
+            steps: len.saturating_sub(1),
+            clamped: 0,
+            path: (0..len).map(|i| vec![i as f64]).collect(),
+            reason: None,
+            distance: f64::NAN,
+        }
     }
 
     #[test]
@@ -102,6 +118,9 @@ mod tests {
         // The colliding configuration is never a start.
         let states = failure_states(&rollout(RolloutOutcome::Collision, 10), 4);
         assert_eq!(states.last(), Some(&vec![8.0]));
+        // A collision late in a long path: the states of the last 2 s before it.
+        let states = failure_states(&rollout(RolloutOutcome::Collision, 100), 4);
+        assert_eq!(states, vec![vec![69.0], vec![78.0], vec![88.0], vec![98.0]]);
         assert!(failure_states(&rollout(RolloutOutcome::Success, 10), 4).is_empty());
         assert_eq!(failure_states(&rollout(RolloutOutcome::Timeout, 1), 4), vec![vec![0.0]]);
     }

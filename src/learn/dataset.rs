@@ -149,9 +149,15 @@ impl Demonstrations {
                 Ok(pairs)
             })
             .collect::<Result<_, LearnError>>()?;
+        // Sized once and each part freed as it is copied: at 300K
+        // trajectories the pairs take gigabytes, and growing by doubling
+        // beside the parts would need three times that.
         let mut all = Pairs::new(robot.nq(), slots);
-        for p in &parts {
-            all.extend(p);
+        all.inputs.reserve_exact(parts.iter().map(|p| p.inputs.len()).sum());
+        all.directions.reserve_exact(parts.iter().map(|p| p.directions.len()).sum());
+        all.speeds.reserve_exact(parts.iter().map(|p| p.speeds.len()).sum());
+        for p in parts {
+            all.extend(&p);
         }
         Ok(all)
     }

@@ -8,7 +8,9 @@ use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::control::RobotPolicy;
 use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
 use crate::robot::{FrameId, KinematicsWorkspace};
+use crate::sim::Reason;
 use rayon::prelude::*;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// How a rollout steps and when it ends.
@@ -69,6 +71,15 @@ pub struct Rollout {
     pub clamped: usize,
     /// Visited configurations, the start first (the colliding one last on a collision).
     pub path: Vec<Vec<f64>>,
+    /// Why it ended: success, the colliding pair, or for a timeout the
+    /// grasp judge's objection at the last configuration when the gripper
+    /// is within the judge's radius of the grasp point
+    /// ([`Reason::Timeout`] with the distance otherwise); `None` without
+    /// a policy.
+    pub reason: Option<Reason>,
+    /// The gripper's distance from the grasp point (m) at the last
+    /// configuration (the colliding one on a collision).
+    pub distance: f64,
 }
 
 /// A reach-and-grasp task: the problem, its collision model (the pads may
@@ -123,22 +134,37 @@ impl Task {
         &self.collision
     }
 
+    /// The gripper's distance (m) from the grasp point at `q`.
+    fn distance(&self, kin: &mut KinematicsWorkspace, q: &[f64]) -> Result<f64, LearnError> {
+        let robot = &self.problem.robot;
+        robot.forward_kinematics(kin, q)?;
+        let p = robot.frame_pose(kin, self.gripper).translation.vector;
+        Ok(((p.x - self.target[0]).powi(2) + (p.y - self.target[1]).powi(2) + (p.z - self.target[2]).powi(2)).sqrt())
+    }
+
     /// Whether `q` grasps the target (the gripper within `radius` (m) of
     /// the grasp point first, to spare the judge).
     ///
     /// # Errors
     /// Robot or grasp model errors.
     pub fn grasped(&self, kin: &mut KinematicsWorkspace, q: &[f64], radius: f64) -> Result<bool, LearnError> {
-        let robot = &self.problem.robot;
-        robot.forward_kinematics(kin, q)?;
-        let p = robot.frame_pose(kin, self.gripper).translation.vector;
-        let d =
-            ((p.x - self.target[0]).powi(2) + (p.y - self.target[1]).powi(2) + (p.z - self.target[2]).powi(2)).sqrt();
-        if d > radius {
-            return Ok(false);
+        Ok(self.judged(kin, q, radius)? == Some(Reason::Success))
+    }
+
+    /// The grasp judge's verdict at `q` ([`Reason::Success`] or the first
+    /// criterion it fails), or `None` when the gripper is farther than
+    /// `radius` (m) from the grasp point.
+    fn judged(&self, kin: &mut KinematicsWorkspace, q: &[f64], radius: f64) -> Result<Option<Reason>, LearnError> {
+        if self.distance(kin, q)? > radius {
+            return Ok(None);
         }
-        let Some(object) = self.problem.scene.object(&self.object) else { return Ok(false) };
-        Ok(self.judge.judge(kin, q, object, &self.criteria)?.success(&self.criteria))
+        let Some(object) = self.problem.scene.object(&self.object) else { return Ok(None) };
+        let report = self.judge.judge(kin, q, object, &self.criteria)?;
+        Ok(Some(if report.success(&self.criteria) {
+            Reason::Success
+        } else {
+            Reason::of_grasp(&report, &self.criteria)
+        }))
     }
 
     /// Follows `policy` alone from `start`.
@@ -153,16 +179,24 @@ impl Task {
         let mut cws = CollisionWorkspace::new(&self.collision);
         let mut state = policy.new_workspace();
         let (mut q, mut velocity, mut action) = (start.to_vec(), vec![0.0; n], vec![0.0; n]);
-        let mut rollout = Rollout { outcome: RolloutOutcome::Timeout, steps: 0, clamped: 0, path: vec![q.clone()] };
-        if !self.collision.collision_free(&mut cws, &q)? {
-            rollout.outcome = RolloutOutcome::Collision;
-            return Ok(rollout);
-        }
+        let mut rollout = Rollout {
+            outcome: RolloutOutcome::Timeout,
+            steps: 0,
+            clamped: 0,
+            path: vec![q.clone()],
+            reason: None,
+            distance: f64::NAN,
+        };
         let steps = (s.max_time / s.period).ceil() as usize;
-        for _ in 0..steps {
+        for step_index in 0..=steps {
+            if !self.collision.collision_free(&mut cws, &q)? {
+                return self.ended(rollout, RolloutOutcome::Collision, &mut kin, &mut cws, s);
+            }
             if self.grasped(&mut kin, &q, s.judge_radius)? {
-                rollout.outcome = RolloutOutcome::Success;
-                return Ok(rollout);
+                return self.ended(rollout, RolloutOutcome::Success, &mut kin, &mut cws, s);
+            }
+            if step_index == steps {
+                break;
             }
             if policy.act(&mut state, &q, &velocity, &mut action).is_err() {
                 // A policy that cannot answer leaves the arm where it is.
@@ -171,14 +205,40 @@ impl Task {
             rollout.clamped += usize::from(step(robot.limits(), &mut q, &action, &mut velocity, s.period));
             rollout.steps += 1;
             rollout.path.push(q.clone());
-            if !self.collision.collision_free(&mut cws, &q)? {
-                rollout.outcome = RolloutOutcome::Collision;
-                return Ok(rollout);
+        }
+        self.ended(rollout, RolloutOutcome::Timeout, &mut kin, &mut cws, s)
+    }
+
+    /// `rollout` ended in `outcome` at its last configuration: its reason and distance.
+    fn ended(
+        &self,
+        mut rollout: Rollout,
+        outcome: RolloutOutcome,
+        kin: &mut KinematicsWorkspace,
+        cws: &mut CollisionWorkspace,
+        s: &RolloutSettings,
+    ) -> Result<Rollout, LearnError> {
+        let q = rollout.path.last().map_or_else(|| self.problem.start.clone(), Clone::clone);
+        let distance = self.distance(kin, &q)?;
+        rollout.reason = Some(match outcome {
+            RolloutOutcome::Success => Reason::Success,
+            RolloutOutcome::Collision => {
+                let pair = match self.collision.min_distance(cws, &q)? {
+                    Some(d) => {
+                        let (a, b) = self.collision.pair_names(d.pair);
+                        [a.to_string(), b.to_string()]
+                    }
+                    None => ["the arm".into(), "something".into()],
+                };
+                Reason::Collision { pair }
             }
-        }
-        if self.grasped(&mut kin, &q, s.judge_radius)? {
-            rollout.outcome = RolloutOutcome::Success;
-        }
+            _ => match self.judged(kin, &q, s.judge_radius)? {
+                Some(reason) if reason != Reason::Success => reason,
+                _ => Reason::Timeout { distance },
+            },
+        });
+        rollout.outcome = outcome;
+        rollout.distance = distance;
         Ok(rollout)
     }
 }
@@ -245,6 +305,51 @@ impl OutcomeCounts {
         let mut counts = OutcomeCounts::default();
         outcomes.into_iter().for_each(|o| counts.add(o));
         counts
+    }
+}
+
+/// Gripper distance from the grasp point (m) beyond which a collision
+/// happened on the approach.
+pub const APPROACH_DISTANCE: f64 = 0.10;
+/// Gripper distance from the grasp point (m) within which a collision
+/// happened in the last centimetres, between the pads; between this and
+/// [`APPROACH_DISTANCE`] it happened on the descent.
+pub const BETWEEN_PADS_DISTANCE: f64 = 0.02;
+
+/// Why rollouts ended, counted: by reason, and the collisions by phase
+/// (the gripper's distance from the grasp point when it touched) and by
+/// colliding pair.
+#[derive(Debug, Clone, PartialEq, Eq, Default, serde::Serialize)]
+pub struct FailureBreakdown {
+    /// Rollouts by [`Reason::as_str`] (`no_policy` for a task without a policy).
+    pub reasons: BTreeMap<String, usize>,
+    /// Collisions by phase: `approach` (gripper farther than 10 cm from
+    /// the grasp point), `descent` (2–10 cm), `between_pads` (within 2 cm).
+    pub collision_phases: BTreeMap<String, usize>,
+    /// Collisions by pair, `link–body`.
+    pub collision_pairs: BTreeMap<String, usize>,
+}
+
+impl FailureBreakdown {
+    /// The breakdown of `rollouts`.
+    pub fn of(rollouts: &[Rollout]) -> FailureBreakdown {
+        let mut b = FailureBreakdown::default();
+        for r in rollouts {
+            let name = r.reason.as_ref().map_or("no_policy", Reason::as_str);
+            *b.reasons.entry(name.to_string()).or_default() += 1;
+            if let Some(Reason::Collision { pair: [a, c] }) = &r.reason {
+                let phase = if r.distance > APPROACH_DISTANCE {
+                    "approach"
+                } else if r.distance > BETWEEN_PADS_DISTANCE {
+                    "descent"
+                } else {
+                    "between_pads"
+                };
+                *b.collision_phases.entry(phase.to_string()).or_default() += 1;
+                *b.collision_pairs.entry(format!("{a}–{c}")).or_default() += 1;
+            }
+        }
+        b
     }
 }
 

@@ -58,6 +58,7 @@ pub mod features;
 pub mod grasp_intent;
 mod network;
 mod policy;
+mod shipped;
 #[cfg(feature = "learn")]
 mod train;
 
@@ -72,6 +73,7 @@ pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validat
 pub use ddpg::{DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkWorkspace, PolicyMeta, PolicyNetwork};
 pub use policy::{LearnedPolicy, LearnedPolicyWorkspace, problem_goal};
+pub use shipped::{SHIPPED_POLICY_PATH, SHIPPED_POLICY_PROVENANCE, shipped_policy};
 #[cfg(feature = "learn")]
 pub use train::{
     EpochLoss, LearnSettings, MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH, TrainReport, TrainSettings, normalisation,

@@ -10,7 +10,7 @@
 
 use super::reason::Reason;
 use crate::arbitration::ProblemGoal;
-use crate::problem::{Goal, GraspCriteria, GraspJudge, GraspReport, Problem};
+use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
 use crate::robot::KinematicsWorkspace;
 
 /// Largest tilt of a successful teleoperated grasp (rad).
@@ -129,23 +129,8 @@ impl Judge for TaskJudge {
             return stopped_short(gripper, target).unwrap_or(Reason::JudgeDeclined);
         }
         match judge.judge(&mut self.kin, q, object, criteria) {
-            Ok(report) => grasp_reason(&report, criteria),
+            Ok(report) => Reason::of_grasp(&report, criteria),
             Err(_) => Reason::JudgeDeclined,
         }
-    }
-}
-
-/// The first grasp criterion `report` fails, in the judge's order.
-fn grasp_reason(report: &GraspReport, criteria: &GraspCriteria) -> Reason {
-    if !report.between_pads {
-        Reason::NotBetweenPads
-    } else if !report.in_footprint {
-        Reason::OutsideFootprint
-    } else if report.tilt > criteria.max_tilt {
-        Reason::OrientationOff { angle: report.tilt }
-    } else if report.palm_clearance < criteria.margin || report.finger_clearance < criteria.margin {
-        Reason::TouchingObject { clearance: report.palm_clearance.min(report.finger_clearance) }
-    } else {
-        Reason::JudgeDeclined
     }
 }

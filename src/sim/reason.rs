@@ -3,6 +3,7 @@
 //! how tilted).
 
 use super::judge::{GRASP_MAX_TILT, REACH_TOLERANCE};
+use crate::problem::{GraspCriteria, GraspReport};
 
 /// Why an episode ended. Its [`Outcome`](super::Outcome) follows from it
 /// ([`Reason::outcome`]); new reasons may be added (match with a wildcard).
@@ -75,6 +76,22 @@ pub enum Reason {
 }
 
 impl Reason {
+    /// The first grasp criterion `report` fails, in the judge's order
+    /// (`JudgeDeclined` when it fails none).
+    pub fn of_grasp(report: &GraspReport, criteria: &GraspCriteria) -> Reason {
+        if !report.between_pads {
+            Reason::NotBetweenPads
+        } else if !report.in_footprint {
+            Reason::OutsideFootprint
+        } else if report.tilt > criteria.max_tilt {
+            Reason::OrientationOff { angle: report.tilt }
+        } else if report.palm_clearance < criteria.margin || report.finger_clearance < criteria.margin {
+            Reason::TouchingObject { clearance: report.palm_clearance.min(report.finger_clearance) }
+        } else {
+            Reason::JudgeDeclined
+        }
+    }
+
     /// The outcome this reason is one of.
     pub fn outcome(&self) -> super::Outcome {
         use super::Outcome;

@@ -60,6 +60,13 @@ impl PhysicsArm {
         &self.measured
     }
 
+    /// The measured joint positions, as [`measured`](Self::measured), and
+    /// the simulation state, borrowed together (for [`GraspTicks::arrive`]).
+    pub(crate) fn measured_with_data(&mut self, scene: &PhysicsScene) -> (&[f64], &MjData<Arc<MjModel>>) {
+        scene.arm_positions(&self.data, &mut self.measured);
+        (&self.measured, &self.data)
+    }
+
     /// One control period of `period` s: the servo targets integrate the
     /// joint velocity (within the joint limits) at each physics step, the
     /// fingers open or `closed`; after each step the robot touching an
@@ -140,8 +147,8 @@ pub(crate) fn close_lift_hold(
                 }
                 None
             });
-            let q = arm.measured(scene).to_vec();
-            ticks.arrive(&q, arm.data())?;
+            let (q, data) = arm.measured_with_data(scene);
+            ticks.arrive(q, data)?;
             if let Some(reason) = ended {
                 return Ok(reason);
             }

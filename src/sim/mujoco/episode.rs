@@ -156,8 +156,8 @@ impl PhysicsEpisode<'_> {
                 keep,
                 path: &mut object_path,
             };
-            let q = arm.measured(scene).to_vec();
-            sink.arrive(&q, arm.data())?;
+            let (q, data) = arm.measured_with_data(scene);
+            sink.arrive(q, data)?;
             if ending.is_some() {
                 break;
             }

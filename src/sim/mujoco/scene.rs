@@ -64,9 +64,16 @@ pub enum GeomRole {
 struct Servo {
     qpos: usize,
     actuator: usize,
-    /// `kv / kp` (s): the velocity feed-forward's factor.
-    lead: f64,
 }
+
+/// An arm servo's stiffness per newton-metre (or newton) of effort limit (1/rad or 1/m).
+const ARM_KP_PER_EFFORT: f64 = 50.0;
+/// An arm servo's `kp / kv` (1/s): `kv / kp` is its damping's time
+/// constant, and the factor of the velocity feed-forward that cancels the
+/// damping's drag at the commanded velocity.
+const ARM_KP_OVER_KV: f64 = 10.0;
+/// `kv / kp` (s): the velocity feed-forward's factor.
+const ARM_LEAD: f64 = 1.0 / ARM_KP_OVER_KV;
 
 /// A problem's world compiled by MuJoCo (shared, read-only; one
 /// [`MjData`] per thread).
@@ -121,13 +128,13 @@ impl PhysicsScene {
         let arm = robot
             .joint_names()
             .iter()
-            .map(|name| Ok(Servo { qpos: qposadr[joint(name)?] as usize, actuator: actuator(name)?, lead: 0.1 }))
+            .map(|name| Ok(Servo { qpos: qposadr[joint(name)?] as usize, actuator: actuator(name)? }))
             .collect::<Result<Vec<_>, PhysicsError>>()?;
         let mut grip = vec![];
         for (name, value) in &problem.robot_spec.hold {
             let j = joint(name)?;
             let lower = model.jnt_range()[j][0];
-            grip.push((Servo { qpos: qposadr[j] as usize, actuator: actuator(name)?, lead: 0.02 }, *value, lower));
+            grip.push((Servo { qpos: qposadr[j] as usize, actuator: actuator(name)? }, *value, lower));
         }
         let mut mimics = vec![];
         let joints = robot.description().joints();
@@ -242,7 +249,7 @@ impl PhysicsScene {
     pub fn set_targets(&self, data: &mut MjData<Arc<MjModel>>, q: &[f64], qdot: Option<&[f64]>, closed: bool) {
         let ctrl = data.ctrl_mut();
         for (j, servo) in self.arm.iter().enumerate() {
-            ctrl[servo.actuator] = q[j] + qdot.map_or(0.0, |v| servo.lead * v[j]);
+            ctrl[servo.actuator] = q[j] + qdot.map_or(0.0, |v| ARM_LEAD * v[j]);
         }
         for (servo, open, shut) in &self.grip {
             ctrl[servo.actuator] = if closed { *shut } else { *open };
@@ -377,11 +384,11 @@ fn scene_mjcf(
     let mut servos = String::from("<actuator>");
     for (name, limits) in problem.robot.joint_names().iter().zip(problem.robot.limits()) {
         let effort = if limits.effort.is_finite() && limits.effort > 0.0 { limits.effort } else { 100.0 };
-        let kp = 50.0 * effort;
+        let kp = ARM_KP_PER_EFFORT * effort;
         let _ = write!(
             servos,
             r#"<position name="servo_{name}" joint="{name}" kp="{kp}" kv="{}" forcerange="{} {effort}"/>"#,
-            kp / 10.0,
+            kp / ARM_KP_OVER_KV,
             -effort
         );
     }
