@@ -398,8 +398,7 @@ impl Experiment for ReachGraspSettings {
         }
         let ticks: Vec<f64> = r.episodes.iter().flat_map(|e| e.tick_us.iter().copied()).collect();
         let (median, p99, max) = percentiles(&ticks);
-        let (steps, seconds) =
-            r.episodes.iter().fold((0, 0.0), |(n, t), e| (n + e.physics.steps, t + e.physics.seconds));
+        let (steps, seconds) = physics::physics_totals(&r.episodes);
         serde_json::json!({
             "tasks": s.tasks,
             "seed": s.seed,

@@ -45,6 +45,11 @@ pub struct PhysicsOutcome {
     pub seconds: f64,
 }
 
+/// Physics steps and the seconds in them, summed over `episodes`.
+pub(super) fn physics_totals(episodes: &[super::EpisodeSummary]) -> (usize, f64) {
+    episodes.iter().fold((0, 0.0), |(n, t), e| (n + e.physics.steps, t + e.physics.seconds))
+}
+
 #[cfg(feature = "mujoco")]
 pub(super) use runner::Runner;
 
@@ -212,7 +217,7 @@ pub(super) fn table(r: &ReachGraspResults) -> String {
             a.never_closed
         );
     }
-    let (steps, seconds) = r.episodes.iter().fold((0, 0.0), |(n, t), e| (n + e.physics.steps, t + e.physics.seconds));
+    let (steps, seconds) = physics_totals(&r.episodes);
     let _ = writeln!(
         out,
         "physics: {} steps, {:.0} steps/s in MuJoCo's step, {:.1} episodes/s on the wall clock",
