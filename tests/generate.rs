@@ -123,6 +123,40 @@ fn resuming_with_other_parameters_is_refused() {
     assert!(stderr.contains("seed = 0") && stderr.contains("asks 9"), "{stderr}");
 }
 
+/// `--initial-guess` is part of the dataset's identity: recorded, and a
+/// resume asking another is refused by name; a dataset written before it
+/// was recorded reads as `planned`.
+#[test]
+fn the_initial_guess_is_recorded_and_checked_on_resume() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |out: &Path, extra: &[&str]| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_tandem"));
+        cmd.args(["generate", "--family", &family(), "--count", "2", "-T", "10", "--quiet", "--out"]).arg(out);
+        cmd.args(extra).output().unwrap()
+    };
+    let (straight, planned) = (tmp.path().join("straight"), tmp.path().join("planned"));
+    assert!(run(&straight, &["--initial-guess", "straight"]).status.success());
+    assert_eq!(manifest(&straight, "_dataset.json")["initial_guess"], "straight");
+    assert!(run(&planned, &[]).status.success());
+    assert_eq!(manifest(&planned, "_dataset.json")["initial_guess"], "planned");
+    let output = run(&straight, &["--initial-guess", "planned"]);
+    assert_eq!(output.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("initial_guess = \"straight\", this run asks \"planned\""), "{stderr}");
+    // A dataset from before the key: it resumes as planned, and only so.
+    let path = planned.join("_dataset.json");
+    let mut older = manifest(&planned, "_dataset.json");
+    older.as_object_mut().unwrap().remove("initial_guess");
+    std::fs::write(&path, serde_json::to_string_pretty(&older).unwrap()).unwrap();
+    assert!(run(&planned, &[]).status.success(), "the older dataset resumes");
+    std::fs::write(&path, serde_json::to_string_pretty(&older).unwrap()).unwrap();
+    let stderr = String::from_utf8_lossy(&run(&planned, &["--initial-guess", "straight"]).stderr).into_owned();
+    assert!(stderr.contains("initial_guess = \"planned\", this run asks \"straight\""), "{stderr}");
+    let output = run(&planned, &["--initial-guess", "sideways"]);
+    assert_eq!(output.status.code(), Some(2), "a usage error");
+    assert!(String::from_utf8_lossy(&output.stderr).contains("possible values: planned, straight"));
+}
+
 #[test]
 fn bad_arguments_are_named() {
     let tmp = tempfile::tempdir().unwrap();

@@ -126,7 +126,10 @@ fn feature_json(robot: &RobotModel, feature: &Feature) -> Value {
         }
         Feature::Vector { a, axis, b } => json!({"type": "vector", "a": f(a), "axis": axis, "b": f(b)}),
         Feature::OrientationDifference { a, b } => json!({"type": "orientation_difference", "a": f(a), "b": f(b)}),
-        Feature::Collision { margin } => json!({"type": "collision", "margin": margin}),
+        Feature::Collision { margin, obstacle_margin } => {
+            assert_eq!(margin, obstacle_margin, "casadi_features.py reads one margin");
+            json!({"type": "collision", "margin": margin})
+        }
     }
 }
 
@@ -320,7 +323,7 @@ fn collision_rows_match_casadi_and_finite_differences() {
         "urdf": urdf,
         "joints": robot.joint_names(),
         "held": exchange["held"],
-        "features": [feature_json(&robot, &Feature::Collision { margin })],
+        "features": [feature_json(&robot, &Feature::Collision { margin, obstacle_margin: margin })],
         "collision": {
             "robot_elements": exchange["robot_elements"],
             "obstacles": exchange["obstacles"],
@@ -377,12 +380,18 @@ fn collision_rows_match_casadi_and_finite_differences() {
         }
     }
 
-    // The same rows inside a trajectory problem: scale·(margin − d) per pair
-    // closer than margin + COLLISION_CUTOFF, at each slice and at the
-    // midpoint of the motion into it (gradient split ½–½ over both slices,
-    // or all on slice 1 after the fixed start).
-    let scale = 2.0;
-    let objective = Objective::new("collision", Feature::Collision { margin }, ObjectiveKind::Inequality).scale(scale);
+    // The same rows inside a trajectory problem: scale·(m − d) per pair
+    // closer than the larger margin + COLLISION_CUTOFF, with m the obstacle
+    // margin for pairs against an obstacle and the margin otherwise, at each
+    // slice and at the midpoint of the motion into it (gradient split ½–½
+    // over both slices, or all on slice 1 after the fixed start).
+    let (scale, obstacle_margin) = (2.0, 0.03);
+    let pair_margin = |p: usize| match model.object_source(model.pair_objects(p).1) {
+        ObjectSource::Obstacle(_) => obstacle_margin,
+        _ => margin,
+    };
+    let feature = Feature::Collision { margin, obstacle_margin };
+    let objective = Objective::new("collision", feature, ObjectiveKind::Inequality).scale(scale);
     let problem =
         TrajectoryProblem::new(robot.clone(), Some(model.clone()), vec![objective], 2, 1, 1.0, configs[0].clone())
             .unwrap()
@@ -403,12 +412,13 @@ fn collision_rows_match_casadi_and_finite_differences() {
                 "collision rows of a trajectory problem (slices)"
             };
             let (ref_value, ref_jac) = at(index);
-            let near = model.distances(&mut ws, &all[index], margin + COLLISION_CUTOFF).unwrap().to_vec();
+            let near = model.distances(&mut ws, &all[index], obstacle_margin + COLLISION_CUTOFF).unwrap().to_vec();
             for d in near {
                 let stats = report.entry(label);
                 stats.samples += 1;
                 let p = d.pair;
-                let (a, b) = (rows.inequality.value(r), scale * ref_value[p]);
+                // casadi's value is margin − d.
+                let (a, b) = (rows.inequality.value(r), scale * (ref_value[p] + pair_margin(p) - margin));
                 let e = rel(a, b);
                 assert!(e <= CASADI_TOLERANCE, "row {r} (slice {}, s {s}, pair {p}): tandem {a}, casadi {b}", t + 1);
                 record(&mut stats.value, e);

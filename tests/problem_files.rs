@@ -1021,6 +1021,59 @@ fn family_obstacle_ranges() {
     expect_family_error(&text, "clearance", "obstacles.clearance", "must be between 0 and 10 m, got -0.01");
 }
 
+/// A family's `[optimizer] obstacle_margin` changes the base problem's
+/// collision objective and nothing else: the same draws for every (seed, id).
+#[test]
+fn a_family_obstacle_margin_keeps_the_tasks() {
+    let text = std::fs::read_to_string(shipped("panda_grasp_family.toml")).unwrap();
+    let text = format!("{text}\n[optimizer]\nobstacle_margin = 0.02\n");
+    let clearance = ProblemFamily::from_str_with(&text, "clearance.toml", Some(&repo().join("problems"))).unwrap();
+    let plain = family();
+    for id in 0..40 {
+        let (a, b) = (clearance.sample(5, id).unwrap().problem, plain.sample(5, id).unwrap().problem);
+        assert_eq!(fingerprint(&a), fingerprint(&b), "sample {id}");
+    }
+    let margins = |f: &ProblemFamily| -> Vec<(f64, Option<f64>)> {
+        let collision = f.base.optimizer.objectives.iter().filter(|o| o.feature == "collision");
+        collision.map(|o| (o.margin, o.obstacle_margin)).collect()
+    };
+    assert_eq!(margins(&plain), [(0.005, None)]);
+    assert_eq!(margins(&clearance), [(0.005, Some(0.02))]);
+    // Everything else of the base problem is kept.
+    let mut same = clearance.base.optimizer.clone();
+    same.objectives.iter_mut().for_each(|o| o.obstacle_margin = None);
+    assert_eq!(same, plain.base.optimizer);
+}
+
+#[test]
+fn obstacle_margins_out_of_place_or_range() {
+    let text = family_text("[optimizer]\nobstacle_margin = -0.02\n");
+    expect_family_error(&text, "obstacle_margin", "optimizer.obstacle_margin", "must be between 0 and 10 m, got -0.02");
+    let text = family_text("[optimizer]\nobstacle_margin = nan\n");
+    expect_family_error(&text, "obstacle_margin", "optimizer.obstacle_margin", "got NaN");
+    let text = family_text("[optimizer]\nmargin = 0.02\n");
+    expect_family_error(&text, "margin", "optimizer.margin", "unknown field `margin`");
+    // A base without a collision objective has nothing to set.
+    let dir = TempDir::new().unwrap();
+    std::fs::write(dir.path().join("base.toml"), problem(&[ROBOT, START, JOINT_GOAL])).unwrap();
+    let text = "base = \"base.toml\"\nname = \"fam\"\n\n[optimizer]\nobstacle_margin = 0.02\n";
+    std::fs::write(dir.path().join("fam.toml"), text).unwrap();
+    let e = ProblemFamily::from_file(dir.path().join("fam.toml")).unwrap_err().to_string();
+    assert!(e.contains("optimizer.obstacle_margin: the base problem lists no collision objective"), "{e}");
+    // In a problem file: collision objectives only, never negative.
+    let limits = "[[optimizer.objectives]]\nfeature = \"joint_limits\"\nkind = \"ineq\"\nobstacle_margin = 0.02\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, limits]);
+    expect_problem_error(&text, "obstacle_margin", "optimizer.objectives[0].obstacle_margin", "collision feature only");
+    let collision = "[[optimizer.objectives]]\nfeature = \"collision\"\nkind = \"ineq\"\nobstacle_margin = -1.0\n";
+    let text = problem(&[ROBOT, START, JOINT_GOAL, collision]);
+    expect_problem_error(
+        &text,
+        "obstacle_margin",
+        "optimizer.objectives[0].obstacle_margin",
+        "zero or positive, got -1",
+    );
+}
+
 /// Finite values far beyond any workspace are refused where they enter:
 /// they used to pass and then panic in sampling (a range of ±1.7e308) or in
 /// the collision solver (an obstacle of 1e300 m).

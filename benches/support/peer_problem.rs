@@ -52,7 +52,12 @@ pub fn problem_json(problem: &Problem, tp: &TrajectoryProblem) -> Result<Map<Str
             Feature::OrientationDifference { a, b } => {
                 ("orientation_difference", vec![frame(0, a), frame(1, b)], vec![], None)
             }
-            Feature::Collision { margin } => ("collision", vec![], vec![], Some(*margin)),
+            Feature::Collision { margin, obstacle_margin } if margin == obstacle_margin => {
+                ("collision", vec![], vec![], Some(*margin))
+            }
+            Feature::Collision { .. } => {
+                return Err("the peers' collision feature has one margin, not an obstacle margin".into());
+            }
         };
         let kind = match objective.kind {
             ObjectiveKind::SumOfSquares => "sos",

@@ -254,7 +254,7 @@ pub(crate) fn solve(
     horizon: Option<usize>,
     validation_resolution: f64,
 ) -> PyResult<PySolution> {
-    let options = SolveSettings { seed, horizon, validation_resolution };
+    let options = SolveSettings { seed, horizon, validation_resolution, ..SolveSettings::default() };
     let p = &problem.problem;
     let solution = py.detach(|| solve_problem(p, &options)).py()?;
     Ok(PySolution { solution, start: p.start.clone() })

@@ -3,7 +3,7 @@
 use crate::data::{
     GenerateSettings, GenerateSummary, MAX_CHUNK_SIZE, MAX_COUNT, MAX_THREADS, Progress, ShardSpec, generate,
 };
-use crate::pipeline::{MAX_ATTEMPTS, MAX_EVALUATIONS, PipelineSettings};
+use crate::pipeline::{InitialGuess, MAX_ATTEMPTS, MAX_EVALUATIONS, PipelineSettings};
 use crate::problem::{MAX_HORIZON, MIN_HORIZON};
 use std::path::PathBuf;
 
@@ -52,6 +52,13 @@ pub struct GenerateArgs {
     #[arg(long, default_value_t = 200, value_name = "N",
           value_parser = |s: &str| super::number_in(s, 1..=MAX_EVALUATIONS))]
     pub max_evaluations: usize,
+    /// What the optimizer starts from: `planned` (RRT-Connect's path to
+    /// whichever goal configuration it reached), or `straight` (the
+    /// straight line to the goal configuration nearest the start, the
+    /// planned path when that fails): motions that depend on the task
+    /// only, not on the planner's seed.
+    #[arg(long, value_enum, default_value_t = InitialGuess::Planned, value_name = "GUESS")]
+    pub initial_guess: InitialGuess,
     /// Print the manifest as one JSON object instead of the summary.
     #[arg(long)]
     pub json: bool,
@@ -71,6 +78,7 @@ pub(super) fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>>
             horizon: args.horizon,
             attempts: args.attempts,
             max_evaluations: args.max_evaluations,
+            initial_guess: args.initial_guess,
             ..PipelineSettings::default()
         },
     };

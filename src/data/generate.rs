@@ -320,6 +320,7 @@ fn parameters(path: &Path, family: &ProblemFamily, s: &GenerateSettings) -> Resu
         validation_resolution: s.pipeline.validation_resolution,
         goal_tolerance: s.pipeline.goal_tolerance,
         goal_angle_tolerance: s.pipeline.goal_angle_tolerance,
+        initial_guess: s.pipeline.initial_guess,
     })
 }
 
@@ -364,15 +365,27 @@ fn pretty(value: &impl serde::Serialize) -> String {
     serde_json::to_string_pretty(value).unwrap_or_default() + "\n"
 }
 
+/// The run parameters of the dataset in `dir` (its `_dataset.json`); a key
+/// written after the dataset was made takes its documented default.
+///
+/// # Errors
+/// [`GenerateError::Read`] naming the file: missing, or not the parameters.
+pub fn dataset_parameters(dir: &Path) -> Result<DatasetParameters, GenerateError> {
+    let path = dir.join("_dataset.json");
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| GenerateError::Read { path: path.clone(), message: e.to_string() })?;
+    serde_json::from_str(&text).map_err(|e| GenerateError::Read { path, message: e.to_string() })
+}
+
 /// Writes `_dataset.json`, or checks that the one there matches.
 fn check_parameters(out: &Path, parameters: &DatasetParameters) -> Result<(), GenerateError> {
     let path = out.join("_dataset.json");
-    let Ok(text) = std::fs::read_to_string(&path) else {
+    if !path.exists() {
         write_atomically(&path, pretty(parameters).as_bytes())?;
         return Ok(());
-    };
+    }
     let read_error = |message: String| GenerateError::Read { path: path.clone(), message };
-    let existing: serde_json::Value = serde_json::from_str(&text).map_err(|e| read_error(e.to_string()))?;
+    let existing = serde_json::to_value(dataset_parameters(out)?).map_err(|e| read_error(e.to_string()))?;
     let requested = serde_json::to_value(parameters).map_err(|e| read_error(e.to_string()))?;
     let (Some(existing), Some(requested)) = (existing.as_object(), requested.as_object()) else {
         return Err(read_error("not a JSON object".into()));

@@ -3,6 +3,7 @@
 //! with its hash. Both are deterministic: no times, no host names.
 
 use super::shard::PartSummary;
+use crate::pipeline::InitialGuess;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -45,6 +46,10 @@ pub struct DatasetParameters {
     pub goal_tolerance: f64,
     /// Acceptance: angle (rad) of q_T from the goal orientation.
     pub goal_angle_tolerance: f64,
+    /// What the optimizer starts from (`planned` in datasets made before
+    /// it was recorded).
+    #[serde(default)]
+    pub initial_guess: InitialGuess,
 }
 
 /// A part file as listed in the manifest.

@@ -28,7 +28,7 @@ mod shard;
 
 pub use generate::{
     GenerateError, GenerateSettings, GenerateSummary, MAX_CHUNK_SIZE, MAX_COUNT, MAX_PART_SLICES, MAX_PARTS,
-    MAX_THREADS, ShardSpec, generate, part_count, part_ids, pending_parts, robot_sha256,
+    MAX_THREADS, ShardSpec, dataset_parameters, generate, part_count, part_ids, pending_parts, robot_sha256,
 };
 pub use manifest::{DatasetParameters, Manifest, PartEntry};
 pub use progress::Progress;

@@ -10,7 +10,7 @@ use crate::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, problem_goals,
 };
 use crate::control::RobotPolicy;
-use crate::data::{GenerateSettings, Progress, generate};
+use crate::data::{GenerateSettings, Progress, dataset_parameters, generate};
 use crate::files::FileError;
 use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
 use crate::learn::evaluate::{
@@ -20,6 +20,7 @@ use crate::learn::{
     Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, SHIPPED_POLICY_PATH, TrainReport,
     TrainSettings, shipped_policy, train_on,
 };
+use crate::pipeline::PipelineSettings;
 use crate::problem::ProblemFamily;
 use crate::robot::KinematicsWorkspace;
 use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
@@ -396,6 +397,7 @@ impl PolicyExperiment {
         demos: &mut Demonstrations,
         tasks: &[Task],
         rollout: &RolloutSettings,
+        expert: &GenerateSettings,
     ) -> Result<Vec<serde_json::Value>, ExperimentError> {
         let settings = DaggerSettings {
             rounds: self.rounds,
@@ -421,7 +423,7 @@ impl PolicyExperiment {
             let mut order: Vec<usize> = (0..fresh.len()).collect();
             order.sort_by(|a, b| distances[*b].total_cmp(&distances[*a]));
             problems.extend(order.iter().take(settings.thin_per_round).map(|&k| fresh[k].problem.clone()));
-            let generate = GenerateSettings { seed: self.seed + round as u64, ..GenerateSettings::default() };
+            let generate = GenerateSettings { seed: self.seed + round as u64, ..expert.clone() };
             let (added, rejected) = expert_demonstrations(&problems, next_id, &generate);
             next_id += problems.len() as u64;
             let added_count = added.len();
@@ -608,9 +610,15 @@ impl Experiment for PolicyExperiment {
             failures.push(("lqr".to_string(), FailureBreakdown::of(lqr)));
         }
         cx.say(&format!("learned rollouts: {learned_seconds:.1} s for {} tasks", self.tasks));
-        let rounds = match demos.as_mut() {
-            Some(demos) => self.dagger(cx, out, &family, &options, &mut network, demos, &tasks, &rollout)?,
-            None => vec![],
+        let rounds = match (demos.as_mut(), &data) {
+            (Some(demos), Some(data)) => {
+                // The expert's trajectories are made the way the data was.
+                let pipeline =
+                    PipelineSettings { initial_guess: dataset_parameters(data)?.initial_guess, ..Default::default() };
+                let expert = GenerateSettings { pipeline, ..GenerateSettings::default() };
+                self.dagger(cx, out, &family, &options, &mut network, demos, &tasks, &rollout, &expert)?
+            }
+            _ => vec![],
         };
         let arbitration = self.arbitrate(&network, &tasks)?;
         cx.say(&format!("{} tasks of {} (seed {}), followed alone at 15 Hz:", self.tasks, family.name, self.seed));

@@ -69,12 +69,18 @@ pub enum Feature {
         /// Second frame.
         b: FrameRef,
     },
-    /// Signed distance of every collision pair ≥ `margin` (m): one
+    /// Signed distance of every collision pair ≥ its margin (m): one
     /// inequality row `margin − d ≤ 0` per pair closer than the evaluation
     /// cutoff; rows are not a fixed-size vector, so it is evaluated apart.
     Collision {
-        /// Distance (m) or angle (rad) kept from the limit or contact.
+        /// Distance (m) kept between robot shapes, and from the robot to
+        /// the scene's objects.
         margin: f64,
+        /// Distance (m) kept from the robot to the scene's obstacles (the
+        /// table included); equal to `margin` unless clearance from the
+        /// environment is wanted beyond what the robot's own close
+        /// links (e.g. the Panda's wrist) allow.
+        obstacle_margin: f64,
     },
 }
 

@@ -174,7 +174,9 @@ pub fn objective_from_spec(problem: &Problem, spec: &ObjectiveSpec) -> Result<Ob
         }
         "vector" => Feature::Vector { a: frame(0)?, axis: spec.axes[0], b: frame(1)? },
         "orientation_difference" => Feature::OrientationDifference { a: frame(0)?, b: frame(1)? },
-        "collision" => Feature::Collision { margin: spec.margin },
+        "collision" => {
+            Feature::Collision { margin: spec.margin, obstacle_margin: spec.obstacle_margin.unwrap_or(spec.margin) }
+        }
         other => return Err(fail(format!("unknown feature '{other}'"))),
     };
     let mut target = spec.target.clone().unwrap_or_default();
@@ -213,7 +215,7 @@ pub fn default_objectives(problem: &Problem, margin: f64) -> Result<Vec<Objectiv
     let mut objectives = vec![
         Objective::control(2),
         Objective::new("joint_limits", Feature::JointLimits { margin: 0.0 }, Inequality),
-        Objective::new("collision", Feature::Collision { margin }, Inequality),
+        Objective::new("collision", Feature::Collision { margin, obstacle_margin: margin }, Inequality),
     ];
     let gripper = || -> Result<FrameRef, KomoError> {
         let name = problem.robot_spec.gripper.as_deref().ok_or(KomoError::NoGripper)?;

@@ -233,7 +233,9 @@ impl TrajectoryProblem {
                 ObjectiveKind::Inequality => &mut out.inequality,
             };
             match objective.feature {
-                Feature::Collision { margin } => self.collision_rows(ws, index, margin, x, block)?,
+                Feature::Collision { margin, obstacle_margin } => {
+                    self.collision_rows(ws, index, [margin, obstacle_margin], x, block)?
+                }
                 _ => self.feature_rows(ws, index, x, block)?,
             }
         }
@@ -307,12 +309,14 @@ impl TrajectoryProblem {
     /// `margin + COLLISION_CUTOFF`, at every slice of the objective and at
     /// `collision_substeps` evenly spaced configurations on the straight
     /// motion into it (those rows couple the two slices); as a cost, only
-    /// the pairs closer than the margin count.
+    /// the pairs closer than the margin count. `margins` is
+    /// `[margin, obstacle_margin]`: the second for pairs against a scene
+    /// obstacle.
     fn collision_rows(
         &self,
         ws: &mut TrajectoryWorkspace,
         index: usize,
-        margin: f64,
+        margins: [f64; 2],
         x: &[f64],
         block: &mut RowBlock,
     ) -> Result<(), RobotError> {
@@ -321,11 +325,11 @@ impl TrajectoryProblem {
         let (first, last) = self.spans[index];
         let (n, samples) = (self.nq(), self.collision_substeps + 1);
         let cost = objective.kind == ObjectiveKind::SumOfSquares;
+        let cutoff = margins[0].max(margins[1]) + COLLISION_CUTOFF;
         for t in first..=last {
             for sample in 1..=samples {
                 // Fraction s of the way from slice t − 1 to slice t.
                 let s = sample as f64 / samples as f64;
-                let cutoff = margin + COLLISION_CUTOFF;
                 let pairs = if sample == samples && Arc::ptr_eq(&model.robot, &self.robot) {
                     // At slice t itself, whose kinematics are known.
                     model.distances_at(cws, &ws.kinematics[t], cutoff)
@@ -342,7 +346,11 @@ impl TrajectoryProblem {
                 let spans_two = sample < samples && t > 1;
                 let first_col = if spans_two { (t - 2) * n } else { (t - 1) * n };
                 for pair in &ws.pairs {
-                    let g = margin - pair.signed.distance;
+                    let against_obstacle = matches!(
+                        model.object_source(model.pair_objects(pair.pair).1),
+                        crate::collision::ObjectSource::Obstacle(_)
+                    );
+                    let g = margins[usize::from(against_obstacle)] - pair.signed.distance;
                     if cost && g <= 0.0 {
                         continue;
                     }

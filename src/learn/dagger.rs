@@ -54,8 +54,9 @@ pub fn failure_states(rollout: &Rollout, count: usize) -> Vec<Vec<f64>> {
     if span == 0 || count == 0 {
         return vec![];
     }
+    // `count` states evenly spaced from the first to the last usable one.
     let mut picks: Vec<usize> =
-        (0..count).map(|k| first + (k * (span - 1) / count.max(2).saturating_sub(1).max(1)).min(span - 1)).collect();
+        (0..count).map(|k| first + if count == 1 { 0 } else { k * (span - 1) / (count - 1) }).collect();
     picks.dedup();
     picks.into_iter().map(|i| rollout.path[i].clone()).collect()
 }

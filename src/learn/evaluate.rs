@@ -139,7 +139,7 @@ impl Task {
         let robot = &self.problem.robot;
         robot.forward_kinematics(kin, q)?;
         let p = robot.frame_pose(kin, self.gripper).translation.vector;
-        Ok(((p.x - self.target[0]).powi(2) + (p.y - self.target[1]).powi(2) + (p.z - self.target[2]).powi(2)).sqrt())
+        Ok(crate::sim::distance(p.into(), self.target))
     }
 
     /// Whether `q` grasps the target (the gripper within `radius` (m) of

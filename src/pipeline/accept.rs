@@ -7,7 +7,7 @@
 //! the problem, the seed and the settings only.
 
 use super::PipelineError;
-use super::solve::{ProblemSolution, SolveSettings, solve_problem};
+use super::solve::{InitialGuess, ProblemSolution, SolveSettings, solve_problem};
 use super::validate::{GoalMiss, goal_miss, judge_grasp};
 use crate::plan::{IkError, PlanError};
 use crate::problem::{Goal, GraspReport, MAX_HORIZON, MIN_HORIZON, Problem, sample_seed};
@@ -40,6 +40,8 @@ pub struct PipelineSettings {
     pub goal_tolerance: f64,
     /// q_T within this angle (rad) of the goal orientation.
     pub goal_angle_tolerance: f64,
+    /// What each attempt's optimizer starts from.
+    pub initial_guess: InitialGuess,
 }
 
 impl Default for PipelineSettings {
@@ -51,6 +53,7 @@ impl Default for PipelineSettings {
             validation_resolution: SolveSettings::default().validation_resolution,
             goal_tolerance: 1e-3,
             goal_angle_tolerance: 1e-2,
+            initial_guess: InitialGuess::Planned,
         }
     }
 }
@@ -182,6 +185,7 @@ fn solve_attempt(
         seed: Some(planner_seed),
         horizon: settings.horizon,
         validation_resolution: settings.validation_resolution,
+        initial_guess: settings.initial_guess,
     };
     let solution = match solve_problem(problem, &solve) {
         Ok(s) => s,

@@ -27,7 +27,7 @@ mod solve;
 mod validate;
 
 pub use accept::{Accepted, MAX_ATTEMPTS, MAX_EVALUATIONS, PipelineSettings, Rejected, solve_accepted};
-pub use solve::{ProblemSolution, SolveSettings, solve_problem};
+pub use solve::{InitialGuess, ProblemSolution, SolveSettings, solve_problem};
 pub use validate::{GoalMiss, Validation, goal_miss, judge_grasp, validate};
 
 use crate::komo::KomoError;

@@ -23,18 +23,41 @@ pub struct SolveSettings {
     pub horizon: Option<usize>,
     /// Joint step of the final collision check between slices (rad).
     pub validation_resolution: f64,
+    /// What the optimizer starts from.
+    pub initial_guess: InitialGuess,
 }
 
 impl Default for SolveSettings {
     fn default() -> Self {
-        SolveSettings { seed: None, horizon: None, validation_resolution: 0.002 }
+        SolveSettings { seed: None, horizon: None, validation_resolution: 0.002, initial_guess: InitialGuess::Planned }
     }
+}
+
+/// What the trajectory optimizer starts from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "snake_case")]
+pub enum InitialGuess {
+    /// RRT-Connect's shortcut path, to whichever goal configuration its
+    /// trees reached first (the straight line to the first goal
+    /// configuration when planning fails).
+    #[default]
+    Planned,
+    /// The straight joint-space line to the goal configuration nearest the
+    /// start (usually IK's descent from the start); the planned path only
+    /// when the optimizer does not converge collision-free from it. The
+    /// motion is then a function of the task, not of the planner's seed
+    /// (which of the redundant arm's goal configurations, which way around
+    /// an obstacle): a network fitted to motions that differ by seed learns
+    /// their mean.
+    Straight,
 }
 
 /// The outcome of planning and optimizing one problem.
 #[derive(Debug, Clone)]
 pub struct ProblemSolution {
-    /// The RRT-Connect run that seeded the optimizer.
+    /// The RRT-Connect run; it seeded the optimizer unless the straight
+    /// [`InitialGuess`] converged.
     pub plan: PlanReport,
     /// `q_1 … q_T`.
     pub trajectory: Vec<Vec<f64>>,
@@ -144,7 +167,9 @@ fn optimize_and_refine(
 
 /// Plans `problem` with RRT-Connect, then optimizes from the shortcut path
 /// (from the straight line to the first goal configuration when planning
-/// fails), and validates the result; a result that collides between slices
+/// fails; first of all, to the goal configuration nearest the start, with
+/// [`InitialGuess::Straight`]), and validates
+/// the result; a result that collides between slices
 /// is re-optimized with collision checks between slices (1, 3, 7, then 15 per
 /// interval). When that fails (not converged, or still colliding) from a
 /// planned path, all of it runs once more with [`stiff_solver_settings`];
@@ -167,14 +192,35 @@ pub fn solve_problem(problem: &Problem, settings: &SolveSettings) -> Result<Prob
         (true, None) => Initialization::Interpolate(&problem.start),
     };
     let resolution = settings.validation_resolution;
-    let mut tried = optimize_and_refine(&problem_t, &solver, init, resolution)?;
-    // From a collision-free path, a failure is worth a second, stiffer try.
-    if !succeeded(&tried.0.report, &tried.1) && !plan.path.is_empty() {
-        let second = optimize_and_refine(&problem_t, &stiff_solver_settings(&solver), init, resolution)?;
-        let (kept, other) = if succeeded(&second.0.report, &second.1) { (second, tried) } else { (tried, second) };
-        // Counts and time of both tries; the rest of the one kept.
-        tried = (TrajectoryResult { report: combine(&other.0.report, kept.0.report), ..kept.0 }, kept.1);
-    }
+    let nearest_goal = plan.goals.iter().min_by(|a, b| {
+        let from_start = |q: &[f64]| q.iter().zip(&problem.start).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
+        from_start(a).total_cmp(&from_start(b))
+    });
+    let straight = match (settings.initial_guess, nearest_goal) {
+        (InitialGuess::Straight, Some(goal)) => {
+            Some(optimize_and_refine(&problem_t, &solver, Initialization::Interpolate(goal), resolution)?)
+        }
+        _ => None,
+    };
+    let tried = match straight {
+        Some(tried) if succeeded(&tried.0.report, &tried.1) => tried,
+        straight => {
+            let mut tried = optimize_and_refine(&problem_t, &solver, init, resolution)?;
+            // From a collision-free path, a failure is worth a second, stiffer try.
+            if !succeeded(&tried.0.report, &tried.1) && !plan.path.is_empty() {
+                let second = optimize_and_refine(&problem_t, &stiff_solver_settings(&solver), init, resolution)?;
+                let (kept, other) =
+                    if succeeded(&second.0.report, &second.1) { (second, tried) } else { (tried, second) };
+                // Counts and time of both tries; the rest of the one kept.
+                tried = (TrajectoryResult { report: combine(&other.0.report, kept.0.report), ..kept.0 }, kept.1);
+            }
+            // A straight guess that failed counts too.
+            if let Some((first, _)) = straight {
+                tried.0.report = combine(&first.report, tried.0.report);
+            }
+            tried
+        }
+    };
     let (result, validation) = tried;
     let total_time = began.elapsed();
     Ok(ProblemSolution {

@@ -26,6 +26,17 @@ struct RawFamily {
     objects: Vec<RawObjectDistribution>,
     #[serde(default)]
     obstacles: Option<RawObstacleDistribution>,
+    #[serde(default)]
+    optimizer: Option<RawFamilyOptimizer>,
+}
+
+/// What a family changes in its base problem's optimizer.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFamilyOptimizer {
+    /// The base's collision objectives keep this far (m) from the scene's
+    /// obstacles (their `obstacle_margin`).
+    obstacle_margin: f64,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -307,8 +318,20 @@ const MAX_OBSTACLE_SIZE: f64 = 10.0;
 const MAX_JITTER: f64 = 10.0;
 
 impl RawFamily {
-    fn build(self, src: &Source, base: Problem) -> Result<ProblemFamily, ProblemError> {
+    fn build(self, src: &Source, mut base: Problem) -> Result<ProblemFamily, ProblemError> {
         let root = KeyPath::root();
+        if let Some(optimizer) = &self.optimizer {
+            let path = root.key("optimizer").key("obstacle_margin");
+            let m = optimizer.obstacle_margin;
+            if !(m.is_finite() && (0.0..=MAX_OBSTACLE_SIZE).contains(&m)) {
+                let msg = format!("must be between 0 and {MAX_OBSTACLE_SIZE} m, got {}", readable(m));
+                return Err(src.error(&path, msg));
+            }
+            let collisions = base.optimizer.objectives.iter_mut().filter(|o| o.feature == "collision");
+            if collisions.map(|o| o.obstacle_margin = Some(m)).count() == 0 {
+                return Err(src.error(&path, "the base problem lists no collision objective"));
+            }
+        }
         let jitter = self.start.jitter;
         if !(jitter.is_finite() && (0.0..=MAX_JITTER).contains(&jitter)) {
             let msg = format!("must be between 0 and {MAX_JITTER} rad, got {}", readable(jitter));

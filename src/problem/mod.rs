@@ -157,6 +157,10 @@ pub struct ObjectiveSpec {
     pub order: u8,
     /// Safety margin (m or rad) for `collision` and `joint_limits`.
     pub margin: f64,
+    /// `collision` only: the margin (m) to the scene's obstacles, when it
+    /// differs from `margin` (which then holds between robot shapes and to
+    /// the scene's objects).
+    pub obstacle_margin: Option<f64>,
 }
 
 /// Trajectory optimizer settings and objectives.

@@ -174,6 +174,7 @@ struct RawObjective {
     order: u8,
     #[serde(default)]
     margin: f64,
+    obstacle_margin: Option<f64>,
 }
 
 fn sos() -> String {
@@ -824,6 +825,13 @@ impl RawObjective {
             check.finite(&path.key("target"), t)?;
             self.check_target(src, &path.key("target"), t, target_len, robot.nq())?;
         }
+        let obstacle_margin = match self.obstacle_margin {
+            None => None,
+            Some(_) if self.feature != "collision" => {
+                return Err(src.error(&path.key("obstacle_margin"), "applies to the collision feature only"));
+            }
+            Some(m) => Some(check.non_negative(&path.key("obstacle_margin"), m)?),
+        };
         Ok(ObjectiveSpec {
             feature: self.feature,
             frames: self.frames,
@@ -834,6 +842,7 @@ impl RawObjective {
             target: self.target,
             order: self.order,
             margin: check.non_negative(&path.key("margin"), self.margin)?,
+            obstacle_margin,
         })
     }
 }

@@ -35,6 +35,7 @@ pub use arbitration_env::{
 };
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, LiveEpisode, LiveStep, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, Judge, REACH_TOLERANCE, TaskJudge};
+pub(crate) use operator::distance;
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, OperatorKind, Pace, PlanarUser,
     PolicyFollower, Straightline,
