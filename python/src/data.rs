@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use tandem::data::{
     GenerateSettings, Progress, ShardSpec, generate as rust_generate, part_count, part_ids, pending_parts,
 };
-use tandem::pipeline::PipelineSettings;
+use tandem::pipeline::{InitialGuess, PipelineSettings};
 
 /// Settings of a run from the keyword arguments shared by the functions here.
 #[allow(clippy::too_many_arguments)]
@@ -22,6 +22,7 @@ fn settings(
     max_evaluations: usize,
     threads: Option<usize>,
     shard: Option<(u64, u64)>,
+    initial_guess: &str,
 ) -> PyResult<GenerateSettings> {
     let shard = match shard {
         Some((index, count)) if index < count => Some(ShardSpec { index, count }),
@@ -36,8 +37,25 @@ fn settings(
         threads,
         shard,
         chunk_size,
-        pipeline: PipelineSettings { horizon, attempts, max_evaluations, ..PipelineSettings::default() },
+        pipeline: PipelineSettings {
+            horizon,
+            attempts,
+            max_evaluations,
+            initial_guess: parse_initial_guess(initial_guess)?,
+            ..PipelineSettings::default()
+        },
     })
+}
+
+/// `"planned"` or `"straight"` (see `tandem generate --initial-guess`).
+pub(crate) fn parse_initial_guess(name: &str) -> PyResult<InitialGuess> {
+    match name {
+        "planned" => Ok(InitialGuess::Planned),
+        "straight" => Ok(InitialGuess::Straight),
+        other => Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "initial_guess must be \"planned\" or \"straight\", got {other:?}"
+        ))),
+    }
 }
 
 /// Generates (or completes) the dataset of ``count`` samples of the
@@ -51,7 +69,7 @@ fn settings(
 #[pyfunction]
 #[pyo3(signature = (
     family, out, *, count, seed=0, horizon=None, chunk_size=100, attempts=3, max_evaluations=200,
-    threads=None, shard=None, progress=false
+    threads=None, shard=None, progress=false, initial_guess="planned"
 ))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn generate<'py>(
@@ -67,8 +85,10 @@ pub(crate) fn generate<'py>(
     threads: Option<usize>,
     shard: Option<(u64, u64)>,
     progress: bool,
+    initial_guess: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let settings = settings(count, seed, horizon, chunk_size, attempts, max_evaluations, threads, shard)?;
+    let settings =
+        settings(count, seed, horizon, chunk_size, attempts, max_evaluations, threads, shard, initial_guess)?;
     let progress = if progress { Progress::auto() } else { Progress::quiet() };
     let summary = py.detach(|| rust_generate(&family, &out, &settings, &progress)).py()?;
     let manifest = serde_json::to_string(&summary.manifest).map_err(|e| DatasetError::new_err(e.to_string()))?;
@@ -88,7 +108,10 @@ pub(crate) fn generate<'py>(
 /// refused), writes ``_dataset.json`` when absent and moves damaged parts
 /// aside, but computes nothing. Part ``k`` is ``shard=(k, part_count)``.
 #[pyfunction]
-#[pyo3(signature = (family, out, *, count, seed=0, horizon=None, chunk_size=100, attempts=3, max_evaluations=200))]
+#[pyo3(signature = (
+    family, out, *, count, seed=0, horizon=None, chunk_size=100, attempts=3, max_evaluations=200,
+    initial_guess="planned"
+))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn missing_parts(
     py: Python<'_>,
@@ -100,8 +123,9 @@ pub(crate) fn missing_parts(
     chunk_size: u64,
     attempts: u32,
     max_evaluations: usize,
+    initial_guess: &str,
 ) -> PyResult<Vec<u64>> {
-    let settings = settings(count, seed, horizon, chunk_size, attempts, max_evaluations, None, None)?;
+    let settings = settings(count, seed, horizon, chunk_size, attempts, max_evaluations, None, None, initial_guess)?;
     py.detach(|| pending_parts(&family, &out, &settings)).py()
 }
 

@@ -244,17 +244,22 @@ pub(crate) fn plan(py: Python<'_>, problem: &PyProblem, seed: Option<u64>) -> Py
 
 /// Plans and optimizes ``problem`` as ``tandem solve``: RRT-Connect seeds
 /// the KOMO-style optimizer, the result is validated between slices at
-/// ``validation_resolution`` (rad). ``horizon`` overrides T. Releases the GIL.
+/// ``validation_resolution`` (rad). ``horizon`` overrides T.
+/// ``initial_guess``: ``"planned"`` (RRT-Connect's path) or ``"straight"``
+/// (the straight line to the goal configuration nearest the start, the
+/// planned path when that fails), as ``--initial-guess``. Releases the GIL.
 #[pyfunction]
-#[pyo3(signature = (problem, seed=None, horizon=None, validation_resolution=0.002))]
+#[pyo3(signature = (problem, seed=None, horizon=None, validation_resolution=0.002, initial_guess="planned"))]
 pub(crate) fn solve(
     py: Python<'_>,
     problem: &PyProblem,
     seed: Option<u64>,
     horizon: Option<usize>,
     validation_resolution: f64,
+    initial_guess: &str,
 ) -> PyResult<PySolution> {
-    let options = SolveSettings { seed, horizon, validation_resolution, ..SolveSettings::default() };
+    let initial_guess = crate::data::parse_initial_guess(initial_guess)?;
+    let options = SolveSettings { seed, horizon, validation_resolution, initial_guess };
     let p = &problem.problem;
     let solution = py.detach(|| solve_problem(p, &options)).py()?;
     Ok(PySolution { solution, start: p.start.clone() })

@@ -431,7 +431,11 @@ def plan(problem: Problem, seed: Optional[int] = None) -> PlanResult:
     """RRT-Connect + shortcutting, as ``tandem plan``; releases the GIL."""
 
 def solve(
-    problem: Problem, seed: Optional[int] = None, horizon: Optional[int] = None, validation_resolution: float = 0.002
+    problem: Problem,
+    seed: Optional[int] = None,
+    horizon: Optional[int] = None,
+    validation_resolution: float = 0.002,
+    initial_guess: Literal["planned", "straight"] = "planned",
 ) -> Solution:
     """Plan, optimize and validate, as ``tandem solve``; releases the GIL."""
 
@@ -470,6 +474,7 @@ def generate(
     threads: Optional[int] = None,
     shard: Optional[tuple[int, int]] = None,
     progress: bool = False,
+    initial_guess: Literal["planned", "straight"] = "planned",
 ) -> dict[str, Any]:
     """Bulk generation in this process, as ``tandem generate``; releases the GIL."""
 
@@ -483,6 +488,7 @@ def missing_parts(
     chunk_size: int = 100,
     attempts: int = 3,
     max_evaluations: int = 200,
+    initial_guess: Literal["planned", "straight"] = "planned",
 ) -> list[int]:
     """Part numbers of a run still missing from ``out`` (checks and writes ``_dataset.json``)."""
 

@@ -99,6 +99,7 @@ def generate(
     chunk_size: int = 100,
     attempts: int = 3,
     max_evaluations: int = 200,
+    initial_guess: str = "planned",
     cpus_per_task: int = 1,
     address: Optional[str] = None,
     init_kwargs: Optional[dict] = None,
@@ -108,8 +109,8 @@ def generate(
     """Generates (or completes) the dataset of samples ``0 … count − 1`` of
     a problem family in ``out`` over Ray; the same files and bytes as
     ``tandem generate --family F --count N --seed S --out DIR`` with the
-    same ``horizon`` (``-T``), ``chunk_size``, ``attempts`` and
-    ``max_evaluations``.
+    same ``horizon`` (``-T``), ``chunk_size``, ``attempts``,
+    ``max_evaluations`` and ``initial_guess`` (``--initial-guess``).
 
     ``cpus_per_task``: CPUs each part claims from Ray, and the threads it
     runs on. ``address``: a Ray cluster to join (default: the one already
@@ -137,6 +138,7 @@ def generate(
         chunk_size=chunk_size,
         attempts=attempts,
         max_evaluations=max_evaluations,
+        initial_guess=initial_guess,
     )
     if cpus_per_task < 1:
         raise DatasetError(f"cpus_per_task must be at least 1, got {cpus_per_task}")

@@ -1,10 +1,13 @@
 """Bulk generation over Ray on a local 2-worker cluster: byte for byte the
 dataset of the command line, resumed after losing a part, refused for a
-folder of another run, with progress reported."""
+folder of another run, with progress reported; the initial guess as a
+setting of the dataset."""
 
+import json
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 import ray
 import tandem
@@ -77,3 +80,26 @@ def test_single_process_generate_equals_the_command_line(cli_dataset, tmp_path):
     assert summary["parts_written"] == 4 and summary["samples_run"] == 8
     assert Path(summary["manifest_path"]) == out / "_manifest.json"
     assert dataset_files(out) == dataset_files(cli_dataset)
+
+
+def test_the_initial_guess_is_part_of_the_dataset(cli_dataset, tandem_cli, tmp_path):
+    """``initial_guess="straight"``: the command line's ``--initial-guess
+    straight`` bytes, recorded in ``_dataset.json``; a resume asking another
+    guess is refused by name; an unknown guess is a ValueError."""
+    local, cli = tmp_path / "local", tmp_path / "cli"
+    tandem.generate(GRASP_FAMILY, local, threads=1, initial_guess="straight", **RUN)
+    args = ["--count", "8", "--chunk-size", "2", "-T", "20", "--seed", "3", "--initial-guess", "straight"]
+    subprocess.run([tandem_cli, "generate", "--family", GRASP_FAMILY, "--out", cli, "--quiet", *args], check=True)
+    assert dataset_files(local) == dataset_files(cli)
+    assert json.loads((local / "_dataset.json").read_text())["initial_guess"] == "straight"
+    assert json.loads((cli_dataset / "_dataset.json").read_text())["initial_guess"] == "planned"
+    with pytest.raises(tandem.DatasetError, match='initial_guess = "straight", this run asks "planned"'):
+        tandem.generate(GRASP_FAMILY, local, **RUN)
+    with pytest.raises(ValueError, match='initial_guess must be "planned" or "straight", got "sideways"'):
+        tandem.generate(GRASP_FAMILY, tmp_path / "other", initial_guess="sideways", **RUN)
+    problem = tandem.Problem.builtin("panda_grasp_box")
+    solution = tandem.solve(problem, seed=1, initial_guess="straight")
+    assert solution.converged, solution.report()
+    # Another seed, the same motion: it depends on the task only.
+    again = tandem.solve(problem, seed=2, initial_guess="straight")
+    np.testing.assert_array_equal(solution.trajectory, again.trajectory)
