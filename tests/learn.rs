@@ -412,6 +412,12 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(json["policy"], "shipped");
     assert_eq!(json["results"].as_array().unwrap().len(), 1);
+    // Its training figures come from the provenance.
+    let provenance: serde_json::Value = serde_json::from_str(tandem::learn::SHIPPED_POLICY_PROVENANCE).unwrap();
+    for (key, recorded) in [("samples", "trajectories"), ("pairs", "pairs"), ("seconds", "seconds")] {
+        assert_eq!(json["training"][key], provenance["training"][recorded], "{key}");
+    }
+    assert!(json["training"]["samples"].as_u64().unwrap() > 200_000);
     let output = shipped(&["--rounds", "1"]);
     assert_eq!(output.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&output.stderr);

@@ -57,7 +57,8 @@ pub struct PolicyExperimentArgs {
     /// the file), "results": [{"policy", "success", "collision", "timeout",
     /// "no_reference", "failed"}], "failures": {"learned": {"reasons",
     /// "collision_phases", "collision_pairs"}, "lqr": {...}}, "training":
-    /// {"samples", "pairs", "seconds"}, "rounds": [...], "arbitration":
+    /// {"samples", "pairs", "seconds"} (the shipped policy's from its
+    /// provenance), "rounds": [...], "arbitration":
     /// [...], "seed_success": [0.92, 0.97]}; rates are shares of the tasks.
     #[arg(long)]
     pub json: bool,

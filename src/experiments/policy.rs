@@ -17,8 +17,8 @@ use crate::learn::evaluate::{
     FailureBreakdown, OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances,
 };
 use crate::learn::{
-    Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, SHIPPED_POLICY_PATH, TrainReport,
-    TrainSettings, shipped_policy, train_on,
+    Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, SHIPPED_POLICY_PATH,
+    SHIPPED_POLICY_PROVENANCE, TrainReport, TrainSettings, shipped_policy, train_on,
 };
 use crate::pipeline::PipelineSettings;
 use crate::problem::ProblemFamily;
@@ -162,7 +162,9 @@ pub fn shared_control(
 /// The report written beside a policy file (`FILE.json`).
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct PolicyReport {
-    /// The dataset folder it was trained on.
+    /// The dataset folder it was trained on (the provenance file for the
+    /// shipped policy).
+    #[serde(default)]
     pub data: PathBuf,
     /// Training trajectories.
     pub trajectories: usize,
@@ -178,7 +180,8 @@ pub struct PolicyReport {
     pub final_train_loss: f64,
     /// Validation loss of the last epoch (NaN without validation pairs).
     pub final_validation_loss: f64,
-    /// Every epoch's losses.
+    /// Every epoch's losses (none recorded for the shipped policy).
+    #[serde(default)]
     pub losses: Vec<serde_json::Value>,
 }
 
@@ -196,6 +199,15 @@ impl PolicyReport {
             final_validation_loss: last.map_or(f64::NAN, |l| l.validation),
             losses: report.losses.iter().filter_map(|l| serde_json::to_value(l).ok()).collect(),
         }
+    }
+
+    /// The shipped policy's training, from its provenance
+    /// (`policies/panda_grasp_family.json`).
+    pub fn of_shipped() -> Option<PolicyReport> {
+        let provenance: serde_json::Value = serde_json::from_str(SHIPPED_POLICY_PROVENANCE).ok()?;
+        let mut report: PolicyReport = serde_json::from_value(provenance.get("training")?.clone()).ok()?;
+        report.data = Path::new(SHIPPED_POLICY_PATH).with_extension("json");
+        Some(report)
     }
 
     /// The report beside `policy` (`None` when there is none or it is unreadable).
@@ -568,7 +580,7 @@ impl Experiment for PolicyExperiment {
                     ));
                 }
                 cx.say(&format!("the shipped policy ({SHIPPED_POLICY_PATH})"));
-                (network, None)
+                (network, PolicyReport::of_shipped())
             }
         };
         let mut network = Arc::new(network);
