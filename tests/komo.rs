@@ -261,6 +261,22 @@ fn bad_inputs_get_typed_errors() {
         Objective::new("c", Feature::Collision { margin: 0.0, obstacle_margin: 0.0 }, ObjectiveKind::Inequality);
     let err = TrajectoryProblem::new(robot.clone(), None, vec![collide], 10, 2, 1.0, start.clone()).unwrap_err();
     assert!(err.to_string().contains("no collision model"), "{err}");
+    // Margins are checked where they enter: NaN would make every row NaN.
+    for (feature, expected) in [
+        (
+            Feature::Collision { margin: 0.0, obstacle_margin: f64::NAN },
+            "obstacle_margin must be finite and zero or positive, got NaN",
+        ),
+        (
+            Feature::Collision { margin: -0.01, obstacle_margin: 0.0 },
+            "margin must be finite and zero or positive, got -0.01",
+        ),
+        (Feature::JointLimits { margin: f64::INFINITY }, "margin must be finite and zero or positive, got inf"),
+    ] {
+        let objective = Objective::new("m", feature, ObjectiveKind::Inequality);
+        let err = TrajectoryProblem::new(robot.clone(), None, vec![objective], 10, 2, 1.0, start.clone()).unwrap_err();
+        assert!(err.to_string().contains(expected), "{err}");
+    }
     let err = TrajectoryProblem::new(robot.clone(), None, vec![], 1, 2, 1.0, start.clone()).unwrap_err();
     assert_eq!(err.to_string(), "horizon must be between 2 and 100000, got 1");
     // `solve -T 1000000` ran, bypassing the limit of problem files.

@@ -125,6 +125,16 @@ impl Objective {
         if self.target.iter().any(|t| !t.is_finite()) {
             return fail("target is not finite".into());
         }
+        let margins: &[(&str, f64)] = match self.feature {
+            Feature::Collision { margin, obstacle_margin } => {
+                &[("margin", margin), ("obstacle_margin", obstacle_margin)]
+            }
+            Feature::JointLimits { margin } => &[("margin", margin)],
+            _ => &[],
+        };
+        if let Some((key, m)) = margins.iter().find(|(_, m)| !(m.is_finite() && *m >= 0.0)) {
+            return fail(format!("{key} must be finite and zero or positive, got {m}"));
+        }
         let collision = matches!(self.feature, Feature::Collision { .. });
         if collision && (self.order != 0 || self.kind == ObjectiveKind::Equality) {
             return fail("collision is an order-0 inequality or sum-of-squares objective".into());
