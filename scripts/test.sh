@@ -33,8 +33,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 # Disk is the scarce resource on CI machines (a run once died of a full
-# disk): say what there is, and skip what only helps repeated local builds.
-disk() { echo "== disk: $(df -h --output=avail . | tail -1 | tr -d ' ') free ($1)"; }
+# disk): say what there is, and how long the run has taken so far (to find
+# a slow stage), and skip what only helps repeated local builds.
+disk() { echo "== disk: $(df -h --output=avail . | tail -1 | tr -d ' ') free ($1), ${SECONDS} s in"; }
 disk "start"
 if [ -n "${CI:-}" ]; then
   export CARGO_INCREMENTAL=0 PIP_NO_CACHE_DIR=1
