@@ -346,10 +346,12 @@ impl TrajectoryProblem {
                 let spans_two = sample < samples && t > 1;
                 let first_col = if spans_two { (t - 2) * n } else { (t - 1) * n };
                 for pair in &ws.pairs {
-                    let against_obstacle = matches!(
-                        model.object_source(model.pair_objects(pair.pair).1),
-                        crate::collision::ObjectSource::Obstacle(_)
-                    );
+                    // Equal margins (the usual case) need no lookup.
+                    let against_obstacle = margins[0] != margins[1]
+                        && matches!(
+                            model.object_source(model.pair_objects(pair.pair).1),
+                            crate::collision::ObjectSource::Obstacle(_)
+                        );
                     let g = margins[usize::from(against_obstacle)] - pair.signed.distance;
                     if cost && g <= 0.0 {
                         continue;
