@@ -6,7 +6,6 @@ use super::spheres::{SimdLevel, SnappedQuarterTurns, SphereModel};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::{Scene, Shape, ShapeError};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
-use std::collections::HashSet;
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -178,16 +177,24 @@ impl CollisionModelBuilder {
                 }
             }
         }
-        // Name pairs in a set: an SRDF of a large robot lists thousands.
-        let key =
-            |a: &str, b: &str| if a <= b { (a.to_string(), b.to_string()) } else { (b.to_string(), a.to_string()) };
-        let disabled: HashSet<(String, String)> = self.disabled.iter().map(|(a, b)| key(a, b)).collect();
-        let allowed: HashSet<(String, String)> = self.scene.allowed_contacts().iter().map(|(a, b)| key(a, b)).collect();
+        // Name pairs sorted, looked up by binary search without allocating:
+        // an SRDF of a large robot lists thousands, and a model has
+        // hundreds of group pairs to test (each sample of a dataset builds
+        // its models).
+        fn key<'a>(a: &'a str, b: &'a str) -> (&'a str, &'a str) {
+            if a <= b { (a, b) } else { (b, a) }
+        }
+        fn sorted(pairs: &[(String, String)]) -> Vec<(&str, &str)> {
+            let mut keys: Vec<(&str, &str)> = pairs.iter().map(|(a, b)| key(a, b)).collect();
+            keys.sort_unstable();
+            keys
+        }
+        let (disabled, allowed) = (sorted(&self.disabled), sorted(self.scene.allowed_contacts()));
         let is_excluded = |a: &Group, b: &Group| {
-            let listed = |set: &HashSet<(String, String)>| {
+            let listed = |set: &[(&str, &str)]| {
                 [(&a.name, &b.name), (&a.name, &b.owner), (&a.owner, &b.name), (&a.owner, &b.owner)]
                     .iter()
-                    .any(|(x, y)| set.contains(&key(x, y)))
+                    .any(|(x, y)| set.binary_search(&key(x, y)).is_ok())
             };
             match (a.body, b.body) {
                 (None, None) => true,

@@ -5,7 +5,7 @@
 use super::KomoError;
 use super::objective::{Objective, default_objectives, objective_from_spec};
 use super::problem::{Evaluator, TrajectoryProblem, TrajectoryWorkspace};
-use crate::collision::CollisionWorkspace;
+use crate::collision::{CollisionModel, CollisionWorkspace};
 use crate::plan::resample;
 use crate::problem::{Goal, Problem};
 use tandem_solvers::least_squares::{AugmentedLagrangian, SolveError, SolveReport, SolverSettings};
@@ -174,7 +174,15 @@ impl TrajectoryProblem {
     /// Objectives the problem cannot resolve; a collision model that cannot
     /// be built.
     pub fn from_problem(problem: &Problem) -> Result<TrajectoryProblem, KomoError> {
-        let model = problem.collision_model()?;
+        TrajectoryProblem::from_problem_and_model(problem, problem.collision_model()?)
+    }
+
+    /// As [`from_problem`](Self::from_problem), with `problem`'s collision
+    /// model ([`Problem::collision_model`]) built already.
+    ///
+    /// # Errors
+    /// As [`from_problem`](Self::from_problem).
+    pub fn from_problem_and_model(problem: &Problem, model: CollisionModel) -> Result<TrajectoryProblem, KomoError> {
         let objectives: Vec<Objective> = if problem.optimizer.objectives.is_empty() {
             let mut ws = CollisionWorkspace::new(&model);
             let mut margin: f64 = 0.005;

@@ -5,7 +5,7 @@ use super::PipelineError;
 use super::validate::{Validation, validate};
 use crate::control::{ControlError, GainSchedule, TrackingPolicy, TrackingWeights};
 use crate::komo::{
-    Initialization, TrajectoryOptimizer, TrajectoryProblem, TrajectoryResult, stiff_solver_settings,
+    Initialization, KomoError, TrajectoryOptimizer, TrajectoryProblem, TrajectoryResult, stiff_solver_settings,
     trajectory_solver_settings,
 };
 use crate::plan::{PlanReport, PlanStatus, ProblemPlanner};
@@ -179,11 +179,13 @@ fn optimize_and_refine(
 /// Objectives or goals the problem cannot resolve, unreachable IK goals.
 pub fn solve_problem(problem: &Problem, settings: &SolveSettings) -> Result<ProblemSolution, PipelineError> {
     let began = Instant::now();
-    let mut problem_t = TrajectoryProblem::from_problem(problem)?;
+    // One build of the collision model for the optimizer and the planner.
+    let model = problem.collision_model().map_err(KomoError::from)?;
+    let mut problem_t = TrajectoryProblem::from_problem_and_model(problem, model.clone())?;
     if let Some(horizon) = settings.horizon {
         problem_t = problem_t.with_horizon(horizon)?;
     }
-    let mut planner = ProblemPlanner::new(problem, settings.seed)?;
+    let mut planner = ProblemPlanner::with_model(problem, model, settings.seed)?;
     let plan = planner.run(settings.seed.unwrap_or(problem.planner.seed))?;
     let solver = SolverSettings { max_evaluations: problem.optimizer.max_iterations, ..trajectory_solver_settings() };
     let init = match (plan.path.is_empty(), plan.goals.first()) {

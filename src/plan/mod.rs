@@ -139,7 +139,20 @@ impl ProblemPlanner {
     /// # Errors
     /// A collision model that cannot be built, unreachable goals.
     pub fn new(problem: &Problem, seed: Option<u64>) -> Result<ProblemPlanner, PlanError> {
-        let model = problem.collision_model()?;
+        ProblemPlanner::with_model(problem, problem.collision_model()?, seed)
+    }
+
+    /// As [`new`](Self::new), with `problem`'s collision model built
+    /// already ([`Problem::collision_model`]; the pipeline builds it once
+    /// for the planner and the optimizer).
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn with_model(
+        problem: &Problem,
+        model: CollisionModel,
+        seed: Option<u64>,
+    ) -> Result<ProblemPlanner, PlanError> {
         let mut ws = CollisionWorkspace::new(&model);
         // The search runs on shapes padded by the clearance, so the discrete
         // edge samples keep a margin that the certification can rely on.
