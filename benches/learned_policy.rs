@@ -25,6 +25,7 @@ fn network(problem: &Problem) -> PolicyNetwork {
         gripper: problem.robot_spec.gripper.clone().expect("a gripper"),
         static_obstacles: vec!["table".into()],
         obstacle_slots: 2,
+        obstacle_frames: Vec::new(),
         hidden: vec![128, 128, 128],
         speed_scale: 0.5,
         time_step: 0.08,
@@ -35,7 +36,7 @@ fn network(problem: &Problem) -> PolicyNetwork {
         pairs: 0,
     };
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
-    let d = input_width(7, 2);
+    let d = input_width(7, 2, 0);
     let (mut weights, mut biases) = (vec![], vec![]);
     for (inputs, outputs) in meta.layer_shapes() {
         let bound = (6.0 / inputs as f64).sqrt() as f32;

@@ -524,3 +524,82 @@ fn the_shipped_policy_grasps_on_unseen_tasks() {
     // 300 tasks: a binomial standard deviation of about 1.4 points at 94 %.
     assert!(counts.success_rate() >= claimed - 0.05, "{counts:?} against the claimed {claimed}");
 }
+
+/// Obstacle frames: each slot also holds the obstacle's centre relative
+/// to each frame's origin, computed here from the robot's own forward
+/// kinematics; a policy trained with them keeps them in its file, queries
+/// without allocating, and DAgger-style continuation keeps its input. A
+/// frame the robot lacks and too many frames are refused by name.
+#[test]
+fn obstacle_frames_place_each_obstacle_relative_to_the_links() {
+    let family = family();
+    let demos = Demonstrations::read(tiny_dataset()).unwrap();
+    let robot = &family.base.robot;
+    let frames = vec!["panda_link4".to_string(), "panda_link5".to_string()];
+    let static_obstacles: Vec<String> = family.base.scene.obstacles().iter().map(|o| o.name.clone()).collect();
+    let view = |frames: &'static [String]| tandem::learn::InputView {
+        gripper: "panda_hand_tcp",
+        static_obstacles: static_obstacles.clone().leak(),
+        slots: 2,
+        frames,
+    };
+    let none = tandem::learn::Augmentation::default();
+    let plain = demos.pairs(robot, &view(&[]), &none, |_| true).unwrap();
+    let wide = demos.pairs(robot, &view(frames.clone().leak()), &none, |_| true).unwrap();
+    assert_eq!(wide.input_width, plain.input_width + 2 * 6);
+    assert_eq!(wide.len(), plain.len());
+    let d = &demos.items[0];
+    let goal = d.goal(&static_obstacles, 2);
+    assert!(!goal.obstacles.is_empty(), "the first demonstration has a random obstacle");
+    let mut ws = tandem::robot::KinematicsWorkspace::new(robot);
+    let last = d.states.len() - 1;
+    for (row, q) in [(0, &d.states[0]), (last, &d.states[last])] {
+        robot.forward_kinematics(&mut ws, q).unwrap();
+        let (p, w) = (&plain.inputs[row * plain.input_width..], &wide.inputs[row * wide.input_width..]);
+        let base = plain.input_width - 2 * 7;
+        assert_eq!(p[..base], w[..base], "the values before the slots do not change");
+        for (k, obstacle) in goal.obstacles.iter().enumerate() {
+            let slot = &w[base + 13 * k..base + 13 * (k + 1)];
+            assert_eq!(slot[..7], p[base + 7 * k..base + 7 * (k + 1)], "slot {k}'s first values");
+            for (f, name) in frames.iter().enumerate() {
+                let origin = robot.frame_pose(&ws, robot.frame_id(name).unwrap()).translation.vector;
+                for i in 0..3 {
+                    let expected = obstacle.center[i] - origin[i];
+                    let got = f64::from(slot[7 + 3 * f + i]);
+                    assert!((got - expected).abs() < 1e-6, "row {row} slot {k} {name}[{i}]: {got} vs {expected}");
+                }
+            }
+        }
+    }
+
+    let options = LearnSettings { obstacle_frames: frames.clone(), ..tiny_options(4) };
+    let (network, _) = train_on(&demos, &family, &options, None).unwrap();
+    assert_eq!(network.meta().obstacle_frames, frames);
+    assert_eq!(network.meta().input_width(), wide.input_width);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("frames.safetensors");
+    network.save(&path).unwrap();
+    let loaded = Arc::new(PolicyNetwork::load(&path).unwrap());
+    assert_eq!(loaded.meta().obstacle_frames, frames);
+    let problem = family.sample(11, 0).unwrap().problem;
+    let policy = LearnedPolicy::for_problem(loaded.clone(), &problem).unwrap();
+    let mut state = policy.new_workspace();
+    let (zero, mut act) = (vec![0.0; 7], vec![0.0; 7]);
+    policy.act(&mut state, &problem.start, &zero, &mut act).unwrap();
+    let before = allocations();
+    policy.act(&mut state, &problem.start, &zero, &mut act).unwrap();
+    assert_eq!(allocations() - before, 0, "a query with obstacle frames allocates");
+    assert!(act.iter().all(|v| v.is_finite()));
+    // Continuing from it (as DAgger does) needs its input.
+    let continued = train_on(&demos, &family, &options, Some(&loaded));
+    assert!(continued.is_ok(), "{:?}", continued.err());
+    let other = train_on(&demos, &family, &tiny_options(4), Some(&loaded)).unwrap_err().to_string();
+    assert!(other.contains("obstacle slots and frames") && other.contains("panda_link4"), "{other}");
+
+    let unknown = LearnSettings { obstacle_frames: vec!["panda_link44".into()], ..tiny_options(4) };
+    let error = train_on(&demos, &family, &unknown, None).unwrap_err().to_string();
+    assert!(error.contains("obstacle frame") && error.contains("panda_link44"), "{error}");
+    let many = LearnSettings { obstacle_frames: vec!["panda_link4".into(); 9], ..tiny_options(4) };
+    let error = train_on(&demos, &family, &many, None).unwrap_err().to_string();
+    assert!(error.contains("obstacle_frames") && error.contains("at most 8"), "{error}");
+}

@@ -76,6 +76,11 @@ pub struct LearnPolicyArgs {
     #[arg(long, value_delimiter = ',', default_value = "128,128,128", num_args = 1..=crate::learn::MAX_HIDDEN_LAYERS,
           value_parser = |s: &str| super::number_in(s, 1usize..=crate::learn::MAX_HIDDEN_WIDTH))]
     pub hidden: Vec<usize>,
+    /// Robot frames besides the gripper that each obstacle is also placed
+    /// relative to in the input (at most 8; e.g. `panda_link4,panda_link5`,
+    /// the ends of the Panda's forearm). None by default.
+    #[arg(long, value_delimiter = ',', value_name = "FRAME")]
+    pub obstacle_frames: Vec<String>,
     /// Pairs per minibatch.
     #[arg(long, default_value_t = 512, value_parser = |s: &str| super::number_in(s, 1usize..=1_000_000))]
     pub batch: usize,
@@ -139,6 +144,7 @@ fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> 
             ..TrainSettings::default()
         },
         validation: args.validation,
+        obstacle_frames: args.obstacle_frames.clone(),
         augment: crate::learn::Augmentation {
             per_state: args.augment,
             noise: (args.noise[0], args.noise[1]),

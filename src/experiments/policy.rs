@@ -446,6 +446,9 @@ impl PolicyExperiment {
                     seed: options.train.seed + round as u64,
                     ..options.train.clone()
                 },
+                // The input the network to continue from was trained with.
+                obstacle_slots: network.meta().obstacle_slots,
+                obstacle_frames: network.meta().obstacle_frames.clone(),
                 ..options.clone()
             };
             let (trained, report) = train_on(demos, family, &continued, Some(&**network))?;

@@ -3,10 +3,12 @@
 //! memory, and the state-action pairs the network learns from.
 
 use super::LearnError;
-use super::features::{GoalFeatures, ObstacleFeature, encode, input_width};
+use super::features::{
+    GoalFeatures, InputFrames, MAX_OBSTACLE_FRAMES, ObstacleFeature, Placement, encode, input_width,
+};
 use crate::control::{GainSchedule, TrackingPolicy, TrackingWeights};
 use crate::data::TrajectoryRecord;
-use crate::robot::{FrameId, KinematicsWorkspace, RobotModel};
+use crate::robot::{KinematicsWorkspace, RobotModel};
 use crate::trajectory::JointTrajectory;
 use arrow_array::cast::AsArray;
 use arrow_array::types::{Float64Type, UInt64Type};
@@ -106,19 +108,18 @@ impl Demonstrations {
     }
 
     /// State-action pairs for `robot`, conditioned as a network with
-    /// `static_obstacles` and `slots` sees them, of the demonstrations
-    /// `keep` selects (by id), with `augment` perturbed states per state.
-    /// Built in parallel, concatenated in demonstration order.
+    /// `view` sees them, of the demonstrations `keep` selects (by id),
+    /// with `augment` perturbed states per state. Built in parallel,
+    /// concatenated in demonstration order.
     ///
     /// # Errors
-    /// Joints other than the robot's; an unknown gripper frame; a
-    /// demonstration the tracking policy rejects.
+    /// Joints other than the robot's; an unknown gripper or obstacle
+    /// frame, more than [`MAX_OBSTACLE_FRAMES`]; a demonstration the
+    /// tracking policy rejects.
     pub fn pairs(
         &self,
         robot: &RobotModel,
-        gripper: &str,
-        static_obstacles: &[String],
-        slots: usize,
+        view: &InputView,
         augment: &Augmentation,
         keep: impl Fn(u64) -> bool + Sync,
     ) -> Result<Pairs, LearnError> {
@@ -129,22 +130,20 @@ impl Demonstrations {
                 got: self.joints.join(", "),
             });
         }
-        let frame = robot.frame_id(gripper).map_err(|_| LearnError::Mismatch {
-            what: "gripper frame".into(),
-            expected: gripper.into(),
-            got: "a robot without it".into(),
-        })?;
+        let frames = InputFrames::resolve(robot, view.gripper, view.frames)?;
+        let (slots, width) = (view.slots, input_width(robot.nq(), view.slots, view.frames.len()));
         let parts: Vec<Pairs> = self
             .items
             .par_iter()
             .filter(|d| keep(d.id))
             .map(|d| {
-                let mut pairs = Pairs::new(robot.nq(), slots);
+                let mut pairs = Pairs::new(robot.nq(), width);
                 let mut ws = KinematicsWorkspace::new(robot);
-                let goal = d.goal(static_obstacles, slots);
-                pairs.add(robot, frame, &mut ws, d, &goal)?;
+                let goal = d.goal(view.static_obstacles, slots);
+                let mut at = Robot { model: robot, frames: &frames, ws: &mut ws, slots };
+                pairs.add(&mut at, d, &goal)?;
                 if augment.per_state > 0 {
-                    pairs.add_perturbed(robot, frame, &mut ws, d, &goal, augment, &self.joints)?;
+                    pairs.add_perturbed(&mut at, d, &goal, augment, &self.joints)?;
                 }
                 Ok(pairs)
             })
@@ -152,7 +151,7 @@ impl Demonstrations {
         // Sized once and each part freed as it is copied: at 300K
         // trajectories the pairs take gigabytes, and growing by doubling
         // beside the parts would need three times that.
-        let mut all = Pairs::new(robot.nq(), slots);
+        let mut all = Pairs::new(robot.nq(), width);
         all.inputs.reserve_exact(parts.iter().map(|p| p.inputs.len()).sum());
         all.directions.reserve_exact(parts.iter().map(|p| p.directions.len()).sum());
         all.speeds.reserve_exact(parts.iter().map(|p| p.speeds.len()).sum());
@@ -161,6 +160,29 @@ impl Demonstrations {
         }
         Ok(all)
     }
+}
+
+/// How a network sees a task: its gripper frame, the obstacles that are
+/// part of every task (never in a slot), its obstacle slots and its
+/// obstacle frames (see [`features`](super::features)).
+#[derive(Debug, Clone, Copy)]
+pub struct InputView<'a> {
+    /// Gripper frame name.
+    pub gripper: &'a str,
+    /// Obstacles never put in a slot.
+    pub static_obstacles: &'a [String],
+    /// Obstacle slots.
+    pub slots: usize,
+    /// Obstacle frame names.
+    pub frames: &'a [String],
+}
+
+/// The robot while pairs are made: its model, frames and kinematics.
+struct Robot<'a> {
+    model: &'a RobotModel,
+    frames: &'a InputFrames,
+    ws: &'a mut KinematicsWorkspace,
+    slots: usize,
 }
 
 /// Perturbed states around the demonstrations, labelled by the LQR
@@ -205,8 +227,8 @@ pub struct Pairs {
 }
 
 impl Pairs {
-    fn new(dof: usize, slots: usize) -> Pairs {
-        Pairs { input_width: input_width(dof, slots), dof, ..Pairs::default() }
+    fn new(dof: usize, input_width: usize) -> Pairs {
+        Pairs { input_width, dof, ..Pairs::default() }
     }
 
     /// Number of pairs.
@@ -219,45 +241,36 @@ impl Pairs {
         self.speeds.is_empty()
     }
 
-    fn add(
-        &mut self,
-        robot: &RobotModel,
-        gripper: FrameId,
-        ws: &mut KinematicsWorkspace,
-        d: &Demonstration,
-        goal: &GoalFeatures,
-    ) -> Result<(), LearnError> {
+    fn add(&mut self, at: &mut Robot, d: &Demonstration, goal: &GoalFeatures) -> Result<(), LearnError> {
         for (t, q) in d.states.iter().enumerate() {
             let velocity: Vec<f64> = match d.states.get(t + 1) {
                 Some(next) => next.iter().zip(q).map(|(b, a)| (b - a) / d.time_step).collect(),
                 None => vec![0.0; self.dof],
             };
-            self.push(robot, gripper, ws, d.id, goal, q, &velocity)?;
+            self.push(at, d.id, goal, q, &velocity)?;
         }
         self.trajectories += 1;
         Ok(())
     }
 
     /// One pair: the input at `q` and the target `velocity`.
-    #[allow(clippy::too_many_arguments)]
     fn push(
         &mut self,
-        robot: &RobotModel,
-        gripper: FrameId,
-        ws: &mut KinematicsWorkspace,
+        at: &mut Robot,
         id: u64,
         goal: &GoalFeatures,
         q: &[f64],
         velocity: &[f64],
     ) -> Result<(), LearnError> {
-        let slots = (self.input_width - input_width(self.dof, 0)) / super::features::OBSTACLE_FEATURES;
-        robot.forward_kinematics(ws, q).map_err(|e| LearnError::Dataset {
+        at.model.forward_kinematics(at.ws, q).map_err(|e| LearnError::Dataset {
             path: PathBuf::from(format!("demonstration {id}")),
             message: e.to_string(),
         })?;
+        let mut origins = [[0.0; 3]; MAX_OBSTACLE_FRAMES];
+        let (gripper, frames) = at.frames.place(at.model, at.ws, &mut origins);
         let start = self.inputs.len();
         self.inputs.resize(start + self.input_width, 0.0);
-        encode(&mut self.inputs[start..], &robot.frame_pose(ws, gripper), goal, q, slots);
+        encode(&mut self.inputs[start..], Placement { gripper: &gripper, frames }, goal, q, at.slots);
         let speed = velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
         let inverse = if speed > 0.0 { 1.0 / speed } else { 0.0 };
         self.directions.extend(velocity.iter().map(|v| (v * inverse) as f32));
@@ -267,12 +280,9 @@ impl Pairs {
 
     /// `augment.per_state` perturbed copies of every state of `d`,
     /// labelled by `d`'s LQR tracking policy.
-    #[allow(clippy::too_many_arguments)]
     fn add_perturbed(
         &mut self,
-        robot: &RobotModel,
-        gripper: FrameId,
-        ws: &mut KinematicsWorkspace,
+        at: &mut Robot,
         d: &Demonstration,
         goal: &GoalFeatures,
         augment: &Augmentation,
@@ -290,11 +300,11 @@ impl Pairs {
             policy.query(&mut tracking, q, Some(&velocity), &mut label)?;
             for _ in 0..augment.per_state {
                 let sigma = rng.random_range(lo..=hi).exp();
-                for ((x, q0), l) in perturbed.iter_mut().zip(q).zip(robot.limits()) {
+                for ((x, q0), l) in perturbed.iter_mut().zip(q).zip(at.model.limits()) {
                     *x = (q0 + sigma * gaussian(&mut rng)).clamp(l.lower, l.upper);
                 }
                 policy.probe(&mut tracking, &perturbed, Some(&velocity), &mut label)?;
-                self.push(robot, gripper, ws, d.id, goal, &perturbed, &label)?;
+                self.push(at, d.id, goal, &perturbed, &label)?;
             }
         }
         Ok(())

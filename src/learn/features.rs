@@ -10,11 +10,18 @@
 //! | 6 | gripper rotation `R`, 6-D form (beyond the dissertation) |
 //! | 3 | `g − p` in the gripper frame, `Rᵀ(g − p)` (m; beyond the dissertation) |
 //! | 7 per obstacle slot | obstacle centre relative to the gripper (3, m), its bounding-box edge lengths (3, m), 1 when the slot is used (0 and zeros otherwise) |
+//! | then 3 per obstacle frame, in each slot | obstacle centre relative to that frame's origin (m, world axes; zeros in an unused slot) |
 //!
-//! The last two rows are not in the dissertation's input: they are functions of
-//! `q` the network could learn, but given directly they make the final
+//! The two rows marked "beyond the dissertation" are not in its input: they
+//! are functions of `q` the network could learn, but given directly they make the final
 //! approach (millimetres between the fingers and the object) a simple
 //! function of the input.
+//!
+//! Obstacle frames ([`PolicyMeta::obstacle_frames`](super::PolicyMeta::obstacle_frames),
+//! none by default; also beyond the dissertation) are links besides the
+//! gripper whose distance to the obstacles matters: most of the policy's
+//! collisions are the forearm's and the wrist's on the approach, where the
+//! gripper is far from the obstacle it hits.
 //!
 //! Obstacle slots hold the scene's obstacles that are not static (the
 //! static ones, such as the table, never move between tasks and the
@@ -23,12 +30,21 @@
 
 use nalgebra::{IsometryMatrix3, Vector3};
 
-/// Values per obstacle slot.
+/// Most obstacle frames a network may have.
+pub const MAX_OBSTACLE_FRAMES: usize = 8;
+
+/// Values per obstacle slot without obstacle frames.
 pub const OBSTACLE_FEATURES: usize = 7;
 
-/// Input width for `dof` joints and `slots` obstacle slots.
-pub fn input_width(dof: usize, slots: usize) -> usize {
-    GRIPPER_FEATURES + dof + OBSTACLE_FEATURES * slots
+/// Values per obstacle slot with `frames` obstacle frames.
+pub fn slot_width(frames: usize) -> usize {
+    OBSTACLE_FEATURES + 3 * frames
+}
+
+/// Input width for `dof` joints and `slots` obstacle slots, each seen
+/// from the gripper and `frames` obstacle frames.
+pub fn input_width(dof: usize, slots: usize, frames: usize) -> usize {
+    GRIPPER_FEATURES + dof + slot_width(frames) * slots
 }
 
 /// Values besides `q` and the obstacle slots.
@@ -78,11 +94,74 @@ impl GoalFeatures {
     }
 }
 
-/// Writes the input of a query at configuration `q` with the gripper
-/// frame at `gripper` (world) into `out` (length
-/// [`input_width`]`(q.len(), slots)`). Allocates nothing.
-pub fn encode(out: &mut [f32], gripper: &IsometryMatrix3<f64>, goal: &GoalFeatures, q: &[f64], slots: usize) {
-    debug_assert_eq!(out.len(), input_width(q.len(), slots));
+/// A network's gripper frame and obstacle frames, resolved on a robot.
+#[derive(Debug, Clone)]
+pub(crate) struct InputFrames {
+    pub(crate) gripper: crate::robot::FrameId,
+    pub(crate) obstacle: Vec<crate::robot::FrameId>,
+}
+
+impl InputFrames {
+    /// Looks the frames up on `robot`.
+    ///
+    /// # Errors
+    /// A frame the robot lacks (named), more than [`MAX_OBSTACLE_FRAMES`]
+    /// obstacle frames.
+    pub(crate) fn resolve(
+        robot: &crate::robot::RobotModel,
+        gripper: &str,
+        frames: &[String],
+    ) -> Result<InputFrames, super::LearnError> {
+        if frames.len() > MAX_OBSTACLE_FRAMES {
+            return Err(super::LearnError::Mismatch {
+                what: "obstacle frames".into(),
+                expected: format!("at most {MAX_OBSTACLE_FRAMES}"),
+                got: frames.len().to_string(),
+            });
+        }
+        let find = |what: &str, name: &str| {
+            robot.frame_id(name).map_err(|_| super::LearnError::Mismatch {
+                what: what.into(),
+                expected: name.into(),
+                got: "a robot without it".into(),
+            })
+        };
+        let obstacle = frames.iter().map(|f| find("obstacle frame", f)).collect::<Result<_, _>>()?;
+        Ok(InputFrames { gripper: find("gripper frame", gripper)?, obstacle })
+    }
+
+    /// The gripper pose and the obstacle frames' origins (into `origins`)
+    /// of the forward kinematics in `ws`.
+    pub(crate) fn place<'o>(
+        &self,
+        robot: &crate::robot::RobotModel,
+        ws: &crate::robot::KinematicsWorkspace,
+        origins: &'o mut [[f64; 3]; MAX_OBSTACLE_FRAMES],
+    ) -> (IsometryMatrix3<f64>, &'o [[f64; 3]]) {
+        for (o, f) in origins.iter_mut().zip(&self.obstacle) {
+            *o = robot.frame_pose(ws, *f).translation.vector.into();
+        }
+        (robot.frame_pose(ws, self.gripper), &origins[..self.obstacle.len()])
+    }
+}
+
+/// Where the robot is at a query: the gripper frame's pose and the
+/// obstacle frames' origins (m, world), both from the forward kinematics
+/// at `q`.
+#[derive(Debug, Clone, Copy)]
+pub struct Placement<'a> {
+    /// The gripper frame (world).
+    pub gripper: &'a IsometryMatrix3<f64>,
+    /// Origins of the obstacle frames (m, world), in the network's order.
+    pub frames: &'a [[f64; 3]],
+}
+
+/// Writes the input of a query at configuration `q` with the robot placed
+/// at `at` into `out` (length [`input_width`]`(q.len(), slots,
+/// at.frames.len())`). Allocates nothing.
+pub fn encode(out: &mut [f32], at: Placement, goal: &GoalFeatures, q: &[f64], slots: usize) {
+    let (gripper, frames) = (at.gripper, at.frames);
+    debug_assert_eq!(out.len(), input_width(q.len(), slots, frames.len()));
     let p = gripper.translation.vector;
     let r = gripper.rotation.matrix();
     let to_goal = Vector3::new(goal.position[0] - p.x, goal.position[1] - p.y, goal.position[2] - p.z);
@@ -107,9 +186,9 @@ pub fn encode(out: &mut [f32], gripper: &IsometryMatrix3<f64>, goal: &GoalFeatur
     for i in 0..3 {
         out[g + 6 + i] = local[i] as f32;
     }
-    let first = GRIPPER_FEATURES + n;
+    let (first, width) = (GRIPPER_FEATURES + n, slot_width(frames.len()));
     for k in 0..slots {
-        let slot = &mut out[first + OBSTACLE_FEATURES * k..first + OBSTACLE_FEATURES * (k + 1)];
+        let slot = &mut out[first + width * k..first + width * (k + 1)];
         match goal.obstacles.get(k) {
             Some(o) => {
                 for i in 0..3 {
@@ -117,6 +196,11 @@ pub fn encode(out: &mut [f32], gripper: &IsometryMatrix3<f64>, goal: &GoalFeatur
                     slot[3 + i] = o.size[i] as f32;
                 }
                 slot[6] = 1.0;
+                for (f, origin) in frames.iter().enumerate() {
+                    for i in 0..3 {
+                        slot[OBSTACLE_FEATURES + 3 * f + i] = (o.center[i] - origin[i]) as f32;
+                    }
+                }
             }
             None => slot.fill(0.0),
         }
@@ -134,12 +218,12 @@ mod tests {
             nalgebra::Rotation3::from_euler_angles(std::f64::consts::PI, 0.0, 0.3),
         );
         let goal = GoalFeatures::new(&pose, vec![ObstacleFeature { center: [0.4, 0.0, 0.5], size: [0.1, 0.1, 0.2] }]);
-        let mut out = vec![f32::NAN; input_width(2, 2)];
+        let mut out = vec![f32::NAN; input_width(2, 2, 0)];
         let gripper = IsometryMatrix3::from_parts(
             Vector3::new(0.3, 0.0, 0.6).into(),
             nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), std::f64::consts::FRAC_PI_2),
         );
-        encode(&mut out, &gripper, &goal, &[0.1, -0.2], 2);
+        encode(&mut out, Placement { gripper: &gripper, frames: &[] }, &goal, &[0.1, -0.2], 2);
         let r = pose.rotation.matrix();
         // The gripper turned a quarter about z: its x is world y, its y world −x;
         // g − p = (0.2, 0.1, −0.4) in the world is (0.1, −0.2, −0.4) in its frame.
@@ -188,5 +272,19 @@ mod tests {
         for (a, b) in same.rotation6.iter().zip(&goal.rotation6) {
             assert!((a - b).abs() < 1e-12);
         }
+
+        // With two obstacle frames each slot grows by 3 values per frame:
+        // the obstacle centre relative to the frame's origin; the values
+        // before the slots do not change.
+        let frames = [[0.4, 0.0, 0.3], [0.0, 0.5, 1.0]];
+        let mut wide = vec![f32::NAN; input_width(2, 2, 2)];
+        assert_eq!(wide.len(), out.len() + 2 * 6);
+        encode(&mut wide, Placement { gripper: &gripper, frames: &frames }, &goal, &[0.1, -0.2], 2);
+        assert_eq!(wide[..30], out[..30], "the gripper part and the slot's first values");
+        let expected = [0.0, 0.0, 0.2, 0.4, -0.5, -0.5];
+        for (i, e) in expected.iter().enumerate() {
+            assert!((f64::from(wide[30 + i]) - e).abs() < 1e-6, "frame value {i}: {} vs {e}", wide[30 + i]);
+        }
+        assert!(wide[36..].iter().all(|v| *v == 0.0), "an unused slot is zero, its frame values too");
     }
 }

@@ -68,7 +68,7 @@ pub use arbitration_actor::{
 #[cfg(feature = "learn")]
 pub use candle_reference::CandleNetwork;
 #[cfg(feature = "learn")]
-pub use dataset::{Augmentation, Demonstration, Demonstrations, Pairs, in_validation};
+pub use dataset::{Augmentation, Demonstration, Demonstrations, InputView, Pairs, in_validation};
 #[cfg(feature = "learn")]
 pub use ddpg::{DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkWorkspace, PolicyMeta, PolicyNetwork};

@@ -39,6 +39,11 @@ pub struct PolicyMeta {
     pub static_obstacles: Vec<String>,
     /// Obstacle slots of the input.
     pub obstacle_slots: usize,
+    /// Frames besides the gripper that each slot's obstacle is placed
+    /// relative to (see [`features`](super::features)); none in files
+    /// written before this key.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub obstacle_frames: Vec<String>,
     /// Widths of the hidden layers.
     pub hidden: Vec<usize>,
     /// Joint speed (rad/s) of an output norm of 1.
@@ -65,7 +70,7 @@ impl PolicyMeta {
 
     /// Input width.
     pub fn input_width(&self) -> usize {
-        input_width(self.dof(), self.obstacle_slots)
+        input_width(self.dof(), self.obstacle_slots, self.obstacle_frames.len())
     }
 
     /// Widths of every layer's input and output, first to last.

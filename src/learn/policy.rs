@@ -2,11 +2,11 @@
 //! [`RobotPolicy`] interface the arbiter queries.
 
 use super::LearnError;
-use super::features::{GoalFeatures, ObstacleFeature, encode};
+use super::features::{GoalFeatures, InputFrames, MAX_OBSTACLE_FRAMES, ObstacleFeature, Placement, encode};
 use super::network::{NetworkWorkspace, PolicyNetwork};
 use crate::control::{ControlError, RobotPolicy, RobotPolicyWorkspace};
 use crate::problem::Problem;
-use crate::robot::{FrameId, KinematicsWorkspace, RobotModel};
+use crate::robot::{KinematicsWorkspace, RobotModel};
 use std::sync::Arc;
 
 /// A learned robot policy for one goal: at any configuration `q`, the
@@ -19,7 +19,7 @@ use std::sync::Arc;
 pub struct LearnedPolicy {
     network: Arc<PolicyNetwork>,
     robot: Arc<RobotModel>,
-    gripper: FrameId,
+    frames: InputFrames,
     goal: GoalFeatures,
 }
 
@@ -48,11 +48,7 @@ impl LearnedPolicy {
                 got: robot.joint_names().join(", "),
             });
         }
-        let gripper = robot.frame_id(&meta.gripper).map_err(|_| LearnError::Mismatch {
-            what: "gripper frame".into(),
-            expected: meta.gripper.clone(),
-            got: "a robot without it".into(),
-        })?;
+        let frames = InputFrames::resolve(&robot, &meta.gripper, &meta.obstacle_frames)?;
         if goal.obstacles.len() > meta.obstacle_slots {
             return Err(LearnError::Mismatch {
                 what: "obstacles".into(),
@@ -69,7 +65,7 @@ impl LearnedPolicy {
                 got: format!("{goal:?}"),
             });
         }
-        Ok(LearnedPolicy { network, robot, gripper, goal })
+        Ok(LearnedPolicy { network, robot, frames, goal })
     }
 
     /// The policy for `problem`'s grasp or pose goal, seeing the scene's
@@ -123,8 +119,10 @@ impl LearnedPolicy {
             expected: n,
             got: q.len(),
         })?;
-        let pose = self.robot.frame_pose(&state.kin, self.gripper);
-        encode(&mut state.input, &pose, &self.goal, q, self.network.meta().obstacle_slots);
+        let mut origins = [[0.0; 3]; MAX_OBSTACLE_FRAMES];
+        let (gripper, frames) = self.frames.place(&self.robot, &state.kin, &mut origins);
+        let slots = self.network.meta().obstacle_slots;
+        encode(&mut state.input, Placement { gripper: &gripper, frames }, &self.goal, q, slots);
         self.network.forward(&state.input, &mut state.scratch, &mut state.raw);
         self.network.velocity_from_outputs(&state.raw, velocity);
         Ok(())

@@ -479,6 +479,9 @@ pub struct LearnSettings {
     pub validation: f64,
     /// Obstacle slots of the input (default 2, the grasp family's most).
     pub obstacle_slots: usize,
+    /// Robot frames besides the gripper that each slot's obstacle is also
+    /// placed relative to (default none; see [`features`](super::features)).
+    pub obstacle_frames: Vec<String>,
     /// Perturbed states labelled by the LQR tracking policy, training
     /// split only (default: one per state; `per_state: 0` is the
     /// demonstrations alone, as in the dissertation).
@@ -495,6 +498,10 @@ impl LearnSettings {
         self.train.validate().map_err(|e| e.within("train"))?;
         let v = self.validation;
         crate::settings::check("validation", v, (0.0..1.0).contains(&v), "in [0, 1)")?;
+        let (frames, most) = (self.obstacle_frames.len(), super::features::MAX_OBSTACLE_FRAMES);
+        if frames > most {
+            return Err(InvalidSetting::new("obstacle_frames", frames, format!("at most {most} frames")));
+        }
         let (lo, hi) = self.augment.noise;
         if self.augment.per_state > 0 && !(lo.is_finite() && hi.is_finite() && lo > 0.0 && lo <= hi) {
             let range = format!("[{}, {}]", readable(lo), readable(hi));
@@ -510,6 +517,7 @@ impl Default for LearnSettings {
             train: TrainSettings::default(),
             validation: 0.1,
             obstacle_slots: 2,
+            obstacle_frames: Vec::new(),
             augment: super::Augmentation { per_state: 1, ..super::Augmentation::default() },
         }
     }
@@ -528,6 +536,19 @@ pub fn train_on(
     initial: Option<&PolicyNetwork>,
 ) -> Result<(PolicyNetwork, TrainReport), LearnError> {
     options.validate()?;
+    if let Some(net) = initial {
+        let (had, asked) = (
+            (net.meta().obstacle_slots, &net.meta().obstacle_frames),
+            (options.obstacle_slots, &options.obstacle_frames),
+        );
+        if had != asked {
+            return Err(LearnError::Mismatch {
+                what: "obstacle slots and frames of the network to continue from".into(),
+                expected: format!("{} slots, frames {:?}", asked.0, asked.1),
+                got: format!("{} slots, frames {:?}", had.0, had.1),
+            });
+        }
+    }
     let base = &family.base;
     let gripper = base.robot_spec.gripper.clone().ok_or_else(|| LearnError::Mismatch {
         what: "family".into(),
@@ -535,22 +556,26 @@ pub fn train_on(
         got: format!("{} without one", family.name),
     })?;
     let static_obstacles: Vec<String> = base.scene.obstacles().iter().map(|o| o.name.clone()).collect();
-    let slots = options.obstacle_slots;
     let robot = &base.robot;
+    let view = super::dataset::InputView {
+        gripper: &gripper,
+        static_obstacles: &static_obstacles,
+        slots: options.obstacle_slots,
+        frames: &options.obstacle_frames,
+    };
     let v = options.validation;
     let augment = super::Augmentation { seed: options.train.seed, ..options.augment };
-    let train_pairs =
-        demos.pairs(robot, &gripper, &static_obstacles, slots, &augment, |id| !super::in_validation(id, v))?;
+    let train_pairs = demos.pairs(robot, &view, &augment, |id| !super::in_validation(id, v))?;
     let none = super::Augmentation { per_state: 0, ..augment };
-    let validation_pairs =
-        demos.pairs(robot, &gripper, &static_obstacles, slots, &none, |id| super::in_validation(id, v))?;
+    let validation_pairs = demos.pairs(robot, &view, &none, |id| super::in_validation(id, v))?;
     let meta = PolicyMeta {
         format: super::FORMAT.into(),
         version: super::FORMAT_VERSION,
         joints: robot.joint_names().to_vec(),
         gripper,
         static_obstacles,
-        obstacle_slots: slots,
+        obstacle_slots: options.obstacle_slots,
+        obstacle_frames: options.obstacle_frames.clone(),
         hidden: options.train.hidden.clone(),
         speed_scale: 1.0,
         time_step: demos.items.first().map_or(0.0, |d| d.time_step),
@@ -575,6 +600,7 @@ mod tests {
             gripper: "tcp".into(),
             static_obstacles: vec![],
             obstacle_slots: 2,
+            obstacle_frames: Vec::new(),
             hidden,
             speed_scale: 0.7,
             time_step: 0.08,

@@ -35,6 +35,8 @@ pub use arbitration_env::{
 };
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, LiveEpisode, LiveStep, Outcome, percentiles};
 pub use judge::{GRASP_MAX_TILT, Judge, REACH_TOLERANCE, TaskJudge};
+// Shared with the learned policy's evaluation (the `learn` feature).
+#[cfg(feature = "learn")]
 pub(crate) use operator::distance;
 pub use operator::{
     Approach, Biased, Laggy, Noisy, Observation, Operator, OperatorAction, OperatorKind, Pace, PlanarUser,
