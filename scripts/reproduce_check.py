@@ -24,7 +24,7 @@ import tempfile
 # (chosen by the CPU at run time), and traded's on the planning time it
 # measures and charges: rendered and checked for their files, not their
 # numbers.
-CANDLE_RUNS = {"learned", "traded", "policy"}
+CANDLE_RUNS = {"learned", "traded", "policy", "policy-centred"}
 
 # Published figure (docs/figures/NAME) <- its source under docs/results/.
 PUBLISHED_FIGURES = {

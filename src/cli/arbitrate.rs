@@ -30,6 +30,9 @@ pub struct ArbitrateArgs {
     /// with `--mode learned`.
     #[arg(long, value_name = "FILE", required_if_eq("mode", "learned"))]
     pub arbiter: Option<PathBuf>,
+    /// The centres of sum-of-squares and of the constrained mode.
+    #[command(flatten)]
+    pub centers: super::arbiter_args::CenterArgs,
     /// Simulated operator: straightline (straight at the grasp point) or
     /// approach (to a point 10 cm above it, then down).
     #[arg(long, default_value = "approach", value_parser = ["straightline", "approach"])]
@@ -80,7 +83,8 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
     };
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
-    let settings = ArbiterSettings { period: 1.0 / args.rate, ..ArbiterSettings::default() };
+    let defaults = ArbiterSettings::default();
+    let settings = ArbiterSettings { period: 1.0 / args.rate, modes: args.centers.apply(defaults.modes), ..defaults };
     let mut arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
     if let Some(path) = &args.arbiter {
         let actor = crate::learn::ArbitrationActor::load(path)?;

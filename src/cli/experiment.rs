@@ -178,6 +178,9 @@ pub struct ReachGraspArgs {
     /// here, for MuJoCo's viewer.
     #[arg(long, value_name = "FILE")]
     pub scene_xml: Option<PathBuf>,
+    /// The arbiter's centres (constrained and sum-of-squares).
+    #[command(flatten)]
+    pub centers: super::arbiter_args::CenterArgs,
 }
 
 pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
@@ -223,7 +226,14 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         seed: args.seed,
         arms,
         record_dir: args.out.as_ref().map(|d| d.join("episodes")),
-        arbiter: crate::arbitration::ArbiterSettings { period: 1.0 / args.rate, ..Default::default() },
+        arbiter: {
+            let defaults = crate::arbitration::ArbiterSettings::default();
+            crate::arbitration::ArbiterSettings {
+                period: 1.0 / args.rate,
+                modes: args.centers.apply(defaults.modes),
+                ..defaults
+            }
+        },
         simulator: match args.physics.as_str() {
             "mujoco" => Simulator::Mujoco(PhysicsSettings::default()),
             _ => Simulator::Kinematic,

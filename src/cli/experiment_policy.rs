@@ -53,13 +53,17 @@ pub struct PolicyExperimentArgs {
     /// Skip the LQR policy (it optimizes a reference per task).
     #[arg(long)]
     pub no_lqr: bool,
+    /// The shared-control arbiter's centres.
+    #[command(flatten)]
+    pub centers: super::arbiter_args::CenterArgs,
     /// Print one JSON object: {"tasks", "policy" ("shipped", "trained" or
     /// the file), "results": [{"policy", "success", "collision", "timeout",
     /// "no_reference", "failed"}], "failures": {"learned": {"reasons",
     /// "collision_phases", "collision_pairs"}, "lqr": {...}}, "training":
     /// {"samples", "pairs", "seconds"} (the shipped policy's from its
     /// provenance), "rounds": [...], "arbitration":
-    /// [...], "seed_success": [0.92, 0.97]}; rates are shares of the tasks.
+    /// [{"mode", "center" (κ), "policy", "success", ...}], "seed_success":
+    /// [0.92, 0.97]}; rates are shares of the tasks.
     #[arg(long)]
     pub json: bool,
 }
@@ -80,6 +84,7 @@ pub(super) fn run_policy(args: &PolicyExperimentArgs) -> Result<(), Box<dyn std:
         round_epochs: args.round_epochs,
         arbitration_tasks: args.arbitration_tasks,
         lqr: !args.no_lqr,
+        modes: args.centers.apply(crate::arbitration::ModeSettings::default()),
     };
     super::experiment::run_in_harness(&experiment, None, args.json, Some(args.out.clone()))
 }

@@ -10,6 +10,7 @@
 //! # let _ = cli;
 //! ```
 
+mod arbiter_args;
 mod arbitrate;
 mod check;
 mod demo;

@@ -7,7 +7,7 @@
 use super::figures::{joint_histograms, loss_curves, success_by_distance};
 use super::{Context, Experiment, ExperimentError};
 use crate::arbitration::{
-    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, problem_goals,
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, ModeSettings, problem_goals,
 };
 use crate::control::RobotPolicy;
 use crate::data::{GenerateSettings, Progress, dataset_parameters, generate};
@@ -103,11 +103,11 @@ impl GoalPolicy {
 }
 
 /// Outcomes of shared-control episodes: the [`Approach`] operator (to a
-/// point above the grasp, then down) through an arbiter in `mode` whose
-/// goal policy is `which`, on each task, in parallel. Success is the
-/// task's grasp judge (as when a policy is followed alone), checked after
-/// every step; a task whose LQR reference cannot be optimized counts as
-/// `Timeout`.
+/// point above the grasp, then down) through an arbiter in `mode` (its
+/// other settings from `modes`: the centres κ) whose goal policy is
+/// `which`, on each task, in parallel. Success is the task's grasp judge
+/// (as when a policy is followed alone), checked after every step; a task
+/// whose LQR reference cannot be optimized counts as `Timeout`.
 ///
 /// # Errors
 /// Arbiter or robot errors.
@@ -115,6 +115,7 @@ pub fn shared_control(
     network: &Arc<PolicyNetwork>,
     tasks: &[Task],
     mode: ArbitrationMode,
+    modes: &ModeSettings,
     which: GoalPolicy,
     seed: u64,
 ) -> Result<Vec<Outcome>, LearnError> {
@@ -125,7 +126,7 @@ pub fn shared_control(
         .par_iter()
         .map(|task| {
             let problem = &task.problem;
-            let settings = ArbiterSettings { mode, ..ArbiterSettings::default() };
+            let settings = ArbiterSettings { mode, modes: *modes, ..ArbiterSettings::default() };
             let arbiter = match which {
                 GoalPolicy::Learned => {
                     let policy: Arc<dyn RobotPolicy> = Arc::new(LearnedPolicy::for_problem(network.clone(), problem)?);
@@ -277,6 +278,10 @@ pub struct PolicyExperiment {
     pub arbitration_tasks: usize,
     /// Follow the LQR tracking policy too (it optimizes a reference per task).
     pub lqr: bool,
+    /// The arbiter's mode settings in the shared-control comparison (the
+    /// centres κ of sum-of-squares and of the constrained mode; default:
+    /// the dissertation's, κ = 0).
+    pub modes: ModeSettings,
 }
 
 impl Default for PolicyExperiment {
@@ -295,6 +300,7 @@ impl Default for PolicyExperiment {
             round_epochs: 10,
             arbitration_tasks: 20,
             lqr: true,
+            modes: ModeSettings::default(),
         }
     }
 }
@@ -493,7 +499,7 @@ impl PolicyExperiment {
                 if which == GoalPolicy::Lqr && !self.lqr {
                     continue;
                 }
-                let outcomes = shared_control(network, tasks, mode, which, self.seed)?;
+                let outcomes = shared_control(network, tasks, mode, &self.modes, which, self.seed)?;
                 let mut c = OutcomeCounts::default();
                 for o in outcomes {
                     match o {
@@ -505,6 +511,11 @@ impl PolicyExperiment {
                 }
                 let mut row = rates(which.as_str(), &c);
                 row["mode"] = mode.as_str().into();
+                row["center"] = match mode {
+                    ArbitrationMode::Constrained => self.modes.constrained_center,
+                    _ => self.modes.sum_of_squares_center,
+                }
+                .into();
                 rows.push(row);
             }
         }
@@ -532,6 +543,7 @@ impl Experiment for PolicyExperiment {
         if self.tasks == 0 {
             return Err(ExperimentError::from(crate::settings::InvalidSetting::new("--tasks", 0, "at least 1")));
         }
+        self.modes.validate().map_err(|e| ExperimentError::from(e.within("modes")))?;
         let family = ProblemFamily::from_file(&self.family)?;
         let invalid = |option: &str, value: &str, expected: &str| {
             ExperimentError::from(crate::settings::InvalidSetting::new(option, value, expected))
@@ -684,10 +696,15 @@ impl Experiment for PolicyExperiment {
             let _ = writeln!(out, "shared control, Approach operator, {} tasks:", self.arbitration_tasks.min(r.tasks));
             for row in &r.arbitration {
                 let pct = |k: &str| 100.0 * row[k].as_f64().unwrap_or(f64::NAN);
+                // The dissertation's κ = 0 unnamed, as the tables have always read.
+                let mode = match row["center"].as_f64() {
+                    Some(k) if k != 0.0 => format!("{} κ {k}", row["mode"].as_str().unwrap_or("")),
+                    _ => row["mode"].as_str().unwrap_or("").to_string(),
+                };
                 let _ = writeln!(
                     out,
                     "  {:<12} on {:<8} success {:>5.1} %, collision {:>5.1} %, timeout {:>5.1} %",
-                    row["mode"].as_str().unwrap_or(""),
+                    mode,
                     row["policy"].as_str().unwrap_or(""),
                     pct("success"),
                     pct("collision"),
