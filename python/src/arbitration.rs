@@ -43,9 +43,16 @@ impl PyArbiter {
     /// Prepares the goals of ``problem`` (optimizing their references:
     /// milliseconds each; the GIL is released) and the arbiter.
     /// ``actor``: a trained arbitration actor file (``tandem learn
-    /// arbitration``), needed by ``mode="learned"``.
+    /// arbitration``), needed by ``mode="learned"``. ``sos_center`` and
+    /// ``constrained_center``: κ of sum-of-squares' preferred step and of
+    /// the constrained trust region's centre, κ times the robot's action
+    /// (default 0, the dissertation's eq. 5.4 and 5.3).
     #[new]
-    #[pyo3(signature = (problem, *, mode="sos", period=1.0 / 15.0, margin=0.005, seed=None, actor=None))]
+    #[pyo3(signature = (
+        problem, *, mode="sos", period=1.0 / 15.0, margin=0.005, seed=None, actor=None, sos_center=0.0,
+        constrained_center=0.0
+    ))]
+    #[allow(clippy::too_many_arguments)]
     fn py_new(
         py: Python<'_>,
         problem: &PyProblem,
@@ -54,10 +61,14 @@ impl PyArbiter {
         margin: f64,
         seed: Option<u64>,
         actor: Option<std::path::PathBuf>,
+        sos_center: f64,
+        constrained_center: f64,
     ) -> PyResult<Self> {
         let mode = self::mode(mode)?;
         let mut settings = ArbiterSettings { period, ..ArbiterSettings::default() };
         settings.safety.margin = margin;
+        settings.modes.sum_of_squares_center = sos_center;
+        settings.modes.constrained_center = constrained_center;
         let p = &problem.problem;
         let actor = match actor {
             Some(path) => {

@@ -366,8 +366,11 @@ class Arbiter:
     def __new__(
         cls, problem: Problem, *, mode: _Mode = "sos", period: float = 1.0 / 15.0, margin: float = 0.005,
         seed: Optional[int] = None, actor: Optional[str | os.PathLike[str]] = None,
+        sos_center: float = 0.0, constrained_center: float = 0.0,
     ) -> Arbiter:
-        """``actor``: a trained arbitration actor (``tandem learn arbitration``) for ``mode="learned"``."""
+        """``actor``: a trained arbitration actor (``tandem learn arbitration``) for ``mode="learned"``;
+        ``sos_center``, ``constrained_center``: κ, the modes centred on κ times the robot's action
+        (0: the dissertation's)."""
     def tick(
         self,
         q: _ArrayLike,

@@ -36,6 +36,31 @@ def test_bad_settings_are_errors():
         tandem.Arbiter(problem, mode="telepathy")
     with pytest.raises(tandem.ArbitrationError, match="margin"):
         tandem.Arbiter(problem, margin=-1.0)
+    with pytest.raises(tandem.ArbitrationError, match="sum_of_squares_center"):
+        tandem.Arbiter(problem, sos_center=float("nan"))
+
+
+def test_a_centred_arbiter_adds_the_robot_action_where_the_operator_is_silent():
+    """With the operator still, sum of squares keeps the gripper still
+    (κ = 0, eq. 5.4) or, centred (κ = 0.5), moves the arm where the
+    operator's command leaves it free: within ε of no gripper motion, the
+    joints move toward the robot's action."""
+    problem = tandem.Problem.builtin("panda_grasp_box")
+    still = tandem.Arbiter(problem, mode="sos", seed=0)
+    centred = tandem.Arbiter(problem, mode="sos", seed=0, sos_center=0.5)
+    # Off the reference (where the robot's action is feedback, not zero).
+    q = problem.start.copy()
+    q[0] += 0.1
+    q[3] += 0.1
+    zero = [0.0, 0.0, 0.0]
+    a, status_a, _ = still.tick(q, zero)
+    b, status_b, _ = centred.tick(q, zero)
+    assert status_a == "nominal" and status_b == "nominal", (status_a, status_b)
+    assert np.abs(a).max() < 1e-12, a
+    # Measured: 0.058 rad/s at most, the gripper at 1.8 mm/s (2 % of the joints' speed).
+    assert np.abs(b).max() > 0.01, b
+    jac = problem.robot.frame_jacobian(q, "panda_hand_tcp")[:3]
+    assert np.linalg.norm(jac @ b) < 0.2 * np.linalg.norm(b), (jac @ b, b)
 
 
 def test_an_episode_reaches_the_grasp_within_limits(grasp):

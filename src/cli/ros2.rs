@@ -66,7 +66,7 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
             return Ok(super::Outcome::Unsuccessful);
         }
     };
-    let arbiter_settings = ArbiterSettings { period: settings.period(), ..ArbiterSettings::default() };
+    let arbiter_settings = settings.arbiter_settings(&ArbiterSettings::default());
     let mut arbiter = Arbiter::for_problem(&problem, &goals, arbiter_settings)?;
     let mut actor: Option<std::sync::Arc<dyn crate::arbitration::ArbitrationPolicy>> = None;
     if let Some(path) = &args.arbiter {

@@ -110,15 +110,14 @@ pub struct ControlLoop {
 }
 
 impl ControlLoop {
-    /// A loop for `arbiter` (its mode replaced by the settings').
+    /// A loop for `arbiter` (its mode, period and centres replaced by the settings').
     ///
     /// # Errors
     /// The settings' mode not one the arbiter runs (`learned` without an actor).
     pub fn new(arbiter: &Arbiter, settings: &NodeSettings) -> Result<ControlLoop, String> {
         let arbiter_settings = crate::arbitration::ArbiterSettings {
             mode: settings.mode,
-            period: settings.period(),
-            ..*arbiter.settings()
+            ..settings.arbiter_settings(arbiter.settings())
         };
         let arbiter = arbiter.with_settings(arbiter_settings).map_err(|e| e.to_string())?;
         let robot = arbiter.robot().clone();

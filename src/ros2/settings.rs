@@ -45,6 +45,12 @@ pub struct NodeSettings {
     /// The arbitration mode at start (changeable at run time through the
     /// `mode` parameter or the mode topic).
     pub mode: ArbitrationMode,
+    /// κ of sum-of-squares' preferred step κ ā_R (0 to 10; default 0, the
+    /// dissertation's eq. 5.4; see `ModeSettings::sum_of_squares_center`).
+    pub sos_center: f64,
+    /// κ of the constrained mode's trust-region centre κ ā_R (0 to 10;
+    /// default 0, eq. 5.3).
+    pub constrained_center: f64,
     /// Whose numbering of Servo's status codes the status topic uses.
     pub status_codes: ServoCodes,
     /// Largest gripper speed commanded (m/s, default 0.25): faster twists
@@ -101,6 +107,8 @@ impl Default for NodeSettings {
             incoming_command_timeout: 0.1,
             joint_state_timeout: 0.1,
             mode: ArbitrationMode::SumOfSquares,
+            sos_center: 0.0,
+            constrained_center: 0.0,
             status_codes: ServoCodes::Jazzy,
             max_speed: 0.25,
             angular_commands: false,
@@ -131,6 +139,8 @@ const KEYS: &[&str] = &[
     "incoming_command_timeout",
     "joint_state_timeout",
     "mode",
+    "sos_center",
+    "constrained_center",
     "status_codes",
     "max_speed",
     "angular_commands",
@@ -215,6 +225,8 @@ impl NodeSettings {
         number("joint_state_timeout", 0.001..=10.0, &mut s.joint_state_timeout)?;
         number("max_speed", 0.001..=2.0, &mut s.max_speed)?;
         number("robot_description_timeout", 0.0..=60.0, &mut s.robot_description_timeout)?;
+        number("sos_center", 0.0..=10.0, &mut s.sos_center)?;
+        number("constrained_center", 0.0..=10.0, &mut s.constrained_center)?;
         let mut domain = f64::from(s.domain_id);
         number("domain_id", 0.0..=232.0, &mut domain)?;
         if domain.fract() != 0.0 {
@@ -277,6 +289,20 @@ impl NodeSettings {
     pub fn period(&self) -> f64 {
         1.0 / self.rate_hz
     }
+
+    /// `base` with these settings' period and modes' centres (the mode
+    /// itself is the control loop's to set).
+    pub fn arbiter_settings(&self, base: &crate::arbitration::ArbiterSettings) -> crate::arbitration::ArbiterSettings {
+        crate::arbitration::ArbiterSettings {
+            period: self.period(),
+            modes: crate::arbitration::ModeSettings {
+                sum_of_squares_center: self.sos_center,
+                constrained_center: self.constrained_center,
+                ..base.modes
+            },
+            ..*base
+        }
+    }
 }
 
 /// The parameters mapping: under `NODE: {ros__parameters: …}` (a ROS 2
@@ -310,7 +336,7 @@ mod tests {
     #[test]
     fn a_parameters_file_is_read_and_every_key_checked() {
         let s = NodeSettings::from_str(
-            "tandem:\n  ros__parameters:\n    rate_hz: 500\n    mode: constrained\n    command_out_type: \
+            "tandem:\n  ros__parameters:\n    rate_hz: 500\n    mode: constrained\n    sos_center: 0.5\n    command_out_type: \
              std_msgs/Float64MultiArray\n    publish_joint_positions: false\n    command_out_topic: \
              /forward_velocity_controller/commands\n    status_codes: humble\n",
             "node.yaml",
@@ -318,6 +344,9 @@ mod tests {
         .unwrap();
         assert_eq!(s.rate_hz, 500.0);
         assert_eq!(s.mode, ArbitrationMode::Constrained);
+        assert_eq!((s.sos_center, s.constrained_center), (0.5, 0.0));
+        let arbiter = s.arbiter_settings(&crate::arbitration::ArbiterSettings::default());
+        assert_eq!((arbiter.modes.sum_of_squares_center, arbiter.period), (0.5, 1.0 / 500.0));
         assert_eq!(s.command_out, CommandOut::Velocities);
         assert_eq!(s.status_codes, ServoCodes::Humble);
         assert_eq!(s.command_out_topic, "/forward_velocity_controller/commands");
@@ -327,6 +356,8 @@ mod tests {
             ("rate_hz: .nan\n", "rate_hz: must be finite"),
             ("rate: 50\n", "rate: unknown key"),
             ("mode: fast\n", "mode: "),
+            ("sos_center: -1\n", "sos_center: -1 is outside [0, 10]"),
+            ("constrained_center: .nan\n", "constrained_center: must be finite"),
             ("domain_id: 1.5\n", "domain_id: must be a whole number"),
             ("joint_topic: 'a b'\n", "joint_topic: 'a b' is not a ROS 2 name"),
             ("command_out_type: std_msgs/Float64MultiArray\n", "set exactly one"),
