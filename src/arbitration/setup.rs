@@ -116,7 +116,7 @@ pub fn problem_goals(problem: &Problem, options: &GoalSettings) -> Result<Vec<Pr
             let policy = solution.tracking_policy(&goal_problem.start, options.weights, options.schedule)?;
             let end = policy.reference().goal().to_vec();
             problem.robot.forward_kinematics(&mut ws, &end)?;
-            let position = problem.robot.frame_pose(&ws, gripper).translation.vector.into();
+            let position = problem.robot.frame_position(&ws, gripper).into();
             Ok(ProblemGoal { name, problem: goal_problem, solution, policy: Arc::new(policy), position })
         })
         .collect()

@@ -138,7 +138,7 @@ impl Task {
     fn distance(&self, kin: &mut KinematicsWorkspace, q: &[f64]) -> Result<f64, LearnError> {
         let robot = &self.problem.robot;
         robot.forward_kinematics(kin, q)?;
-        let p = robot.frame_pose(kin, self.gripper).translation.vector;
+        let p = robot.frame_position(kin, self.gripper);
         Ok(crate::sim::distance(p.into(), self.target))
     }
 

@@ -139,7 +139,7 @@ impl InputFrames {
         origins: &'o mut [[f64; 3]; MAX_OBSTACLE_FRAMES],
     ) -> (IsometryMatrix3<f64>, &'o [[f64; 3]]) {
         for (o, f) in origins.iter_mut().zip(&self.obstacle) {
-            *o = robot.frame_pose(ws, *f).translation.vector.into();
+            *o = robot.frame_position(ws, *f).into();
         }
         (robot.frame_pose(ws, self.gripper), &origins[..self.obstacle.len()])
     }

@@ -194,15 +194,19 @@ pub fn solve_problem(problem: &Problem, settings: &SolveSettings) -> Result<Prob
         (true, None) => Initialization::Interpolate(&problem.start),
     };
     let resolution = settings.validation_resolution;
-    let nearest_goal = plan.goals.iter().min_by(|a, b| {
+    // The goal configuration nearest the start, for the straight guess only.
+    let nearest_goal = || {
         let from_start = |q: &[f64]| q.iter().zip(&problem.start).map(|(a, b)| (a - b).powi(2)).sum::<f64>();
-        from_start(a).total_cmp(&from_start(b))
-    });
-    let straight = match (settings.initial_guess, nearest_goal) {
-        (InitialGuess::Straight, Some(goal)) => {
-            Some(optimize_and_refine(&problem_t, &solver, Initialization::Interpolate(goal), resolution)?)
-        }
-        _ => None,
+        plan.goals.iter().min_by(|a, b| from_start(a).total_cmp(&from_start(b)))
+    };
+    let straight = match settings.initial_guess {
+        InitialGuess::Straight => match nearest_goal() {
+            Some(goal) => {
+                Some(optimize_and_refine(&problem_t, &solver, Initialization::Interpolate(goal), resolution)?)
+            }
+            None => None,
+        },
+        InitialGuess::Planned => None,
     };
     let tried = match straight {
         Some(tried) if succeeded(&tried.0.report, &tried.1) => tried,

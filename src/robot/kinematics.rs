@@ -148,6 +148,14 @@ impl RobotModel {
         f.placement.after(&ws.body_poses[f.body])
     }
 
+    /// The world position of `frame` (m) after
+    /// [`forward_kinematics`](Self::forward_kinematics): the translation of
+    /// [`frame_pose`](Self::frame_pose) without its rotation's product.
+    pub fn frame_position(&self, ws: &KinematicsWorkspace, frame: FrameId) -> Vector3<f64> {
+        let f = &self.frames()[frame.0];
+        f.placement.position_after(&ws.body_poses[f.body])
+    }
+
     /// The world position (m) of `frame` at each configuration (a path
     /// to draw or measure; allocates).
     ///
@@ -163,7 +171,7 @@ impl RobotModel {
             .into_iter()
             .map(|q| {
                 self.forward_kinematics(&mut ws, q)?;
-                Ok(self.frame_pose(&ws, frame).translation.vector.into())
+                Ok(self.frame_position(&ws, frame).into())
             })
             .collect()
     }

@@ -73,6 +73,12 @@ impl Placement {
 
     /// `pose ∘ self`.
     #[inline(always)]
+    /// The translation of [`after`](Self::after) alone: `pose`'s rotation
+    /// applied to this placement's translation, plus `pose`'s translation.
+    pub(crate) fn position_after(&self, pose: &IsometryMatrix3<f64>) -> Vector3<f64> {
+        pose.translation.vector + pose.rotation.matrix() * self.translation
+    }
+
     pub(crate) fn after(&self, pose: &IsometryMatrix3<f64>) -> IsometryMatrix3<f64> {
         if self.is_identity() {
             return *pose;
@@ -107,7 +113,7 @@ mod tests {
     #[test]
     // 1.57079632679 is the truncated π/2 many URDFs carry; it must stay General.
     #[allow(clippy::approx_constant)]
-    fn every_kind_composes_like_a_matrix_product() {
+    fn every_kind_composes_like_a_matrix_product_and_positions_agree() {
         let pose = IsometryMatrix3::from_parts(
             Translation3::new(0.3, -0.2, 0.9),
             Rotation3::from_euler_angles(0.4, -1.1, 2.3),
@@ -133,6 +139,8 @@ mod tests {
             assert_ne!(matches!(p.kind, RotationKind::SignedPermutation { .. }), kind != "perm");
             let diff = (p.after(&pose).to_homogeneous() - (pose * iso).to_homogeneous()).abs().max();
             assert!(diff < 1e-15, "{rpy:?}: {diff:e}");
+            let moved = (p.position_after(&pose) - (pose * iso).translation.vector).abs().max();
+            assert!(moved < 1e-15, "{rpy:?}: {moved:e}");
         }
     }
 }

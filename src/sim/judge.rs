@@ -85,7 +85,7 @@ impl TaskJudge {
                 if robot.forward_kinematics(&mut self.kin, q).is_err() {
                     return false;
                 }
-                let tcp = robot.frame_pose(&self.kin, judge.geometry().gripper_frame()).translation.vector;
+                let tcp = robot.frame_position(&self.kin, judge.geometry().gripper_frame());
                 let reach = object.shape.bounding_radius() + 0.05;
                 if (tcp - object.pose.translation.vector).norm() > reach && object.attachment.is_none() {
                     return false;
@@ -100,7 +100,7 @@ impl TaskJudge {
                 if robot.forward_kinematics(&mut self.kin, q).is_err() {
                     return false;
                 }
-                let p = robot.frame_pose(&self.kin, frame).translation.vector;
+                let p = robot.frame_position(&self.kin, frame);
                 let d = (p - nalgebra::Vector3::from(*target)).norm();
                 d <= REACH_TOLERANCE
             }
@@ -123,7 +123,7 @@ impl Judge for TaskJudge {
         if robot.forward_kinematics(&mut self.kin, q).is_err() {
             return Reason::JudgeDeclined;
         }
-        let tcp = robot.frame_pose(&self.kin, judge.geometry().gripper_frame()).translation.vector;
+        let tcp = robot.frame_position(&self.kin, judge.geometry().gripper_frame());
         let reach = object.shape.bounding_radius() + 0.05;
         if (tcp - object.pose.translation.vector).norm() > reach && object.attachment.is_none() {
             return stopped_short(gripper, target).unwrap_or(Reason::JudgeDeclined);

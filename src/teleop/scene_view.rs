@@ -251,7 +251,7 @@ fn reference_path(arbiter: &Arbiter, goal: &ProblemGoal) -> Vec<[f64; 3]> {
         .iter()
         .filter_map(|q| {
             robot.forward_kinematics(&mut kin, q).ok()?;
-            Some(robot.frame_pose(&kin, arbiter.gripper_frame()).translation.vector.into())
+            Some(robot.frame_position(&kin, arbiter.gripper_frame()).into())
         })
         .collect()
 }
