@@ -1,20 +1,21 @@
 //! Which way each robot policy's metric turns the gripper.
 //!
-//! `cargo run --release --example metric_turn [TASKS] [SEED]` (default 40
-//! tasks of seed 1001). Along the LQR policy's episodes with the Approach
+//! `cargo run --release --example metric_turn [TASKS] [SEED] [POLICY]`
+//! (default 40 tasks of seed 1001, the shipped policy). Along the LQR policy's episodes with the Approach
 //! operator (the states are the same for both policies), each state with
 //! the gripper's approach axis more than about 1° from the grasp's is
 //! ticked through a constrained and a sum-of-squares arbiter (κ = 0, the
 //! dissertation's) on the shipped learned policy and on the LQR policy.
 //! For each command, and for each robot action alone, it prints the mean
 //! cosine between the rate of change of the approach axis and the way to
-//! the grasp's axis (1: straight there), and the metrics' median condition
-//! numbers. docs/experiments.md quotes its output.
+//! the grasp's axis (1: straight there), the metrics' median condition
+//! numbers, and how alike the two policies' metrics are at the same state
+//! (mean Frobenius cosine of the repaired metrics' trace-free parts: 1
+//! when they lean the same way, 0 when unrelated). docs/experiments.md quotes its output.
 
 use std::sync::Arc;
 use tandem::arbitration::{
-    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, HumanCommand, TickInput,
-    problem_goals,
+    Arbiter, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, HumanCommand, TickInput, problem_goals,
 };
 use tandem::control::RobotPolicy;
 use tandem::learn::LearnedPolicy;
@@ -56,10 +57,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let tasks: u64 = args.next().map_or(Ok(40), |a| a.parse())?;
     let seed: u64 = args.next().map_or(Ok(1001), |a| a.parse())?;
-    let network = Arc::new(tandem::learn::shipped_policy()?);
+    let network = Arc::new(match args.next() {
+        Some(path) => tandem::learn::PolicyNetwork::load(std::path::Path::new(&path))?,
+        None => tandem::learn::shipped_policy()?,
+    });
     let family = ProblemFamily::from_file(std::path::Path::new("problems/panda_grasp_family.toml"))?;
     let modes = [ArbitrationMode::Constrained, ArbitrationMode::SumOfSquares];
     let (mut learned, mut lqr, mut samples) = (Tally::default(), Tally::default(), 0usize);
+    let mut alike = 0.0;
     for i in 0..tasks {
         let problem = family.sample(seed, i)?.problem;
         let task = Task::new(problem.clone(), RolloutSettings::default().max_tilt)?;
@@ -70,12 +75,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let lqr_policy: Arc<dyn RobotPolicy> = goals[0].policy.clone();
         let arbiters = |mode| -> Result<[Arbiter; 2], Box<dyn std::error::Error>> {
             let settings = ArbiterSettings { mode, ..ArbiterSettings::default() };
-            let goal = ArbiterGoal {
-                name: task.object().to_string(),
-                position: target.translation.vector.into(),
-                policy: network_policy.clone(),
-            };
-            let on_network = Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings)?;
+            let on_network = tandem::experiments::policy::learned_arbiter(&network, &task, settings)?;
             Ok([on_network, Arbiter::for_problem(&problem, &goals, settings)?])
         };
         let per_mode = [arbiters(modes[0])?, arbiters(modes[1])?];
@@ -123,6 +123,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     tally.commands[m] += turn(robot, &mut kin, gripper, q, &u, &axis);
                     tally.conditions[m].push(ws.metric().condition());
                 }
+                if m == 0 {
+                    // Trace-free parts: the repaired metrics have mean
+                    // eigenvalue 1, so `W − I` is the anisotropy that steers.
+                    let shape = |w: &[f64]| -> Vec<f64> {
+                        w.iter().enumerate().map(|(k, v)| if k % (n + 1) == 0 { v - 1.0 } else { *v }).collect()
+                    };
+                    let (a, b) = (shape(workspaces[0].metric().matrix()), shape(workspaces[1].metric().matrix()));
+                    let dot = |x: &[f64], y: &[f64]| x.iter().zip(y).map(|(p, q)| p * q).sum::<f64>();
+                    let norms = (dot(&a, &a) * dot(&b, &b)).sqrt();
+                    alike += if norms > 0.0 { dot(&a, &b) / norms } else { 0.0 };
+                }
             }
         }
     }
@@ -142,5 +153,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             median(&mut tally.conditions[0])
         );
     }
+    println!(
+        "  metrics alike (mean Frobenius cosine of W − I, learned against LQR): {:.3}",
+        alike / samples.max(1) as f64
+    );
     Ok(())
 }

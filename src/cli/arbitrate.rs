@@ -83,8 +83,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
     };
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
-    let defaults = ArbiterSettings::default();
-    let settings = ArbiterSettings { period: 1.0 / args.rate, modes: args.centers.apply(defaults.modes), ..defaults };
+    let settings = args.centers.arbiter_settings(1.0 / args.rate);
     let mut arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
     if let Some(path) = &args.arbiter {
         let actor = crate::learn::ArbitrationActor::load(path)?;

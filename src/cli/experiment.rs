@@ -226,14 +226,7 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         seed: args.seed,
         arms,
         record_dir: args.out.as_ref().map(|d| d.join("episodes")),
-        arbiter: {
-            let defaults = crate::arbitration::ArbiterSettings::default();
-            crate::arbitration::ArbiterSettings {
-                period: 1.0 / args.rate,
-                modes: args.centers.apply(defaults.modes),
-                ..defaults
-            }
-        },
+        arbiter: args.centers.arbiter_settings(1.0 / args.rate),
         simulator: match args.physics.as_str() {
             "mujoco" => Simulator::Mujoco(PhysicsSettings::default()),
             _ => Simulator::Kinematic,

@@ -102,6 +102,25 @@ impl GoalPolicy {
     }
 }
 
+/// An arbiter on `task` whose one goal, the grasp, is steered by
+/// `network` (the learned policy of the task's goal and obstacles).
+///
+/// # Errors
+/// A task the network does not fit (joints, goal), arbiter settings the
+/// task's model refuses.
+pub fn learned_arbiter(
+    network: &Arc<PolicyNetwork>,
+    task: &Task,
+    settings: ArbiterSettings,
+) -> Result<Arbiter, LearnError> {
+    let problem = &task.problem;
+    let policy: Arc<dyn RobotPolicy> = Arc::new(LearnedPolicy::for_problem(network.clone(), problem)?);
+    let position = problem.grasp_target().map(|p| p.translation.vector.into()).unwrap_or([0.0; 3]);
+    let goal = ArbiterGoal { name: task.object().to_string(), position, policy };
+    Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings)
+        .map_err(|e| LearnError::Training(format!("arbiter: {e}")))
+}
+
 /// Outcomes of shared-control episodes: the [`Approach`] operator (to a
 /// point above the grasp, then down) through an arbiter in `mode` (its
 /// other settings from `modes`: the centres κ) whose goal policy is
@@ -128,13 +147,7 @@ pub fn shared_control(
             let problem = &task.problem;
             let settings = ArbiterSettings { mode, modes: *modes, ..ArbiterSettings::default() };
             let arbiter = match which {
-                GoalPolicy::Learned => {
-                    let policy: Arc<dyn RobotPolicy> = Arc::new(LearnedPolicy::for_problem(network.clone(), problem)?);
-                    let position = problem.grasp_target().map(|p| p.translation.vector.into()).unwrap_or([0.0; 3]);
-                    let goal = ArbiterGoal { name: task.object().to_string(), position, policy };
-                    Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings)
-                        .map_err(arbitration)?
-                }
+                GoalPolicy::Learned => learned_arbiter(network, task, settings)?,
                 GoalPolicy::Lqr => {
                     let options =
                         GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
