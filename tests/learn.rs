@@ -281,6 +281,72 @@ fn queries_allocate_nothing_and_feed_the_arbiter() {
 /// the same command ends with the same weights, bit for bit, as a run never
 /// stopped; the checkpoint is gone afterwards, and a checkpoint of other
 /// settings is refused by name.
+/// Mean relative squared error of `network`'s slopes against the tracking
+/// policy's on `pairs`' perturbed rows: `Σ‖s_net − s‖² / Σ‖s‖²`.
+fn slope_error(network: &PolicyNetwork, pairs: &tandem::learn::Pairs) -> f64 {
+    let (d, n) = (pairs.input_width, pairs.dof);
+    let mut scratch = network.scratch();
+    let mut velocity = |r: usize| {
+        let (mut out, mut v) = (vec![0.0f32; n + 1], vec![0.0; n]);
+        network.forward(&pairs.inputs[r * d..(r + 1) * d], &mut scratch, &mut out);
+        network.velocity_from_outputs(&out, &mut v);
+        v
+    };
+    let (mut error, mut norm) = (0.0, 0.0);
+    for (k, [perturbed, demonstrated]) in pairs.slope_rows.iter().enumerate() {
+        let (a, b) = (velocity(*perturbed), velocity(*demonstrated));
+        let inverse = f64::from(pairs.slope_inverse_lengths[k]);
+        for j in 0..n {
+            let target = f64::from(pairs.slopes[k * n + j]);
+            error += ((a[j] - b[j]) * inverse - target).powi(2);
+            norm += target * target;
+        }
+    }
+    error / norm
+}
+
+/// Sobolev training: with the slope term, the network's action changes
+/// around held-out demonstrations follow the LQR tracking policy's closer
+/// than with the dissertation's loss alone, and its actions stay as good.
+#[test]
+fn slope_training_follows_the_tracking_policys_slopes() {
+    let demos = Demonstrations::read(tiny_dataset()).unwrap();
+    let train = |slope_weight: f64| {
+        let mut options = tiny_options(5);
+        options.train.epochs = 12;
+        options.train.slope_weight = slope_weight;
+        train_on(&demos, &family(), &options, None).unwrap()
+    };
+    let ((plain, plain_report), (sobolev, sobolev_report)) = (train(0.0), train(1.0));
+    let meta = sobolev.meta();
+    let base = &family().base;
+    let static_obstacles = meta.static_obstacles.clone();
+    let view = tandem::learn::InputView {
+        gripper: &meta.gripper,
+        static_obstacles: &static_obstacles,
+        slots: meta.obstacle_slots,
+        frames: &meta.obstacle_frames,
+    };
+    let around = tandem::learn::Augmentation { per_state: 2, seed: 99, ..Default::default() };
+    let held_out = demos.pairs(&base.robot, &view, &around, |id| tandem::learn::in_validation(id, 0.2)).unwrap();
+    assert!(held_out.slope_rows.len() > 300, "{} held-out slopes", held_out.slope_rows.len());
+    let (plain_error, sobolev_error) = (slope_error(&plain, &held_out), slope_error(&sobolev, &held_out));
+    assert!(plain_error.is_finite() && sobolev_error.is_finite());
+    assert!(sobolev_error < 0.8 * plain_error, "slope error {sobolev_error} with the term, {plain_error} without");
+    let validation = |r: &tandem::learn::TrainReport| r.losses.last().unwrap().validation;
+    assert!(
+        validation(&sobolev_report) < 1.5 * validation(&plain_report),
+        "validation loss {} with the slope term, {} without",
+        validation(&sobolev_report),
+        validation(&plain_report)
+    );
+    eprintln!(
+        "held-out slope error {sobolev_error:.3} (term) vs {plain_error:.3}; validation {:.4} vs {:.4}",
+        validation(&sobolev_report),
+        validation(&plain_report)
+    );
+}
+
 #[test]
 fn training_killed_and_resumed_gives_the_same_weights() {
     let dir = tempfile::tempdir().unwrap();

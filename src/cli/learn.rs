@@ -87,6 +87,12 @@ pub struct LearnPolicyArgs {
     /// Initial learning rate (cosine decay to 1 % of it), 1e-8 to 1.
     #[arg(long, default_value_t = 2e-3, value_parser = |s: &str| super::number_in(s, 1e-8..=1.0))]
     pub learning_rate: f64,
+    /// Weight of the slope loss, 0 to 100: the network's action change
+    /// from each demonstrated state to its perturbed copies (--augment)
+    /// matched to the LQR tracking policy's, relative to its mean square
+    /// (Sobolev training; 0: the dissertation's loss).
+    #[arg(long, default_value_t = 0.0, value_parser = |s: &str| super::number_in(s, 0.0..=100.0))]
+    pub slope_weight: f64,
     /// Share of sample ids held out for validation.
     #[arg(long, default_value_t = 0.1, value_parser = |s: &str| super::number_in(s, 0.0..=0.9))]
     pub validation: f64,
@@ -138,6 +144,7 @@ fn run_policy(args: &LearnPolicyArgs) -> Result<(), Box<dyn std::error::Error>> 
             hidden: args.hidden.clone(),
             batch: args.batch,
             learning_rate: args.learning_rate,
+            slope_weight: args.slope_weight,
             progress: !args.quiet && !args.json,
             checkpoint: (!args.no_checkpoint)
                 .then(|| args.checkpoint.clone().unwrap_or_else(|| args.out.with_extension("checkpoint"))),

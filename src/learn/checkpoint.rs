@@ -117,6 +117,11 @@ pub(crate) fn fingerprint(
         "direction_speed": settings.direction_speed,
     });
     h.update(shaping.to_string().as_bytes());
+    // Only when used, so checkpoints of the dissertation's loss keep theirs.
+    let slopes = settings.slope_weight > 0.0;
+    if slopes {
+        h.update(format!("slope_weight {}", settings.slope_weight).as_bytes());
+    }
     let mut floats = |values: &[f32]| {
         h.update((values.len() as u64).to_le_bytes());
         for v in values {
@@ -129,6 +134,13 @@ pub(crate) fn fingerprint(
         floats(&pairs.inputs);
         floats(&pairs.directions);
         floats(&pairs.speeds);
+        if slopes {
+            floats(&pairs.slopes);
+            floats(&pairs.slope_inverse_lengths);
+            // Rows (below 2³²) as the bits of f32s, hashed like the values.
+            let rows: Vec<f32> = pairs.slope_rows.iter().flatten().map(|r| f32::from_bits(*r as u32)).collect();
+            floats(&rows);
+        }
     }
     if let Some(bytes) = initial {
         h.update(Sha256::digest(bytes));

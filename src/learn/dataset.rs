@@ -141,9 +141,9 @@ impl Demonstrations {
                 let mut ws = KinematicsWorkspace::new(robot);
                 let goal = d.goal(view.static_obstacles, slots);
                 let mut at = Robot { model: robot, frames: &frames, ws: &mut ws, slots };
-                pairs.add(&mut at, d, &goal)?;
+                let first = pairs.add(&mut at, d, &goal)?;
                 if augment.per_state > 0 {
-                    pairs.add_perturbed(&mut at, d, &goal, augment, &self.joints)?;
+                    pairs.add_perturbed(&mut at, d, &goal, augment, &self.joints, first)?;
                 }
                 Ok(pairs)
             })
@@ -155,6 +155,8 @@ impl Demonstrations {
         all.inputs.reserve_exact(parts.iter().map(|p| p.inputs.len()).sum());
         all.directions.reserve_exact(parts.iter().map(|p| p.directions.len()).sum());
         all.speeds.reserve_exact(parts.iter().map(|p| p.speeds.len()).sum());
+        all.slopes.reserve_exact(parts.iter().map(|p| p.slopes.len()).sum());
+        all.slope_rows.reserve_exact(parts.iter().map(|p| p.slope_rows.len()).sum());
         for p in parts {
             all.extend(&p);
         }
@@ -222,6 +224,18 @@ pub struct Pairs {
     pub directions: Vec<f32>,
     /// Speeds (rad/s).
     pub speeds: Vec<f32>,
+    /// For each perturbed pair, its row and the row of the demonstrated
+    /// state it perturbs: `[perturbed, demonstrated]` (empty without
+    /// augmentation).
+    pub slope_rows: Vec<[usize; 2]>,
+    /// Row-major `slope_rows.len() × dof`: the LQR tracking policy's
+    /// velocity change from the demonstrated state to the perturbed one per
+    /// unit of their distance, `(π(q′) − π(q)) / ‖q′ − q‖` (rad/s per
+    /// rad): a directional derivative the network's may be trained to
+    /// match ([`TrainSettings::slope_weight`](super::TrainSettings::slope_weight)).
+    pub slopes: Vec<f32>,
+    /// `1 / ‖q′ − q‖` of each slope (1/rad).
+    pub slope_inverse_lengths: Vec<f32>,
     /// Demonstrations added.
     pub trajectories: usize,
 }
@@ -241,7 +255,9 @@ impl Pairs {
         self.speeds.is_empty()
     }
 
-    fn add(&mut self, at: &mut Robot, d: &Demonstration, goal: &GoalFeatures) -> Result<(), LearnError> {
+    /// Adds the pairs of `d`'s states; returns the row of its first.
+    fn add(&mut self, at: &mut Robot, d: &Demonstration, goal: &GoalFeatures) -> Result<usize, LearnError> {
+        let first = self.len();
         for (t, q) in d.states.iter().enumerate() {
             let velocity: Vec<f64> = match d.states.get(t + 1) {
                 Some(next) => next.iter().zip(q).map(|(b, a)| (b - a) / d.time_step).collect(),
@@ -250,7 +266,7 @@ impl Pairs {
             self.push(at, d.id, goal, q, &velocity)?;
         }
         self.trajectories += 1;
-        Ok(())
+        Ok(first)
     }
 
     /// One pair: the input at `q` and the target `velocity`.
@@ -279,7 +295,8 @@ impl Pairs {
     }
 
     /// `augment.per_state` perturbed copies of every state of `d`,
-    /// labelled by `d`'s LQR tracking policy.
+    /// labelled by `d`'s LQR tracking policy, with their slopes from the
+    /// demonstrated states (whose rows start at `first`).
     fn add_perturbed(
         &mut self,
         at: &mut Robot,
@@ -287,6 +304,7 @@ impl Pairs {
         goal: &GoalFeatures,
         augment: &Augmentation,
         joints: &[String],
+        first: usize,
     ) -> Result<(), LearnError> {
         let reference = JointTrajectory::new(joints.to_vec(), d.time_step, &d.states)?;
         let policy = TrackingPolicy::new(reference, TrackingWeights::default(), GainSchedule::Constant)?;
@@ -294,16 +312,23 @@ impl Pairs {
         let mut rng = ChaCha8Rng::seed_from_u64(crate::problem::sample_seed(augment.seed, d.id));
         let (lo, hi) = (augment.noise.0.max(1e-9).ln(), augment.noise.1.max(augment.noise.0).max(1e-9).ln());
         let n = self.dof;
-        let (mut perturbed, mut label) = (vec![0.0; n], vec![0.0; n]);
+        let (mut perturbed, mut label, mut at_state) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for (t, q) in d.states.iter().enumerate() {
             let velocity = policy.reference().velocity(t).to_vec();
-            policy.query(&mut tracking, q, Some(&velocity), &mut label)?;
+            policy.query(&mut tracking, q, Some(&velocity), &mut at_state)?;
             for _ in 0..augment.per_state {
                 let sigma = rng.random_range(lo..=hi).exp();
                 for ((x, q0), l) in perturbed.iter_mut().zip(q).zip(at.model.limits()) {
                     *x = (q0 + sigma * gaussian(&mut rng)).clamp(l.lower, l.upper);
                 }
                 policy.probe(&mut tracking, &perturbed, Some(&velocity), &mut label)?;
+                let distance = perturbed.iter().zip(q).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+                // A perturbation clamped back onto the state has no slope.
+                if distance > 1e-9 {
+                    self.slope_rows.push([self.len(), first + t]);
+                    self.slopes.extend(label.iter().zip(&at_state).map(|(a, b)| ((a - b) / distance) as f32));
+                    self.slope_inverse_lengths.push((1.0 / distance) as f32);
+                }
                 self.push(at, d.id, goal, &perturbed, &label)?;
             }
         }
@@ -312,6 +337,10 @@ impl Pairs {
 
     /// Appends `other` (same widths).
     pub fn extend(&mut self, other: &Pairs) {
+        let offset = self.len();
+        self.slope_rows.extend(other.slope_rows.iter().map(|[a, b]| [a + offset, b + offset]));
+        self.slopes.extend_from_slice(&other.slopes);
+        self.slope_inverse_lengths.extend_from_slice(&other.slope_inverse_lengths);
         self.inputs.extend_from_slice(&other.inputs);
         self.directions.extend_from_slice(&other.directions);
         self.speeds.extend_from_slice(&other.speeds);

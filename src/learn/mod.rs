@@ -56,6 +56,8 @@ pub mod evaluate;
 pub mod features;
 #[cfg(feature = "learn")]
 pub mod grasp_intent;
+#[cfg(feature = "learn")]
+mod loss;
 mod network;
 mod policy;
 mod shipped;
@@ -71,13 +73,14 @@ pub use candle_reference::CandleNetwork;
 pub use dataset::{Augmentation, Demonstration, Demonstrations, InputView, Pairs, in_validation};
 #[cfg(feature = "learn")]
 pub use ddpg::{DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
+#[cfg(feature = "learn")]
+pub use loss::{normalisation, speed_scale};
 pub use network::{FORMAT, FORMAT_VERSION, NetworkWorkspace, PolicyMeta, PolicyNetwork};
 pub use policy::{LearnedPolicy, LearnedPolicyWorkspace, problem_goal};
 pub use shipped::{SHIPPED_POLICY_PATH, SHIPPED_POLICY_PROVENANCE, shipped_policy};
 #[cfg(feature = "learn")]
 pub use train::{
-    EpochLoss, LearnSettings, MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH, TrainReport, TrainSettings, normalisation,
-    speed_scale, train, train_on,
+    EpochLoss, LearnSettings, MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH, TrainReport, TrainSettings, train, train_on,
 };
 
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! Training the policy network with candle (CPU): minibatch AdamW on the
-//! dissertation's loss (§3.3.3) — the weighted sum of the mean squared errors
-//! of the unit joint velocity and of its norm — with a cosine learning-rate
-//! decay.
+//! dissertation's loss (§3.3.3, see [`loss`](super::loss)) — the weighted
+//! sum of the mean squared errors of the unit joint velocity and of its norm,
+//! optionally with a slope term — with a cosine learning-rate decay.
 //!
 //! Deterministic: the initial weights and the minibatch order come from the
 //! seed (ChaCha8), and every operation runs in a fixed order on the CPU, so
@@ -10,6 +10,7 @@
 use super::LearnError;
 use super::checkpoint::{self, AdamW};
 use super::dataset::Pairs;
+use super::loss::{Prepared, losses, normalisation, speed_scale};
 use super::network::{PolicyMeta, PolicyNetwork};
 use crate::settings::{InvalidSetting, non_negative, positive, readable};
 use candle_core::{Device, Tensor, Var};
@@ -37,6 +38,11 @@ pub struct TrainSettings {
     /// Speed (rad/s) below which a pair's direction loss is scaled down
     /// linearly: the direction of a near-zero velocity is noise (default 0.05).
     pub direction_speed: f64,
+    /// Weight of the slope loss: the network's action change from each
+    /// demonstrated state to its perturbed copies against the LQR tracking
+    /// policy's, relative to its mean square (default 0: the dissertation's
+    /// loss; needs perturbed pairs, see [`loss`](super::loss)).
+    pub slope_weight: f64,
     /// Show a progress bar on stderr.
     pub progress: bool,
     /// Save the optimisation state here after every epoch and resume from
@@ -75,6 +81,7 @@ impl TrainSettings {
         }
         positive("learning_rate", self.learning_rate, "")?;
         positive("direction_speed", self.direction_speed, "rad/s")?;
+        non_negative("slope_weight", self.slope_weight, "")?;
         non_negative("speed_weight", self.speed_weight, "")
     }
 }
@@ -89,6 +96,7 @@ impl Default for TrainSettings {
             learning_rate: 2e-3,
             speed_weight: 1.0,
             direction_speed: 0.05,
+            slope_weight: 0.0,
             progress: false,
             checkpoint: None,
         }
@@ -198,100 +206,6 @@ impl Layers {
 /// One flattened tensor per layer.
 type LayerValues = Vec<Vec<f32>>;
 
-/// One minibatch as tensors: normalised inputs, target directions, target
-/// scaled speeds and direction weights.
-struct Batch {
-    x: Tensor,
-    direction: Tensor,
-    speed: Tensor,
-    weight: Tensor,
-}
-
-/// Normalised inputs and targets of a pair set, ready for minibatches.
-struct Prepared {
-    d: usize,
-    n: usize,
-    x: Vec<f32>,
-    direction: Vec<f32>,
-    speed: Vec<f32>,
-    weight: Vec<f32>,
-}
-
-impl Prepared {
-    fn new(pairs: &Pairs, mean: &[f32], std: &[f32], speed_scale: f64, direction_speed: f64) -> Prepared {
-        let d = pairs.input_width;
-        let x = pairs
-            .inputs
-            .chunks_exact(d)
-            .flat_map(|row| row.iter().zip(mean.iter().zip(std)).map(|(v, (m, s))| (v - m) / s))
-            .collect();
-        let weight = pairs.speeds.iter().map(|s| (f64::from(*s) / direction_speed).min(1.0) as f32).collect();
-        let speed = pairs.speeds.iter().map(|s| (f64::from(*s) / speed_scale) as f32).collect();
-        Prepared { d, n: pairs.dof, x, direction: pairs.directions.clone(), speed, weight }
-    }
-
-    fn len(&self) -> usize {
-        self.speed.len()
-    }
-
-    fn batch(&self, rows: &[usize]) -> Result<Batch, LearnError> {
-        let (d, n, m) = (self.d, self.n, rows.len());
-        let mut x = Vec::with_capacity(m * d);
-        let mut direction = Vec::with_capacity(m * n);
-        for &r in rows {
-            x.extend_from_slice(&self.x[r * d..(r + 1) * d]);
-            direction.extend_from_slice(&self.direction[r * n..(r + 1) * n]);
-        }
-        let speed: Vec<f32> = rows.iter().map(|&r| self.speed[r]).collect();
-        let weight: Vec<f32> = rows.iter().map(|&r| self.weight[r]).collect();
-        let dev = &Device::Cpu;
-        Ok(Batch {
-            x: Tensor::from_vec(x, (m, d), dev).map_err(candle)?,
-            direction: Tensor::from_vec(direction, (m, n), dev).map_err(candle)?,
-            speed: Tensor::from_vec(speed, (m, 1), dev).map_err(candle)?,
-            weight: Tensor::from_vec(weight, (m, 1), dev).map_err(candle)?,
-        })
-    }
-}
-
-/// The loss of a minibatch: `(direction, speed)` mean squared errors.
-fn losses(layers: &Layers, batch: &Batch, n: usize) -> Result<(Tensor, Tensor), candle_core::Error> {
-    let out = layers.forward(&batch.x)?;
-    let direction = out.narrow(1, 0, n)?;
-    let speed = out.narrow(1, n, 1)?;
-    let direction_loss = (direction - &batch.direction)?.sqr()?.sum_keepdim(1)?.mul(&batch.weight)?.mean_all()?;
-    let speed_loss = (speed - &batch.speed)?.sqr()?.mean_all()?;
-    Ok((direction_loss, speed_loss))
-}
-
-/// Input normalisation of `pairs`: per-feature mean and standard deviation
-/// (1 for a feature that never varies).
-pub fn normalisation(pairs: &Pairs) -> (Vec<f32>, Vec<f32>) {
-    let d = pairs.input_width;
-    let rows = pairs.len().max(1) as f64;
-    let mut mean = vec![0.0f64; d];
-    let mut square = vec![0.0f64; d];
-    for row in pairs.inputs.chunks_exact(d) {
-        for j in 0..d {
-            mean[j] += f64::from(row[j]);
-            square[j] += f64::from(row[j]).powi(2);
-        }
-    }
-    let mean: Vec<f64> = mean.iter().map(|m| m / rows).collect();
-    let std = square
-        .iter()
-        .zip(&mean)
-        .map(|(s, m)| (s / rows - m * m).max(0.0).sqrt())
-        .map(|s| if s > 1e-6 { s } else { 1.0 });
-    (mean.iter().map(|m| *m as f32).collect(), std.map(|s| s as f32).collect())
-}
-
-/// Root mean square speed of `pairs` (rad/s): the output scale.
-pub fn speed_scale(pairs: &Pairs) -> f64 {
-    let rms = (pairs.speeds.iter().map(|s| f64::from(*s).powi(2)).sum::<f64>() / pairs.len().max(1) as f64).sqrt();
-    if rms > 1e-9 { rms } else { 1.0 }
-}
-
 /// Trains a network described by `meta` on `train` (validated on
 /// `validation` after each epoch). `initial` continues from a network
 /// (same shapes; its normalisation and speed scale are kept); otherwise
@@ -321,8 +235,9 @@ pub fn train(
     };
     let mut rng = ChaCha8Rng::seed_from_u64(settings.seed);
     let layers = Layers::new(&meta, initial, &mut rng)?;
-    let prepare = |p: &Pairs| Prepared::new(p, &mean, &std, meta.speed_scale, settings.direction_speed);
+    let prepare = |p: &Pairs| Prepared::new(p, (&mean, &std), meta.speed_scale, settings.direction_speed);
     let (data, held_out) = (prepare(train), prepare(validation));
+    let (slopes, slope_scale) = (settings.slope_weight > 0.0, data.slope_scale());
     let params = ParamsAdamW { lr: settings.learning_rate, weight_decay: 0.0, ..ParamsAdamW::default() };
     let mut optimizer = AdamW::new(layers.vars(), params)?;
     let batches_per_epoch = data.len().div_ceil(settings.batch);
@@ -364,9 +279,9 @@ pub fn train(
             let progress = step as f64 / total.max(1) as f64;
             let lr = settings.learning_rate * (0.01 + 0.99 * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos()));
             optimizer.set_learning_rate(lr);
-            let batch = data.batch(rows)?;
-            let (direction, speed) = losses(&layers, &batch, meta.dof()).map_err(candle)?;
-            let loss = (direction + (speed * settings.speed_weight).map_err(candle)?).map_err(candle)?;
+            let batch = data.batch(rows, slopes)?;
+            let loss = weighted_sum(&losses(&layers, &batch, meta.dof(), slope_scale).map_err(candle)?, settings)
+                .map_err(candle)?;
             optimizer.backward_step(&loss).map_err(candle)?;
             sum += f64::from(loss.to_scalar::<f32>().map_err(candle)?);
             step += 1;
@@ -436,19 +351,31 @@ fn validate(
     Ok(())
 }
 
-/// Mean direction and speed losses over `data` (NaN when empty).
+/// The weighted sum of a minibatch's losses.
+fn weighted_sum(l: &super::loss::Losses, settings: &TrainSettings) -> Result<Tensor, candle_core::Error> {
+    let loss = (&l.direction + (&l.speed * settings.speed_weight)?)?;
+    match &l.slope {
+        Some(slope) => loss + (slope * settings.slope_weight)?,
+        None => Ok(loss),
+    }
+}
+
+/// Mean direction and speed losses over `data` (NaN when empty): the
+/// dissertation's loss, whatever the slope weight (validation pairs are
+/// demonstrations only).
 fn evaluate(layers: &Layers, data: &Prepared, n: usize) -> Result<(f64, f64), LearnError> {
     if data.len() == 0 {
         return Ok((f64::NAN, f64::NAN));
     }
+    let value = |t: &Tensor| t.to_scalar::<f32>().map(f64::from).map_err(candle);
     let (mut direction, mut speed) = (0.0, 0.0);
     let rows: Vec<usize> = (0..data.len()).collect();
     for chunk in rows.chunks(8192) {
-        let batch = data.batch(chunk)?;
-        let (d, s) = losses(layers, &batch, n).map_err(candle)?;
+        let batch = data.batch(chunk, false)?;
+        let l = losses(layers, &batch, n, 1.0).map_err(candle)?;
         let w = chunk.len() as f64;
-        direction += w * f64::from(d.to_scalar::<f32>().map_err(candle)?);
-        speed += w * f64::from(s.to_scalar::<f32>().map_err(candle)?);
+        direction += w * value(&l.direction)?;
+        speed += w * value(&l.speed)?;
     }
     Ok((direction / data.len() as f64, speed / data.len() as f64))
 }
@@ -648,6 +575,56 @@ mod tests {
         }
         assert!(worst < 1e-5, "largest relative difference {worst}");
         assert!(graph.iter().any(|v| v.abs() > 0.1), "a non-trivial network");
+    }
+
+    /// The slope term of the training graph is the hand-written network's
+    /// action change per unit distance against the target, to float
+    /// rounding: the loss trains the derivative a query differentiates.
+    #[test]
+    fn slope_loss_is_the_queried_actions_difference_quotient() {
+        let meta = meta(vec![16, 16]);
+        let (d, n) = (meta.input_width(), 7);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let layers = Layers::new(&meta, None, &mut rng).unwrap();
+        let mut pairs = Pairs { input_width: d, dof: n, ..Pairs::default() };
+        let rows = 6;
+        pairs.inputs = (0..rows * d).map(|_| rng.random_range(-2.0..2.0)).collect();
+        pairs.directions = vec![0.0; rows * n];
+        pairs.speeds = vec![0.5; rows];
+        // Rows 3, 4, 5 perturb rows 0, 2, 0.
+        pairs.slope_rows = vec![[3, 0], [4, 2], [5, 0]];
+        pairs.slopes = (0..3 * n).map(|_| rng.random_range(-3.0..3.0)).collect();
+        pairs.slope_inverse_lengths = vec![20.0, 50.0, 100.0];
+        let (mean, std) = normalisation(&pairs);
+        let data = Prepared::new(&pairs, (&mean, &std), meta.speed_scale, 0.05);
+        let all: Vec<usize> = (0..rows).collect();
+        let graph = losses(&layers, &data.batch(&all, true).unwrap(), n, 2.0).unwrap();
+        let graph = f64::from(graph.slope.unwrap().to_scalar::<f32>().unwrap());
+
+        let (weights, biases) = layers.values().unwrap();
+        let network = PolicyNetwork::from_parts(meta.clone(), mean, std, &weights, &biases).unwrap();
+        let mut scratch = network.scratch();
+        // The query's velocity, in the graph's scaled units.
+        let action = |r: usize, scratch: &mut _| -> Vec<f64> {
+            let (mut out, mut velocity) = (vec![0.0f32; n + 1], vec![0.0; n]);
+            network.forward(&pairs.inputs[r * d..(r + 1) * d], scratch, &mut out);
+            network.velocity_from_outputs(&out, &mut velocity);
+            velocity.iter().map(|v| v / meta.speed_scale).collect()
+        };
+        let mut hand = 0.0;
+        for (k, [p, b]) in pairs.slope_rows.iter().enumerate() {
+            let (ap, ab) = (action(*p, &mut scratch), action(*b, &mut scratch));
+            let inverse = f64::from(pairs.slope_inverse_lengths[k]);
+            for j in 0..n {
+                let target = f64::from(pairs.slopes[k * n + j]) / meta.speed_scale;
+                hand += ((ap[j] - ab[j]) * inverse - target).powi(2);
+            }
+        }
+        hand /= 3.0 * 2.0;
+        assert!(hand > 1.0, "a non-trivial comparison: {hand}");
+        assert!((graph - hand).abs() < 1e-4 * hand, "graph {graph}, hand-written {hand}");
+        // Without slopes asked for, none is computed.
+        assert!(losses(&layers, &data.batch(&all, false).unwrap(), n, 2.0).unwrap().slope.is_none());
     }
 
     #[test]
