@@ -57,7 +57,7 @@ pub mod features;
 #[cfg(feature = "learn")]
 pub mod grasp_intent;
 #[cfg(feature = "learn")]
-mod loss;
+pub mod loss;
 mod network;
 mod policy;
 mod shipped;
