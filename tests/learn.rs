@@ -594,6 +594,27 @@ fn the_shipped_policy_grasps_on_unseen_tasks() {
     assert!(counts.success_rate() >= claimed - 0.05, "{counts:?} against the claimed {claimed}");
 }
 
+/// The first 60 tasks of seed 2026 (not used to choose κ or the slope
+/// weight), judged as rollouts are.
+fn seed_2026_tasks() -> Vec<Task> {
+    let (family, max_tilt) = (family(), RolloutSettings::default().max_tilt);
+    (0..60).map(|i| Task::new(family.sample(2026, i).unwrap().problem, max_tilt).unwrap()).collect()
+}
+
+/// Success rate of the Approach operator through `mode` on `tasks` with the
+/// shipped policy or LQR as the goal policy; no episode may collide.
+fn shared_control_rate(
+    tasks: &[Task],
+    mode: ArbitrationMode,
+    modes: &tandem::arbitration::ModeSettings,
+    which: tandem::experiments::policy::GoalPolicy,
+) -> f64 {
+    let network = Arc::new(tandem::learn::shipped_policy().unwrap());
+    let outcomes = tandem::experiments::policy::shared_control(&network, tasks, mode, modes, which, 0).unwrap();
+    assert!(!outcomes.contains(&tandem::sim::Outcome::Collision), "{mode:?}, {modes:?}, {which:?}: {outcomes:?}");
+    outcomes.iter().filter(|o| **o == tandem::sim::Outcome::Success).count() as f64 / tasks.len() as f64
+}
+
 /// Shared control on top of the shipped policy (the Approach operator, 60
 /// tasks of a seed not used to choose κ): with sum-of-squares centred on
 /// the robot's action (κ = 0.5) it grasps about as often as on the LQR
@@ -604,18 +625,11 @@ fn the_shipped_policy_grasps_on_unseen_tasks() {
 #[test]
 fn centred_sum_of_squares_blends_the_learned_policy_as_well_as_lqr() {
     use tandem::arbitration::ModeSettings;
-    use tandem::experiments::policy::{GoalPolicy, shared_control};
-    use tandem::sim::Outcome;
-    let network = Arc::new(tandem::learn::shipped_policy().unwrap());
-    let family = family();
-    let max_tilt = RolloutSettings::default().max_tilt;
-    let tasks: Vec<Task> =
-        (0..60).map(|i| Task::new(family.sample(2026, i).unwrap().problem, max_tilt).unwrap()).collect();
+    use tandem::experiments::policy::GoalPolicy;
+    let tasks = seed_2026_tasks();
     let rate = |kappa: f64, which: GoalPolicy| {
         let modes = ModeSettings { sum_of_squares_center: kappa, ..ModeSettings::default() };
-        let outcomes = shared_control(&network, &tasks, ArbitrationMode::SumOfSquares, &modes, which, 0).unwrap();
-        assert!(!outcomes.contains(&Outcome::Collision), "κ {kappa}, {which:?}: {outcomes:?}");
-        outcomes.iter().filter(|o| **o == Outcome::Success).count() as f64 / tasks.len() as f64
+        shared_control_rate(&tasks, ArbitrationMode::SumOfSquares, &modes, which)
     };
     let (learned, lqr, still) =
         (rate(0.5, GoalPolicy::Learned), rate(0.5, GoalPolicy::Lqr), rate(0.0, GoalPolicy::Learned));
@@ -632,19 +646,9 @@ fn centred_sum_of_squares_blends_the_learned_policy_as_well_as_lqr() {
 #[test]
 fn the_constrained_mode_blends_the_learned_policy_near_lqr() {
     use tandem::arbitration::ModeSettings;
-    use tandem::experiments::policy::{GoalPolicy, shared_control};
-    use tandem::sim::Outcome;
-    let network = Arc::new(tandem::learn::shipped_policy().unwrap());
-    let family = family();
-    let max_tilt = RolloutSettings::default().max_tilt;
-    let tasks: Vec<Task> =
-        (0..60).map(|i| Task::new(family.sample(2026, i).unwrap().problem, max_tilt).unwrap()).collect();
-    let modes = ModeSettings::default();
-    let rate = |which: GoalPolicy| {
-        let outcomes = shared_control(&network, &tasks, ArbitrationMode::Constrained, &modes, which, 0).unwrap();
-        assert!(!outcomes.contains(&Outcome::Collision), "{which:?}: {outcomes:?}");
-        outcomes.iter().filter(|o| **o == Outcome::Success).count() as f64 / tasks.len() as f64
-    };
+    use tandem::experiments::policy::GoalPolicy;
+    let tasks = seed_2026_tasks();
+    let rate = |which| shared_control_rate(&tasks, ArbitrationMode::Constrained, &ModeSettings::default(), which);
     let (learned, lqr) = (rate(GoalPolicy::Learned), rate(GoalPolicy::Lqr));
     eprintln!("constrained on 60 tasks of seed 2026: learned {learned}, lqr {lqr}");
     // 60 tasks: a binomial standard deviation of about 5.5 points at 75 %.
