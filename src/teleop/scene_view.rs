@@ -150,7 +150,7 @@ pub struct StateView {
     /// or `waiting` before the operator's first command (the episode's
     /// clock has not started).
     pub status: &'static str,
-    /// The mode that ran the tick.
+    /// The mode that ran the tick; while `waiting`, the one that will.
     pub mode: &'static str,
     /// Wall-clock time of the arbiter's tick (µs).
     pub tick_us: f64,

@@ -284,6 +284,9 @@ impl TeleopSession {
             });
         }
         self.ws.set_mode(mode);
+        // The state says the new mode at once, also while waiting (no tick
+        // runs before the first command to refresh it).
+        self.state.mode = mode.as_str();
         Ok(mode)
     }
 
