@@ -3,8 +3,8 @@
 //! variant) is checked against, and its timing peer in `benches/`.
 
 use super::LearnError;
+use super::layers::{Layers, candle};
 use super::network::PolicyNetwork;
-use super::train::{Layers, candle};
 use candle_core::{Device, Tensor};
 use rand::SeedableRng;
 

@@ -9,8 +9,9 @@
 
 use super::LearnError;
 use super::dataset::Pairs;
+use super::layers::candle;
 use super::network::PolicyMeta;
-use super::train::{EpochLoss, TrainSettings, candle};
+use super::train_settings::{EpochLoss, TrainSettings};
 use candle_core::backprop::GradStore;
 use candle_core::{Device, Tensor, Var};
 use candle_nn::ParamsAdamW;

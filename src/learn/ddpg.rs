@@ -15,7 +15,7 @@
 
 use super::LearnError;
 use super::arbitration_actor::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
-use super::train::{Layers, candle, progress_bar};
+use super::layers::{Layers, candle, progress_bar};
 use crate::arbitration::StateLayout;
 use crate::settings::InvalidSetting;
 use crate::sim::{ArbitrationEnv, ArbitrationEnvSettings, EnvOutcome, RewardKind, reward};

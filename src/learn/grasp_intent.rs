@@ -27,7 +27,7 @@
 //! ```
 
 use super::LearnError;
-use super::train::{Layers, candle, shuffle};
+use super::layers::{Layers, candle, shuffle};
 use candle_core::{Device, Tensor};
 use candle_nn::{AdamW, Optimizer, ParamsAdamW};
 use rand::SeedableRng;

@@ -15,7 +15,7 @@
 
 use super::LearnError;
 use super::dataset::Pairs;
-use super::train::{Layers, candle};
+use super::layers::{Layers, candle};
 use candle_core::{Device, Tensor};
 
 /// One minibatch as tensors: normalised inputs, target directions, target
@@ -219,4 +219,63 @@ pub fn normalisation(pairs: &Pairs) -> (Vec<f32>, Vec<f32>) {
 pub fn speed_scale(pairs: &Pairs) -> f64 {
     let rms = (pairs.speeds.iter().map(|s| f64::from(*s).powi(2)).sum::<f64>() / pairs.len().max(1) as f64).sqrt();
     if rms > 1e-9 { rms } else { 1.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::layers::tests::meta;
+    use super::super::network::PolicyNetwork;
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The slope term of the training graph is the hand-written network's
+    /// action change per unit distance against the target, to float
+    /// rounding: the loss trains the derivative a query differentiates.
+    #[test]
+    fn slope_loss_is_the_queried_actions_difference_quotient() {
+        let meta = meta(vec![16, 16]);
+        let (d, n) = (meta.input_width(), 7);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let layers = Layers::new(&meta, None, &mut rng).unwrap();
+        let mut pairs = Pairs { input_width: d, dof: n, ..Pairs::default() };
+        let rows = 6;
+        pairs.inputs = (0..rows * d).map(|_| rng.random_range(-2.0..2.0)).collect();
+        pairs.directions = vec![0.0; rows * n];
+        pairs.speeds = vec![0.5; rows];
+        // Rows 3, 4, 5 perturb rows 0, 2, 0.
+        pairs.slope_rows = vec![[3, 0], [4, 2], [5, 0]];
+        pairs.slopes = (0..3 * n).map(|_| rng.random_range(-3.0..3.0)).collect();
+        pairs.slope_inverse_lengths = vec![20.0, 50.0, 100.0];
+        let (mean, std) = normalisation(&pairs);
+        let data = Prepared::new(&pairs, (&mean, &std), meta.speed_scale, 0.05);
+        let all: Vec<usize> = (0..rows).collect();
+        let graph = losses(&layers, &data.batch(&all, true).unwrap(), n, 2.0).unwrap();
+        let graph = f64::from(graph.slope.unwrap().to_scalar::<f32>().unwrap());
+
+        let (weights, biases) = layers.values().unwrap();
+        let network = PolicyNetwork::from_parts(meta.clone(), mean, std, &weights, &biases).unwrap();
+        let mut scratch = network.scratch();
+        // The query's velocity, in the graph's scaled units.
+        let action = |r: usize, scratch: &mut _| -> Vec<f64> {
+            let (mut out, mut velocity) = (vec![0.0f32; n + 1], vec![0.0; n]);
+            network.forward(&pairs.inputs[r * d..(r + 1) * d], scratch, &mut out);
+            network.velocity_from_outputs(&out, &mut velocity);
+            velocity.iter().map(|v| v / meta.speed_scale).collect()
+        };
+        let mut hand = 0.0;
+        for (k, [p, b]) in pairs.slope_rows.iter().enumerate() {
+            let (ap, ab) = (action(*p, &mut scratch), action(*b, &mut scratch));
+            let inverse = f64::from(pairs.slope_inverse_lengths[k]);
+            for j in 0..n {
+                let target = f64::from(pairs.slopes[k * n + j]) / meta.speed_scale;
+                hand += ((ap[j] - ab[j]) * inverse - target).powi(2);
+            }
+        }
+        hand /= 3.0 * 2.0;
+        assert!(hand > 1.0, "a non-trivial comparison: {hand}");
+        assert!((graph - hand).abs() < 1e-4 * hand, "graph {graph}, hand-written {hand}");
+        // Without slopes asked for, none is computed.
+        assert!(losses(&layers, &data.batch(&all, false).unwrap(), n, 2.0).unwrap().slope.is_none());
+    }
 }

@@ -57,12 +57,16 @@ pub mod features;
 #[cfg(feature = "learn")]
 pub mod grasp_intent;
 #[cfg(feature = "learn")]
+mod layers;
+#[cfg(feature = "learn")]
 pub mod loss;
 mod network;
 mod policy;
 mod shipped;
 #[cfg(feature = "learn")]
 mod train;
+#[cfg(feature = "learn")]
+mod train_settings;
 
 pub use arbitration_actor::{
     ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta, LayerShapes,
@@ -79,9 +83,9 @@ pub use network::{FORMAT, FORMAT_VERSION, NetworkWorkspace, PolicyMeta, PolicyNe
 pub use policy::{LearnedPolicy, LearnedPolicyWorkspace, problem_goal};
 pub use shipped::{SHIPPED_POLICY_PATH, SHIPPED_POLICY_PROVENANCE, shipped_policy};
 #[cfg(feature = "learn")]
-pub use train::{
-    EpochLoss, LearnSettings, MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH, TrainReport, TrainSettings, train, train_on,
-};
+pub use train::{train, train_on};
+#[cfg(feature = "learn")]
+pub use train_settings::{EpochLoss, LearnSettings, MAX_HIDDEN_LAYERS, MAX_HIDDEN_WIDTH, TrainReport, TrainSettings};
 
 use std::path::PathBuf;
 
