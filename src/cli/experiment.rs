@@ -2,8 +2,8 @@
 //! one command each, all run by [`crate::experiments::run`]: the arguments
 //! become the experiment's settings and the harness's, nothing more.
 
-use crate::data::Progress;
-use crate::experiments::{HarnessSettings, PlanarSettings, ReachGraspSettings, Simulator};
+use super::harness::run_in_harness;
+use crate::experiments::{PlanarSettings, ReachGraspSettings, Simulator};
 use crate::sim::Arm;
 use crate::sim::PhysicsSettings;
 use std::path::PathBuf;
@@ -191,28 +191,6 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error
         Experiment::Learned(a) => super::learned_arbitration::experiment_learned(a),
         Experiment::Traded(a) => super::experiment_traded::traded(a),
     }
-}
-
-/// Runs `experiment` in the harness (`threads`, `out`; quiet with `json`),
-/// then prints its JSON, or its table and the files it wrote.
-pub(super) fn run_in_harness<E: crate::experiments::Experiment>(
-    experiment: &E,
-    threads: Option<usize>,
-    json: bool,
-    out: Option<PathBuf>,
-) -> Result<(), Box<dyn std::error::Error>> {
-    let progress = if json { Progress::quiet() } else { Progress::auto() };
-    let report = crate::experiments::run(experiment, &HarnessSettings { threads, progress, out })?;
-    if json {
-        println!("{}", report.json);
-        return Ok(());
-    }
-    print!("{}", report.table);
-    if !report.written.is_empty() {
-        let files: Vec<String> = report.written.iter().map(|p| p.display().to_string()).collect();
-        println!("wrote {}", files.join(", "));
-    }
-    Ok(())
 }
 
 fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> {

@@ -86,5 +86,5 @@ pub(super) fn run_policy(args: &PolicyExperimentArgs) -> Result<(), Box<dyn std:
         lqr: !args.no_lqr,
         modes: args.centers.apply(crate::arbitration::ModeSettings::default()),
     };
-    super::experiment::run_in_harness(&experiment, None, args.json, Some(args.out.clone()))
+    super::harness::run_in_harness(&experiment, None, args.json, Some(args.out.clone()))
 }

@@ -63,7 +63,7 @@ pub(super) fn traded(args: &TradedArgs) -> Result<(), Box<dyn std::error::Error>
         predictor: if args.predictor == "posterior" { PredictorKind::Posterior } else { PredictorKind::Network },
         ..TradedExperimentSettings::default()
     };
-    super::experiment::run_in_harness(&settings, args.threads, args.json, args.out.clone())
+    super::harness::run_in_harness(&settings, args.threads, args.json, args.out.clone())
 }
 
 /// Longest planning latency `--planning-latency` charges (s): an hour.

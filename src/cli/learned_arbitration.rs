@@ -121,5 +121,5 @@ pub(super) fn experiment_learned(args: &LearnedExperimentArgs) -> Result<(), Box
         train_seeds: args.train_seeds,
     };
     let out = args.out.clone().unwrap_or_else(|| std::env::temp_dir().join("tandem-learned"));
-    super::experiment::run_in_harness(&experiment, args.threads, args.json, Some(out))
+    super::harness::run_in_harness(&experiment, args.threads, args.json, Some(out))
 }

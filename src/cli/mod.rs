@@ -18,6 +18,7 @@ mod experiment;
 mod experiment_policy;
 mod experiment_traded;
 mod generate;
+mod harness;
 mod inspect;
 mod kinematics;
 mod learn;

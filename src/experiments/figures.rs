@@ -228,27 +228,3 @@ pub fn training_curves(
     let of = if seeds == 1 { "one seed".to_string() } else { format!("mean of {seeds} seeds") };
     render_panels(&format!("Training the arbiter with DDPG ({of})"), &[success, returns], 560, 400)
 }
-
-#[cfg(feature = "learn")]
-/// Fig. 6.5: distance of the executed command to the user's and to the
-/// predicted sub-policy along normalised episode time, one panel per method.
-///
-/// # Errors
-/// Plotting errors.
-pub fn authority_curves(curves: &[super::learned::AuthorityCurve]) -> Result<String, FigureError> {
-    let at = |v: &[f64]| v.iter().enumerate().map(|(k, y)| (10.0 * k as f64 + 5.0, *y)).collect::<Vec<_>>();
-    let mut panels: Vec<Panel> = curves
-        .iter()
-        .map(|c| {
-            Panel::new(&c.method, "episode duration (%)", "‖û − â‖ (unit directions)")
-                .with(Series::line("to the user", &at(&c.to_user), 0))
-                .with(Series::line("to the predicted sub-policy", &at(&c.to_robot), 1))
-        })
-        .collect();
-    // Compared across methods: one y axis from 0 (distances of unit vectors).
-    crate::figures::share_y(&mut panels);
-    for p in &mut panels {
-        p.y_range = p.y_range.map(|(_, hi)| (0.0, hi));
-    }
-    render_panels("Who has authority along the episode (straight user)", &panels, 420, 380)
-}

@@ -9,9 +9,10 @@
 //! Fig. 6.5: the distance of the executed command to the user's and to the
 //! most likely goal's sub-policy along normalised episode time.
 
-use super::figures::{authority_curves, training_curves};
+use super::figures::training_curves;
 use super::{Context, Experiment, ExperimentError, mean_std};
 use crate::arbitration::{Arbiter, ArbiterSettings, ArbitrationError, ArbitrationMode};
+use crate::figures::{FigureError, Panel, Series, render_panels, share_y};
 use crate::learn::{ArbitrationActor, DdpgReport, DdpgSettings, TrainingEpisode, train_arbitration};
 use crate::problem::Problem;
 use crate::sim::{
@@ -469,4 +470,27 @@ impl Experiment for LearnedExperiment {
     fn figures(&self, run: &LearnedRun) -> Result<Vec<(String, String)>, ExperimentError> {
         Ok(vec![("authority.svg".into(), authority_curves(&run.results.curves)?)])
     }
+}
+
+/// Fig. 6.5: distance of the executed command to the user's and to the
+/// predicted sub-policy along normalised episode time, one panel per method.
+///
+/// # Errors
+/// Plotting errors.
+fn authority_curves(curves: &[AuthorityCurve]) -> Result<String, FigureError> {
+    let at = |v: &[f64]| v.iter().enumerate().map(|(k, y)| (10.0 * k as f64 + 5.0, *y)).collect::<Vec<_>>();
+    let mut panels: Vec<Panel> = curves
+        .iter()
+        .map(|c| {
+            Panel::new(&c.method, "episode duration (%)", "‖û − â‖ (unit directions)")
+                .with(Series::line("to the user", &at(&c.to_user), 0))
+                .with(Series::line("to the predicted sub-policy", &at(&c.to_robot), 1))
+        })
+        .collect();
+    // Compared across methods: one y axis from 0 (distances of unit vectors).
+    share_y(&mut panels);
+    for p in &mut panels {
+        p.y_range = p.y_range.map(|(_, hi)| (0.0, hi));
+    }
+    render_panels("Who has authority along the episode (straight user)", &panels, 420, 380)
 }
