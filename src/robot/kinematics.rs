@@ -21,7 +21,7 @@
 
 use super::error::RobotError;
 use super::model::{FrameId, Motion, RobotModel};
-use nalgebra::{IsometryMatrix3, Matrix3, Matrix3xX, Matrix6xX, Point3, Rotation3, Translation3, Vector3};
+use nalgebra::{IsometryMatrix3, Matrix3, Matrix3xX, Matrix6xX, Point3, Rotation3, Vector3};
 
 /// The frame in which a Jacobian's rows are expressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -64,17 +64,6 @@ impl KinematicsWorkspace {
     /// last [`RobotModel::update_frame_placements`].
     pub fn frame_poses(&self) -> &[IsometryMatrix3<f64>] {
         &self.frame_poses
-    }
-}
-
-/// The displacement of a joint of kind `motion` at `value` (rad or m).
-pub(crate) fn joint_motion(motion: &Motion, value: f64) -> IsometryMatrix3<f64> {
-    match *motion {
-        Motion::Prismatic(axis) => IsometryMatrix3::from_parts(Translation3::from(axis * value), Rotation3::identity()),
-        _ => IsometryMatrix3::from_parts(
-            Translation3::identity(),
-            Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(motion.axis()), value),
-        ),
     }
 }
 

@@ -23,7 +23,7 @@
 use super::description::{JointKind, JointLimits, RobotDescription};
 use super::error::{RobotError, suggest};
 use super::placement::Placement;
-use nalgebra::{IsometryMatrix3, Vector3};
+use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -49,6 +49,19 @@ impl Motion {
             _ if exact(2) => Motion::RevoluteZ,
             _ => Motion::Revolute(axis),
         })
+    }
+
+    /// The joint's displacement at `value` (rad or m), in its frame.
+    pub(crate) fn displacement(&self, value: f64) -> IsometryMatrix3<f64> {
+        match *self {
+            Motion::Prismatic(axis) => {
+                IsometryMatrix3::from_parts(Translation3::from(axis * value), Rotation3::identity())
+            }
+            _ => IsometryMatrix3::from_parts(
+                Translation3::identity(),
+                Rotation3::from_axis_angle(&nalgebra::Unit::new_unchecked(self.axis()), value),
+            ),
+        }
     }
 
     /// Unit axis in the joint frame.
@@ -647,8 +660,7 @@ impl<'a> Compiler<'a> {
                 }
                 (_, motion) => {
                     let value = resolve_value(self.desc.joints(), self.held_values, j);
-                    let moved =
-                        motion.map_or(IsometryMatrix3::identity(), |m| super::kinematics::joint_motion(&m, value));
+                    let moved = motion.map_or(IsometryMatrix3::identity(), |m| m.displacement(value));
                     (body, at_joint * moved)
                 }
             };
