@@ -230,15 +230,25 @@ async fn connect(address: std::net::SocketAddr) -> Client {
 
 /// Reads until a message of type `kind` (the messages before it returned too).
 async fn until(client: &mut Client, kind: &str) -> Vec<serde_json::Value> {
+    until_message(client, Duration::from_secs(60), |m| m["type"] == kind).await
+}
+
+/// Reads until a message `done` accepts, within `timeout` (the messages
+/// before it returned too).
+async fn until_message(
+    client: &mut Client,
+    timeout: Duration,
+    done: impl Fn(&serde_json::Value) -> bool,
+) -> Vec<serde_json::Value> {
     let mut seen = vec![];
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
+    let deadline = tokio::time::Instant::now() + timeout;
     loop {
         let message = tokio::time::timeout_at(deadline, client.next()).await.expect("in time").expect("open").unwrap();
         if let Message::Text(text) = message {
             let value: serde_json::Value = serde_json::from_str(&text).unwrap();
-            let done = value["type"] == kind;
+            let finished = done(&value);
             seen.push(value);
-            if done {
+            if finished {
                 return seen;
             }
         }
@@ -444,19 +454,13 @@ async fn a_mode_asked_for_while_a_task_is_prepared_is_applied_or_refused_when_it
     client.send(Message::Text(r#"{"type":"reset","seed":1}"#.into())).await.unwrap();
     client.send(Message::Text(r#"{"type":"mode","mode":"constrained"}"#.into())).await.unwrap();
     let mut seen = until(&mut client, "scene").await;
-    // Usually the mode arrives while the task is prepared and the scene
-    // carries it; when the task is ready before the server reads it (a
-    // quick planar restart), it is applied at once and the states say so.
+    // Read while the task is prepared, the mode is in the scene; read after
+    // a quick planar restart is ready (both orders happen), it is applied
+    // at once and the states say so.
     if seen.last().unwrap()["mode"] != "constrained" {
         assert_eq!(seen.last().unwrap()["mode"], "sos", "{:?}", seen.last());
-        let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
-        while seen.last().unwrap()["type"] != "state" || seen.last().unwrap()["mode"] != "constrained" {
-            let message =
-                tokio::time::timeout_at(deadline, client.next()).await.expect("in time").expect("open").unwrap();
-            if let Message::Text(text) = message {
-                seen.push(serde_json::from_str(&text).unwrap());
-            }
-        }
+        let applied = |m: &serde_json::Value| m["type"] == "state" && m["mode"] == "constrained";
+        seen.extend(until_message(&mut client, Duration::from_secs(10), applied).await);
     }
     assert!(seen.iter().all(|m| m["type"] != "error"), "{seen:?}");
     // An unknown name is refused at once, one the task does not offer
