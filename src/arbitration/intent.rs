@@ -179,25 +179,6 @@ pub(crate) fn cap_beliefs(beliefs: &mut [f64], cap: f64) {
     }
 }
 
-/// Stage 2 of a tick: the beliefs over the goals.
-impl super::arbiter::Arbiter {
-    /// The beliefs of this tick: `given`, or the estimator's update from
-    /// the gripper position.
-    pub(crate) fn update_beliefs(&self, ws: &mut super::workspace::ArbiterWorkspace, given: Option<&[f64]>) {
-        match given {
-            Some(b) => ws.intent.beliefs.copy_from_slice(b),
-            None => {
-                let b = ws.intent.estimator.observe(ws.input.gripper_position, self.settings.period);
-                ws.intent.beliefs.copy_from_slice(b);
-            }
-        }
-        if let Some((g, &b)) = ws.intent.beliefs.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)) {
-            ws.diagnostics.goal = Some(g);
-            ws.diagnostics.confidence = b;
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,6 +1,6 @@
 //! Learned arbitration (the dissertation's chapter 6): a policy that maps the
 //! arbitration state `s_t = {x, a_H, a_1^R … a_G^R, b_1 … b_G}` (§6.4) to the
-//! arbitrated gripper velocity, run inside [`Arbiter::tick`] as
+//! arbitrated gripper velocity, run inside [`Arbiter::tick`](super::Arbiter::tick) as
 //! [`ArbitrationMode::Learned`](super::ArbitrationMode::Learned) under the
 //! same hard constraints as every mode.
 //!
@@ -17,10 +17,10 @@
 //!
 //! The operator's command comes last: the dissertation's networks route
 //! everything before it through a shared "head" and join the command after it.
-//! [`Arbiter::observe`] computes the state without acting and
-//! [`Arbiter::act_observed`] executes a given command under the hard
-//! constraints — the two halves a learner (DDPG, a Gymnasium environment)
-//! needs between them.
+//! [`Arbiter::observe`](super::Arbiter::observe) computes the state
+//! without acting and [`Arbiter::act_observed`](super::Arbiter::act_observed)
+//! executes a given command under the hard constraints — the two halves a
+//! learner (DDPG, a Gymnasium environment) needs between them.
 //!
 //! ```
 //! use tandem::arbitration::StateLayout;
@@ -28,11 +28,6 @@
 //! assert_eq!(planar.width(), 17); // the dissertation's 17-dimensional input (§6.5)
 //! assert_eq!(planar.human_offset(), 15);
 //! ```
-
-use super::arbiter::Arbiter;
-use super::command::HumanCommand;
-use super::command::TickInput;
-use super::workspace::ArbiterWorkspace;
 
 /// Where each part of the arbitration state sits, and its units.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -93,7 +88,8 @@ impl StateLayout {
 /// An arbitration policy: the arbitrated gripper velocity from the
 /// arbitration state. Implemented by the trained DDPG actor
 /// (`tandem::learn::ArbitrationActor`); any `Send + Sync` policy can be
-/// plugged into an [`Arbiter`] with [`Arbiter::with_arbitration_policy`].
+/// plugged into an [`Arbiter`](super::Arbiter) with
+/// [`Arbiter::with_arbitration_policy`](super::Arbiter::with_arbitration_policy).
 pub trait ArbitrationPolicy: Send + Sync + std::fmt::Debug {
     /// The state layout it reads.
     fn layout(&self) -> StateLayout;
@@ -103,76 +99,4 @@ pub trait ArbitrationPolicy: Send + Sync + std::fmt::Debug {
     /// normalised: multiply by `speed_scale` for m/s) for the normalised
     /// `state`. Must not allocate: it runs every control tick.
     fn act(&self, state: &[f64], scratch: &mut [f32], command: &mut [f64]);
-}
-
-impl Arbiter {
-    /// Fills `ws.learned.state` (the first `layout.width()` values) for the tick's
-    /// configuration, whose FK, Jacobian, beliefs and robot actions `ws`
-    /// already holds, and the operator's `command`. Returns false when a
-    /// value is not finite.
-    pub(crate) fn fill_state(
-        &self,
-        ws: &mut ArbiterWorkspace,
-        q: &[f64],
-        layout: &StateLayout,
-        command: &HumanCommand<'_>,
-    ) -> bool {
-        let (d, n) = (layout.task_dims, self.robot.nq());
-        let (length, speed) = (layout.length_scale, layout.speed_scale);
-        // The nearest pair's normal points from the robot's body to the obstacle.
-        let (obstacle, toward) = match self.collision.min_distance(&mut ws.rows.collision, q) {
-            Ok(Some(p)) if p.signed.distance < 1.0 => (p.signed.distance, <[f64; 3]>::from(p.signed.normal)),
-            _ => (1.0, [0.0; 3]),
-        };
-        let p = ws.input.gripper_position;
-        let mut human = [0.0; 3];
-        match command {
-            HumanCommand::Linear(v) | HumanCommand::Twist(v) => human.copy_from_slice(&v[..3]),
-            HumanCommand::Joint(v) => {
-                for (r, h) in human.iter_mut().enumerate() {
-                    *h = (0..n).map(|c| ws.input.jac[(r, c)] * v[c]).sum();
-                }
-            }
-        }
-        let s = &mut ws.learned.state;
-        for i in 0..d {
-            s[i] = p[i] / length;
-        }
-        for (g, goal) in self.goals.iter().enumerate() {
-            for i in 0..d {
-                s[d + g * d + i] = (goal.position[i] - p[i]) / length;
-            }
-        }
-        let o = layout.obstacle_offset();
-        s[o] = obstacle / length;
-        s[o + 1..o + 1 + d].copy_from_slice(&toward[..d]);
-        for g in 0..layout.goals {
-            let action = &ws.robot.actions[g * n..(g + 1) * n];
-            let at = layout.action_offset(g);
-            for i in 0..d {
-                s[at + i] = (0..n).map(|c| ws.input.jac[(i, c)] * action[c]).sum::<f64>() / speed;
-            }
-        }
-        let b = layout.belief_offset();
-        s[b..b + layout.goals].copy_from_slice(&ws.intent.beliefs);
-        let h = layout.human_offset();
-        for i in 0..d {
-            s[h + i] = human[i] / speed;
-        }
-        s[..layout.width()].iter().all(|x| x.is_finite())
-    }
-
-    /// The learned policy's command (m/s, world) for this tick's state;
-    /// `None` without a policy or when the state or the command is not finite.
-    pub(crate) fn learned_command(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Option<[f64; 3]> {
-        let policy = self.learned.as_ref()?;
-        let layout = policy.layout();
-        if !self.fill_state(ws, input.q, &layout, &input.command) {
-            return None;
-        }
-        let mut command = [0.0; 3];
-        policy.act(&ws.learned.state[..layout.width()], &mut ws.learned.scratch, &mut command[..layout.task_dims]);
-        command.iter_mut().for_each(|c| *c *= layout.speed_scale);
-        command.iter().all(|c| c.is_finite()).then_some(command)
-    }
 }

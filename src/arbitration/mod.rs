@@ -74,6 +74,7 @@ mod safety;
 mod settings;
 mod setup;
 mod solve;
+mod tick;
 pub mod workspace;
 
 pub use arbiter::{Arbiter, ArbiterGoal};

@@ -12,13 +12,9 @@
 //! distance row, and with the state within its limits, every tick's
 //! problem is feasible.
 
-use super::arbiter::Arbiter;
-use super::command::TickStatus;
-use super::workspace::ArbiterWorkspace;
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
 use crate::robot::{KinematicsWorkspace, RobotModel};
 use crate::settings::{InvalidSetting, non_negative, positive};
-use tandem_solvers::small::add_scaled;
 
 /// Settings of the hard constraints.
 ///
@@ -244,66 +240,5 @@ impl SafetyRows {
         for ((u, lo), hi) in u.iter_mut().zip(&self.lo).zip(&self.hi) {
             *u = u.clamp(*lo, *hi);
         }
-    }
-}
-
-/// Stage 6 of a tick (the rows) and stage 8 (the certification of the step).
-impl Arbiter {
-    /// Distance rows for the pairs that the step could bring within the
-    /// margin: those closer than `margin + bound(|u|·dt) · 1.5 + 1 mm`, `u`
-    /// the larger of the closed form's and `at_least`. Returns the reach (m).
-    pub(crate) fn build_distance_rows(&self, ws: &mut ArbiterWorkspace, rate: f64, at_least: Option<f64>) -> f64 {
-        let dt = self.settings.period;
-        for (d, u) in ws.certify.step.iter_mut().zip(&ws.objective.u0) {
-            *d = u * dt;
-        }
-        let reach = self.collision.displacement_bound(&ws.certify.step).max(at_least.unwrap_or(0.0));
-        let cutoff = self.settings.safety.margin + 1.5 * reach + 1e-3;
-        ws.rows.build_distances(&self.collision, &ws.input.kin, cutoff, rate, &self.settings.safety);
-        reach
-    }
-
-    pub(crate) fn note_rows(&self, ws: &mut ArbiterWorkspace) {
-        ws.diagnostics.min_distance = ws.rows.min_distance;
-        ws.diagnostics.rows = ws.rows.total();
-        ws.diagnostics.distance_pairs = ws.rows.count;
-    }
-
-    /// How far the robot's geometry can move under the current `u` (m).
-    pub(crate) fn step_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
-        let dt = self.settings.period;
-        for (d, u) in ws.certify.step.iter_mut().zip(&ws.solve.u) {
-            *d = u * dt;
-        }
-        self.collision.displacement_bound(&ws.certify.step)
-    }
-
-    /// Certifies `q → q + u·dt` against the exact geometry, halving the
-    /// step up to 4 times; holds when none is certified.
-    pub(crate) fn certify(
-        &self,
-        ws: &mut ArbiterWorkspace,
-        q: &[f64],
-        status: TickStatus,
-    ) -> Result<TickStatus, TickStatus> {
-        let dt = self.settings.period;
-        let clearance = self.settings.safety.certification_clearance;
-        if ws.solve.u.iter().all(|u| *u == 0.0) {
-            return Ok(status);
-        }
-        let mut fraction = 1.0;
-        for attempt in 0..5 {
-            add_scaled(&mut ws.certify.step, q, fraction * dt, &ws.solve.u);
-            match self.collision.motion_free_certified(&mut ws.rows.collision, q, &ws.certify.step, clearance) {
-                Ok(true) => {
-                    ws.diagnostics.step_fraction = fraction;
-                    return Ok(if attempt == 0 { status } else { TickStatus::StepShortened });
-                }
-                Ok(false) => fraction *= 0.5,
-                Err(_) => break,
-            }
-        }
-        ws.diagnostics.step_fraction = 0.0;
-        Err(TickStatus::Halted)
     }
 }

@@ -2,7 +2,8 @@
 //! the reference and peer tools (`python_ref/coal_reference.py`,
 //! `benches/peers/run_coal.sh`), which rebuild the same geometry in coal.
 
-use super::model::{CollisionModel, ObjectSource};
+use super::geometry::ObjectSource;
+use super::model::CollisionModel;
 use crate::scene::Shape;
 use serde_json::{Value, json};
 use std::path::Path;

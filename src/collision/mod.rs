@@ -32,13 +32,15 @@
 
 mod distance;
 mod exchange;
+mod geometry;
 mod model;
 mod motion;
 mod query;
 mod spheres;
 
 pub use distance::{SignedDistance, closer_than, signed_distance};
-pub use model::{CollisionModel, CollisionModelBuilder, ObjectSource};
+pub use geometry::ObjectSource;
+pub use model::{CollisionModel, CollisionModelBuilder};
 pub use motion::{MAX_MOTION_SAMPLES, MIN_CLEARANCE, MIN_RESOLUTION};
 pub use query::{CollisionWorkspace, PairDistance};
 pub use spheres::{LANES, SimdLevel, SnappedQuarterTurns};

@@ -2,78 +2,12 @@
 //! the scene, grouped by rigid body, with the list of pairs to check.
 
 use super::CollisionError;
+use super::geometry::{CollisionObject, Geometry, Group, GroupPair, ObjectSource, lever_chain};
 use super::spheres::{SimdLevel, SnappedQuarterTurns, SphereModel};
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::{Scene, Shape, ShapeError};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
-use std::ops::Range;
 use std::sync::Arc;
-
-/// Where a collision object comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ObjectSource {
-    /// Collision element `element` (URDF order) of link `link` (description index).
-    RobotLink {
-        /// Description index of the link.
-        link: usize,
-        /// Index of the `<collision>` element in the link.
-        element: usize,
-    },
-    /// Obstacle `index` of the scene.
-    Obstacle(usize),
-    /// Object `index` of the scene (free or attached).
-    Object(usize),
-}
-
-/// One shape placed on a body (or in the world).
-#[derive(Debug, Clone)]
-pub(crate) struct CollisionObject {
-    pub(crate) group: usize,
-    pub(crate) shape: Shape,
-    /// Pose of the shape in its body frame (world for static objects).
-    pub(crate) local: IsometryMatrix3<f64>,
-    /// Bounding radius including the padding.
-    pub(crate) radius: f64,
-    /// Padding added to this object (m): robot and attached objects only.
-    pub(crate) padding: f64,
-    pub(crate) source: ObjectSource,
-    /// World bounding box of a static object.
-    pub(crate) aabb: Option<(Point3<f64>, Point3<f64>)>,
-    /// `local` has the identity rotation (placing it is a translation).
-    pub(crate) unrotated: bool,
-}
-
-/// A rigid set of objects: a robot link (or a named surface of one, see
-/// [`CollisionModelBuilder::surface_groups`]), an attached object, an obstacle.
-#[derive(Debug, Clone)]
-pub(crate) struct Group {
-    pub(crate) name: String,
-    /// The link a surface group belongs to (its own name otherwise): SRDF
-    /// pairs and allowed contacts naming the link cover its surfaces too.
-    pub(crate) owner: String,
-    /// The body carrying the group; `None` for static groups.
-    pub(crate) body: Option<usize>,
-    pub(crate) objects: Range<usize>,
-    /// Bounding-ball centre, in the body frame (world for static groups).
-    pub(crate) center: Point3<f64>,
-    pub(crate) radius: f64,
-    pub(crate) aabb: Option<(Point3<f64>, Point3<f64>)>,
-}
-
-/// Two groups checked against each other, and their object pairs.
-#[derive(Debug, Clone)]
-pub(crate) struct GroupPair {
-    pub(crate) a: usize,
-    pub(crate) b: usize,
-    /// Every object of `a` against every object of `b`, `a`-major: pair
-    /// `pairs.start + k·|b| + l` is object `k` of `a` with object `l` of `b`.
-    pub(crate) pairs: Range<usize>,
-    /// The deepest body both groups' bodies descend from (the root for a
-    /// static group): the joints that change the pair's relative pose are
-    /// those from either group's body up to it, not including it (see
-    /// [`CollisionModel::movers`]).
-    pub(crate) meet: u32,
-}
 
 /// The robot and its scene as collision geometry, with the pairs to check.
 /// Immutable and `Send + Sync`; queries run with a
@@ -412,22 +346,6 @@ fn levers(robot: &RobotModel, objects: &[CollisionObject], groups: &[Group]) -> 
     levers
 }
 
-/// For a point `reach` (m) from the origin of body `body`, each body from
-/// `body` up to (not including) the root with an upper bound of the
-/// distance from its joint origin to the point: the offsets of the bodies
-/// in between plus `reach` (triangle inequality, so valid for every q).
-pub(crate) fn lever_chain(robot: &RobotModel, body: usize, reach: f64) -> impl Iterator<Item = (usize, f64)> + '_ {
-    let mut at = (body, reach);
-    std::iter::from_fn(move || {
-        let (b, lever) = at;
-        if b == 0 {
-            return None;
-        }
-        at = (robot.parent_body(b), lever + robot.body_joint(b).3);
-        Some((b, lever))
-    })
-}
-
 /// Ancestor queries on the body tree: depths and binary-lifting tables,
 /// so the deepest common ancestor of two bodies costs O(log depth). Listing
 /// every pair's movers instead cost O(n⁴) time and O(n³) memory in the
@@ -544,11 +462,22 @@ impl CollisionModel {
         self.spheres.is_some()
     }
 
+    /// The robot, objects, groups and pairs, for the fast path's compiler.
+    pub(crate) fn geometry(&self) -> Geometry<'_> {
+        Geometry {
+            robot: &self.robot,
+            objects: &self.objects,
+            groups: &self.groups,
+            group_pairs: &self.group_pairs,
+            pairs: &self.pairs,
+        }
+    }
+
     /// Turns the sphere fast path on (when the geometry allows it; the
     /// default) or off (every boolean check on the general path, e.g. to
     /// cross-check the two). Workspaces made before keep working.
     pub fn set_fast_path(&mut self, enabled: bool) {
-        self.spheres = if enabled { SphereModel::compile(self) } else { None };
+        self.spheres = if enabled { SphereModel::compile(self.geometry()) } else { None };
     }
 
     /// Runs the sphere fast path's checks compiled for `wanted` (the best

@@ -5,7 +5,8 @@
 //! which need EPA, excepted).
 
 use super::distance::{SignedDistance, closer_than, signed_distance};
-use super::model::{CollisionModel, Group};
+use super::geometry::Group;
+use super::model::CollisionModel;
 use super::spheres::{SphereWorkspace, Verdict};
 use crate::robot::{KinematicsWorkspace, RobotError};
 use nalgebra::{IsometryMatrix3, Point3, Translation3, Vector3};

@@ -2,7 +2,8 @@
 //!
 //! When every moving collision object (robot links, attached objects) is a
 //! sphere and every static one a sphere, capsule, box or cylinder — the
-//! spherized robots of motion planning benchmarks — a [`CollisionModel`]
+//! spherized robots of motion planning benchmarks — a
+//! [`CollisionModel`](super::CollisionModel)
 //! also compiles a [`SphereModel`]: flat arrays of sphere centres per body,
 //! static shapes with their world boxes, and per body group the list of
 //! static shapes and groups it is checked against (the model's pairs,
@@ -44,7 +45,7 @@ pub use quarter_turns::SnappedQuarterTurns;
 use quarter_turns::norm;
 
 use super::distance::closer_than;
-use super::model::{CollisionModel, CollisionObject, Group, lever_chain};
+use super::geometry::{CollisionObject, Geometry, Group, lever_chain};
 use crate::robot::{Motion, RobotModel};
 use crate::scene::Shape;
 use nalgebra::IsometryMatrix3;
@@ -377,8 +378,8 @@ impl StaticShape {
 impl SphereModel {
     /// The fast path of `model`, or `None` when some moving object is not a
     /// sphere or some static object checked against one is a convex hull.
-    pub(crate) fn compile(model: &CollisionModel) -> Option<SphereModel> {
-        let robot: &RobotModel = &model.robot;
+    pub(crate) fn compile(model: Geometry<'_>) -> Option<SphereModel> {
+        let robot: &RobotModel = model.robot;
         let mut bodies: Vec<LaneBody> = robot
             .bodies
             .iter()
@@ -437,7 +438,7 @@ impl SphereModel {
         for b in 1..depth.len() {
             depth[b] = depth[robot.bodies[b].parent] + 1;
         }
-        for gp in &model.group_pairs {
+        for gp in model.group_pairs {
             let (a, b): (&Group, &Group) = (&model.groups[gp.a], &model.groups[gp.b]);
             if a.body.is_some() && b.body.is_some() {
                 self_pairs.push([index[gp.a], index[gp.b]]);

@@ -217,7 +217,7 @@ fn snapped_quarter_turns_keep_spheres_within_their_bound() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     for robot in robots {
         let collision = CollisionModel::builder(robot.clone()).build().unwrap();
-        let model = SphereModel::compile(&collision).unwrap();
+        let model = SphereModel::compile(collision.geometry()).unwrap();
         let snapped = model.snapped();
         assert_eq!(collision.snapped_quarter_turns(), Some(snapped));
         assert!(snapped.frames >= 2, "{}: {snapped:?}", robot.nq());
