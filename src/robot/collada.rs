@@ -6,15 +6,28 @@
 //! the tests compare every mesh of example-robot-data's Baxter, TIAGo,
 //! Kinova and HyQ with coal's.
 
+use super::error::RobotError;
 use super::mesh::TriMesh;
 use nalgebra::{Matrix4, Point3, Rotation3, Unit, Vector3};
 use std::collections::HashMap;
+use std::path::Path;
 
 type Doc<'a> = roxmltree::Document<'a>;
 type Node<'a, 'i> = roxmltree::Node<'a, 'i>;
 
+// Here, not in mesh.rs, so the mesh type does not import its COLLADA reader.
+impl TriMesh {
+    /// Loads the triangles of a COLLADA (`.dae`) file's visual scene, with
+    /// its node transforms and unit, multiplying coordinates by `scale`.
+    pub fn from_collada_file(path: &Path, scale: [f64; 3]) -> Result<TriMesh, RobotError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
+        parse_collada(&text, scale).map_err(|message| RobotError::InvalidMesh { path: path.to_path_buf(), message })
+    }
+}
+
 /// Parses COLLADA text into one triangle mesh, in metres, scaled by `scale`.
-pub(crate) fn parse_collada(text: &str, scale: [f64; 3]) -> Result<TriMesh, String> {
+fn parse_collada(text: &str, scale: [f64; 3]) -> Result<TriMesh, String> {
     let doc = Doc::parse(text).map_err(|e| format!("malformed XML: {e}"))?;
     let root = doc.root_element();
     if root.tag_name().name() != "COLLADA" {

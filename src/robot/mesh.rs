@@ -1,4 +1,6 @@
-//! Triangle meshes of collision geometry, loaded from STL files.
+//! Triangle meshes of collision geometry, loaded from STL and OBJ files here
+//! and from COLLADA by [`TriMesh::from_collada_file`], which lives with its
+//! reader in collada.rs.
 //!
 //! Meshes are kept exactly as loaded (scaled into the element frame) for the
 //! collision layer, which turns them into convex hulls or sphere sets.
@@ -65,15 +67,6 @@ impl TriMesh {
         let text =
             std::fs::read_to_string(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
         parse_obj(&text, scale).map_err(|message| RobotError::InvalidMesh { path: path.to_path_buf(), message })
-    }
-
-    /// Loads the triangles of a COLLADA (`.dae`) file's visual scene, with
-    /// its node transforms and unit, multiplying coordinates by `scale`.
-    pub fn from_collada_file(path: &Path, scale: [f64; 3]) -> Result<TriMesh, RobotError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| RobotError::Io { path: path.to_path_buf(), source })?;
-        super::collada::parse_collada(&text, scale)
-            .map_err(|message| RobotError::InvalidMesh { path: path.to_path_buf(), message })
     }
 
     /// Axis-aligned bounding box `(min, max)` of the vertices.
