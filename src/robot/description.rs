@@ -339,25 +339,6 @@ impl RobotDescription {
         SourceLocation { source: self.source.clone(), line }
     }
 
-    /// The embedded default robot: a Franka Emika Panda written from the
-    /// published kinematic parameters, with sphere-set collision shapes and a
-    /// `panda_hand_tcp` gripper frame at the fingertip centre.
-    pub fn panda() -> RobotDescription {
-        // The embedded file is tested on every build; failing here is a build defect.
-        super::urdf::parse_urdf(EMBEDDED_PANDA_URDF, "<embedded panda.urdf>", &super::MeshSearchPath::default())
-            .expect("embedded Panda URDF is valid")
-    }
-
-    /// The text of an embedded robot's URDF ([`Self::panda`],
-    /// [`Self::planar_gripper`]); `None` for one read from a file.
-    pub fn embedded_urdf(&self) -> Option<&'static str> {
-        match self.source.as_str() {
-            "<embedded panda.urdf>" => Some(EMBEDDED_PANDA_URDF),
-            "<embedded planar_gripper.urdf>" => Some(EMBEDDED_PLANAR_URDF),
-            _ => None,
-        }
-    }
-
     /// The mesh files its collision geometry was read from (or could not
     /// be read from), in link order.
     pub fn mesh_files(&self) -> impl Iterator<Item = &std::path::Path> {
@@ -365,18 +346,6 @@ impl RobotDescription {
             Geometry::Mesh { path, .. } | Geometry::UnreadableMesh { path, .. } => Some(path.as_path()),
             _ => None,
         })
-    }
-
-    /// The embedded planar gripper of the dissertation's planar task:
-    /// prismatic `x` and `y` (m, over a 50 × 50 cm table) and a `yaw` joint,
-    /// gripper frame `gripper_tcp` 10 cm above the table.
-    pub fn planar_gripper() -> RobotDescription {
-        super::urdf::parse_urdf(
-            EMBEDDED_PLANAR_URDF,
-            "<embedded planar_gripper.urdf>",
-            &super::MeshSearchPath::default(),
-        )
-        .expect("embedded planar gripper URDF is valid")
     }
 }
 
@@ -438,6 +407,3 @@ fn check_reachable(desc: &RobotDescription) -> Result<(), RobotError> {
         }
     }
 }
-
-const EMBEDDED_PANDA_URDF: &str = include_str!("../../problems/robots/panda/panda.urdf");
-const EMBEDDED_PLANAR_URDF: &str = include_str!("../../problems/robots/planar/planar_gripper.urdf");

@@ -1,4 +1,5 @@
-//! URDF loading: XML → validated [`RobotDescription`].
+//! URDF loading: XML → validated [`RobotDescription`], and the embedded
+//! robots ([`RobotDescription::panda`], [`RobotDescription::planar_gripper`]).
 //!
 //! urdf-rs does the XML-to-struct work; roxmltree locates elements so every
 //! error can name a line. Mesh URIs (`package://pkg/…`, `file://…`, relative
@@ -97,9 +98,42 @@ impl RobotDescription {
     pub fn from_urdf_str(text: &str, search: &MeshSearchPath) -> Result<Self, RobotError> {
         parse_urdf(text, "<string>", search)
     }
+
+    // The embedded robots are URDF constructors too, so they live here and
+    // description.rs does not import its parser.
+
+    /// The embedded default robot: a Franka Emika Panda written from the
+    /// published kinematic parameters, with sphere-set collision shapes and a
+    /// `panda_hand_tcp` gripper frame at the fingertip centre.
+    pub fn panda() -> RobotDescription {
+        // The embedded file is tested on every build; failing here is a build defect.
+        parse_urdf(EMBEDDED_PANDA_URDF, "<embedded panda.urdf>", &MeshSearchPath::default())
+            .expect("embedded Panda URDF is valid")
+    }
+
+    /// The embedded planar gripper of the dissertation's planar task:
+    /// prismatic `x` and `y` (m, over a 50 × 50 cm table) and a `yaw` joint,
+    /// gripper frame `gripper_tcp` 10 cm above the table.
+    pub fn planar_gripper() -> RobotDescription {
+        parse_urdf(EMBEDDED_PLANAR_URDF, "<embedded planar_gripper.urdf>", &MeshSearchPath::default())
+            .expect("embedded planar gripper URDF is valid")
+    }
+
+    /// The text of an embedded robot's URDF ([`Self::panda`],
+    /// [`Self::planar_gripper`]); `None` for one read from a file.
+    pub fn embedded_urdf(&self) -> Option<&'static str> {
+        match self.source.as_str() {
+            "<embedded panda.urdf>" => Some(EMBEDDED_PANDA_URDF),
+            "<embedded planar_gripper.urdf>" => Some(EMBEDDED_PLANAR_URDF),
+            _ => None,
+        }
+    }
 }
 
-pub(crate) fn parse_urdf(text: &str, source: &str, search: &MeshSearchPath) -> Result<RobotDescription, RobotError> {
+const EMBEDDED_PANDA_URDF: &str = include_str!("../../problems/robots/panda/panda.urdf");
+const EMBEDDED_PLANAR_URDF: &str = include_str!("../../problems/robots/planar/planar_gripper.urdf");
+
+fn parse_urdf(text: &str, source: &str, search: &MeshSearchPath) -> Result<RobotDescription, RobotError> {
     parse_urdf_in(text, source, None, search)
 }
 
