@@ -7,16 +7,13 @@
 //! grasp frame's, and the palm and the fingers' outer sides do not touch it
 //! ([`GraspJudge`], clearance ≥ 0). Any other goal succeeds with the
 //! gripper within 1 cm of the goal's final gripper position.
+//!
+//! The numbers are [`GRASP_MAX_TILT`] and [`REACH_TOLERANCE`], in reason.rs.
 
-use super::reason::Reason;
+use super::reason::{GRASP_MAX_TILT, REACH_TOLERANCE, Reason};
 use crate::arbitration::ProblemGoal;
 use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
 use crate::robot::KinematicsWorkspace;
-
-/// Largest tilt of a successful teleoperated grasp (rad).
-pub const GRASP_MAX_TILT: f64 = 0.2;
-/// Distance to the goal position of a successful reach (m).
-pub const REACH_TOLERANCE: f64 = 0.01;
 
 /// What an episode asks of its task: whether the task is done at a
 /// configuration, and why not when the operator stops. A closure

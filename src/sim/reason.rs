@@ -2,8 +2,15 @@
 //! person needs to see what went wrong (the colliding pair, how far short,
 //! how tilted).
 
-use super::judge::{GRASP_MAX_TILT, REACH_TOLERANCE};
 use crate::problem::{GraspCriteria, GraspReport};
+
+// The thresholds the judge applies live here: they bound `StoppedShort` and
+// `OrientationOff`, whose messages state them.
+
+/// Largest tilt of a successful teleoperated grasp (rad).
+pub const GRASP_MAX_TILT: f64 = 0.2;
+/// Distance to the goal position of a successful reach (m).
+pub const REACH_TOLERANCE: f64 = 0.01;
 
 /// Why an episode ended. Its [`Outcome`](super::Outcome) follows from it
 /// ([`Reason::outcome`]); new reasons may be added (match with a wildcard).
