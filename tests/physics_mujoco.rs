@@ -169,7 +169,7 @@ mod episodes {
         // the fingers sweep the box (as in the published table).
         let r = run(&task(14), None, OperatorKind::Straightline, None);
         println!("{}", r.record.reason);
-        let Reason::Pushed { distance: moved } = r.record.reason else { panic!("{}", r.record.reason) };
+        let Reason::Pushed { distance: moved, .. } = r.record.reason else { panic!("{}", r.record.reason) };
         assert_eq!(r.record.outcome, Outcome::Collision);
         assert!(moved > 0.02 && moved <= 0.021, "{moved}: ends at the first step past 2 cm");
         let (first, last) = (r.record.object.first().unwrap(), r.record.object.last().unwrap());

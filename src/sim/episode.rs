@@ -501,7 +501,7 @@ impl LiveEpisode {
                 pair: self.contact.clone().unwrap_or_else(|| ["the arm".into(), "something".into()]),
             },
             Outcome::Timeout => Reason::Timeout { distance },
-            _ => Reason::StoppedShort { distance },
+            _ => Reason::StoppedShort { distance, tolerance: super::REACH_TOLERANCE },
         }
     }
 

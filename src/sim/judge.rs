@@ -8,12 +8,18 @@
 //! ([`GraspJudge`], clearance ≥ 0). Any other goal succeeds with the
 //! gripper within 1 cm of the goal's final gripper position.
 //!
-//! The numbers are [`GRASP_MAX_TILT`] and [`REACH_TOLERANCE`], in reason.rs.
+//! The numbers are [`GRASP_MAX_TILT`] and [`REACH_TOLERANCE`]; a failure's
+//! [`Reason`] carries the bound it missed.
 
-use super::reason::{GRASP_MAX_TILT, REACH_TOLERANCE, Reason};
+use super::reason::Reason;
 use crate::arbitration::ProblemGoal;
 use crate::problem::{Goal, GraspCriteria, GraspJudge, Problem};
 use crate::robot::KinematicsWorkspace;
+
+/// Largest tilt of a successful teleoperated grasp (rad).
+pub const GRASP_MAX_TILT: f64 = 0.2;
+/// Distance to the goal position of a successful reach (m).
+pub const REACH_TOLERANCE: f64 = 0.01;
 
 /// What an episode asks of its task: whether the task is done at a
 /// configuration, and why not when the operator stops. A closure
@@ -40,7 +46,7 @@ impl<F: FnMut(&[f64]) -> bool> Judge for F {
 /// `StoppedShort` when `gripper` is farther than [`REACH_TOLERANCE`] from `target`.
 fn stopped_short(gripper: [f64; 3], target: [f64; 3]) -> Option<Reason> {
     let distance = super::operator::distance(gripper, target);
-    (distance > REACH_TOLERANCE).then_some(Reason::StoppedShort { distance })
+    (distance > REACH_TOLERANCE).then_some(Reason::StoppedShort { distance, tolerance: REACH_TOLERANCE })
 }
 
 /// A judge of task success at a configuration.

@@ -34,7 +34,7 @@ pub use arbitration_env::{
     ArbitrationEnv, ArbitrationEnvSettings, EnvError, EnvOutcome, EnvTask, RewardKind, StepResult, reward,
 };
 pub use episode::{Episode, EpisodeRecord, EpisodeSettings, LiveEpisode, LiveStep, Outcome, percentiles};
-pub use judge::{Judge, TaskJudge};
+pub use judge::{GRASP_MAX_TILT, Judge, REACH_TOLERANCE, TaskJudge};
 // Shared with the learned policy's evaluation (the `learn` feature).
 #[cfg(feature = "learn")]
 pub(crate) use operator::distance;
@@ -43,7 +43,7 @@ pub use operator::{
     PolicyFollower, Straightline,
 };
 pub use physics::PhysicsSettings;
-pub use reason::{GRASP_MAX_TILT, REACH_TOLERANCE, Reason};
+pub use reason::Reason;
 #[cfg(feature = "data")]
 pub use record::write_episodes;
 #[cfg(feature = "experiments")]

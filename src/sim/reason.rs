@@ -4,20 +4,12 @@
 
 use crate::problem::{GraspCriteria, GraspReport};
 
-// The thresholds the judge applies live here: they bound `StoppedShort` and
-// `OrientationOff`, whose messages state them.
-
-/// Largest tilt of a successful teleoperated grasp (rad).
-pub const GRASP_MAX_TILT: f64 = 0.2;
-/// Distance to the goal position of a successful reach (m).
-pub const REACH_TOLERANCE: f64 = 0.01;
-
 /// Why an episode ended. Its [`Outcome`](super::Outcome) follows from it
 /// ([`Reason::outcome`]); new reasons may be added (match with a wildcard).
 ///
 /// ```
 /// use tandem::sim::{Outcome, Reason};
-/// let r = Reason::OrientationOff { angle: 0.31 };
+/// let r = Reason::OrientationOff { angle: 0.31, max_tilt: 0.2 };
 /// assert_eq!((r.outcome(), r.as_str()), (Outcome::Failed, "orientation_off"));
 /// assert_eq!(r.to_string(), "the gripper is tilted 0.31 rad from the grasp's approach axis (at most 0.2)");
 /// ```
@@ -42,12 +34,16 @@ pub enum Reason {
     StoppedShort {
         /// Distance of the gripper from the goal's grasp point (m).
         distance: f64,
+        /// The distance within which a stop counts as arrived (m).
+        tolerance: f64,
     },
     /// At the object, but the gripper's approach axis is this far from the
     /// grasp's (rad).
     OrientationOff {
         /// Angle between the axes (rad).
         angle: f64,
+        /// The largest angle a grasp may have (rad).
+        max_tilt: f64,
     },
     /// At the object, but the object is not between the finger pads.
     NotBetweenPads,
@@ -64,21 +60,28 @@ pub enum Reason {
     /// (a closure) said the task was not done.
     JudgeDeclined,
     /// Physics: the arm pushed the object this far (m) before the fingers
-    /// closed (the dissertation's "has not deviated", §5.5.3; 2 cm).
+    /// closed (the dissertation's "has not deviated", §5.5.3).
     Pushed {
         /// How far the object's centre moved (m).
         distance: f64,
+        /// How far it may move (m; `PhysicsSettings::push_tolerance`).
+        limit: f64,
     },
     /// Physics: the fingers closed and the arm lifted, but the object rose
-    /// only this much (m; at least 5 cm counts).
+    /// only this much (m).
     Slipped {
         /// The object's rise when the lift ended (m).
         lifted: f64,
+        /// The rise a grasp must reach (m; `PhysicsSettings::lifted`).
+        needed: f64,
     },
-    /// Physics: the object was lifted, then fell below 5 cm during the hold.
+    /// Physics: the object was lifted, then fell below the rise a grasp
+    /// must hold during the hold.
     Dropped {
         /// The object's rise when the hold ended (m).
         lifted: f64,
+        /// The rise a grasp must hold (m; `PhysicsSettings::lifted`).
+        needed: f64,
     },
 }
 
@@ -91,7 +94,7 @@ impl Reason {
         } else if !report.in_footprint {
             Reason::OutsideFootprint
         } else if report.tilt > criteria.max_tilt {
-            Reason::OrientationOff { angle: report.tilt }
+            Reason::OrientationOff { angle: report.tilt, max_tilt: criteria.max_tilt }
         } else if report.palm_clearance < criteria.margin || report.finger_clearance < criteria.margin {
             Reason::TouchingObject { clearance: report.palm_clearance.min(report.finger_clearance) }
         } else {
@@ -157,15 +160,16 @@ impl std::fmt::Display for Reason {
             Reason::Timeout { distance } => {
                 write!(f, "time ran out {:.1} cm from the goal", cm(*distance))
             }
-            Reason::StoppedShort { distance } => write!(
+            Reason::StoppedShort { distance, tolerance } => write!(
                 f,
-                "the operator stopped {:.1} cm from the goal (within {:.0} cm counts)",
+                "the operator stopped {:.1} cm from the goal (within {} cm counts)",
                 cm(*distance),
-                cm(REACH_TOLERANCE)
+                bound(cm(*tolerance))
             ),
-            Reason::OrientationOff { angle } => write!(
+            Reason::OrientationOff { angle, max_tilt } => write!(
                 f,
-                "the gripper is tilted {angle:.2} rad from the grasp's approach axis (at most {GRASP_MAX_TILT})"
+                "the gripper is tilted {angle:.2} rad from the grasp's approach axis (at most {})",
+                bound(*max_tilt)
             ),
             Reason::NotBetweenPads => write!(f, "the object is not between the finger pads"),
             Reason::OutsideFootprint => write!(f, "the fingertip centre is outside the object's footprint"),
@@ -173,19 +177,54 @@ impl std::fmt::Display for Reason {
                 write!(f, "the palm or a finger's outer side touches the object ({:.1} mm)", 1e3 * clearance)
             }
             Reason::JudgeDeclined => write!(f, "the operator stopped at the goal, but the task is not done"),
-            Reason::Pushed { distance } => {
-                write!(
-                    f,
-                    "the arm pushed the object {:.1} cm before the fingers closed (under 2 cm counts)",
-                    cm(*distance)
-                )
-            }
-            Reason::Slipped { lifted } => {
-                write!(f, "the object slipped from the fingers: lifted {:.1} cm (at least 5 cm counts)", cm(*lifted))
-            }
-            Reason::Dropped { lifted } => {
-                write!(f, "the object was lifted, then dropped: {:.1} cm at the end of the hold", cm(*lifted))
-            }
+            Reason::Pushed { distance, limit } => write!(
+                f,
+                "the arm pushed the object {:.1} cm before the fingers closed (under {} cm counts)",
+                cm(*distance),
+                bound(cm(*limit))
+            ),
+            Reason::Slipped { lifted, needed } => write!(
+                f,
+                "the object slipped from the fingers: lifted {:.1} cm (at least {} cm counts)",
+                cm(*lifted),
+                bound(cm(*needed))
+            ),
+            Reason::Dropped { lifted, needed } => write!(
+                f,
+                "the object was lifted, then dropped: {:.1} cm at the end of the hold (at least {} cm counts)",
+                cm(*lifted),
+                bound(cm(*needed))
+            ),
         }
+    }
+}
+
+/// A threshold as a person writes it: at most three decimals, no trailing
+/// zeros (0.2, 1, 1.5; not 1.0000000000000002).
+fn bound(value: f64) -> String {
+    let text = format!("{value:.3}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Reason;
+
+    #[test]
+    fn a_failure_states_the_bound_it_was_judged_by() {
+        let stopped = Reason::StoppedShort { distance: 0.123, tolerance: 0.01 };
+        assert_eq!(stopped.to_string(), "the operator stopped 12.3 cm from the goal (within 1 cm counts)");
+        let tilted = Reason::OrientationOff { angle: 0.31, max_tilt: 0.15 };
+        assert!(tilted.to_string().ends_with("(at most 0.15)"), "{tilted}");
+        // Settings other than the defaults show as set, not as the defaults.
+        let pushed = Reason::Pushed { distance: 0.031, limit: 0.015 };
+        assert_eq!(
+            pushed.to_string(),
+            "the arm pushed the object 3.1 cm before the fingers closed (under 1.5 cm counts)"
+        );
+        let slipped = Reason::Slipped { lifted: 0.012, needed: 0.03 };
+        assert!(slipped.to_string().ends_with("lifted 1.2 cm (at least 3 cm counts)"), "{slipped}");
+        let dropped = Reason::Dropped { lifted: 0.01, needed: 0.07 };
+        assert!(dropped.to_string().ends_with("(at least 7 cm counts)"), "{dropped}");
     }
 }

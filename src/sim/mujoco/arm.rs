@@ -160,11 +160,17 @@ pub(crate) fn close_lift_hold(
             0 if !touches_object(scene, arm.data(), k) => {
                 return Ok(match kinematic {
                     Some(reason) if *reason != Reason::Success => reason.clone(),
-                    _ => Reason::Slipped { lifted: up },
+                    _ => Reason::Slipped { lifted: up, needed: p.lifted },
                 });
             }
-            1 if up < p.lifted => return Ok(Reason::Slipped { lifted: up }),
-            2 => return Ok(if lowest >= p.lifted { Reason::Success } else { Reason::Dropped { lifted: up } }),
+            1 if up < p.lifted => return Ok(Reason::Slipped { lifted: up, needed: p.lifted }),
+            2 => {
+                return Ok(if lowest >= p.lifted {
+                    Reason::Success
+                } else {
+                    Reason::Dropped { lifted: up, needed: p.lifted }
+                });
+            }
             _ => {}
         }
     }
@@ -202,5 +208,5 @@ pub(crate) fn push_check(
 ) -> (f64, Option<Reason>) {
     let (a, b) = (scene.object_pose(data, k), scene.object_start(k));
     let moved = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
-    (moved, (moved > tolerance).then_some(Reason::Pushed { distance: moved }))
+    (moved, (moved > tolerance).then_some(Reason::Pushed { distance: moved, limit: tolerance }))
 }
