@@ -2,7 +2,10 @@
 //! sits on one layer and may use only modules on the layers below it. This
 //! test reads every `crate::…` path in `src/` outside comments and string
 //! literals and fails on one that points up or sideways, naming the file,
-//! the line and the two modules.
+//! the line and the two modules. Inside a module, no two files may import
+//! each other, directly or round a loop: a file's `super::FILE::…` and
+//! `crate::MODULE::FILE::…` paths are its imports, and a loop is named
+//! file by file with the line of each import.
 
 use std::path::{Path, PathBuf};
 
@@ -250,4 +253,161 @@ fn the_solvers_crate_knows_no_robots() {
             assert!(!code.contains(word), "{} names `{word}` outside comments", path.display());
         }
     }
+}
+
+/// The files of `src/` that `file` (a path under `src/`) names in its code
+/// through `super::FILE::…` or `crate::MODULE::FILE::…` (grouped forms
+/// `super::{a::X, b::Y}` too), with the line of each. A path through a
+/// module's face (`super::Name` re-exported by a `mod.rs`) names no file.
+fn imported_files(file: &Path, source: &str, exists: &dyn Fn(&Path) -> bool) -> Vec<(PathBuf, usize)> {
+    let code = code_only(source);
+    let parent = file.parent().unwrap();
+    // `super` of `x/mod.rs` is the module above `x`.
+    let sup = if file.file_name().is_some_and(|n| n == "mod.rs") { parent.parent().unwrap() } else { parent };
+    let mut found = Vec::new();
+    for (n, line) in code.lines().enumerate() {
+        for (prefix, base) in [("super::", sup.to_path_buf()), ("crate::", src())] {
+            let mut rest = line;
+            while let Some(at) = rest.find(prefix) {
+                let before = rest[..at].chars().last();
+                rest = &rest[at + prefix.len()..];
+                if ident_char(before) {
+                    continue;
+                }
+                // One path, or each path of a `{…}` group.
+                let paths: Vec<&str> = match rest.strip_prefix('{') {
+                    Some(group) => group.split('}').next().unwrap_or("").split(',').map(str::trim).collect(),
+                    None => vec![rest],
+                };
+                for path in paths {
+                    if let Some(target) = resolve(&base, path, exists)
+                        && target != file
+                    {
+                        found.push((target, n + 1));
+                    }
+                }
+            }
+        }
+    }
+    found
+}
+
+/// The file a path (`a::b::Name…`, read from `base`) is in: the deepest
+/// `a.rs`, `a/mod.rs`, `a/b.rs`… that exists; `None` for an item of `base`'s
+/// own `mod.rs` (a face).
+fn resolve(base: &Path, path: &str, exists: &dyn Fn(&Path) -> bool) -> Option<PathBuf> {
+    let (mut dir, mut file) = (base.to_path_buf(), None);
+    let mut segments = path.split("::").peekable();
+    while let Some(segment) = segments.next() {
+        // The last segment is the item, never a file.
+        if segments.peek().is_none() || segment.is_empty() || !segment.chars().all(|c| c.is_alphanumeric() || c == '_')
+        {
+            break;
+        }
+        if exists(&dir.join(format!("{segment}.rs"))) {
+            return Some(dir.join(format!("{segment}.rs")));
+        }
+        let module = dir.join(segment).join("mod.rs");
+        if !exists(&module) {
+            break;
+        }
+        dir = dir.join(segment);
+        file = Some(module);
+    }
+    file
+}
+
+#[test]
+fn no_files_import_each_other_in_a_loop() {
+    let src = src();
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    files.sort();
+    let exists = |p: &Path| p.is_file();
+    let edges: Vec<Vec<(usize, usize)>> = files
+        .iter()
+        .map(|f| {
+            let source = std::fs::read_to_string(f).unwrap();
+            let mut to: Vec<(usize, usize)> = imported_files(f, &source, &exists)
+                .into_iter()
+                .filter_map(|(t, line)| files.iter().position(|g| *g == t).map(|k| (k, line)))
+                .collect();
+            to.sort();
+            to.dedup_by_key(|e| e.0);
+            to
+        })
+        .collect();
+    assert!(edges.iter().map(Vec::len).sum::<usize>() > 100, "too few imports between files were read");
+    // Depth-first search; a grey file met again closes a loop.
+    let name = |k: usize| files[k].strip_prefix(&src).unwrap().display().to_string();
+    let mut colour = vec![0u8; files.len()];
+    let mut stack: Vec<(usize, usize)> = Vec::new();
+    for root in 0..files.len() {
+        if colour[root] != 0 {
+            continue;
+        }
+        colour[root] = 1;
+        stack.push((root, 0));
+        while let Some(&mut (at, ref mut next)) = stack.last_mut() {
+            match edges[at].get(*next) {
+                Some(&(to, _)) => {
+                    *next += 1;
+                    match colour[to] {
+                        0 => {
+                            colour[to] = 1;
+                            stack.push((to, 0));
+                        }
+                        1 => {
+                            let from = stack.iter().position(|s| s.0 == to).unwrap();
+                            let ring: Vec<String> = stack[from..]
+                                .iter()
+                                .map(|&(k, next)| format!("src/{}:{}", name(k), edges[k][next - 1].1))
+                                .collect();
+                            panic!(
+                                "files that import each other in a loop (each at the line of its import of the next): {} -> src/{}",
+                                ring.join(" -> "),
+                                name(to)
+                            );
+                        }
+                        _ => {}
+                    }
+                }
+                None => {
+                    colour[at] = 2;
+                    stack.pop();
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn an_import_of_a_sibling_file_is_read_in_every_form() {
+    let files = [
+        "src/arbitration/mod.rs",
+        "src/arbitration/arbiter.rs",
+        "src/arbitration/workspace.rs",
+        "src/collision/mod.rs",
+        "src/collision/spheres/mod.rs",
+    ];
+    let exists = |p: &Path| files.iter().any(|f| src().join(f.trim_start_matches("src/")) == p);
+    let at = |f: &str| src().join(f.trim_start_matches("src/"));
+    let read = |file: &str, source: &str| -> Vec<PathBuf> {
+        imported_files(&at(file), source, &exists).into_iter().map(|(p, _)| p).collect()
+    };
+    let ws = at("src/arbitration/workspace.rs");
+    assert_eq!(read("src/arbitration/arbiter.rs", "use super::workspace::ArbiterWorkspace;\n"), vec![ws.clone()]);
+    assert_eq!(read("src/arbitration/arbiter.rs", "use super::{modes::M, workspace::W};\n"), vec![ws.clone()]);
+    assert_eq!(read("src/arbitration/arbiter.rs", "impl super::workspace::W {}\n"), vec![ws.clone()]);
+    assert_eq!(read("src/sim/x.rs", "use crate::arbitration::workspace::W;\n"), vec![ws]);
+    assert_eq!(
+        read("src/sim/x.rs", "use crate::collision::spheres::SphereModel;\n"),
+        vec![at("src/collision/spheres/mod.rs")]
+    );
+    // Through a module's face, in a comment or a string: no file.
+    assert!(read("src/arbitration/arbiter.rs", "use super::ArbiterWorkspace;\n").is_empty());
+    assert!(
+        read("src/sim/x.rs", "// super::workspace::W\nconst S: &str = \"crate::arbitration::workspace::W\";\n")
+            .is_empty()
+    );
 }

@@ -4,7 +4,25 @@
 // Lane loops index several arrays by the lane on purpose (see `lanes.rs`).
 #![allow(clippy::needless_range_loop)]
 
-use super::lanes::{LANES, Lane, build};
+/// Configurations the sphere fast path checks together.
+pub const LANES: usize = 8;
+
+/// One value per configuration.
+pub(crate) type Lane<T = f64> = [T; LANES];
+
+/// The array of `f(i)` for every index, by a plain loop:
+/// `std::array::from_fn` goes through a closure adapter that LLVM does not
+/// always inline, and when it does not, every lane of the hot checks
+/// costs a call (seen as `try_trait::Wrapped::call_mut` in profiles, +6 %
+/// of the Panda's planning instructions after an unrelated change).
+#[inline(always)]
+pub(crate) fn build<T: Copy + Default, const N: usize>(mut f: impl FnMut(usize) -> T) -> [T; N] {
+    let mut out = [T::default(); N];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = f(i);
+    }
+    out
+}
 
 /// The scalar the lanes compute in: `f64` for certification and the
 /// checks a caller sees, `f32` for the single-precision plain check that
