@@ -176,12 +176,18 @@ fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
 }
 
+/// Every Rust file under `src/`, sorted.
+fn src_files() -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    rust_files(&src(), &mut files);
+    files.sort();
+    files
+}
+
 #[test]
 fn every_crate_path_points_down_the_layers() {
     let src = src();
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
+    let files = src_files();
     let mut found = Vec::new();
     let mut checked = 0;
     for path in &files {
@@ -320,9 +326,7 @@ fn resolve(base: &Path, path: &str, exists: &dyn Fn(&Path) -> bool) -> Option<Pa
 #[test]
 fn no_files_import_each_other_in_a_loop() {
     let src = src();
-    let mut files = Vec::new();
-    rust_files(&src, &mut files);
-    files.sort();
+    let files = src_files();
     let exists = |p: &Path| p.is_file();
     let edges: Vec<Vec<(usize, usize)>> = files
         .iter()
