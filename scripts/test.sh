@@ -7,7 +7,8 @@
 #   2. formatting, lint and documentation checks (cargo fmt, cargo clippy
 #      -D warnings, cargo doc with rustdoc warnings as errors: broken
 #      intra-doc links);
-#   3. all Rust tests, including the live cross-checks against python_ref/;
+#   3. all Rust tests, including the live cross-checks against python_ref/,
+#      and one million random arbitration ticks (tests/arbitration_stress.rs);
 #   4. the Python package: `pip install .` (maturin) into python/.venv, then
 #      its pytest suite (python/tests: Pinocchio cross-checks, planning,
 #      errors, Ray generation equal to the CLI's).
@@ -17,18 +18,22 @@
 #      after checking that the committed bundle web/dist/app.js is built
 #      from web/src;
 #   6. a few seconds of every fuzz target (fuzz/, scripts/fuzz.sh);
-#   7. one million random arbitration ticks in a release build
-#      (tests/arbitration_stress.rs);
-#   8. the user pages' examples: examples/arbiter_loop.rs, every ```sh
+#   7. the user pages' examples: examples/arbiter_loop.rs, every ```sh
 #      block of docs/ (scripts/doc_examples.py; the Rust and Python blocks
 #      ran above as doctests and pytest);
-#   9. the reproduction check: the quick versions of the published tables
+#   8. the reproduction check: the quick versions of the published tables
 #      and figures equal to the committed ones, every figure rendered
 #      (scripts/reproduce.sh --quick --check; rsvg-convert from Debian's
 #      librsvg2-bin, installed when missing).
 # The OSQP cross-check backend (feature `osqp`) is built with the cmake of
 # python_ref/.venv (PyPI's cmake).
 # A missing or broken Python environment is an error, never a skip.
+# Everything after the first `cargo test` runs on that one debug build
+# (the dependencies at opt-level 2): every cargo command below selects the
+# same packages and features, because cargo resolves a dependency's
+# features over the packages a command builds, and a different selection
+# (`cargo run --example` without --workspace, maturin building python/
+# alone) recompiled about 90 crates, about 8 minutes each on two cores.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -97,16 +102,24 @@ cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-run --quie
 disk "tests built"
 cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-fail-fast
 cargo test --workspace --doc --features osqp,ros2,mujoco --no-fail-fast
+# The stress test again with 1,000,000 ticks (20,000 above), debug
+# assertions and overflow checks on: about a minute, where a release
+# build of its own took most of a 10-minute stage for the same tallies
+# (the release and the debug run count the same statuses).
+echo "== arbitration stress test (1,000,000 ticks)"
+TANDEM_STRESS_TICKS=1000000 cargo test --quiet --workspace --features osqp,ros2,mujoco --test arbitration_stress -- --nocapture
 echo "== examples/arbiter_loop.rs"
-cargo run --quiet --features osqp,ros2,mujoco --example arbiter_loop
+cargo build --quiet --workspace --features osqp,ros2,mujoco --example arbiter_loop
+target/debug/examples/arbiter_loop
 disk "Rust tests done"
 
 # `pip install .` as a user runs it (maturin from PyPI in an isolated build
-# environment), but with the dev profile: it reuses the test build above
-# (only pyo3, numpy and the bindings compile) instead of a release build.
+# environment), but with the dev profile and the test build's features
+# (tandem's osqp and ros2 too): it reuses the test build above (only pyo3,
+# numpy and the bindings compile) instead of a release build.
 echo "== pip install . (the Python package)"
-MATURIN_PEP517_ARGS="--profile dev --features mujoco" "$pyvenv/bin/pip" install --quiet --disable-pip-version-check \
-  --force-reinstall --no-deps .
+MATURIN_PEP517_ARGS="--profile dev --features mujoco,tandem/osqp,tandem/ros2" "$pyvenv/bin/pip" install --quiet \
+  --disable-pip-version-check --force-reinstall --no-deps .
 echo "== pytest python/tests"
 TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:cacheprovider python/tests
 
@@ -138,15 +151,13 @@ echo "== fuzz smoke: every target for ${FUZZ_SMOKE_SECONDS:=3} s"
 FUZZ_PROFILE=smoke scripts/fuzz.sh all "$FUZZ_SMOKE_SECONDS"
 disk "fuzz smoke done"
 
-# The stress test in release: 1,000,000 random ticks (20,000 in the debug run above).
-echo "== arbitration stress test (release, 1,000,000 ticks)"
-cargo test --release --features osqp,mujoco --test arbitration_stress -- --nocapture
-
-# The release binary the stress test built (with MuJoCo, for the physics
-# run) runs the user pages' shell examples and the quick reproduction.
+# The test build's binary (with MuJoCo, for the physics run) runs the user
+# pages' shell examples and the quick reproduction: the published results
+# are the same bytes from a debug and a release build (no fast-math; the
+# SIMD kernels are chosen by the CPU, not the profile).
 echo "== the shell examples of docs/"
-"$venv/bin/python" scripts/doc_examples.py target/release/tandem
+"$venv/bin/python" scripts/doc_examples.py target/debug/tandem
 echo "== reproduction check (scripts/reproduce.sh --quick --check)"
 need rsvg-convert librsvg2-bin
-scripts/reproduce.sh --quick --check --bin target/release/tandem
+scripts/reproduce.sh --quick --check --bin target/debug/tandem
 disk "end"

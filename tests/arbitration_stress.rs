@@ -2,10 +2,9 @@
 //! included), the arm stepped by each command. Zero hard-constraint
 //! violations (joint position and velocity limits, collisions along the
 //! executed motion, checked by sampling it independently of the arbiter's
-//! certification) and zero panics. 1,000,000 ticks in a release build
-//! (`scripts/test.sh` runs it: `cargo test --release --test
-//! arbitration_stress`), 20,000 in a debug build; `TANDEM_STRESS_TICKS`
-//! overrides.
+//! certification) and zero panics. 20,000 ticks in a debug build and
+//! 1,000,000 in release; `TANDEM_STRESS_TICKS` overrides (`scripts/test.sh`
+//! runs 1,000,000 on its debug build, with debug assertions on).
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
