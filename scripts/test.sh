@@ -100,6 +100,15 @@ RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp,ros2,
 echo "== cargo test"
 cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-run --quiet
 disk "tests built"
+# The tandem libraries of the test build. A step that adds one compiled
+# tandem again with other dependency features (see above): an error, so
+# that the ~8 minutes it costs do not come back unnoticed.
+tandem_builds() { ls target/debug/deps/libtandem-*.rlib | sort; }
+built=$(tandem_builds)
+same_build() {
+  [ "$(tandem_builds)" = "$built" ] \
+    || { echo "error: $1 compiled tandem again with other features than the test build's; select the same packages and features" >&2; exit 1; }
+}
 cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-fail-fast
 cargo test --workspace --doc --features osqp,ros2,mujoco --no-fail-fast
 # The stress test again with 1,000,000 ticks (20,000 above), debug
@@ -110,6 +119,7 @@ echo "== arbitration stress test (1,000,000 ticks)"
 TANDEM_STRESS_TICKS=1000000 cargo test --quiet --workspace --features osqp,ros2,mujoco --test arbitration_stress -- --nocapture
 echo "== examples/arbiter_loop.rs"
 cargo build --quiet --workspace --features osqp,ros2,mujoco --example arbiter_loop
+same_build "the example's build"
 target/debug/examples/arbiter_loop
 disk "Rust tests done"
 
@@ -120,6 +130,7 @@ disk "Rust tests done"
 echo "== pip install . (the Python package)"
 MATURIN_PEP517_ARGS="--profile dev --features mujoco,tandem/osqp,tandem/ros2" "$pyvenv/bin/pip" install --quiet \
   --disable-pip-version-check --force-reinstall --no-deps .
+same_build "pip install ."
 echo "== pytest python/tests"
 TANDEM_BIN="$PWD/target/debug/tandem" "$pyvenv/bin/python" -m pytest -q -p no:cacheprovider python/tests
 
@@ -148,7 +159,7 @@ disk "browser tests done"
 # Every fuzz target for a few seconds (a fresh build of fuzz/ is part of
 # the cost; scripts/fuzz.sh TARGET SECONDS fuzzes for real).
 echo "== fuzz smoke: every target for ${FUZZ_SMOKE_SECONDS:=3} s"
-FUZZ_PROFILE=smoke scripts/fuzz.sh all "$FUZZ_SMOKE_SECONDS"
+FUZZ_PROFILE=smoke FUZZ_JOBS=2 scripts/fuzz.sh all "$FUZZ_SMOKE_SECONDS"
 disk "fuzz smoke done"
 
 # The test build's binary (with MuJoCo, for the physics run) runs the user
