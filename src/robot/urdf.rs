@@ -107,31 +107,43 @@ impl RobotDescription {
     /// `panda_hand_tcp` gripper frame at the fingertip centre.
     pub fn panda() -> RobotDescription {
         // The embedded file is tested on every build; failing here is a build defect.
-        parse_urdf(EMBEDDED_PANDA_URDF, "<embedded panda.urdf>", &MeshSearchPath::default())
-            .expect("embedded Panda URDF is valid")
+        EMBEDDED_PANDA.parse().expect("embedded Panda URDF is valid")
     }
 
     /// The embedded planar gripper of the dissertation's planar task:
     /// prismatic `x` and `y` (m, over a 50 × 50 cm table) and a `yaw` joint,
     /// gripper frame `gripper_tcp` 10 cm above the table.
     pub fn planar_gripper() -> RobotDescription {
-        parse_urdf(EMBEDDED_PLANAR_URDF, "<embedded planar_gripper.urdf>", &MeshSearchPath::default())
-            .expect("embedded planar gripper URDF is valid")
+        EMBEDDED_PLANAR.parse().expect("embedded planar gripper URDF is valid")
     }
 
     /// The text of an embedded robot's URDF ([`Self::panda`],
     /// [`Self::planar_gripper`]); `None` for one read from a file.
     pub fn embedded_urdf(&self) -> Option<&'static str> {
-        match self.source.as_str() {
-            "<embedded panda.urdf>" => Some(EMBEDDED_PANDA_URDF),
-            "<embedded planar_gripper.urdf>" => Some(EMBEDDED_PLANAR_URDF),
-            _ => None,
-        }
+        [EMBEDDED_PANDA, EMBEDDED_PLANAR].into_iter().find(|e| e.source == self.source).map(|e| e.text)
     }
 }
 
-const EMBEDDED_PANDA_URDF: &str = include_str!("../../problems/robots/panda/panda.urdf");
-const EMBEDDED_PLANAR_URDF: &str = include_str!("../../problems/robots/planar/planar_gripper.urdf");
+/// A URDF compiled into the library, and the source name its description
+/// carries (which [`RobotDescription::embedded_urdf`] looks up).
+#[derive(Clone, Copy)]
+struct EmbeddedUrdf {
+    source: &'static str,
+    text: &'static str,
+}
+
+impl EmbeddedUrdf {
+    fn parse(self) -> Result<RobotDescription, RobotError> {
+        parse_urdf(self.text, self.source, &MeshSearchPath::default())
+    }
+}
+
+const EMBEDDED_PANDA: EmbeddedUrdf =
+    EmbeddedUrdf { source: "<embedded panda.urdf>", text: include_str!("../../problems/robots/panda/panda.urdf") };
+const EMBEDDED_PLANAR: EmbeddedUrdf = EmbeddedUrdf {
+    source: "<embedded planar_gripper.urdf>",
+    text: include_str!("../../problems/robots/planar/planar_gripper.urdf"),
+};
 
 fn parse_urdf(text: &str, source: &str, search: &MeshSearchPath) -> Result<RobotDescription, RobotError> {
     parse_urdf_in(text, source, None, search)
