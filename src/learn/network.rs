@@ -173,7 +173,7 @@ impl PolicyNetwork {
     /// Runs the forward pass compiled for `wanted` (or the best variant
     /// below it this CPU has) and returns the one that runs. By default
     /// the variant `TANDEM_SIMD` names, else the best available; all
-    /// agree with candle's forward pass to 1e-5 (tests/learn.rs).
+    /// agree with candle's forward pass to 1e-5 (tests/learn/).
     pub fn set_simd(&mut self, wanted: crate::collision::SimdLevel) -> crate::collision::SimdLevel {
         self.layers.iter_mut().fold(wanted, |_, layer| layer.set_simd(wanted))
     }

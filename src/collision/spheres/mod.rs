@@ -36,13 +36,15 @@ mod single;
 mod sweep;
 #[cfg(test)]
 mod tests;
+mod workspace;
 
-pub(crate) use check::{SphereWorkspace, Verdict};
+pub(crate) use check::Verdict;
 use lanes::FrameRotation;
 pub use lanes::LANES;
 pub(crate) use motion::{Certification, SampleOrder};
 pub use quarter_turns::SnappedQuarterTurns;
 use quarter_turns::norm;
+pub(crate) use workspace::SphereWorkspace;
 
 use super::distance::closer_than;
 use super::geometry::{CollisionObject, Geometry, Group, lever_chain};

@@ -27,8 +27,9 @@
 //! bits' upkeep), same paths.
 
 use super::SphereModel;
-use super::check::{Interval, Margins, Pending, SphereWorkspace, Verdict};
+use super::check::Verdict;
 use super::lanes::{LANES, Lane, build};
+use super::workspace::{Interval, Margins, Pending, SphereWorkspace};
 
 /// Sample indices `0..=steps` of a motion, coarse to fine: the end, the
 /// start, then the odd multiples of halving strides (every index once),

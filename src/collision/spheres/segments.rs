@@ -26,8 +26,8 @@
 // Lane loops index several arrays by the lane on purpose (see `lanes.rs`).
 #![allow(clippy::needless_range_loop)]
 
-use super::check::SphereWorkspace;
 use super::lanes::{LANES, Lane, Real, build, max, min};
+use super::workspace::SphereWorkspace;
 use super::{SphereGroup, SphereModel};
 use crate::robot::JointLimits;
 use rand::{RngExt, SeedableRng};

@@ -30,10 +30,11 @@
 //! limits by the band deferred half of the Panda's batches and cost 20 %
 //! more instructions.)
 
-use super::check::{SphereWorkspace, Verdict};
+use super::check::Verdict;
 use super::lanes::{LANES, Lane, single};
 use super::quarter_turns::norm;
 use super::real::SINGLE_REDUCTION_LIMIT;
+use super::workspace::SphereWorkspace;
 use super::{
     BodySphere, Cluster, EnvChunk, LaneBody, SimdLevel, SphereGroup, SphereModel, StaticKind, StaticShape, SweepTerm,
 };

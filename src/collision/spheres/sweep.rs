@@ -20,8 +20,8 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::SphereModel;
-use super::check::SphereWorkspace;
 use super::lanes::{LANES, Lane, Real, build, cross, distance_rate, max, min, offset_dot};
+use super::workspace::SphereWorkspace;
 use crate::robot::Motion;
 
 impl<T: Real> SphereModel<T> {

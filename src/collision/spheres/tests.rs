@@ -8,9 +8,9 @@
 //! distances, and gives the f64 check's verdicts, close calls included.
 
 use super::SphereModel;
-use super::check::SphereWorkspace;
 use super::check::Verdict;
 use super::lanes::{LANES, Lane, Real, distance_rate, lane_distance_squared};
+use super::workspace::SphereWorkspace;
 use crate::collision::CollisionModel;
 use crate::robot::{RobotDescription, RobotModel, Srdf};
 use crate::scene::{Obstacle, Scene, Shape};
@@ -445,7 +445,7 @@ fn culling_self_pairs_in_blocks_keeps_every_verdict() {
                 m.set_along(ws, &q0, &q1, &t);
                 let plain = m.check::<false>(ws);
                 m.start_sweeps(ws, &q0, &q1);
-                ws.margins = super::check::Margins { half: 0.01, full: 0.02, width };
+                ws.margins = super::workspace::Margins { half: 0.01, full: 0.02, width };
                 m.set_along(ws, &q0, &q1, &t);
                 let certified = m.check::<true>(ws);
                 verdicts.push((plain, certified, ws.room.map(f64::to_bits)));

@@ -1,262 +1,32 @@
 //! The policy experiment (the dissertation's §3.3.3): tasks drawn from a
 //! problem family, the learned policy and the LQR tracking policy each
 //! followed alone from the task's start (the dissertation reached 92–97 %),
-//! DAgger rounds, and shared control (an [`Arbiter`] in a given mode with a
+//! DAgger rounds, and shared control (an [`Arbiter`](crate::arbitration::Arbiter) in a given mode with a
 //! simulated operator) on top of either policy.
 
-use super::figures::{joint_histograms, loss_curves, success_by_distance};
+use super::figures::{joint_histograms, success_by_distance};
 use super::{Context, Experiment, ExperimentError};
-use crate::arbitration::{
-    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, ModeSettings, problem_goals,
-};
-use crate::control::RobotPolicy;
+use crate::arbitration::{ArbitrationMode, ModeSettings};
 use crate::data::{GenerateSettings, Progress, dataset_parameters, generate};
-use crate::files::FileError;
 use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
 use crate::learn::evaluate::{
     FailureBreakdown, OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances,
 };
 use crate::learn::{
-    Demonstrations, LearnError, LearnSettings, LearnedPolicy, PolicyNetwork, SHIPPED_POLICY_PATH,
-    SHIPPED_POLICY_PROVENANCE, TrainReport, TrainSettings, shipped_policy, train_on,
+    Demonstrations, LearnSettings, PolicyNetwork, SHIPPED_POLICY_PATH, TrainSettings, shipped_policy, train_on,
 };
 use crate::pipeline::PipelineSettings;
 use crate::problem::ProblemFamily;
-use crate::robot::KinematicsWorkspace;
-use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
-use rayon::prelude::*;
+use crate::sim::Outcome;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Tasks `0 … count − 1` of `family` for run seed `seed`, judged with `max_tilt`.
-///
-/// # Errors
-/// A family sample that cannot be drawn or is not a grasp task.
-pub fn sample_tasks(family: &ProblemFamily, seed: u64, count: usize, max_tilt: f64) -> Result<Vec<Task>, LearnError> {
-    (0..count as u64).into_par_iter().map(|id| Task::new(family.sample(seed, id)?.problem, max_tilt)).collect()
-}
-
-/// The learned policy followed alone on each task, in parallel (results in
-/// task order, the same whatever the thread count).
-///
-/// # Errors
-/// A task the network does not fit (joints, goal), robot errors.
-pub fn follow_learned(
-    network: &Arc<PolicyNetwork>,
-    tasks: &[Task],
-    settings: &RolloutSettings,
-) -> Result<Vec<Rollout>, LearnError> {
-    tasks
-        .par_iter()
-        .map(|task| {
-            let policy = LearnedPolicy::for_problem(network.clone(), &task.problem)?;
-            task.rollout(&policy, &task.problem.start, settings)
-        })
-        .collect()
-}
-
-/// The LQR tracking policy of a reference optimized from each task's start
-/// (planner seed `seed`) followed alone; a task whose reference cannot be
-/// optimized ends [`RolloutOutcome::NoPolicy`].
-///
-/// # Errors
-/// Robot errors.
-pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Result<Vec<Rollout>, LearnError> {
-    tasks
-        .par_iter()
-        .map(|task| {
-            let options = GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
-            match problem_goals(&task.problem, &options) {
-                Ok(goals) => task.rollout(goals[0].policy.as_ref(), &task.problem.start, settings),
-                Err(_) => Ok(Rollout {
-                    outcome: RolloutOutcome::NoPolicy,
-                    steps: 0,
-                    clamped: 0,
-                    path: vec![task.problem.start.clone()],
-                    reason: None,
-                    distance: f64::NAN,
-                }),
-            }
-        })
-        .collect()
-}
-
-/// Which robot policy the arbiter blends with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum GoalPolicy {
-    /// The learned network conditioned on the task's goal.
-    Learned,
-    /// The LQR tracking policy of a reference optimized from the start.
-    Lqr,
-}
-
-impl GoalPolicy {
-    /// `learned` or `lqr`.
-    pub fn as_str(&self) -> &'static str {
-        match self {
-            GoalPolicy::Learned => "learned",
-            GoalPolicy::Lqr => "lqr",
-        }
-    }
-}
-
-/// An arbiter on `task` whose one goal, the grasp, is steered by
-/// `network` (the learned policy of the task's goal and obstacles).
-///
-/// # Errors
-/// A task the network does not fit (joints, goal), arbiter settings the
-/// task's model refuses.
-pub fn learned_arbiter(
-    network: &Arc<PolicyNetwork>,
-    task: &Task,
-    settings: ArbiterSettings,
-) -> Result<Arbiter, LearnError> {
-    let problem = &task.problem;
-    let policy: Arc<dyn RobotPolicy> = Arc::new(LearnedPolicy::for_problem(network.clone(), problem)?);
-    let position = problem.grasp_target().map(|p| p.translation.vector.into()).unwrap_or([0.0; 3]);
-    let goal = ArbiterGoal { name: task.object().to_string(), position, policy };
-    Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings)
-        .map_err(|e| LearnError::Training(format!("arbiter: {e}")))
-}
-
-/// Outcomes of shared-control episodes: the [`Approach`] operator (to a
-/// point above the grasp, then down) through an arbiter in `mode` (its
-/// other settings from `modes`: the centres κ) whose goal policy is
-/// `which`, on each task, in parallel. Success is the task's grasp judge
-/// (as when a policy is followed alone), checked after every step; a task
-/// whose LQR reference cannot be optimized counts as `Timeout`.
-///
-/// # Errors
-/// Arbiter or robot errors.
-pub fn shared_control(
-    network: &Arc<PolicyNetwork>,
-    tasks: &[Task],
-    mode: ArbitrationMode,
-    modes: &ModeSettings,
-    which: GoalPolicy,
-    seed: u64,
-) -> Result<Vec<Outcome>, LearnError> {
-    let episode = EpisodeSettings { record: false, ..EpisodeSettings::default() };
-    let judge_radius = RolloutSettings::default().judge_radius;
-    let arbitration = |e: crate::arbitration::ArbitrationError| LearnError::Training(format!("arbiter: {e}"));
-    tasks
-        .par_iter()
-        .map(|task| {
-            let problem = &task.problem;
-            let settings = ArbiterSettings { mode, modes: *modes, ..ArbiterSettings::default() };
-            let arbiter = match which {
-                GoalPolicy::Learned => learned_arbiter(network, task, settings)?,
-                GoalPolicy::Lqr => {
-                    let options =
-                        GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
-                    let Ok(goals) = problem_goals(problem, &options) else { return Ok(Outcome::Timeout) };
-                    Arbiter::for_problem(problem, &goals, settings).map_err(arbitration)?
-                }
-            };
-            let Some(goal) = problem.grasp_target() else { return Ok(Outcome::Timeout) };
-            let mut ws = arbiter.workspace();
-            let mut kin = KinematicsWorkspace::new(&problem.robot);
-            let run = Episode {
-                arbiter: &arbiter,
-                start: &problem.start,
-                target: goal.translation.vector.into(),
-                true_goal: 0,
-                settings: episode,
-            };
-            // A judge error (a bad configuration) is not a grasp.
-            let mut judge = |q: &[f64]| task.grasped(&mut kin, q, judge_radius).unwrap_or(false);
-            let record = run.run(&mut ws, &mut Approach::default(), &mut judge)?;
-            Ok(record.outcome)
-        })
-        .collect()
-}
-
-/// The report written beside a policy file (`FILE.json`).
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
-pub struct PolicyReport {
-    /// The dataset folder it was trained on (the provenance file for the
-    /// shipped policy).
-    #[serde(default)]
-    pub data: PathBuf,
-    /// Training trajectories.
-    pub trajectories: usize,
-    /// Training state-action pairs.
-    pub pairs: usize,
-    /// Validation trajectories.
-    pub validation_trajectories: usize,
-    /// Validation pairs.
-    pub validation_pairs: usize,
-    /// Training time (s).
-    pub seconds: f64,
-    /// Training loss of the last epoch.
-    pub final_train_loss: f64,
-    /// Validation loss of the last epoch (NaN without validation pairs).
-    pub final_validation_loss: f64,
-    /// Every epoch's losses (none recorded for the shipped policy).
-    #[serde(default)]
-    pub losses: Vec<serde_json::Value>,
-}
-
-impl PolicyReport {
-    fn new(data: &Path, report: &TrainReport) -> PolicyReport {
-        let last = report.losses.last();
-        PolicyReport {
-            data: data.to_path_buf(),
-            trajectories: report.train_trajectories,
-            pairs: report.train_pairs,
-            validation_trajectories: report.validation_trajectories,
-            validation_pairs: report.validation_pairs,
-            seconds: report.seconds,
-            final_train_loss: last.map_or(f64::NAN, |l| l.train),
-            final_validation_loss: last.map_or(f64::NAN, |l| l.validation),
-            losses: report.losses.iter().filter_map(|l| serde_json::to_value(l).ok()).collect(),
-        }
-    }
-
-    /// The shipped policy's training, from its provenance
-    /// (`policies/panda_grasp_family.json`).
-    pub fn of_shipped() -> Option<PolicyReport> {
-        let provenance: serde_json::Value = serde_json::from_str(SHIPPED_POLICY_PROVENANCE).ok()?;
-        let mut report: PolicyReport = serde_json::from_value(provenance.get("training")?.clone()).ok()?;
-        report.data = Path::new(SHIPPED_POLICY_PATH).with_extension("json");
-        Some(report)
-    }
-
-    /// The report beside `policy` (`None` when there is none or it is unreadable).
-    pub fn read_beside(policy: &Path) -> Option<PolicyReport> {
-        serde_json::from_str(&std::fs::read_to_string(policy.with_extension("json")).ok()?).ok()
-    }
-}
-
-/// Trains a policy network on the dataset in `data` and writes it to `out`
-/// (safetensors), its [`PolicyReport`] beside it (`.json`) and its loss
-/// curves (`.svg`); returns the network and the report.
-///
-/// # Errors
-/// A file that cannot be written (checked first), an unreadable dataset,
-/// training.
-pub fn train_and_save(
-    data: &Path,
-    family: &ProblemFamily,
-    options: &LearnSettings,
-    out: &Path,
-) -> Result<(PolicyNetwork, PolicyReport), ExperimentError> {
-    for path in [out.to_path_buf(), out.with_extension("json"), out.with_extension("svg")] {
-        crate::files::check_writable(&path)?;
-    }
-    let demos = Demonstrations::read(data)?;
-    let (network, report) = train_on(&demos, family, options, None)?;
-    network.save(out)?;
-    let summary = PolicyReport::new(data, &report);
-    let json = out.with_extension("json");
-    std::fs::write(&json, serde_json::to_string_pretty(&summary)? + "\n").map_err(FileError::io(&json))?;
-    let svg = out.with_extension("svg");
-    let title = format!("Training the policy network ({} trajectories, {} pairs)", summary.trajectories, summary.pairs);
-    std::fs::write(&svg, loss_curves(&report, &title)?).map_err(FileError::io(&svg))?;
-    Ok((network, summary))
-}
+mod rollouts;
+mod training;
+pub use rollouts::{GoalPolicy, follow_learned, follow_lqr, learned_arbiter, sample_tasks, shared_control};
+pub use training::{PolicyReport, train_and_save};
 
 /// The policy experiment's settings; it needs an output folder (the
 /// dataset, the policies of each round, the figures).

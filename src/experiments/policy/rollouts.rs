@@ -1,0 +1,157 @@
+//! The policy experiment's rollouts: its tasks, the learned and the LQR
+//! tracking policy followed alone, and shared control on either.
+
+use crate::arbitration::{
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, ModeSettings, problem_goals,
+};
+use crate::control::RobotPolicy;
+use crate::learn::evaluate::{Rollout, RolloutOutcome, RolloutSettings, Task};
+use crate::learn::{LearnError, LearnedPolicy, PolicyNetwork};
+use crate::problem::ProblemFamily;
+use crate::robot::KinematicsWorkspace;
+use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Tasks `0 … count − 1` of `family` for run seed `seed`, judged with `max_tilt`.
+///
+/// # Errors
+/// A family sample that cannot be drawn or is not a grasp task.
+pub fn sample_tasks(family: &ProblemFamily, seed: u64, count: usize, max_tilt: f64) -> Result<Vec<Task>, LearnError> {
+    (0..count as u64).into_par_iter().map(|id| Task::new(family.sample(seed, id)?.problem, max_tilt)).collect()
+}
+
+/// The learned policy followed alone on each task, in parallel (results in
+/// task order, the same whatever the thread count).
+///
+/// # Errors
+/// A task the network does not fit (joints, goal), robot errors.
+pub fn follow_learned(
+    network: &Arc<PolicyNetwork>,
+    tasks: &[Task],
+    settings: &RolloutSettings,
+) -> Result<Vec<Rollout>, LearnError> {
+    tasks
+        .par_iter()
+        .map(|task| {
+            let policy = LearnedPolicy::for_problem(network.clone(), &task.problem)?;
+            task.rollout(&policy, &task.problem.start, settings)
+        })
+        .collect()
+}
+
+/// The LQR tracking policy of a reference optimized from each task's start
+/// (planner seed `seed`) followed alone; a task whose reference cannot be
+/// optimized ends [`RolloutOutcome::NoPolicy`].
+///
+/// # Errors
+/// Robot errors.
+pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Result<Vec<Rollout>, LearnError> {
+    tasks
+        .par_iter()
+        .map(|task| {
+            let options = GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
+            match problem_goals(&task.problem, &options) {
+                Ok(goals) => task.rollout(goals[0].policy.as_ref(), &task.problem.start, settings),
+                Err(_) => Ok(Rollout {
+                    outcome: RolloutOutcome::NoPolicy,
+                    steps: 0,
+                    clamped: 0,
+                    path: vec![task.problem.start.clone()],
+                    reason: None,
+                    distance: f64::NAN,
+                }),
+            }
+        })
+        .collect()
+}
+
+/// Which robot policy the arbiter blends with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GoalPolicy {
+    /// The learned network conditioned on the task's goal.
+    Learned,
+    /// The LQR tracking policy of a reference optimized from the start.
+    Lqr,
+}
+
+impl GoalPolicy {
+    /// `learned` or `lqr`.
+    pub fn as_str(&self) -> &'static str {
+        match self {
+            GoalPolicy::Learned => "learned",
+            GoalPolicy::Lqr => "lqr",
+        }
+    }
+}
+
+/// An arbiter on `task` whose one goal, the grasp, is steered by
+/// `network` (the learned policy of the task's goal and obstacles).
+///
+/// # Errors
+/// A task the network does not fit (joints, goal), arbiter settings the
+/// task's model refuses.
+pub fn learned_arbiter(
+    network: &Arc<PolicyNetwork>,
+    task: &Task,
+    settings: ArbiterSettings,
+) -> Result<Arbiter, LearnError> {
+    let problem = &task.problem;
+    let policy: Arc<dyn RobotPolicy> = Arc::new(LearnedPolicy::for_problem(network.clone(), problem)?);
+    let position = problem.grasp_target().map(|p| p.translation.vector.into()).unwrap_or([0.0; 3]);
+    let goal = ArbiterGoal { name: task.object().to_string(), position, policy };
+    Arbiter::new(task.collision_model().clone(), task.gripper_name(), vec![goal], settings)
+        .map_err(|e| LearnError::Training(format!("arbiter: {e}")))
+}
+
+/// Outcomes of shared-control episodes: the [`Approach`] operator (to a
+/// point above the grasp, then down) through an arbiter in `mode` (its
+/// other settings from `modes`: the centres κ) whose goal policy is
+/// `which`, on each task, in parallel. Success is the task's grasp judge
+/// (as when a policy is followed alone), checked after every step; a task
+/// whose LQR reference cannot be optimized counts as `Timeout`.
+///
+/// # Errors
+/// Arbiter or robot errors.
+pub fn shared_control(
+    network: &Arc<PolicyNetwork>,
+    tasks: &[Task],
+    mode: ArbitrationMode,
+    modes: &ModeSettings,
+    which: GoalPolicy,
+    seed: u64,
+) -> Result<Vec<Outcome>, LearnError> {
+    let episode = EpisodeSettings { record: false, ..EpisodeSettings::default() };
+    let judge_radius = RolloutSettings::default().judge_radius;
+    let arbitration = |e: crate::arbitration::ArbitrationError| LearnError::Training(format!("arbiter: {e}"));
+    tasks
+        .par_iter()
+        .map(|task| {
+            let problem = &task.problem;
+            let settings = ArbiterSettings { mode, modes: *modes, ..ArbiterSettings::default() };
+            let arbiter = match which {
+                GoalPolicy::Learned => learned_arbiter(network, task, settings)?,
+                GoalPolicy::Lqr => {
+                    let options =
+                        GoalSettings { seed: Some(seed), objects: GoalObjects::Goal, ..GoalSettings::default() };
+                    let Ok(goals) = problem_goals(problem, &options) else { return Ok(Outcome::Timeout) };
+                    Arbiter::for_problem(problem, &goals, settings).map_err(arbitration)?
+                }
+            };
+            let Some(goal) = problem.grasp_target() else { return Ok(Outcome::Timeout) };
+            let mut ws = arbiter.workspace();
+            let mut kin = KinematicsWorkspace::new(&problem.robot);
+            let run = Episode {
+                arbiter: &arbiter,
+                start: &problem.start,
+                target: goal.translation.vector.into(),
+                true_goal: 0,
+                settings: episode,
+            };
+            // A judge error (a bad configuration) is not a grasp.
+            let mut judge = |q: &[f64]| task.grasped(&mut kin, q, judge_radius).unwrap_or(false);
+            let record = run.run(&mut ws, &mut Approach::default(), &mut judge)?;
+            Ok(record.outcome)
+        })
+        .collect()
+}
