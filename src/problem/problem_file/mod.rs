@@ -6,13 +6,14 @@ use super::toml_source::KeyPath;
 use super::{Goal, Problem, ProblemError, RobotSpec, Source};
 use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh};
 use crate::scene::{Obstacle, Scene, SceneObject, Shape};
-use crate::settings::readable;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+mod check;
 mod solver;
+use check::{Check, axis_index};
 pub use solver::{MAX_HORIZON, MAX_TIME_LIMIT, MIN_HORIZON, MIN_PLANNER_CLEARANCE, MIN_PLANNER_RESOLUTION};
 use solver::{RawOptimizer, RawPlanner};
 
@@ -135,35 +136,7 @@ struct RawGoal {
     grasp_frame: Option<String>,
 }
 
-/// Range checks that name the key.
-pub(crate) struct Check<'a, 'b> {
-    src: &'a Source<'b>,
-}
-
 impl Check<'_, '_> {
-    fn positive(&self, path: &KeyPath, v: f64) -> Result<f64, ProblemError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.src.error(path, format!("must be positive, got {}", readable(v))))
-        }
-    }
-
-    fn non_negative(&self, path: &KeyPath, v: f64) -> Result<f64, ProblemError> {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(self.src.error(path, format!("must be zero or positive, got {v}")))
-        }
-    }
-
-    fn finite(&self, path: &KeyPath, v: &[f64]) -> Result<(), ProblemError> {
-        match v.iter().position(|x| !x.is_finite()) {
-            Some(i) => Err(self.src.error(&path.index(i), format!("must be finite, got {}", v[i]))),
-            None => Ok(()),
-        }
-    }
-
     fn pose(
         &self,
         path: &KeyPath,
@@ -508,10 +481,6 @@ impl RawScene {
         }
         Ok(scene)
     }
-}
-
-fn axis_index(name: &str) -> Option<usize> {
-    ["x", "y", "z"].iter().position(|a| *a == name)
 }
 
 impl RawGoal {

@@ -1,7 +1,8 @@
 //! The `[planner]` and `[optimizer]` sections of a problem file: how the
 //! problem is solved, as opposed to what it is (robot, scene, start, goal).
 
-use super::{Check, KeyPath, axis_index};
+use super::check::{Check, axis_index};
+use crate::problem::toml_source::KeyPath;
 use crate::problem::{
     ObjectiveKind, ObjectiveSpec, OptimizerSettings, PlannerSettings, ProblemError, Source, TimeRange,
 };

@@ -2,7 +2,7 @@
 //! rate, states and messages out through the writer task, and the
 //! close handshake.
 
-use super::{OpenSession, ServerStats, Shared, keep};
+use super::state::{OpenSession, ServerStats, Shared, keep};
 use crate::teleop::protocol::{ClientMessage, MAX_MESSAGE_BYTES, parse_client_message};
 use crate::teleop::session::{SessionSettings, TeleopSession, TeleopTask};
 use crate::teleop::{StateView, TeleopError};
