@@ -5,8 +5,8 @@
 #      python_ref/requirements.txt changes, and the Python package's test
 #      environment python/.venv (pytest, ray; python/requirements-test.txt);
 #   2. formatting, lint and documentation checks (cargo fmt, cargo clippy
-#      -D warnings, cargo doc with rustdoc warnings as errors: broken
-#      intra-doc links);
+#      -D warnings, cargo doc with rustdoc warnings as errors, of the public
+#      and of the private items: broken intra-doc links);
 #   3. all Rust tests, including the live cross-checks against python_ref/,
 #      and one million random arbitration ticks (tests/arbitration_stress.rs);
 #   4. the Python package: `pip install .` (maturin) into python/.venv, then
@@ -97,6 +97,9 @@ echo "== cargo clippy"
 cargo clippy --workspace --all-targets --features osqp,ros2,mujoco --quiet -- -D warnings
 echo "== cargo doc (warnings are errors)"
 RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp,ros2,mujoco --quiet
+# Again with the private items, whose links the first run does not follow
+# (the first catches public pages linking to private items).
+RUSTDOCFLAGS="-D warnings" cargo doc --workspace --no-deps --features osqp,ros2,mujoco --document-private-items --quiet
 echo "== cargo test"
 cargo test --workspace --all-targets --features osqp,ros2,mujoco --no-run --quiet
 disk "tests built"

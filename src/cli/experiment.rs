@@ -160,7 +160,7 @@ pub struct ReachGraspArgs {
     pub json: bool,
     /// Folder for the Fig. 5.4-style figure (reach_grasp.svg), the results
     /// (reach_grasp.json) and every episode tick by tick
-    /// (episodes/<arm>-<task>.parquet).
+    /// (`episodes/<arm>-<task>.parquet`).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// What moves the arm: `kinematic` (tandem's simulator; success is the

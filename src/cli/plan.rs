@@ -17,7 +17,7 @@ pub struct PlanArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Print exactly one JSON object: {"status", "time_ms", "iterations",
-    /// "joints" (the waypoints' columns), "waypoints" [[q], ...] (after shortcutting), "path_length" (rad,
+    /// "joints" (the waypoints' columns), "waypoints" `[[q], ...]` (after shortcutting), "path_length" (rad,
     /// joint space), "simplify_ms", "nodes", "raw_waypoints", "certified"
     /// (every edge passed the certified clearance check), "attempts",
     /// "reason" (why the start or goal was refused, else null)}; "status"

@@ -30,8 +30,8 @@ pub struct SolveArgs {
     /// optimization), "iterations" (Gauss-Newton steps), "cost",
     /// "eq_violation", "ineq_violation", "min_distance" (m, over the
     /// slices), "collision_free" (checked every 2 mrad between slices),
-    /// "T" (optimized configurations), "joints", "trajectory" [[q_0], …,
-    /// [q_T]] (T + 1 rows, the start first, "time_step" apart), and "plan_ms",
+    /// "T" (optimized configurations), "joints", "trajectory" `[[q_0], …,
+    /// [q_T]]` (T + 1 rows, the start first, "time_step" apart), and "plan_ms",
     /// "optimize_ms", "outer_iterations", "evaluations", "within_limits",
     /// "time_step", "reason"}. A start outside the limits or in collision,
     /// or a goal no configuration within limits reaches (or only colliding

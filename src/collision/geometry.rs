@@ -43,7 +43,7 @@ pub(crate) struct CollisionObject {
 }
 
 /// A rigid set of objects: a robot link (or a named surface of one, see
-/// [`CollisionModelBuilder::surface_groups`]), an attached object, an obstacle.
+/// [`CollisionModelBuilder::surface_groups`](super::CollisionModelBuilder::surface_groups)), an attached object, an obstacle.
 #[derive(Debug, Clone)]
 pub(crate) struct Group {
     pub(crate) name: String,
@@ -70,7 +70,7 @@ pub(crate) struct GroupPair {
     /// The deepest body both groups' bodies descend from (the root for a
     /// static group): the joints that change the pair's relative pose are
     /// those from either group's body up to it, not including it (see
-    /// [`CollisionModel::movers`]).
+    /// [`CollisionModel::movers`](super::CollisionModel::movers)).
     pub(crate) meet: u32,
 }
 

@@ -1,6 +1,6 @@
 //! Bulk datasets of optimized trajectories (feature `data`, on by default).
 //!
-//! Bulk generation ([`generate`]) samples problems from a
+//! Bulk generation ([`generate()`]) samples problems from a
 //! [`ProblemFamily`](crate::problem::ProblemFamily), runs IK →
 //! RRT-Connect → trajectory optimization → validation on every core, and
 //! streams the accepted trajectories to Parquet part files: deterministic

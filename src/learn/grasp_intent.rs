@@ -2,7 +2,7 @@
 //! hand features, which object the person reaches for and whether from the top
 //! or the side.
 //!
-//! A small dense network (the [`train`](super::train) module's layers: ReLU
+//! A small dense network (the trainers' shared layers, `learn/layers.rs`: ReLU
 //! between them, He-uniform initialisation) with two softmax heads — object
 //! (`objects` classes) and grasp direction (2 classes) — trained with candle
 //! by AdamW on the sum of the two cross-entropies. The inputs are normalised

@@ -7,7 +7,7 @@
 //!   turns it into state-action [`Pairs`]: the input of [`features`] (gripper
 //!   position, goal relative to it, goal rotation in the continuous 6-D form,
 //!   `q`, obstacle slots) and the joint velocity as a unit direction and a norm.
-//! - [`train`] fits an MLP with candle (CPU, deterministic per seed) on the
+//! - [`train()`] fits an MLP with candle (CPU, deterministic per seed) on the
 //!   weighted sum of the two mean squared errors (§3.3.3).
 //! - [`PolicyNetwork`] is the trained network at query time (hand-written
 //!   `f32` layers, nothing allocated), saved as safetensors.

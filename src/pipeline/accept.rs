@@ -2,7 +2,7 @@
 //! it: [`solve_problem`] up to [`PipelineSettings::attempts`] times (odd
 //! attempts with the grasp turned about its approach axis, each with
 //! another planner seed), each result held to the acceptance checks
-//! ([`validate`](super::validate), [`goal_miss`], [`judge_grasp`]).
+//! ([`validate`](fn@super::validate), [`goal_miss`], [`judge_grasp`]).
 //! Budgets are evaluations, never seconds, so that the outcome depends on
 //! the problem, the seed and the settings only.
 

@@ -360,8 +360,8 @@ fn shapes(node: &Node, id: &str) -> Result<Vec<(Shape, IsometryMatrix3<f64>)>, P
     Ok(out)
 }
 
-/// A `shape_msgs/SolidPrimitive`: box [x, y, z], cylinder [height, radius],
-/// sphere [radius] (m).
+/// A `shape_msgs/SolidPrimitive`: box `[x, y, z]`, cylinder `[height,
+/// radius]`, sphere `[radius]` (m).
 fn primitive(node: &Node) -> Result<Shape, ProblemError> {
     node.fields("a solid primitive", &["type", "dimensions", "polygon"])?;
     if !node.get("polygon").is_absent() {

@@ -7,7 +7,7 @@
 //! also compiles a [`SphereModel`]: flat arrays of sphere centres per body,
 //! static shapes with their world boxes, and per body group the list of
 //! static shapes and groups it is checked against (the model's pairs,
-//! exactly). Checks then run [`LANES`](lanes::LANES) configurations side by
+//! exactly). Checks then run [`LANES`] configurations side by
 //! side: forward kinematics specialised to the bodies' joints, group
 //! bounding spheres against world boxes, then sphere against shape in
 //! closed form.
@@ -82,7 +82,7 @@ struct SphereGroup<T = f64> {
     center: [T; 3],
     radius: T,
     /// Into [`SphereModel::env`]: the static shapes checked against this
-    /// group, [`LANES`](lanes::LANES) at a time.
+    /// group, [`LANES`] at a time.
     env: Range<usize>,
 }
 
@@ -188,7 +188,7 @@ enum StaticKind<T = f64> {
     },
 }
 
-/// Up to [`LANES`](lanes::LANES) static shapes a group is checked
+/// Up to [`LANES`] static shapes a group is checked
 /// against, with their world boxes side by side (empty slots: inverted
 /// boxes, which nothing meets).
 #[derive(Debug, Clone)]
@@ -299,7 +299,7 @@ impl SimdLevel {
     }
 }
 
-/// The spheres of a [`CollisionModel`] as flat arrays for lane-parallel
+/// The spheres of a [`CollisionModel`](super::CollisionModel) as flat arrays for lane-parallel
 /// boolean checks; see the [module documentation](self).
 #[derive(Debug, Clone)]
 pub(crate) struct SphereModel<T = f64> {

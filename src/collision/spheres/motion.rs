@@ -4,7 +4,7 @@
 //! Certification: over the straight motion `q(t) = q0 + t (q1 − q0)`,
 //! `t ∈ [0, 1]`, the centre of a sphere moves at most `S = Σ_k |Δq_k| ·
 //! lever_k` per unit of `t` (levers bound each joint's reach for every q;
-//! see [`lever_chain`](crate::collision::model::lever_chain)), and two
+//! see [`lever_chain`](crate::collision::geometry::lever_chain)), and two
 //! spheres approach each other at most at the sum of their speeds
 //! counting only the joints that move one but not the other (a joint
 //! moving both turns them together). So if at `t = m` a pair is `d` apart,

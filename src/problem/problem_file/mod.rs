@@ -268,7 +268,7 @@ impl RawProblem {
     }
 }
 
-/// Every grasp frame within the gripper's reach (see [`GripperGeometry`](super::GripperGeometry)).
+/// Every grasp frame within the gripper's reach (see [`GripperGeometry`]).
 fn check_grasp_depths(src: &Source, problem: &Problem) -> Result<(), ProblemError> {
     let spec = &problem.robot_spec;
     if spec.gripper.is_none() || (spec.finger_pads.is_empty() && spec.max_grasp_depth.is_none()) {

@@ -12,7 +12,7 @@
 //! and velocities, and collisions unless
 //! [`ArbitrationEnvSettings::hard_collisions`] is off).
 //!
-//! Rewards follow Algorithm 5: [`reward`] adds the agreement term (toward
+//! Rewards follow Algorithm 5: [`reward()`] adds the agreement term (toward
 //! the user at decision points, where the sub-policies' von Mises mixture
 //! is multimodal; toward the true goal's sub-policy elsewhere; minus the
 //! speed difference) to the environment term of [`StepResult::env_reward`]

@@ -2,7 +2,7 @@
 //! arbiter, operators and judge as the kinematic simulator
 //! ([`Episode`](crate::sim::Episode)), but the arm is a simulated robot and
 //! the task ends only when the object is lifted (see
-//! [`PhysicsSettings`](crate::sim::PhysicsSettings) for the sequence and
+//! [`PhysicsSettings`] for the sequence and
 //! the success criterion).
 //!
 //! Each control tick the arbiter blends the operator's command at the

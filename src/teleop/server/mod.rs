@@ -1,5 +1,5 @@
 //! The web server: the page at `/`, its script at `/app.js`, one
-//! [`TeleopSession`] per WebSocket at `/ws`, and health and timing at
+//! [`TeleopSession`](super::TeleopSession) per WebSocket at `/ws`, and health and timing at
 //! `/stats`. Each session ticks at the control rate on the runtime; states
 //! go out at most 60 times a second through a latest-wins channel, so a
 //! slow page never delays the control loop, and a flood of commands only
