@@ -161,6 +161,11 @@ pub trait Experiment: Sync {
     fn json(&self, results: &Self::Results) -> serde_json::Value;
     /// The results as the text table printed without `--json`.
     fn table(&self, results: &Self::Results) -> String;
+    /// Data files of the results beside the JSON (per-task CSV tables):
+    /// file name and text each.
+    fn data_files(&self, _results: &Self::Results) -> Vec<(String, String)> {
+        Vec::new()
+    }
     /// Figures of the results: file name and SVG text each.
     ///
     /// # Errors
@@ -179,13 +184,14 @@ pub struct Report<R> {
     pub json: serde_json::Value,
     /// What is printed without `--json`.
     pub table: String,
-    /// The files written to the output folder (results and figures).
+    /// The files written to the output folder (results, data files and figures).
     pub written: Vec<PathBuf>,
 }
 
 /// Runs `experiment` in the harness: checks the settings and creates the
 /// output folder, runs it on a pool of `settings.threads` threads with
-/// progress, and writes `NAME.json` and the figures into the folder.
+/// progress, and writes `NAME.json`, the data files and the figures into
+/// the folder.
 ///
 /// # Errors
 /// A thread count out of range or that cannot be started, an output folder
@@ -213,6 +219,9 @@ pub fn run<E: Experiment>(experiment: &E, settings: &HarnessSettings) -> Result<
     if settings.out.is_some() {
         let text = serde_json::to_string_pretty(&json)? + "\n";
         written.extend(cx.write(&format!("{}.json", E::NAME), &text)?);
+        for (name, data) in experiment.data_files(&results) {
+            written.extend(cx.write(&name, &data)?);
+        }
         for (name, svg) in experiment.figures(&results)? {
             written.extend(cx.write(&name, &svg)?);
         }

@@ -308,6 +308,37 @@ impl OutcomeCounts {
     }
 }
 
+/// Two policies' rollouts on the same tasks, counted by task: where both
+/// succeeded, only one did, or neither.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+pub struct PairedOutcomes {
+    /// Tasks both policies succeeded on.
+    pub both: usize,
+    /// Tasks only the first succeeded on.
+    pub first_only: usize,
+    /// Tasks only the second succeeded on.
+    pub second_only: usize,
+    /// Tasks neither succeeded on.
+    pub neither: usize,
+}
+
+impl PairedOutcomes {
+    /// Counts `first[i]` against `second[i]`, task by task (the shorter
+    /// length of the two).
+    pub fn of(first: &[Rollout], second: &[Rollout]) -> PairedOutcomes {
+        let mut p = PairedOutcomes::default();
+        for (a, b) in first.iter().zip(second) {
+            match (a.outcome == RolloutOutcome::Success, b.outcome == RolloutOutcome::Success) {
+                (true, true) => p.both += 1,
+                (true, false) => p.first_only += 1,
+                (false, true) => p.second_only += 1,
+                (false, false) => p.neither += 1,
+            }
+        }
+        p
+    }
+}
+
 /// Gripper distance from the grasp point (m) beyond which a collision
 /// happened on the approach.
 pub const APPROACH_DISTANCE: f64 = 0.10;
@@ -315,6 +346,25 @@ pub const APPROACH_DISTANCE: f64 = 0.10;
 /// happened in the last centimetres, between the pads; between this and
 /// [`APPROACH_DISTANCE`] it happened on the descent.
 pub const BETWEEN_PADS_DISTANCE: f64 = 0.02;
+
+impl Rollout {
+    /// A collision's phase, by the gripper's distance from the grasp point
+    /// when it touched: `approach` (beyond [`APPROACH_DISTANCE`]),
+    /// `descent`, or `between_pads` (within [`BETWEEN_PADS_DISTANCE`]);
+    /// `None` for a rollout that did not collide.
+    pub fn collision_phase(&self) -> Option<&'static str> {
+        if !matches!(self.reason, Some(Reason::Collision { .. })) {
+            return None;
+        }
+        Some(if self.distance > APPROACH_DISTANCE {
+            "approach"
+        } else if self.distance > BETWEEN_PADS_DISTANCE {
+            "descent"
+        } else {
+            "between_pads"
+        })
+    }
+}
 
 /// Why rollouts ended, counted: by reason, and the collisions by phase
 /// (the gripper's distance from the grasp point when it touched) and by
@@ -337,14 +387,7 @@ impl FailureBreakdown {
         for r in rollouts {
             let name = r.reason.as_ref().map_or("no_policy", Reason::as_str);
             *b.reasons.entry(name.to_string()).or_default() += 1;
-            if let Some(Reason::Collision { pair: [a, c] }) = &r.reason {
-                let phase = if r.distance > APPROACH_DISTANCE {
-                    "approach"
-                } else if r.distance > BETWEEN_PADS_DISTANCE {
-                    "descent"
-                } else {
-                    "between_pads"
-                };
+            if let (Some(phase), Some(Reason::Collision { pair: [a, c] })) = (r.collision_phase(), &r.reason) {
                 *b.collision_phases.entry(phase.to_string()).or_default() += 1;
                 *b.collision_pairs.entry(format!("{a}–{c}")).or_default() += 1;
             }
@@ -370,6 +413,25 @@ pub fn nearest_distances(queries: &[Vec<f64>], data: &[Vec<f64>]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn ended(outcome: RolloutOutcome, reason: Option<Reason>, distance: f64) -> Rollout {
+        Rollout { outcome, steps: 1, clamped: 0, path: vec![], reason, distance }
+    }
+
+    #[test]
+    fn collisions_are_phased_by_the_grippers_distance_and_tasks_paired() {
+        let hit = |d| ended(RolloutOutcome::Collision, Some(Reason::Collision { pair: ["a".into(), "b".into()] }), d);
+        let phases: Vec<_> = [0.5, 0.10, 0.05, 0.02, 0.0].map(|d| hit(d).collision_phase()).to_vec();
+        let expected = ["approach", "descent", "descent", "between_pads", "between_pads"].map(Some);
+        assert_eq!(phases, expected, "10 cm and 2 cm belong to the nearer phase");
+        let success = || ended(RolloutOutcome::Success, Some(Reason::Success), 0.01);
+        assert_eq!(success().collision_phase(), None);
+        let none = ended(RolloutOutcome::NoPolicy, None, f64::NAN);
+        let first = [success(), success(), hit(0.5), hit(0.5), success()];
+        let second = [success(), none.clone(), success(), none, success()];
+        let paired = PairedOutcomes::of(&first, &second);
+        assert_eq!(paired, PairedOutcomes { both: 2, first_only: 1, second_only: 1, neither: 1 });
+    }
 
     #[test]
     fn steps_respect_limits() {

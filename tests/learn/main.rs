@@ -449,6 +449,47 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
             failures["collision_phases"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum();
         assert_eq!(by_phase, collisions, "{failures}");
     }
+    // rollouts.csv: every rollout, task by task, agreeing with the rates,
+    // the breakdown and the paired counts of the JSON.
+    let csv = std::fs::read_to_string(dir.path().join("experiment").join("rollouts.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("task,policy,outcome,reason,phase,link,body,steps,clamped,distance_m"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 6, "3 tasks × 2 policies:\n{csv}");
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row.len(), 10, "{row:?}");
+        assert_eq!((row[0], row[1]), (["0", "1", "2"][i / 2], ["learned", "lqr"][i % 2]), "{row:?}");
+        let collided = row[2] == "collision";
+        assert_eq!(collided, !row[4].is_empty() && !row[5].is_empty() && !row[6].is_empty(), "{row:?}");
+        assert!(row[7].parse::<usize>().is_ok() && row[8].parse::<usize>().is_ok(), "{row:?}");
+        if row[2] != "no_policy" {
+            assert!(row[9].parse::<f64>().unwrap().is_finite(), "{row:?}");
+        }
+    }
+    for (policy, r) in ["learned", "lqr"].iter().zip(results) {
+        for (outcome, key) in [("success", "success"), ("collision", "collision"), ("no_policy", "no_reference")] {
+            let n = rows.iter().filter(|row| row[1] == *policy && row[2] == outcome).count();
+            assert_eq!(n as f64 / 3.0, r[key].as_f64().unwrap(), "{policy} {outcome}");
+        }
+        for (reason, n) in json["failures"][policy]["reasons"].as_object().unwrap() {
+            let reason = if reason == "no_policy" { "" } else { reason.as_str() };
+            let counted = rows.iter().filter(|row| row[1] == *policy && row[3] == reason).count();
+            assert_eq!(Some(counted as u64), n.as_u64(), "{policy} {reason}");
+        }
+    }
+    let succeeded = |task: &str, policy: &str| rows.iter().any(|r| r[0] == task && r[1] == policy && r[2] == "success");
+    let mut paired = [0u64; 4];
+    for task in ["0", "1", "2"] {
+        paired[match (succeeded(task, "learned"), succeeded(task, "lqr")) {
+            (true, true) => 0,
+            (true, false) => 1,
+            (false, true) => 2,
+            (false, false) => 3,
+        }] += 1;
+    }
+    let reported: Vec<u64> =
+        ["both", "learned_only", "lqr_only", "neither"].iter().map(|k| json["paired"][*k].as_u64().unwrap()).collect();
+    assert_eq!(reported, paired, "{}", json["paired"]);
     assert_eq!(json["arbitration"].as_array().unwrap().len(), 4);
     for figure in ["joint_histograms.svg", "success_by_distance.svg"] {
         let svg = std::fs::read_to_string(dir.path().join("experiment").join(figure)).unwrap();
@@ -480,6 +521,10 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
     let json: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
     assert_eq!(json["policy"], "shipped");
     assert_eq!(json["results"].as_array().unwrap().len(), 1);
+    assert!(json["paired"].is_null(), "no LQR policy to pair with: {}", json["paired"]);
+    let csv = std::fs::read_to_string(dir.path().join("shipped").join("rollouts.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3, "{csv}");
+    assert!(csv.lines().skip(1).all(|l| l.split(',').nth(1) == Some("learned")), "{csv}");
     // Its training figures come from the provenance.
     let provenance: serde_json::Value = serde_json::from_str(tandem::learn::SHIPPED_POLICY_PROVENANCE).unwrap();
     for (key, recorded) in [("samples", "trajectories"), ("pairs", "pairs"), ("seconds", "seconds")] {

@@ -10,7 +10,7 @@ use crate::arbitration::{ArbitrationMode, ModeSettings};
 use crate::data::{GenerateSettings, Progress, dataset_parameters, generate};
 use crate::learn::dagger::{DaggerSettings, expert_demonstrations, failure_states, restart};
 use crate::learn::evaluate::{
-    FailureBreakdown, OutcomeCounts, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances,
+    FailureBreakdown, OutcomeCounts, PairedOutcomes, Rollout, RolloutOutcome, RolloutSettings, Task, nearest_distances,
 };
 use crate::learn::{
     Demonstrations, LearnSettings, PolicyNetwork, SHIPPED_POLICY_PATH, TrainSettings, shipped_policy, train_on,
@@ -25,7 +25,9 @@ use std::time::Instant;
 
 mod rollouts;
 mod training;
-pub use rollouts::{GoalPolicy, follow_learned, follow_lqr, learned_arbiter, sample_tasks, shared_control};
+pub use rollouts::{
+    GoalPolicy, follow_learned, follow_lqr, learned_arbiter, rollouts_csv, sample_tasks, shared_control,
+};
 pub use training::{PolicyReport, train_and_save};
 
 /// The policy experiment's settings; it needs an output folder (the
@@ -108,6 +110,12 @@ pub struct PolicyResults {
     pub median_start_distance: f64,
     /// Why each policy's rollouts ended (`learned`, then `lqr` when it ran).
     pub failures: Vec<(String, FailureBreakdown)>,
+    /// The learned (first) and the LQR (second) policy's outcomes task by
+    /// task, when the LQR policy ran.
+    pub paired: Option<PairedOutcomes>,
+    /// Every rollout alone, task by task ([`rollouts_csv`]; `rollouts.csv`
+    /// in the output folder).
+    pub rollouts: String,
     /// The figures: joint values of the data against the limits (Fig. 3.8)
     /// and success by the start's distance from the data.
     pub figures: Vec<(String, String)>,
@@ -419,6 +427,11 @@ impl Experiment for PolicyExperiment {
             results.push(rates("lqr", &counts(lqr)));
             failures.push(("lqr".to_string(), FailureBreakdown::of(lqr)));
         }
+        let mut followed = vec![("learned", learned.as_slice())];
+        if let Some(lqr) = &lqr {
+            followed.push(("lqr", lqr.as_slice()));
+        }
+        let rollouts = rollouts_csv(&followed);
         cx.say(&format!("learned rollouts: {learned_seconds:.1} s for {} tasks", self.tasks));
         let rounds = match (demos.as_mut(), &data) {
             (Some(demos), Some(data)) => {
@@ -445,6 +458,8 @@ impl Experiment for PolicyExperiment {
             arbitration,
             median_start_distance: median(&distances),
             failures,
+            paired: lqr.as_ref().map(|lqr| PairedOutcomes::of(&learned, lqr)),
+            rollouts,
             figures,
         })
     }
@@ -452,8 +467,10 @@ impl Experiment for PolicyExperiment {
     /// `{"tasks", "policy", "results": [{"policy", "success", "collision",
     /// "timeout", "no_reference", "failed", "episodes"}], "training":
     /// {"samples", "pairs", "seconds"}, "rounds": [...], "arbitration":
-    /// [...], "seed_success": [0.92, 0.97], "median_start_distance"}`;
-    /// rates are shares of the tasks.
+    /// [...], "seed_success": [0.92, 0.97], "median_start_distance",
+    /// "failures", "paired": {"both", "learned_only", "lqr_only",
+    /// "neither"}}` (`paired` counts tasks by which policy succeeded on
+    /// them; null without the LQR policy); rates are shares of the tasks.
     fn json(&self, r: &PolicyResults) -> serde_json::Value {
         let training = r.training.as_ref().map_or(
             serde_json::Value::Null,
@@ -469,12 +486,22 @@ impl Experiment for PolicyExperiment {
             "seed_success": [0.92, 0.97],
             "median_start_distance": r.median_start_distance,
             "failures": r.failures.iter().map(|(p, b)| (p.clone(), serde_json::json!(b))).collect::<serde_json::Map<_, _>>(),
+            "paired": r.paired.map(|p| serde_json::json!({
+                "both": p.both, "learned_only": p.first_only, "lqr_only": p.second_only, "neither": p.neither,
+            })),
         })
     }
 
     fn table(&self, r: &PolicyResults) -> String {
         let mut out = rates_table(&r.results);
         out.push_str(&failures_table(&r.failures));
+        if let Some(p) = r.paired {
+            let _ = writeln!(
+                out,
+                "  by task: both succeeded {}, only learned {}, only lqr {}, neither {}",
+                p.both, p.first_only, p.second_only, p.neither
+            );
+        }
         if !r.arbitration.is_empty() {
             let _ = writeln!(out, "shared control, Approach operator, {} tasks:", self.arbitration_tasks.min(r.tasks));
             for row in &r.arbitration {
@@ -496,6 +523,10 @@ impl Experiment for PolicyExperiment {
             }
         }
         out
+    }
+
+    fn data_files(&self, r: &PolicyResults) -> Vec<(String, String)> {
+        vec![("rollouts.csv".into(), r.rollouts.clone())]
     }
 
     fn figures(&self, r: &PolicyResults) -> Result<Vec<(String, String)>, ExperimentError> {

@@ -11,6 +11,7 @@ use crate::problem::ProblemFamily;
 use crate::robot::KinematicsWorkspace;
 use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
 use rayon::prelude::*;
+use std::fmt::Write;
 use std::sync::Arc;
 
 /// Tasks `0 … count − 1` of `family` for run seed `seed`, judged with `max_tilt`.
@@ -64,6 +65,39 @@ pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Resu
             }
         })
         .collect()
+}
+
+/// Every rollout as a CSV row, task by task and policy by policy in the
+/// order given: `task` (the family sample id), `policy`, `outcome`
+/// ([`RolloutOutcome::as_str`]), `reason` ([`Reason::as_str`](crate::sim::Reason::as_str);
+/// empty without a policy), `phase` (a collision's, see
+/// [`Rollout::collision_phase`]), `link` and `body` (a collision's pair),
+/// `steps`, `clamped` (steps clamped to the joint limits) and `distance_m`
+/// (the gripper's distance from the grasp point at the end, m; empty
+/// without a policy).
+pub fn rollouts_csv(followed: &[(&str, &[Rollout])]) -> String {
+    let mut out = String::from("task,policy,outcome,reason,phase,link,body,steps,clamped,distance_m\n");
+    let tasks = followed.iter().map(|(_, r)| r.len()).max().unwrap_or(0);
+    for task in 0..tasks {
+        for (policy, rollouts) in followed {
+            let Some(r) = rollouts.get(task) else { continue };
+            let reason = r.reason.as_ref().map_or("", crate::sim::Reason::as_str);
+            let [link, body] = match &r.reason {
+                Some(crate::sim::Reason::Collision { pair: [a, b] }) => [a.as_str(), b.as_str()],
+                _ => ["", ""],
+            };
+            let distance = if r.distance.is_finite() { format!("{:.6}", r.distance) } else { String::new() };
+            let _ = writeln!(
+                out,
+                "{task},{policy},{},{reason},{},{link},{body},{},{},{distance}",
+                r.outcome.as_str(),
+                r.collision_phase().unwrap_or(""),
+                r.steps,
+                r.clamped
+            );
+        }
+    }
+    out
 }
 
 /// Which robot policy the arbiter blends with.
