@@ -83,8 +83,8 @@ pub fn rollouts_csv(followed: &[(&str, &[Rollout])]) -> String {
             let Some(r) = rollouts.get(task) else { continue };
             let reason = r.reason.as_ref().map_or("", crate::sim::Reason::as_str);
             let [link, body] = match &r.reason {
-                Some(crate::sim::Reason::Collision { pair: [a, b] }) => [a.as_str(), b.as_str()],
-                _ => ["", ""],
+                Some(crate::sim::Reason::Collision { pair: [a, b] }) => [csv_field(a), csv_field(b)],
+                _ => [String::new(), String::new()],
             };
             let distance = if r.distance.is_finite() { format!("{:.6}", r.distance) } else { String::new() };
             let _ = writeln!(
@@ -98,6 +98,12 @@ pub fn rollouts_csv(followed: &[(&str, &[Rollout])]) -> String {
         }
     }
     out
+}
+
+/// `name` as one CSV field: quoted (RFC 4180) when it holds a comma, a
+/// quote or a line break, as a problem file's obstacle names may.
+fn csv_field(name: &str) -> String {
+    if name.contains([',', '"', '\n', '\r']) { format!("\"{}\"", name.replace('"', "\"\"")) } else { name.to_string() }
 }
 
 /// Which robot policy the arbiter blends with.
@@ -188,4 +194,36 @@ pub fn shared_control(
             Ok(record.outcome)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::learn::evaluate::RolloutOutcome;
+    use crate::sim::Reason;
+
+    #[test]
+    fn rollouts_csv_quotes_names_and_leaves_missing_values_empty() {
+        let hit = Rollout {
+            outcome: RolloutOutcome::Collision,
+            steps: 12,
+            clamped: 1,
+            path: vec![],
+            reason: Some(Reason::Collision { pair: ["panda_link5".into(), "shelf, \"top\"".into()] }),
+            distance: 0.25,
+        };
+        let none = Rollout {
+            outcome: RolloutOutcome::NoPolicy,
+            steps: 0,
+            clamped: 0,
+            path: vec![],
+            reason: None,
+            distance: f64::NAN,
+        };
+        let csv = rollouts_csv(&[("learned", &[hit][..]), ("lqr", &[none][..])]);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines.len(), 3, "{csv}");
+        assert_eq!(lines[1], "0,learned,collision,collision,approach,panda_link5,\"shelf, \"\"top\"\"\",12,1,0.250000");
+        assert_eq!(lines[2], "0,lqr,no_policy,,,,,0,0,");
+    }
 }
