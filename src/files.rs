@@ -1,6 +1,8 @@
 //! Errors of the files tandem writes and reads back: trajectories,
 //! datasets, episode recordings.
 
+pub mod csv;
+
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 

@@ -3,6 +3,7 @@
 
 use super::{JointTrajectory, TrajectoryError};
 use crate::files::FileError;
+use crate::files::csv::{Record, field, records};
 use std::io::Write;
 use std::path::Path;
 
@@ -15,7 +16,13 @@ impl JointTrajectory {
         let mut out = String::from("time");
         for name in self.joints() {
             out.push(',');
-            out.push_str(name);
+            // A name that reads as a number is quoted too: unquoted, the
+            // reader takes it for a data row without a header.
+            if name.trim().parse::<f64>().is_ok() {
+                out.push_str(&format!("\"{name}\""));
+            } else {
+                out.push_str(&field(name));
+            }
         }
         out.push('\n');
         for (k, q) in self.positions().enumerate() {
@@ -48,9 +55,12 @@ impl JointTrajectory {
     }
 
     /// Parses trajectory CSV text read from `origin` (a path, for errors).
+    /// Fields may be quoted as RFC 4180 says, so a joint name may hold a
+    /// comma, a quote or a line break.
     ///
     /// # Errors
-    /// [`TrajectoryError::Csv`] naming the line: a missing or malformed
+    /// [`TrajectoryError::Csv`] naming the line: a quote left open or
+    /// followed by text, a missing or malformed
     /// header (first column not `time`, a joint name that is empty, a
     /// number, or given twice), fewer than two rows, a row of another
     /// length, a value that is not a finite number, times that do not
@@ -60,13 +70,13 @@ impl JointTrajectory {
         let bad = |line: usize, message: String| TrajectoryError::Csv { origin: origin.to_string(), line, message };
         // A byte-order mark (spreadsheets write one) is not part of `time`.
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-        let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l.trim())).filter(|(_, l)| !l.is_empty());
-        let (header_line, header) = lines.next().ok_or_else(|| bad(1, "the file is empty".into()))?;
+        let mut rows = records(text).map_err(|e| bad(e.line, e.message))?.into_iter();
+        let header = rows.next().ok_or_else(|| bad(1, "the file is empty".into()))?;
+        let header_line = header.line;
         let joints = parse_header(header).map_err(|m| bad(header_line, m))?;
         let mut times = Vec::new();
         let mut configurations = Vec::new();
-        for (line, text) in lines {
-            let fields: Vec<&str> = text.split(',').map(str::trim).collect();
+        for Record { line, fields, .. } in rows {
             if fields.len() != joints.len() + 1 {
                 let msg = format!(
                     "{} values, the header has {} columns (time and {} joints)",
@@ -130,8 +140,8 @@ impl JointTrajectory {
 }
 
 /// The joint names of a header `time,<joint>,…`.
-fn parse_header(header: &str) -> Result<Vec<String>, String> {
-    let fields: Vec<&str> = header.split(',').map(str::trim).collect();
+fn parse_header(header: Record) -> Result<Vec<String>, String> {
+    let Record { fields, quoted, .. } = header;
     if fields[0] != "time" {
         let hint = if fields[0].parse::<f64>().is_ok() { " (a number: is the header missing?)" } else { "" };
         return Err(format!(
@@ -139,7 +149,7 @@ fn parse_header(header: &str) -> Result<Vec<String>, String> {
             fields[0]
         ));
     }
-    let joints: Vec<String> = fields[1..].iter().map(|s| s.to_string()).collect();
+    let joints = &fields[1..];
     if joints.is_empty() {
         return Err("the header names no joint after `time`".into());
     }
@@ -147,14 +157,14 @@ fn parse_header(header: &str) -> Result<Vec<String>, String> {
         if name.is_empty() {
             return Err(format!("column {} has an empty joint name", k + 2));
         }
-        if name.parse::<f64>().is_ok() {
+        if name.parse::<f64>().is_ok() && !quoted[k + 1] {
             return Err(format!("column {} is named '{name}', a number: is the header missing?", k + 2));
         }
         if let Some(first) = joints[..k].iter().position(|n| n == name) {
             return Err(format!("joint '{name}' is named twice (columns {} and {})", first + 2, k + 2));
         }
     }
-    Ok(joints)
+    Ok(joints.to_vec())
 }
 
 /// The spacing of the `time` column `(line, t)`: starting at 0, evenly
@@ -200,6 +210,28 @@ mod tests {
         assert_eq!(back.joints(), written.joints());
         assert!(back.positions().eq(written.positions()));
         assert!((back.dt() - 0.08).abs() < 1e-15, "{}", back.dt());
+    }
+
+    /// URDF names are any XML attribute text: a joint named with a comma
+    /// shifted every column after it, and one named like a number was
+    /// refused as a missing header.
+    #[test]
+    fn joint_names_with_commas_quotes_breaks_or_digits_read_back() {
+        let names = ["arm,joint 1", "the \"wrist\"", "two\nlines", " padded", "2", "1e-3", "plain"];
+        let waypoints: Vec<Vec<f64>> = (0..3).map(|k| vec![k as f64; names.len()]).collect();
+        let written = JointTrajectory::new(names.iter().map(|n| n.to_string()).collect(), 0.1, &waypoints).unwrap();
+        let text = written.to_csv();
+        assert!(text.starts_with(
+            "time,\"arm,joint 1\",\"the \"\"wrist\"\"\",\"two\nlines\",\" padded\",\"2\",\"1e-3\",plain\n"
+        ));
+        let back = parse(&text).unwrap();
+        assert_eq!(back.joints(), names);
+        assert!(back.positions().eq(written.positions()));
+        // A quote left open or followed by text names its line.
+        let e = parse("time,\"j1\n0,0\n0.1,0\n").unwrap_err();
+        assert!(e.contains("t.csv:1: a quoted field is not closed"), "{e}");
+        let e = parse("time,j1\n0,0\n0.1,\"0\"x\n").unwrap_err();
+        assert!(e.contains("t.csv:3: 'x' after a closing quote"), "{e}");
     }
 
     #[test]

@@ -11,7 +11,9 @@
 //! - **CSV**: a header `time,<joint>,…` (the active joint names, the order
 //!   of every row), then one row per configuration: its time `k · dt` (s)
 //!   and the joint values (rad or m). Times start at 0 and are evenly
-//!   spaced. No header, duplicate joint names, rows of another length,
+//!   spaced. A joint name holding a comma, a quote or a line break, white
+//!   space at either end, or reading as a number is quoted as RFC 4180
+//!   says ([`files::csv`](crate::files::csv)). No header, duplicate joint names, rows of another length,
 //!   non-numbers and non-finite values are errors naming the file, line
 //!   and column.
 //! - **Parquet** (with the `data` feature): columns `time` (f64) and one

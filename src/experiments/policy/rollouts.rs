@@ -5,11 +5,12 @@ use crate::arbitration::{
     Arbiter, ArbiterGoal, ArbiterSettings, ArbitrationMode, GoalObjects, GoalSettings, ModeSettings, problem_goals,
 };
 use crate::control::RobotPolicy;
+use crate::files::csv;
 use crate::learn::evaluate::{Rollout, RolloutOutcome, RolloutSettings, Task};
 use crate::learn::{LearnError, LearnedPolicy, PolicyNetwork};
 use crate::problem::ProblemFamily;
 use crate::robot::KinematicsWorkspace;
-use crate::sim::{Approach, Episode, EpisodeSettings, Outcome};
+use crate::sim::{Approach, Episode, EpisodeSettings, Outcome, Reason};
 use rayon::prelude::*;
 use std::fmt::Write;
 use std::sync::Arc;
@@ -69,7 +70,7 @@ pub fn follow_lqr(tasks: &[Task], seed: u64, settings: &RolloutSettings) -> Resu
 
 /// Every rollout as a CSV row, task by task and policy by policy in the
 /// order given: `task` (the family sample id), `policy`, `outcome`
-/// ([`RolloutOutcome::as_str`]), `reason` ([`Reason::as_str`](crate::sim::Reason::as_str);
+/// ([`RolloutOutcome::as_str`]), `reason` ([`Reason::as_str`](Reason::as_str);
 /// empty without a policy), `phase` (a collision's, see
 /// [`Rollout::collision_phase`]), `link` and `body` (a collision's pair),
 /// `steps`, `clamped` (steps clamped to the joint limits) and `distance_m`
@@ -81,9 +82,9 @@ pub fn rollouts_csv(followed: &[(&str, &[Rollout])]) -> String {
     for task in 0..tasks {
         for (policy, rollouts) in followed {
             let Some(r) = rollouts.get(task) else { continue };
-            let reason = r.reason.as_ref().map_or("", crate::sim::Reason::as_str);
+            let reason = r.reason.as_ref().map_or("", Reason::as_str);
             let [link, body] = match &r.reason {
-                Some(crate::sim::Reason::Collision { pair: [a, b] }) => [csv_field(a), csv_field(b)],
+                Some(Reason::Collision { pair: [a, b] }) => [csv::field(a).into_owned(), csv::field(b).into_owned()],
                 _ => [String::new(), String::new()],
             };
             let distance = if r.distance.is_finite() { format!("{:.6}", r.distance) } else { String::new() };
@@ -98,12 +99,6 @@ pub fn rollouts_csv(followed: &[(&str, &[Rollout])]) -> String {
         }
     }
     out
-}
-
-/// `name` as one CSV field: quoted (RFC 4180) when it holds a comma, a
-/// quote or a line break, as a problem file's obstacle names may.
-fn csv_field(name: &str) -> String {
-    if name.contains([',', '"', '\n', '\r']) { format!("\"{}\"", name.replace('"', "\"\"")) } else { name.to_string() }
 }
 
 /// Which robot policy the arbiter blends with.
@@ -199,8 +194,6 @@ pub fn shared_control(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::learn::evaluate::RolloutOutcome;
-    use crate::sim::Reason;
 
     #[test]
     fn rollouts_csv_quotes_names_and_leaves_missing_values_empty() {
@@ -225,5 +218,8 @@ mod tests {
         assert_eq!(lines.len(), 3, "{csv}");
         assert_eq!(lines[1], "0,learned,collision,collision,approach,panda_link5,\"shelf, \"\"top\"\"\",12,1,0.250000");
         assert_eq!(lines[2], "0,lqr,no_policy,,,,,0,0,");
+        let read = csv::records(&csv).unwrap();
+        assert_eq!(read[1].fields[6], "shelf, \"top\"");
+        assert!(read.iter().all(|r| r.fields.len() == 10));
     }
 }
