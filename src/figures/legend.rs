@@ -1,7 +1,8 @@
 //! The figure's one legend, below its panels: each labelled series once,
 //! its swatch drawing what the series draws, packed into centred rows.
 
-use super::{Color, FigureError, Panel, SeriesKind, draw_marker, err, fill};
+use super::marks::{draw_marker, fill};
+use super::{Color, FigureError, Panel, SeriesKind, err};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};

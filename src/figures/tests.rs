@@ -1,3 +1,4 @@
+use super::shapes::ellipse_axes;
 use super::*;
 
 #[test]
@@ -10,18 +11,6 @@ fn ellipse_axes_of_rotated_matrices() {
     let m = [3.0 * c * c + s * s, 2.0 * c * s, 2.0 * c * s, 3.0 * s * s + c * c];
     let (a, b, angle) = ellipse_axes(&m);
     assert!((a - 3.0).abs() < 1e-12 && (b - 1.0).abs() < 1e-12 && (angle - t).abs() < 1e-12);
-}
-
-#[test]
-fn ticks_are_round_without_minus_zero() {
-    assert_eq!(tick(-0.0000001, 0.05), "0");
-    assert_eq!(tick(-0.05, 0.05), "-0.05");
-    assert_eq!(tick(0.1, 0.05), "0.1");
-    assert_eq!(tick(2.0, 0.5), "2");
-    assert_eq!(tick(300.0, 100.0), "300");
-    assert_eq!(tick_step((0.0, 1.0), 5), 0.2);
-    assert_eq!(tick_step((-0.14, -0.12), 5), 0.005);
-    assert_eq!(ticks((-0.245, 0.795), 0.2), 5);
 }
 
 #[test]
