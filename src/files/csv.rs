@@ -10,11 +10,13 @@ use std::borrow::Cow;
 /// (which a reader trims from unquoted fields); as it is otherwise.
 pub fn field(text: &str) -> Cow<'_, str> {
     let edge_space = text.starts_with(char::is_whitespace) || text.ends_with(char::is_whitespace);
-    if edge_space || text.contains([',', '"', '\n', '\r']) {
-        Cow::Owned(format!("\"{}\"", text.replace('"', "\"\"")))
-    } else {
-        Cow::Borrowed(text)
-    }
+    if edge_space || text.contains([',', '"', '\n', '\r']) { Cow::Owned(quoted(text)) } else { Cow::Borrowed(text) }
+}
+
+/// `text` as one quoted CSV field, its quotes doubled, whatever it holds:
+/// for a field a reader would otherwise take for something else.
+pub fn quoted(text: &str) -> String {
+    format!("\"{}\"", text.replace('"', "\"\""))
 }
 
 /// One record of a CSV text: the 1-based line it starts on and its fields.
@@ -70,8 +72,10 @@ pub fn records(text: &str) -> Result<Vec<Record>, CsvSyntaxError> {
 
 #[derive(Debug, PartialEq)]
 enum FieldEnd {
+    /// Another field of the record follows.
     Comma,
-    LineOrText,
+    /// The record ends: a line break or the end of the text.
+    Record,
 }
 
 /// The next field from `chars`, whether it was quoted, and what ended it;
@@ -115,11 +119,11 @@ fn next_field(
         }
         loop {
             match chars.next() {
-                None => return Ok((value, true, FieldEnd::LineOrText)),
+                None => return Ok((value, true, FieldEnd::Record)),
                 Some(',') => return Ok((value, true, FieldEnd::Comma)),
                 Some('\n') => {
                     *line += 1;
-                    return Ok((value, true, FieldEnd::LineOrText));
+                    return Ok((value, true, FieldEnd::Record));
                 }
                 Some(c) if c.is_whitespace() => {}
                 Some(c) => {
@@ -132,11 +136,11 @@ fn next_field(
     }
     loop {
         match chars.next() {
-            None => return Ok((value.trim().to_string(), false, FieldEnd::LineOrText)),
+            None => return Ok((value.trim().to_string(), false, FieldEnd::Record)),
             Some(',') => return Ok((value.trim().to_string(), false, FieldEnd::Comma)),
             Some('\n') => {
                 *line += 1;
-                return Ok((value.trim().to_string(), false, FieldEnd::LineOrText));
+                return Ok((value.trim().to_string(), false, FieldEnd::Record));
             }
             Some(c) => value.push(c),
         }

@@ -3,7 +3,7 @@
 
 use super::{JointTrajectory, TrajectoryError};
 use crate::files::FileError;
-use crate::files::csv::{Record, field, records};
+use crate::files::csv::{Record, field, quoted, records};
 use std::io::Write;
 use std::path::Path;
 
@@ -19,7 +19,7 @@ impl JointTrajectory {
             // A name that reads as a number is quoted too: unquoted, the
             // reader takes it for a data row without a header.
             if name.trim().parse::<f64>().is_ok() {
-                out.push_str(&format!("\"{name}\""));
+                out.push_str(&quoted(name));
             } else {
                 out.push_str(&field(name));
             }

@@ -452,9 +452,11 @@ fn cli_trains_the_same_bytes_on_one_or_two_threads_and_runs_the_experiment() {
     // rollouts.csv: every rollout, task by task, agreeing with the rates,
     // the breakdown and the paired counts of the JSON.
     let csv = std::fs::read_to_string(dir.path().join("experiment").join("rollouts.csv")).unwrap();
-    let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("task,policy,outcome,reason,phase,link,body,steps,clamped,distance_m"));
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    // Read as RFC 4180 says, as a user's CSV reader would (pair names may be quoted).
+    let records = tandem::files::csv::records(&csv).unwrap();
+    let header = ["task", "policy", "outcome", "reason", "phase", "link", "body", "steps", "clamped", "distance_m"];
+    assert_eq!(records[0].fields, header);
+    let rows: Vec<Vec<&str>> = records[1..].iter().map(|r| r.fields.iter().map(String::as_str).collect()).collect();
     assert_eq!(rows.len(), 6, "3 tasks × 2 policies:\n{csv}");
     for (i, row) in rows.iter().enumerate() {
         assert_eq!(row.len(), 10, "{row:?}");
