@@ -12,7 +12,9 @@
 //! distance row, and with the state within its limits, every tick's
 //! problem is feasible.
 
+use super::motion::{MotionStage, rate_bounds, reachable_upper};
 use crate::collision::{CollisionModel, CollisionWorkspace, PairDistance};
+use crate::robot::JointMotionLimits;
 use crate::robot::{KinematicsWorkspace, RobotModel};
 use crate::settings::{InvalidSetting, non_negative, positive};
 
@@ -21,7 +23,7 @@ use crate::settings::{InvalidSetting, non_negative, positive};
 /// ```
 /// # use tandem::arbitration::SafetySettings;
 /// let s = SafetySettings::default();
-/// assert!(s.collisions && s.certify);
+/// assert!(s.collisions && s.certify && s.motion_limits);
 /// assert_eq!((s.margin, s.avoidance_gain, s.certification_clearance, s.max_distance_rows), (0.005, 2.0, 1e-4, 32));
 /// assert_eq!((s.default_velocity_limit, s.velocity_scale), (2.0, 1.0));
 /// ```
@@ -51,6 +53,13 @@ pub struct SafetySettings {
     pub certification_clearance: f64,
     /// Most distance rows per tick, the closest pairs first.
     pub max_distance_rows: usize,
+    /// Keep the robot's acceleration, deceleration and jerk limits
+    /// ([`RobotModel::motion_limits`]) on the executed command sequence,
+    /// brake within them on every hold, and keep the distance and position
+    /// limits reachable by braking (see the module `motion`). Off, a hold
+    /// zeroes the velocity in one tick and a command may change by any
+    /// amount (tandem before 2026-12).
+    pub motion_limits: bool,
 }
 
 impl Default for SafetySettings {
@@ -66,6 +75,7 @@ impl Default for SafetySettings {
             certify: true,
             certification_clearance: 1e-4,
             max_distance_rows: 32,
+            motion_limits: true,
         }
     }
 }
@@ -138,21 +148,50 @@ impl SafetyRows {
 
     /// Bounds `lo ≤ u ≤ hi` from the velocity limits and from the position
     /// limits reached in one period `dt`. Outside its limits, a joint must
-    /// move back toward them (as fast as its velocity limit allows).
-    pub(crate) fn build_bounds(&mut self, robot: &RobotModel, q: &[f64], dt: f64, settings: &SafetySettings) {
+    /// move back toward them (as fast as its velocity limit allows). With
+    /// `motion` (the executed sequence, see [`super::motion`]), also the
+    /// acceleration, deceleration and jerk limits, the velocity and
+    /// position limits reachable under them, and always the braking step.
+    pub(crate) fn build_bounds(
+        &mut self,
+        robot: &RobotModel,
+        q: &[f64],
+        dt: f64,
+        settings: &SafetySettings,
+        motion: Option<&MotionStage>,
+    ) {
+        let motion_limits = robot.motion_limits();
         for (j, limits) in robot.limits().iter().enumerate() {
-            let urdf = limits.velocity * settings.velocity_scale;
-            let v = if urdf.is_finite() && urdf > 0.0 { urdf } else { settings.default_velocity_limit };
+            let (down_v, up_v) = motion_limits[j].velocity_range(q[j], settings.velocity_scale);
             let up = if limits.upper.is_finite() { (limits.upper - q[j]) / dt } else { f64::INFINITY };
             let down = if limits.lower.is_finite() { (limits.lower - q[j]) / dt } else { f64::NEG_INFINITY };
-            self.hi[j] = v.min(up.max(-v));
-            self.lo[j] = (-v).max(down.min(v)).min(self.hi[j]);
+            self.hi[j] = up_v.min(up.max(down_v));
+            self.lo[j] = down_v.max(down.min(up_v)).min(self.hi[j]);
+            let Some(m) = motion else { continue };
+            let l = &motion_limits[j];
+            let (v, a, brake) = (m.velocity[j], m.acceleration[j], m.brake[j]);
+            let (rate_lo, rate_hi) = rate_bounds(v, a, l, dt, down_v, up_v);
+            let (mut lo, mut hi) = (self.lo[j].max(rate_lo), self.hi[j].min(rate_hi));
+            if lo <= hi {
+                if limits.upper.is_finite() {
+                    hi = reachable_upper(q[j], v, l, dt, limits.upper, (lo, hi));
+                }
+                if limits.lower.is_finite() {
+                    lo = -reachable_upper(-q[j], -v, l, dt, -limits.lower, (-hi, -lo));
+                }
+            }
+            // Decelerating at the limit is always allowed; the position
+            // limit itself stays hard (see the module `motion`).
+            let (lo, hi) = if lo <= hi { (lo.min(brake), hi.max(brake)) } else { (brake, brake) };
+            self.hi[j] = hi.min(up.max(down_v));
+            self.lo[j] = lo.max(down.min(up_v)).min(self.hi[j]);
         }
     }
 
     /// Distance rows for the pairs closer than `cutoff` (m) at the
     /// placement in `kinematics`: `−∇d · u ≤ rate · max(d − margin, 0)`,
-    /// the closest `max` pairs that some joint moves.
+    /// the closest `max` pairs that some joint moves; with `braking` (the
+    /// motion limits and the period), braking-aware ([`braking_bound`]).
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn build_distances(
         &mut self,
@@ -161,6 +200,7 @@ impl SafetyRows {
         cutoff: f64,
         rate: f64,
         settings: &SafetySettings,
+        braking: Option<(&[JointMotionLimits], f64)>,
     ) {
         let n = self.n;
         self.pairs.clear();
@@ -188,7 +228,11 @@ impl SafetyRows {
             for (r, g) in row.iter_mut().zip(&self.gradient) {
                 *r = -g;
             }
-            self.h[self.count] = rate * (distance - settings.margin).max(0.0);
+            let room = (distance - settings.margin).max(0.0);
+            self.h[self.count] = match braking {
+                None => rate * room,
+                Some((limits, dt)) => braking_bound(row, &self.lo, &self.hi, limits, dt, rate, room),
+            };
             self.count += 1;
         }
     }
@@ -241,4 +285,36 @@ impl SafetyRows {
             *u = u.clamp(*lo, *hi);
         }
     }
+}
+
+/// The bound `h` of a braking-aware distance row `s = r·u ≤ h` (`r = −∇d`,
+/// `s` the pair's approach speed, m/s) with `room = max(d − margin, 0)` (m),
+/// under this tick's joint bounds `[lo, hi]`: the approach of this step and
+/// of the stop after it fits the room, `s·(dt + t_ramp + s̄/2a) ≤ room` — a
+/// stop at the pair's deceleration `a = ½ Σ|r_j|·D_j` (half of what every
+/// joint slowing this approach could give: the other rows and bounds share
+/// the joints), after the jerk-limited ramp `t_ramp = max (A_j + D_j)/J_j`,
+/// from at most this tick's fastest approach `s̄ = max r·u` over the bounds
+/// (`s² ≤ s·s̄` keeps the row linear). And never below the slowest
+/// approach the bounds allow (`min r·u`), so that every row admits the
+/// command that slows its pair fastest.
+fn braking_bound(
+    row: &[f64],
+    lo: &[f64],
+    hi: &[f64],
+    limits: &[JointMotionLimits],
+    dt: f64,
+    rate: f64,
+    room: f64,
+) -> f64 {
+    let (mut fastest, mut slowest, mut decel, mut ramp) = (0.0, 0.0, 0.0, 0.0_f64);
+    for (j, r) in row.iter().enumerate() {
+        let (a, b) = (r * lo[j], r * hi[j]);
+        fastest += a.max(b);
+        slowest += a.min(b);
+        decel += 0.5 * r.abs() * limits[j].deceleration;
+        ramp = ramp.max((limits[j].acceleration + limits[j].deceleration) / limits[j].jerk);
+    }
+    let rate = if fastest > 0.0 && decel > 0.0 { rate.min(1.0 / (dt + ramp + fastest / (2.0 * decel))) } else { rate };
+    (rate * room).max(slowest)
 }

@@ -10,15 +10,19 @@ use super::arbiter::Arbiter;
 use super::command::{Command, Diagnostics, HumanCommand, TickInput, TickStatus};
 use super::learned::StateLayout;
 use super::modes::ArbitrationMode;
+use super::motion::stopping_distance;
 use super::workspace::ArbiterWorkspace;
 use crate::robot::ReferenceFrame;
 use tandem_solvers::small::add_scaled;
 
 impl Arbiter {
-    /// Starts a new episode: forgets the observed path and the policies' progress.
+    /// Starts a new episode: forgets the observed path and the policies'
+    /// progress; the arm is taken to be at rest (the acceleration and jerk
+    /// limits count from a zero command).
     pub fn reset(&self, ws: &mut ArbiterWorkspace) {
         ws.intent.estimator.reset();
         ws.intent.beliefs.copy_from_slice(ws.intent.estimator.beliefs());
+        ws.motion.reset();
         for (goal, state) in self.goals.iter().zip(&mut ws.robot.states) {
             goal.policy.reset(state);
         }
@@ -27,9 +31,9 @@ impl Arbiter {
     /// One control tick: the joint velocity to execute for one period, a
     /// status and diagnostics. Never panics; allocates nothing.
     pub fn tick<'w>(&self, ws: &'w mut ArbiterWorkspace, input: &TickInput<'_>) -> Command<'w> {
-        begin_tick(ws);
+        self.begin_tick(ws);
         let result = self.run(ws, input);
-        emit(ws, result)
+        self.emit(ws, input.q, result)
     }
 
     /// The first half of a tick for an external arbitration policy (a
@@ -47,7 +51,7 @@ impl Arbiter {
         input: &TickInput<'_>,
         layout: &StateLayout,
     ) -> Result<&'w [f64], TickStatus> {
-        begin_tick(ws);
+        self.begin_tick(ws);
         ws.learned.observed = false;
         if layout.goals != self.goals.len() || !layout.is_valid() || layout.width() > ws.learned.state.len() {
             return Err(TickStatus::InvalidBeliefs);
@@ -82,10 +86,7 @@ impl Arbiter {
             self.finish(ws, input.q, ArbitrationMode::DirectControl, &HumanCommand::Linear(&linear), false)
         };
         ws.learned.observed = false;
-        if result.is_err() {
-            ws.solve.u.fill(0.0);
-        }
-        emit(ws, result)
+        self.emit(ws, input.q, result)
     }
 
     fn run(&self, ws: &mut ArbiterWorkspace, input: &TickInput<'_>) -> Result<TickStatus, TickStatus> {
@@ -146,8 +147,11 @@ impl Arbiter {
         self.objective(ws, mode, command);
         let s = &self.settings.safety;
         let dt = self.settings.period;
-        ws.rows.build_bounds(&self.robot, q, dt, s);
+        ws.rows.build_bounds(&self.robot, q, dt, s, s.motion_limits.then_some(&ws.motion));
         let rate = if mode == ArbitrationMode::ObstacleAvoidance { s.avoidance_gain.min(1.0 / dt) } else { 1.0 / dt };
+        if s.motion_limits && ws.objective.conic {
+            reach_brake(ws);
+        }
         let reach = self.build_distance_rows(ws, rate, None);
         self.note_rows(ws);
         let mut solved = ws.solve.enforce(&ws.rows, &ws.objective, &self.settings, &mut ws.diagnostics)?;
@@ -326,8 +330,10 @@ impl Arbiter {
             *d = u * dt;
         }
         let reach = self.collision.displacement_bound(&ws.certify.step).max(at_least.unwrap_or(0.0));
-        let cutoff = self.settings.safety.margin + 1.5 * reach + 1e-3;
-        ws.rows.build_distances(&self.collision, &ws.input.kin, cutoff, rate, &self.settings.safety);
+        let s = &self.settings.safety;
+        let cutoff = s.margin + 1.5 * reach.max(self.braking_reach(ws)) + 1e-3;
+        let braking = s.motion_limits.then_some((self.robot.motion_limits(), self.settings.period));
+        ws.rows.build_distances(&self.collision, &ws.input.kin, cutoff, rate, s, braking);
         reach
     }
 
@@ -346,8 +352,26 @@ impl Arbiter {
         self.collision.displacement_bound(&ws.certify.step)
     }
 
-    /// Certifies `q → q + u·dt` against the exact geometry, halving the
-    /// step up to 4 times; holds when none is certified.
+    /// How far the robot's geometry can move while it brakes from this
+    /// tick's bounds (m): the rows must see the pairs the stop approaches.
+    fn braking_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
+        if !self.settings.safety.motion_limits {
+            return 0.0;
+        }
+        for (j, (d, l)) in ws.certify.step.iter_mut().zip(self.robot.motion_limits()).enumerate() {
+            let (lo, hi) = (ws.rows.lo[j], ws.rows.hi[j]);
+            let v = ws.motion.velocity[j];
+            let dt = self.settings.period;
+            *d = stopping_distance(hi, (hi - v) / dt, l).max(stopping_distance(-lo, (v - lo) / dt, l))
+                + dt * hi.abs().max(lo.abs());
+        }
+        self.collision.displacement_bound(&ws.certify.step)
+    }
+
+    /// Certifies `q → q + c·dt` against the exact geometry, `c` the solved
+    /// command, else halfway to the braking step `b` (`c = b + f·(u − b)`,
+    /// `f` halved up to 4 times; with the motion limits off `b` is zero);
+    /// holds when none is certified.
     fn certify(&self, ws: &mut ArbiterWorkspace, q: &[f64], status: TickStatus) -> Result<TickStatus, TickStatus> {
         let dt = self.settings.period;
         let clearance = self.settings.safety.certification_clearance;
@@ -356,7 +380,10 @@ impl Arbiter {
         }
         let mut fraction = 1.0;
         for attempt in 0..5 {
-            add_scaled(&mut ws.certify.step, q, fraction * dt, &ws.solve.u);
+            for (j, x) in ws.certify.step.iter_mut().enumerate() {
+                let (u, b) = (ws.solve.u[j], ws.motion.brake[j]);
+                *x = q[j] + dt * (b + fraction * (u - b));
+            }
             match self.collision.motion_free_certified(&mut ws.rows.collision, q, &ws.certify.step, clearance) {
                 Ok(true) => {
                     ws.diagnostics.step_fraction = fraction;
@@ -369,38 +396,86 @@ impl Arbiter {
         ws.diagnostics.step_fraction = 0.0;
         Err(TickStatus::Halted)
     }
-}
 
-/// Resets the diagnostics at the start of a tick.
-fn begin_tick(ws: &mut ArbiterWorkspace) {
-    ws.diagnostics = Diagnostics {
-        mode: ws.mode,
-        step_fraction: 1.0,
-        min_distance: f64::INFINITY,
-        metric_condition: 1.0,
-        ..Diagnostics::default()
-    };
-}
-
-/// The command of a tick that ended with `result`: zero on a hold, else
-/// the step (shortened by the certification).
-fn emit(ws: &mut ArbiterWorkspace, result: Result<TickStatus, TickStatus>) -> Command<'_> {
-    let status = match result {
-        Ok(status) => status,
-        Err(status) => {
-            ws.solve.u.fill(0.0);
-            status
-        }
-    };
-    if status.is_hold() {
-        ws.certify.qdot.fill(0.0);
-    } else {
-        let f = ws.diagnostics.step_fraction;
-        for (v, u) in ws.certify.qdot.iter_mut().zip(&ws.solve.u) {
-            *v = f * u;
-        }
+    /// Resets the diagnostics at the start of a tick and plans its braking step.
+    fn begin_tick(&self, ws: &mut ArbiterWorkspace) {
+        ws.diagnostics = Diagnostics {
+            mode: ws.mode,
+            step_fraction: 1.0,
+            min_distance: f64::INFINITY,
+            metric_condition: 1.0,
+            ..Diagnostics::default()
+        };
+        let limits = if self.settings.safety.motion_limits { self.robot.motion_limits() } else { &[] };
+        ws.motion.plan_brake(limits, self.settings.period);
     }
-    Command { qdot: &ws.certify.qdot, status, diagnostics: ws.diagnostics }
+
+    /// The command of a tick that ended with `result`: on a hold the
+    /// braking step when it is certified at `q` (or `q` is not known),
+    /// else zero; otherwise the certified step. Recorded as executed.
+    fn emit<'w>(&self, ws: &'w mut ArbiterWorkspace, q: &[f64], result: Result<TickStatus, TickStatus>) -> Command<'w> {
+        let status = match result {
+            Ok(status) => status,
+            Err(status) => status,
+        };
+        let mut stopped = false;
+        if status.is_hold() || result.is_err() {
+            ws.diagnostics.step_fraction = 0.0;
+            let braking = ws.motion.brake.iter().any(|b| *b != 0.0);
+            stopped = braking && !self.brake_certified(ws, q);
+            if stopped {
+                ws.motion.brake.fill(0.0);
+            }
+            ws.certify.qdot.copy_from_slice(&ws.motion.brake);
+        } else {
+            let f = ws.diagnostics.step_fraction;
+            for ((v, u), b) in ws.certify.qdot.iter_mut().zip(&ws.solve.u).zip(&ws.motion.brake) {
+                *v = b + f * (u - b);
+            }
+        }
+        ws.motion.executed(&ws.certify.qdot, self.settings.period, stopped);
+        Command { qdot: &ws.certify.qdot, status, diagnostics: ws.diagnostics }
+    }
+
+    /// Whether the braking step from `q` is certified free (true without
+    /// certification, and for a `q` that is not a configuration: the arm
+    /// then keeps braking along its last certified motion).
+    fn brake_certified(&self, ws: &mut ArbiterWorkspace, q: &[f64]) -> bool {
+        let s = &self.settings.safety;
+        if !(s.certify && s.collisions && finite_of_len(q, self.robot.nq())) {
+            return true;
+        }
+        add_scaled(&mut ws.certify.step, q, self.settings.period, &ws.motion.brake);
+        matches!(
+            self.collision.motion_free_certified(
+                &mut ws.rows.collision,
+                q,
+                &ws.certify.step,
+                s.certification_clearance
+            ),
+            Ok(true)
+        )
+    }
+}
+
+/// Grows `Constrained`'s trust region to reach the braking step when it
+/// does not: the cone is the mode's objective, not a safety row, and an arm
+/// that cannot slow to it within its limits must be allowed to brake (the
+/// cone around standing still shrinks at once when the operator stops; the
+/// arm then slows along the operator's direction at the braking speed).
+fn reach_brake(ws: &mut ArbiterWorkspace) {
+    let n = ws.motion.brake.len();
+    let o = &mut ws.objective;
+    let far: f64 = (0..n)
+        .map(|i| {
+            let lb: f64 = (i..n).map(|j| o.cone_l[i * n + j] * ws.motion.brake[j]).sum();
+            (lb - o.cone_c[i]).powi(2)
+        })
+        .sum::<f64>()
+        .sqrt();
+    if far > o.radius {
+        o.radius = far * (1.0 + 1e-9) + 1e-12;
+    }
 }
 
 fn finite_of_len(x: &[f64], n: usize) -> bool {

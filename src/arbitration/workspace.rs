@@ -21,6 +21,7 @@ use super::intent::IntentEstimator;
 use super::learned::StateLayout;
 use super::metric::{Metric, MetricWorkspace};
 use super::modes::ArbitrationMode;
+use super::motion::MotionStage;
 use super::safety::{Row, SafetyRows};
 use crate::control::RobotPolicyWorkspace;
 use crate::robot::KinematicsWorkspace;
@@ -51,6 +52,8 @@ pub struct ArbiterWorkspace {
     pub(crate) certify: CertifyStage,
     /// The learned mode and the observe / act split.
     pub(crate) learned: LearnedStage,
+    /// The executed command sequence and the braking step (motion limits).
+    pub(crate) motion: MotionStage,
     /// What every stage reports, reset at the start of each tick.
     pub(crate) diagnostics: Diagnostics,
 }
@@ -263,6 +266,7 @@ impl Arbiter {
                 u: vec![0.0; n],
             },
             certify: CertifyStage { step: vec![0.0; n], qdot: vec![0.0; n] },
+            motion: MotionStage::new(n),
             learned: LearnedStage {
                 state: vec![0.0; layout.width()],
                 scratch: vec![0.0; self.learned.as_ref().map_or(0, |p| p.scratch_len())],

@@ -1,7 +1,7 @@
-//! Command-line options of the arbiter's mode settings, shared by the
-//! commands that run shared control.
+//! Command-line options of the arbiter's settings, shared by the commands
+//! that run shared control.
 
-use crate::arbitration::{ArbiterSettings, ModeSettings};
+use crate::arbitration::{ArbiterSettings, ModeSettings, SafetySettings};
 
 /// The centres κ of sum-of-squares and of the constrained mode (default:
 /// the dissertation's, 0).
@@ -30,5 +30,27 @@ impl CenterArgs {
     pub fn arbiter_settings(&self, period: f64) -> ArbiterSettings {
         let defaults = ArbiterSettings::default();
         ArbiterSettings { period, modes: self.apply(defaults.modes), ..defaults }
+    }
+}
+
+/// Whether the robot's motion limits hold.
+#[derive(Debug, Clone, Copy, clap::Args)]
+pub struct MotionLimitArgs {
+    /// Let commands change by any amount from one tick to the next and
+    /// holds stop in one tick: the robot's acceleration, deceleration and
+    /// jerk limits (`tandem inspect` lists them) are then only counted, not
+    /// kept. For comparisons with tandem before 2026-12; a real arm's
+    /// controller refuses such commands.
+    #[arg(long)]
+    pub no_motion_limits: bool,
+}
+
+impl MotionLimitArgs {
+    /// `settings` with the motion limits as chosen.
+    pub fn apply(&self, settings: ArbiterSettings) -> ArbiterSettings {
+        ArbiterSettings {
+            safety: SafetySettings { motion_limits: !self.no_motion_limits, ..settings.safety },
+            ..settings
+        }
     }
 }

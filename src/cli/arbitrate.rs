@@ -33,6 +33,8 @@ pub struct ArbitrateArgs {
     /// The centres of sum-of-squares and of the constrained mode.
     #[command(flatten)]
     pub centers: super::arbiter_args::CenterArgs,
+    #[command(flatten)]
+    pub motion: super::arbiter_args::MotionLimitArgs,
     /// Simulated operator: straightline (straight at the grasp point) or
     /// approach (to a point 10 cm above it, then down).
     #[arg(long, default_value = "approach", value_parser = ["straightline", "approach"])]
@@ -83,7 +85,7 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
     };
     let prepared = began.elapsed();
     let target = goals.iter().position(|g| g.problem.goal == problem.goal).unwrap_or(0);
-    let settings = args.centers.arbiter_settings(1.0 / args.rate);
+    let settings = args.motion.apply(args.centers.arbiter_settings(1.0 / args.rate));
     let mut arbiter = Arbiter::for_problem(&problem, &goals, settings)?;
     if let Some(path) = &args.arbiter {
         let actor = crate::learn::ArbitrationActor::load(path)?;

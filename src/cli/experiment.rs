@@ -181,6 +181,8 @@ pub struct ReachGraspArgs {
     /// The arbiter's centres (constrained and sum-of-squares).
     #[command(flatten)]
     pub centers: super::arbiter_args::CenterArgs,
+    #[command(flatten)]
+    pub motion: super::arbiter_args::MotionLimitArgs,
 }
 
 pub(super) fn run(args: &ExperimentArgs) -> Result<(), Box<dyn std::error::Error>> {
@@ -204,7 +206,7 @@ fn reach_grasp(args: &ReachGraspArgs) -> Result<(), Box<dyn std::error::Error>> 
         seed: args.seed,
         arms,
         record_dir: args.out.as_ref().map(|d| d.join("episodes")),
-        arbiter: args.centers.arbiter_settings(1.0 / args.rate),
+        arbiter: args.motion.apply(args.centers.arbiter_settings(1.0 / args.rate)),
         simulator: match args.physics.as_str() {
             "mujoco" => Simulator::Mujoco(PhysicsSettings::default()),
             _ => Simulator::Kinematic,

@@ -16,6 +16,7 @@
 
 mod family;
 pub mod grasp;
+mod joint_limits;
 mod moveit;
 mod moveit_scene;
 pub(crate) mod moveit_yaml;
@@ -25,6 +26,7 @@ mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
 pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
+pub use joint_limits::{JointLimitsFile, apply_builtin_limits};
 pub use moveit::{
     MOVEIT_CLEARANCE, MOVEIT_LIMIT_TOLERANCE, MoveItRequest, moveit_request_from_str, read_moveit_request,
 };
@@ -209,6 +211,11 @@ pub struct RobotSpec {
     pub max_grasp_depth: Option<f64>,
     /// Collision padding of the robot shapes (m).
     pub padding: f64,
+    /// Where the joints' velocity, acceleration, deceleration and jerk
+    /// limits came from beyond the URDF: a `joint_limits.yaml` (as given)
+    /// or `builtin:franka_panda` / `builtin:franka_fr3`; `None` for the
+    /// robot's own (see [`RobotModel::motion_limits`](crate::robot::RobotModel::motion_limits)).
+    pub joint_limits: Option<String>,
 }
 
 /// A loaded, validated problem.

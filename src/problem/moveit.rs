@@ -318,6 +318,7 @@ impl Problem {
                 finger_pads: Vec::new(),
                 max_grasp_depth: None,
                 padding: 0.0,
+                joint_limits: None,
             },
             robot,
             srdf: Some(srdf_data),

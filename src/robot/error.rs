@@ -285,6 +285,17 @@ pub enum RobotError {
     /// unbounded.
     #[error(transparent)]
     InvalidSetting(#[from] crate::settings::InvalidSetting),
+    /// A motion limit (velocity, acceleration, deceleration, jerk) that is
+    /// not finite and positive.
+    #[error("joint '{joint}': {what} = {value} must be finite and above 0")]
+    InvalidLimit {
+        /// The joint's name.
+        joint: String,
+        /// Which limit (`max_acceleration`, …).
+        what: &'static str,
+        /// The value given.
+        value: f64,
+    },
     /// An output buffer of the wrong shape (a programming error of the caller).
     #[error("output has {got} columns, the model has {expected} active joints")]
     OutputShape {

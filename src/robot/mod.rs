@@ -22,6 +22,7 @@ mod error;
 mod kinematics;
 mod mesh;
 mod model;
+mod motion_limits;
 mod placement;
 mod rotation;
 mod srdf;
@@ -35,6 +36,10 @@ pub use kinematics::{KinematicsWorkspace, ReferenceFrame};
 pub use mesh::TriMesh;
 pub(crate) use model::Motion;
 pub use model::{Frame, FrameId, FrameKind, JointSelection, RobotModel, RobotModelBuilder};
+pub use motion_limits::{
+    BUILTIN_LIMITS, FRANKA_FR3, FRANKA_PANDA, JointMotionLimits, LimitSource, MotionLimitOverride,
+    PositionVelocityLimit, builtin_limits,
+};
 pub(crate) use placement::signed_permutation_near;
 pub use rotation::rotation_log;
 pub use srdf::{DisabledPair, Group, GroupState, Srdf, SrdfWarning, VirtualJoint};

@@ -117,6 +117,11 @@ impl RobotDescription {
         EMBEDDED_PLANAR.parse().expect("embedded planar gripper URDF is valid")
     }
 
+    /// The source name of [`Self::panda`]'s description (see [`Self::source`]).
+    pub(crate) fn panda_source() -> &'static str {
+        EMBEDDED_PANDA.source
+    }
+
     /// The text of an embedded robot's URDF ([`Self::panda`],
     /// [`Self::planar_gripper`]); `None` for one read from a file.
     pub fn embedded_urdf(&self) -> Option<&'static str> {

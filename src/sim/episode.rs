@@ -11,7 +11,7 @@
 use super::judge::Judge;
 use super::operator::{Observation, Operator, OperatorAction};
 use super::reason::Reason;
-use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand, TickInput, TickStatus};
+use crate::arbitration::{Arbiter, ArbiterWorkspace, HumanCommand, MotionAudit, TickInput, TickStatus};
 use crate::collision::CollisionWorkspace;
 use crate::control::RobotPolicyWorkspace;
 use crate::robot::{KinematicsWorkspace, ReferenceFrame, RobotError};
@@ -78,6 +78,15 @@ pub struct EpisodeRecord {
     /// Executed steps that left the joint limits, exceeded a velocity
     /// limit, or (when the arbiter avoids collisions) ended in collision.
     pub hard_violations: usize,
+    /// Executed commands that broke an acceleration, deceleration or jerk
+    /// limit of the robot ([`RobotModel::motion_limits`](crate::robot::RobotModel::motion_limits)),
+    /// by finite differences at the period from rest, and the largest
+    /// ratios to those limits ([`MotionAudit`]).
+    pub limit_violations: usize,
+    /// The largest `|q̈| / limit` over the episode.
+    pub peak_acceleration_ratio: f64,
+    /// The largest `|q⃛| / limit` over the episode.
+    pub peak_jerk_ratio: f64,
     /// Smallest signed distance over the visited configurations (m).
     pub min_clearance: f64,
     /// Ticks whose status was a hold or a fallback.
@@ -273,6 +282,8 @@ pub struct LiveEpisode {
     contact: Option<[String; 2]>,
     /// The status and time (µs) of the tick [`Self::command`] ran last.
     pending: (TickStatus, f64),
+    /// The executed sequence against the motion limits.
+    audit: MotionAudit,
 }
 
 impl LiveEpisode {
@@ -308,6 +319,7 @@ impl LiveEpisode {
             keep,
             contact: None,
             pending: (TickStatus::Nominal, 0.0),
+            audit: MotionAudit::new(n),
             record: EpisodeRecord {
                 outcome: Outcome::Timeout,
                 reason: Reason::Timeout { distance: f64::NAN },
@@ -315,6 +327,9 @@ impl LiveEpisode {
                 duration: 0.0,
                 tick_us: vec![],
                 hard_violations: 0,
+                limit_violations: 0,
+                peak_acceleration_ratio: 0.0,
+                peak_jerk_ratio: 0.0,
                 min_clearance: clearance,
                 fallbacks: 0,
                 travel: 0.0,
@@ -416,7 +431,11 @@ impl LiveEpisode {
         let (status, goal) = (tick.status, tick.diagnostics.goal);
         self.velocity.copy_from_slice(tick.qdot);
         self.pending = (status, tick_us);
+        self.audit.observe(&self.velocity, arbiter.settings().period, arbiter.robot().motion_limits());
         let record = &mut self.record;
+        record.limit_violations = self.audit.violations;
+        record.peak_acceleration_ratio = self.audit.peak_acceleration_ratio;
+        record.peak_jerk_ratio = self.audit.peak_jerk_ratio;
         record.tick_us.push(tick_us);
         record.steps += 1;
         if !matches!(

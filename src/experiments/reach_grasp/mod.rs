@@ -145,6 +145,14 @@ pub struct EpisodeSummary {
     pub tick_us: Vec<f64>,
     /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
+    /// Executed commands that broke an acceleration, deceleration or jerk
+    /// limit, and the largest ratios to those limits (see
+    /// [`EpisodeRecord::limit_violations`]).
+    pub limit_violations: usize,
+    /// The largest `|q̈| / limit` of the episode.
+    pub peak_acceleration_ratio: f64,
+    /// The largest `|q⃛| / limit` of the episode.
+    pub peak_jerk_ratio: f64,
     /// Smallest signed distance over the episode (m).
     pub min_clearance: f64,
     /// The gripper path (first task of each arm, when kept; m, world).
@@ -284,6 +292,9 @@ fn run_task(task: &Task, settings: &ReachGraspSettings) -> Result<Vec<EpisodeSum
                 duration: record.duration,
                 tick_us: std::mem::take(&mut record.tick_us),
                 hard_violations: record.hard_violations,
+                limit_violations: record.limit_violations,
+                peak_acceleration_ratio: record.peak_acceleration_ratio,
+                peak_jerk_ratio: record.peak_jerk_ratio,
                 min_clearance: record.min_clearance,
                 path: if keep { std::mem::take(&mut record.gripper) } else { vec![] },
                 approach,
@@ -319,6 +330,11 @@ pub struct Cell {
     pub cos: [f64; 3],
     /// Executed steps that broke a hard constraint.
     pub hard_violations: usize,
+    /// Executed commands that broke a motion limit (acceleration,
+    /// deceleration, jerk).
+    pub limit_violations: usize,
+    /// The largest ratios to the acceleration and jerk limits.
+    pub peak_ratios: [f64; 2],
     /// The episodes that did not succeed, by reason.
     pub reasons: BTreeMap<&'static str, usize>,
 }
@@ -339,6 +355,9 @@ impl ReachGraspResults {
                 c.cos[k] += e.cos[k];
             }
             c.hard_violations += e.hard_violations;
+            c.limit_violations += e.limit_violations;
+            c.peak_ratios[0] = c.peak_ratios[0].max(e.peak_acceleration_ratio);
+            c.peak_ratios[1] = c.peak_ratios[1].max(e.peak_jerk_ratio);
             if e.outcome != Outcome::Success {
                 *c.reasons.entry(e.reason.as_str()).or_default() += 1;
             }
@@ -373,7 +392,8 @@ impl Experiment for ReachGraspSettings {
     /// `{"tasks", "seed", "simulator", "physics": {"steps",
     /// "step_seconds"}, "results": [{"arm", "operator", "method",
     /// "success", "collision", "timeout", "failed", "cos_sim": [x, y, z],
-    /// "hard_violations", "reasons", and with physics "kinematic_judge":
+    /// "hard_violations", "limit_violations", "peak_acceleration_ratio",
+    /// "peak_jerk_ratio", "reasons", and with physics "kinematic_judge":
     /// {"both", "kinematic_only", "physics_only", "neither",
     /// "never_closed"}}], "resampled_tasks", "seconds", "tick_us"}`.
     fn json(&self, r: &ReachGraspResults) -> serde_json::Value {
@@ -386,7 +406,9 @@ impl Experiment for ReachGraspSettings {
                     let mut row = serde_json::json!({
                         "arm": arm.as_str(), "operator": op.name(), "method": method.name(),
                         "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
-                        "cos_sim": c.cos, "hard_violations": c.hard_violations, "reasons": c.reasons,
+                        "cos_sim": c.cos, "hard_violations": c.hard_violations,
+                        "limit_violations": c.limit_violations, "peak_acceleration_ratio": c.peak_ratios[0],
+                        "peak_jerk_ratio": c.peak_ratios[1], "reasons": c.reasons,
                     });
                     if s.simulator != Simulator::Kinematic {
                         let cell = r.episodes.iter().filter(|e| e.arm == arm && e.operator == o && e.method == m);
@@ -467,6 +489,14 @@ impl Experiment for ReachGraspSettings {
         );
         let violations: usize = r.episodes.iter().map(|e| e.hard_violations).sum();
         let _ = writeln!(out, "hard-constraint violations: {violations}");
+        let limits: usize = r.episodes.iter().map(|e| e.limit_violations).sum();
+        let peak = |f: fn(&EpisodeSummary) -> f64| r.episodes.iter().map(f).fold(0.0, f64::max);
+        let _ = writeln!(
+            out,
+            "motion-limit violations: {limits} (largest acceleration {:.2} and jerk {:.2} of the limits)",
+            peak(|e| e.peak_acceleration_ratio),
+            peak(|e| e.peak_jerk_ratio)
+        );
         if s.simulator != Simulator::Kinematic {
             out.push_str(&physics::table(r));
         }

@@ -2,6 +2,7 @@
 //! [`Problem`]. Every check names the key it rejects.
 
 use super::grasp::{GraspError, GripperGeometry};
+use super::joint_limits::{JointLimitsFile, apply_builtin_limits};
 use super::toml_source::KeyPath;
 use super::{Goal, Problem, ProblemError, RobotSpec, Source};
 use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh};
@@ -53,6 +54,7 @@ struct RawRobot {
     max_grasp_depth: Option<f64>,
     #[serde(default)]
     padding: f64,
+    joint_limits: Option<String>,
 }
 
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -363,7 +365,7 @@ impl RawRobot {
         for (joint, value) in &self.hold {
             builder = builder.hold(joint.clone(), *value);
         }
-        let robot = Arc::new(builder.build().map_err(|e| {
+        let mut robot = builder.build().map_err(|e| {
             // Blame the joint selection when it fails on its own, else the
             // first held joint that fails.
             let at = if plain.clone().build().is_err() {
@@ -374,7 +376,21 @@ impl RawRobot {
                 bad.map_or(path.key("hold"), |(j, _)| path.key("hold").key(j))
             };
             src.error(&at, e.to_string())
-        })?);
+        })?;
+        if let Some(limits) = &self.joint_limits {
+            let at = path.key("joint_limits");
+            if let Some(name) = limits.strip_prefix("builtin:") {
+                apply_builtin_limits(&mut robot, name).map_err(|e| src.error(&at, e))?;
+            } else {
+                let file = if src.base.is_none() && limits == "robots/panda/joint_limits.yaml" {
+                    JointLimitsFile::parse(include_str!("../../../problems/robots/panda/joint_limits.yaml"), limits)
+                } else {
+                    JointLimitsFile::read(src.resolve(limits))
+                };
+                file.and_then(|f| f.apply_to(&mut robot)).map_err(|e| src.error(&at, e.to_string()))?;
+            }
+        }
+        let robot = Arc::new(robot);
         if let Some(g) = &self.gripper {
             robot.frame_id(g).map_err(|e| src.error(&path.key("gripper"), e.to_string()))?;
         }
@@ -394,6 +410,7 @@ impl RawRobot {
             finger_pads: self.finger_pads,
             max_grasp_depth: self.max_grasp_depth,
             padding,
+            joint_limits: self.joint_limits,
         };
         Ok((spec, robot, srdf, collision_geometry, warnings))
     }

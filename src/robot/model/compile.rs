@@ -5,6 +5,7 @@
 use super::{Body, Frame, FrameKind, JointSelection, Motion, RobotModel, default_value, resolve_value};
 use crate::robot::description::RobotDescription;
 use crate::robot::error::{RobotError, suggest};
+use crate::robot::motion_limits::{JointMotionLimits, LimitSource, builtin_limits};
 use crate::robot::placement::Placement;
 use nalgebra::IsometryMatrix3;
 use std::collections::HashMap;
@@ -27,8 +28,20 @@ impl RobotModel {
             frame_lookup.insert(f.name.clone(), i);
         }
         let joints = description.joints();
+        let joint_names: Vec<String> = active.iter().map(|&j| joints[j].name.clone()).collect();
+        let mut motion: Vec<JointMotionLimits> =
+            active.iter().map(|&j| JointMotionLimits::default_for(joints[j].limits.velocity)).collect();
+        // The embedded Panda is a Panda: Franka's published limits.
+        if description.source() == RobotDescription::panda_source() {
+            for (limits, name) in motion.iter_mut().zip(&joint_names) {
+                if let Some((set, profile)) = builtin_limits("franka_panda", name) {
+                    limits.apply(&set, profile, &LimitSource::Builtin("franka_panda"));
+                }
+            }
+        }
         Ok(RobotModel {
-            joint_names: active.iter().map(|&j| joints[j].name.clone()).collect(),
+            joint_names,
+            motion,
             limits: active.iter().map(|&j| joints[j].limits).collect(),
             active,
             held_values,

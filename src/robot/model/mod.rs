@@ -22,6 +22,7 @@
 
 use super::description::{JointKind, JointLimits, RobotDescription};
 use super::error::{RobotError, suggest};
+use super::motion_limits::{JointMotionLimits, LimitSource, MotionLimitOverride, PositionVelocityLimit};
 use super::placement::Placement;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use std::collections::HashMap;
@@ -228,6 +229,8 @@ pub struct RobotModel {
     active: Vec<usize>,
     joint_names: Vec<String>,
     limits: Vec<JointLimits>,
+    /// Velocity, acceleration, deceleration and jerk limits, per active joint.
+    motion: Vec<JointMotionLimits>,
     /// Value of every description joint when q = 0 for the active ones.
     held_values: Vec<f64>,
     pub(crate) bodies: Vec<Body>,
@@ -271,6 +274,48 @@ impl RobotModel {
     /// Limits of the active joints, in `q` order.
     pub fn limits(&self) -> &[JointLimits] {
         &self.limits
+    }
+
+    /// The velocity, acceleration, deceleration and jerk limits of each
+    /// active joint, in `q` order, with where each came from: the URDF's
+    /// velocity limit and tandem's defaults
+    /// ([`JointMotionLimits::default_for`]), the published Franka Panda
+    /// table for the embedded Panda, or what
+    /// [`Self::apply_motion_limits`] set (a `joint_limits.yaml`).
+    pub fn motion_limits(&self) -> &[JointMotionLimits] {
+        &self.motion
+    }
+
+    /// Sets the motion limits of the joints named in `limits` (joints of
+    /// the model that are not active are ignored, as MoveIt ignores the
+    /// entries of joints outside a group), recording `source`.
+    ///
+    /// # Errors
+    /// [`RobotError::InvalidLimit`] for a value that is not finite and
+    /// positive.
+    pub fn apply_motion_limits<'a>(
+        &mut self,
+        limits: impl IntoIterator<Item = (&'a str, MotionLimitOverride, Option<PositionVelocityLimit>)>,
+        source: &LimitSource,
+    ) -> Result<(), RobotError> {
+        for (joint, set, profile) in limits {
+            for (what, value) in [
+                ("max_velocity", set.velocity),
+                ("max_acceleration", set.acceleration),
+                ("max_deceleration", set.deceleration),
+                ("max_jerk", set.jerk),
+            ] {
+                if let Some(v) = value
+                    && !(v.is_finite() && v > 0.0)
+                {
+                    return Err(RobotError::InvalidLimit { joint: joint.to_string(), what, value: v });
+                }
+            }
+            if let Some(j) = self.joint_names.iter().position(|n| n == joint) {
+                self.motion[j].apply(&set, profile, source);
+            }
+        }
+        Ok(())
     }
 
     /// Description indices of the active joints, in `q` order.
