@@ -172,7 +172,11 @@ fn check_names_file_key_and_line_of_a_bad_problem() {
     let text = std::fs::read_to_string(common::repo().join("problems/panda_reach.toml"))
         .unwrap()
         .replace("size = [1.4, 1.6]", "size = [1.4, -1.6]")
-        .replace("robots/panda/panda.urdf", common::repo().join("problems/robots/panda/panda.urdf").to_str().unwrap());
+        .replace("robots/panda/panda.urdf", common::repo().join("problems/robots/panda/panda.urdf").to_str().unwrap())
+        .replace(
+            "robots/panda/joint_limits.yaml",
+            common::repo().join("problems/robots/panda/joint_limits.yaml").to_str().unwrap(),
+        );
     std::fs::write(&bad, &text).unwrap();
     let line = text.lines().position(|l| l.contains("-1.6")).unwrap() + 1;
     let o = tandem(&["check", bad.to_str().unwrap()]);

@@ -39,7 +39,11 @@ fn problem_with(dir: &Path, name: &str, from: &str, to: &str) -> String {
     let text = std::fs::read_to_string(common::repo().join("problems").join(name)).unwrap();
     assert!(text.contains(from), "{from}");
     let urdf = common::repo().join("problems/robots/panda/panda.urdf");
-    let text = text.replace(from, to).replace("robots/panda/panda.urdf", urdf.to_str().unwrap());
+    let limits = common::repo().join("problems/robots/panda/joint_limits.yaml");
+    let text = text
+        .replace(from, to)
+        .replace("robots/panda/panda.urdf", urdf.to_str().unwrap())
+        .replace("robots/panda/joint_limits.yaml", limits.to_str().unwrap());
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     path.to_str().unwrap().to_string()

@@ -205,7 +205,9 @@ fn resuming_after_the_robot_changed_is_refused() {
         std::fs::copy(from, to).unwrap();
     };
     let problems = repo().join("problems");
-    for file in ["panda_grasp_family.toml", "panda_grasp_box.toml", "robots/panda/panda.urdf"] {
+    for file in
+        ["panda_grasp_family.toml", "panda_grasp_box.toml", "robots/panda/panda.urdf", "robots/panda/joint_limits.yaml"]
+    {
         copy(&problems.join(file), &tmp.path().join(file));
     }
     let family = tmp.path().join("panda_grasp_family.toml");

@@ -99,7 +99,9 @@ pub enum TickStatus {
     /// [`DampingSettings`](super::DampingSettings)).
     SingularityDamped,
     /// A hard constraint (joint position or velocity limit, distance
-    /// margin) shaped the command: the closest safe one was executed.
+    /// margin, or an acceleration, deceleration or jerk limit — the
+    /// command then ramps toward the mode's) shaped the command: the
+    /// closest safe one was executed.
     Constrained,
     /// The certified check of the step found it unsafe (linearised distances
     /// are only first order); a shorter step was executed.
@@ -129,7 +131,10 @@ pub enum TickStatus {
 }
 
 impl TickStatus {
-    /// True when the executed command is a hold (zero velocity).
+    /// True when the tick held: the executed command is the braking step, a
+    /// controlled stop within the motion limits that is exactly zero once
+    /// the arm is at rest (zero at once without the limits, see
+    /// [`SafetySettings::motion_limits`](super::SafetySettings::motion_limits)).
     pub fn is_hold(&self) -> bool {
         matches!(
             self,

@@ -36,6 +36,17 @@ impl Arbiter {
         self.emit(ws, input.q, result)
     }
 
+    /// A tick that holds without looking at a command: the braking step
+    /// from the last executed command (certified at `q` when `q` is a
+    /// configuration), recorded as executed, with `status`. For a loop
+    /// whose own checks decide to hold (a stale command or state): its
+    /// next [`Arbiter::tick`] then continues from the braked command, within
+    /// the motion limits. Allocates nothing.
+    pub fn hold<'w>(&self, ws: &'w mut ArbiterWorkspace, q: &[f64], status: TickStatus) -> Command<'w> {
+        self.begin_tick(ws);
+        self.emit(ws, q, Err(status))
+    }
+
     /// The first half of a tick for an external arbitration policy (a
     /// learner, a Gymnasium environment): validates `input`, updates the
     /// beliefs, queries the robot policies and returns the arbitration

@@ -4,6 +4,7 @@
 
 use super::UrdfArgs;
 use crate::collision::CollisionModel;
+use crate::problem::{JointLimitsFile, apply_builtin_limits};
 use crate::robot::{Geometry, JointKind, RobotDescription, RobotModel, Srdf};
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -20,11 +21,26 @@ pub struct InspectArgs {
     /// out on loading, as MoveIt does).
     #[arg(long, value_name = "FILE")]
     pub srdf: Option<PathBuf>,
+    /// The joints' acceleration, deceleration and jerk limits: a MoveIt /
+    /// ros2_control `joint_limits.yaml`, or `builtin:franka_panda` /
+    /// `builtin:franka_fr3`. The report's "motion limits" say which limit
+    /// came from where (URDF, this file, the built-in table, tandem's
+    /// defaults).
+    #[arg(long, value_name = "FILE")]
+    pub joint_limits: Option<String>,
 }
 
 pub(super) fn run(args: &InspectArgs) -> Result<(), Box<dyn std::error::Error>> {
     let desc = args.urdf.load()?;
     print!("{}", report(&desc));
+    let mut model = RobotModel::builder(Arc::new(desc.clone())).build()?;
+    if let Some(limits) = &args.joint_limits {
+        match limits.strip_prefix("builtin:") {
+            Some(name) => apply_builtin_limits(&mut model, name).map_err(|e| format!("--joint-limits: {e}"))?,
+            None => JointLimitsFile::read(limits)?.apply_to(&mut model)?,
+        }
+    }
+    print!("{}", motion_limits_report(&model));
     if let Some(path) = &args.srdf {
         let srdf = Srdf::from_srdf_file(path)?;
         print!("{}", srdf_report(Arc::new(desc), srdf));
@@ -60,6 +76,30 @@ SRDF {}: {} groups, {} group states, {} disabled pairs",
             Ok(m) => writeln!(out, "  {:<20} {} joints: {}", g.name, m.nq(), m.joint_names().join(", ")),
             Err(e) => writeln!(out, "  {:<20} unusable: {e}", g.name),
         };
+    }
+    out
+}
+
+/// The motion limits of `model`'s active joints, each with its source.
+pub fn motion_limits_report(model: &RobotModel) -> String {
+    let mut out =
+        String::from("\nmotion limits (per s: velocity, acceleration, deceleration, jerk; where each came from):\n");
+    for (j, (name, l)) in model.joint_names().iter().zip(model.motion_limits()).enumerate() {
+        let unit = model.joint_unit(j).unwrap_or("rad");
+        let [v, a, d, k] = &l.sources;
+        let _ = write!(
+            out,
+            "  {name:<28} {} {unit}/s ({v}), {} {unit}/s² ({a}), {} {unit}/s² ({d}), {} {unit}/s³ ({k})",
+            l.velocity, l.acceleration, l.deceleration, l.jerk
+        );
+        if let Some(p) = &l.velocity_profile {
+            let _ = write!(
+                out,
+                ", velocity by position: cap {} offset {} gain {} stop at [{}, {}]",
+                p.cap, p.offset, p.gain, p.lower, p.upper
+            );
+        }
+        out.push('\n');
     }
     out
 }

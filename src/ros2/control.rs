@@ -318,7 +318,10 @@ impl ControlLoop {
         let out = &mut self.out;
         out.command_stamp = f64::NAN;
         if let Some((code, reason, status)) = hold {
-            out.qdot.iter_mut().for_each(|v| *v = 0.0);
+            // The arbiter's braking step: a controlled stop within the
+            // motion limits, then zero (and its next tick continues from it).
+            let braking = self.arbiter.hold(&mut self.ws, &self.q, status.unwrap_or(TickStatus::Halted));
+            out.qdot.copy_from_slice(braking.qdot);
             out.code = code;
             out.status = status;
             out.hold_reason = Some(reason);
