@@ -455,35 +455,38 @@ def hostile(run, report, seen, log, motion, ticks_at, holds, command, goals_w, m
         k = state_names.index("panda_joint1")
         return ["panda_joint1"] + state_names, [state_q[k] + 1.0] + state_q
 
-    report["states"] = duplicated
-    run("duplicate_state", 0.6, lambda t: command(t, toward))
-    report["states"] = None
-    run("settle", 0.3)
-
-    def jog(t):
-        jog_w.write(JointJog(header=Header(stamp=now_stamp(t)), joint_names=["panda_joint1", "panda_joint1"],
-                             displacements=[], velocities=[0.3, -0.3], duration=0.0))
-
-    run("duplicate_jog", 0.5, jog)
-    run("settle", 0.3)
-    run("infinite_twist", 0.5, lambda t: command(t, (math.inf, 0.0, 0.0)))
-    run("settle", 0.3)
-
-    # The flood: ~1,000 unknown names a second (20 with every command),
-    # each 10,000 characters.
+    # "republish_only": the republished poses alone (for the beliefs' figure).
     flood = {"sent": 0}
+    flood_ticks_per_s = math.nan
+    if not REQUEST.get("republish_only"):
+        report["states"] = duplicated
+        run("duplicate_state", 0.6, lambda t: command(t, toward))
+        report["states"] = None
+        run("settle", 0.3)
 
-    def flood_modes(t):
-        for _ in range(20):
-            mode_w.write(String_(data=f"fastest-{flood['sent']}-" + "x" * 10_000))
-            flood["sent"] += 1
+        def jog(t):
+            jog_w.write(JointJog(header=Header(stamp=now_stamp(t)), joint_names=["panda_joint1", "panda_joint1"],
+                                 displacements=[], velocities=[0.3, -0.3], duration=0.0))
 
-    flood_began = time.time()
-    run("flood", REQUEST["flood_s"], flood_modes)
-    flood_ended = time.time()
-    in_flood = [n for at, n in ticks_at if flood_began + 0.5 <= at <= flood_ended]
-    flood_ticks_per_s = (in_flood[-1] - in_flood[0]) / (flood_ended - flood_began - 0.5) if len(in_flood) > 1 else 0.0
-    run("after_flood", 0.5)
+        run("duplicate_jog", 0.5, jog)
+        run("settle", 0.3)
+        run("infinite_twist", 0.5, lambda t: command(t, (math.inf, 0.0, 0.0)))
+        run("settle", 0.3)
+
+        # The flood: ~1,000 unknown names a second (20 with every command),
+        # each 10,000 characters.
+
+        def flood_modes(t):
+            for _ in range(20):
+                mode_w.write(String_(data=f"fastest-{flood['sent']}-" + "x" * 10_000))
+                flood["sent"] += 1
+
+        flood_began = time.time()
+        run("flood", REQUEST["flood_s"], flood_modes)
+        flood_ended = time.time()
+        in_flood = [n for at, n in ticks_at if flood_began + 0.5 <= at <= flood_ended]
+        flood_ticks_per_s = (in_flood[-1] - in_flood[0]) / (flood_ended - flood_began - 0.5) if len(in_flood) > 1 else 0.0
+        run("after_flood", 0.5)
 
     # The same poses at 50 Hz (with every command) while the operator
     # heads for the first goal.

@@ -478,6 +478,7 @@ fn stopped_before_start(log: NodeLog) -> NodeReport {
     let counts = log.finish(Duration::from_millis(200));
     NodeReport {
         stopped_before_start: true,
+        tick_us: [f64::NAN; 3],
         dropped_log_lines: counts.dropped,
         suppressed_log_lines: counts.suppressed,
         ..NodeReport::default()
