@@ -139,3 +139,46 @@ impl Drop for OpenSession {
         self.0.sessions_open.fetch_sub(1, Ordering::AcqRel);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sessions on four threads record 60,000 ticks while `/stats` is read
+    /// without pause: nothing waits for a lock, every tick is counted (the
+    /// percentiles used to cover the last 10,000 to 20,000 samples), the
+    /// largest exact.
+    #[test]
+    fn every_tick_is_counted_while_stats_are_read() {
+        let stats = Arc::new(ServerStats::default());
+        let reading = std::sync::atomic::AtomicBool::new(true);
+        std::thread::scope(|s| {
+            s.spawn(|| {
+                while reading.load(Ordering::Relaxed) {
+                    let json = stats.to_json();
+                    assert!(json["tick_us"]["count"].as_u64().unwrap() <= 60_000);
+                }
+            });
+            let sessions: Vec<_> = (0..4)
+                .map(|k| {
+                    let stats = &stats;
+                    s.spawn(move || {
+                        for i in 0..15_000 {
+                            stats.tick_us.record(10.0 + f64::from(i % 100) + f64::from(k));
+                        }
+                    })
+                })
+                .collect();
+            for session in sessions {
+                session.join().unwrap();
+            }
+            reading.store(false, Ordering::Relaxed);
+        });
+        let json = stats.to_json();
+        assert_eq!(json["tick_us"]["count"], 60_000);
+        assert_eq!(json["tick_us"]["max"], 112.0);
+        let median = json["tick_us"]["median"].as_f64().unwrap();
+        assert!((median - 61.5).abs() / 61.5 < 0.03, "{median}");
+        assert_eq!(json["latency_us"]["count"], 0);
+    }
+}
