@@ -17,7 +17,7 @@ const OCTAVES: usize = 42;
 const BUCKETS: usize = OCTAVES * PER_OCTAVE as usize;
 
 /// Largest relative error of a quantile from [`TickHistogram::quantile`]
-/// between [`LOWEST_US`] and the largest bucket: a quantile is reported as
+/// between 0.01 µs and 11 hours: a quantile is reported as
 /// its bucket's geometric centre, at most half a bucket (a factor
 /// 2^(1/64)) from any duration in the bucket, about 1.1 %.
 pub const QUANTILE_ERROR: f64 = 0.010_889_286_051_700_5;

@@ -9,7 +9,7 @@
 //! | --- | --- | --- | --- | --- |
 //! | `joint_topic` | in | best effort | keep last 1 | matches reliable and best-effort publishers (`joint_state_broadcaster` is reliable, drivers often best effort); only the latest state matters |
 //! | twist, joint commands | in | best effort | keep last 10 | matches any publisher (Servo's own reader is the system default, reliable); the latest of a tick's commands is used |
-//! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost |
+//! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost; one name read per tick |
 //! | `goals_topic` | in | reliable | keep last 1 | only the latest poses matter, and they must arrive |
 //! | `command_out_topic` | out | reliable | keep last 1 | the controllers subscribe reliably (system default); a reliable writer matches both kinds of reader |
 //! | status, beliefs, diagnostics | out | reliable | keep last 10 | readable by `ros2 topic echo` with its defaults |
