@@ -519,3 +519,17 @@ fn drain<M: 'static + serde::de::DeserializeOwned>(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reason quoting a hostile URDF is cut at a character boundary, its
+    /// length said; a short one is kept whole.
+    #[test]
+    fn robot_description_reasons_are_bounded() {
+        assert_eq!(bounded_reason("joint panda_joint1 differs".into()), "joint panda_joint1 differs");
+        let long = bounded_reason(format!("not XML: unexpected tag {}", "é".repeat(5_000)));
+        assert!(long.len() <= REASON_BYTES + 20 && long.ends_with("… (10024 bytes)"), "{long}");
+    }
+}
