@@ -52,6 +52,14 @@ pub enum NodeError {
     /// The DDS participant, a topic, a reader or a writer could not be made.
     #[error("DDS: {0}")]
     Dds(String),
+    /// One of the node's own threads (the log, the watchdog) could not be started.
+    #[error("cannot start the {what} thread: {source}")]
+    Thread {
+        /// Which thread.
+        what: &'static str,
+        /// Why.
+        source: std::io::Error,
+    },
     /// The robot on `robot_description_topic` is not the problem's robot,
     /// or none was published in time.
     #[error("the robot on {topic} is not the problem's robot: {reason}")]
@@ -145,10 +153,16 @@ fn dds<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> NodeError + '_ {
 /// Runs the node until `stop` is set (or `duration` has passed): reads
 /// the inputs, ticks at the settings' rate, publishes. `ready` is called
 /// once every topic exists. With `preparer`, poses on the goals topic
-/// re-plan the goals (on a thread of their own).
+/// re-plan the goals (on a thread of their own, one preparation at a
+/// time). What the node says goes to stderr through [`NodeLog`], never
+/// from the loop's thread. A stop before the loop starts (while waiting
+/// for the robot description, say) returns a report with
+/// `stopped_before_start`.
 ///
 /// # Errors
-/// A name ROS 2 refuses, or DDS failing to create an entity.
+/// A name ROS 2 refuses, DDS failing to create an entity, a thread that
+/// cannot be started, a robot description that is not the problem's
+/// robot, larger than [`MAX_ROBOT_DESCRIPTION_BYTES`] or not published in time.
 pub fn run_node(
     control: &mut ControlLoop,
     settings: &NodeSettings,
@@ -159,7 +173,7 @@ pub fn run_node(
 ) -> Result<NodeReport, NodeError> {
     // Everything the node says from here on goes through the log: a
     // stderr nobody reads must not stop it, in any phase.
-    let log = NodeLog::stderr().map_err(dds("cannot start the log thread"))?;
+    let log = NodeLog::stderr().map_err(|source| NodeError::Thread { what: "log", source })?;
     let context = Context::with_options(ContextOptions::new().domain_id(settings.domain_id))
         .map_err(dds("cannot join the DDS domain"))?;
     let node_name = NodeName::new(&settings.namespace, &settings.node_name).map_err(|e| NodeError::Name {
@@ -355,7 +369,8 @@ pub fn run_node(
     let period = Duration::from_secs_f64(settings.period());
     let began = Instant::now();
     let mut deadline = began;
-    let mut ticker = Ticker::new(log, period, began).map_err(dds("cannot start the watchdog thread"))?;
+    let mut ticker =
+        Ticker::new(log, period, began).map_err(|source| NodeError::Thread { what: "watchdog", source })?;
     while !stop.load(Ordering::Relaxed) && duration.is_none_or(|d| began.elapsed() < d) {
         let now = Instant::now();
         if now < deadline {
