@@ -5,10 +5,15 @@ DDS, PyPI `cyclonedds`) for `tandem ros2`'s interop test
 Reads one JSON object on stdin:
   {"domain": N, "ready": <the node's --json start line>, "urdf": PATH,
    "command_out": "trajectory" | "velocities", "out_topic": "/...",
-   "node": "/tandem", "scenario": "grasp" | "latency" | "describe",
+   "node": "/tandem", "scenario": "grasp" | "latency" | "describe" | "hostile",
    "seconds": S, "command_hz": HZ, "description": PATH}
 ("describe" publishes the URDF at PATH on /robot_description, transient
-local, and stays for S seconds.)
+local, and stays for S seconds. "hostile" plays a careless or hostile
+ROS 2 system: joint states naming a joint twice, a JointJog naming one
+twice, an infinite twist, a flood of unknown mode names 10,000 characters
+long at ~1 kHz for "flood_s" seconds (ticks counted from the diagnostics),
+then the same object poses republished at 50 Hz while the operator heads
+for the first goal.)
 and prints one JSON object with what it saw.
 
 The robot publishes /joint_states at 250 Hz (the arm's joints, and the
@@ -105,6 +110,15 @@ class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
     position: sequence[float64]
     velocity: sequence[float64]
     effort: sequence[float64]
+
+
+@dataclass
+class JointJog(IdlStruct, typename="control_msgs::msg::dds_::JointJog_"):
+    header: Header
+    joint_names: sequence[str]
+    displacements: sequence[float64]
+    velocities: sequence[float64]
+    duration: float64
 
 
 @dataclass
@@ -242,6 +256,8 @@ def main():
     latencies = []
     sent = {}
     ticks_seen = []
+    ticks_at = []  # (arrival, the node's tick count)
+    holds = {}  # the diagnostics' hold index -> joints named
 
     def gripper():
         pin.forwardKinematics(model, data, q)
@@ -249,6 +265,10 @@ def main():
         return data.oMf[tcp].translation.copy()
 
     listening = {"thread": False}
+
+    # What the robot reports instead of its true state, when a phase says so
+    # (a function of the true names and positions).
+    report = {"states": None}
 
     def robot_step(phase, t):
         nonlocal q
@@ -267,7 +287,10 @@ def main():
         if change > 0:
             motion.append((t, phase, change))
         seen["limit_excess"] = max(seen["limit_excess"], float(np.max(np.maximum(q - upper, lower - q))))
-        states_w.write(JointState(header=Header(stamp=now_stamp(t)), name=names, position=list(map(float, q)),
+        state_names, state_q = names, list(map(float, q))
+        if report["states"] is not None:
+            state_names, state_q = report["states"](state_names, state_q)
+        states_w.write(JointState(header=Header(stamp=now_stamp(t)), name=state_names, position=state_q,
                                   velocity=[], effort=[]))
         for s in status_r.take(N=1000):
             seen["statuses"] += 1
@@ -279,6 +302,9 @@ def main():
     def diagnostics(s, arrived):
         seen["diagnostics"] += 1
         d = s.data
+        ticks_at.append((arrived, d[14]))
+        if len(d) > 16:
+            holds.setdefault(int(d[16]), set()).add(-1 if math.isnan(d[17]) else int(d[17]))
         seen["min_distance"] = min(seen["min_distance"], d[6])
         seen["goal_updates"] = max(seen["goal_updates"], int(d[15]))
         seen["mode_index"] = int(d[12])
@@ -349,6 +375,10 @@ def main():
         print(json.dumps({"latency_s": latencies, "unanswered": len(sent), "tick_us": ticks_seen, **seen}))
         return
 
+    if REQUEST["scenario"] == "hostile":
+        hostile(run, report, seen, log, motion, ticks_at, holds, command, goals_w, mode_w, ready, dp, node, gripper)
+        return
+
     # The grasp scenario.
     run("idle", 1.5)  # discovery, then no command: the node holds (15)
     shift = np.array(REQUEST.get("move_box", [0.0, 0.0, 0.0]))
@@ -406,6 +436,94 @@ def main():
         **seen,
     }
     print(json.dumps(result))
+
+
+def hostile(run, report, seen, log, motion, ticks_at, holds, command, goals_w, mode_w, ready, dp, node, gripper):
+    """The hostile scenario (see the module's docstring): prints, per phase,
+    the status codes seen and whether the arm moved, the node's ticks a
+    second under the flood, the holds the diagnostics named, and the goal
+    updates under republished poses."""
+    jog_w = DataWriter(dp, Topic(dp, f"rt{node}/delta_joint_cmds", JointJog),
+                       qos=Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(1)))
+    beliefs_r = DataReader(dp, Topic(dp, f"rt{node}/beliefs", Float64MultiArray),
+                           qos=Qos(Policy.Reliability.Reliable(duration(seconds=1)), Policy.History.KeepLast(200)))
+    toward = (0.0, 0.0, -0.03)
+    run("idle", 1.5)
+
+    def duplicated(state_names, state_q):
+        # panda_joint1 twice, the first value 1 rad off.
+        k = state_names.index("panda_joint1")
+        return ["panda_joint1"] + state_names, [state_q[k] + 1.0] + state_q
+
+    # "republish_only": the republished poses alone (for the beliefs' figure).
+    flood = {"sent": 0}
+    flood_ticks_per_s = math.nan
+    if not REQUEST.get("republish_only"):
+        report["states"] = duplicated
+        run("duplicate_state", 0.6, lambda t: command(t, toward))
+        report["states"] = None
+        run("settle", 0.3)
+
+        def jog(t):
+            jog_w.write(JointJog(header=Header(stamp=now_stamp(t)), joint_names=["panda_joint1", "panda_joint1"],
+                                 displacements=[], velocities=[0.3, -0.3], duration=0.0))
+
+        run("duplicate_jog", 0.5, jog)
+        run("settle", 0.3)
+        run("infinite_twist", 0.5, lambda t: command(t, (math.inf, 0.0, 0.0)))
+        run("settle", 0.3)
+
+        # The flood: ~1,000 unknown names a second (20 with every command),
+        # each 10,000 characters.
+
+        def flood_modes(t):
+            for _ in range(20):
+                mode_w.write(String_(data=f"fastest-{flood['sent']}-" + "x" * 10_000))
+                flood["sent"] += 1
+
+        flood_began = time.time()
+        run("flood", REQUEST["flood_s"], flood_modes)
+        flood_ended = time.time()
+        in_flood = [n for at, n in ticks_at if flood_began + 0.5 <= at <= flood_ended]
+        flood_ticks_per_s = (in_flood[-1] - in_flood[0]) / (flood_ended - flood_began - 0.5) if len(in_flood) > 1 else 0.0
+        run("after_flood", 0.5)
+
+    # The same poses at 50 Hz (with every command) while the operator
+    # heads for the first goal.
+    poses = [Pose(position=Point(*map(float, o["position"])), orientation=Quaternion(*map(float, o["orientation"])))
+             for o in ready["graspable"]]
+    updates_before = seen["goal_updates"]
+    goal = np.array(ready["goals"][0]["position"])
+    beliefs = []
+
+    def republish(t):
+        goals_w.write(PoseArray(header=Header(frame_id=ready["root_frame"]), poses=poses))
+        for b in beliefs_r.take(N=1000):
+            beliefs.append(list(b.data))
+        p = gripper()
+        d = goal + np.array([0.0, 0.0, 0.1]) - p
+        dist = np.linalg.norm(d)
+        command(t, d / dist * min(0.1, 2.0 * dist) if dist > 1e-9 else np.zeros(3))
+
+    run("republish", REQUEST["republish_s"], republish)
+    run("end", 0.3)
+
+    codes = {}
+    for _, phase, code in log:
+        codes.setdefault(phase, {}).setdefault(str(code), 0)
+        codes[phase][str(code)] += 1
+    print(json.dumps({
+        "codes": codes,
+        "moved_in": sorted({ph for _, ph, _ in motion}),
+        "largest_motion": {ph: max(c for _, p2, c in motion if p2 == ph) for ph in {p for _, p, _ in motion}},
+        "flood_sent": flood["sent"],
+        "flood_ticks_per_s": flood_ticks_per_s,
+        "holds": {str(h): sorted(j) for h, j in holds.items()},
+        "goal_updates_under_republish": seen["goal_updates"] - updates_before,
+        "largest_belief": max((b[0] for b in beliefs), default=math.nan),
+        "beliefs_seen": len(beliefs),
+        **seen,
+    }))
 
 
 if __name__ == "__main__":

@@ -493,3 +493,27 @@ async fn a_mode_asked_for_while_a_task_is_prepared_is_applied_or_refused_when_it
     assert!(errors.iter().any(|e| e["message"].as_str().unwrap().contains("--arbiter")), "{kinds:?} {errors:?}");
     assert_eq!(seen.last().unwrap()["mode"], "constrained");
 }
+
+/// Ending an episode does no I/O: the recording comes back to be written
+/// elsewhere (the server writes it on a blocking thread, not in the
+/// session's tick), even where the folder cannot be made; writing it then
+/// fails naming the folder, and the episode is handed out once.
+#[test]
+fn an_ended_episode_is_handed_out_unwritten_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("a-file");
+    std::fs::write(&blocker, "not a folder").unwrap();
+    let record = blocker.join("recordings");
+    let mut session = planar(Some(record.clone()));
+    let now = Instant::now();
+    session.set_command([0.05, 0.0, 0.0], now);
+    for k in 0..5 {
+        session.tick(now + Duration::from_millis(33 * k)).unwrap();
+    }
+    let recording = session.finish_unwritten().expect("a driven episode with ticks is to be saved");
+    assert!(recording.path().starts_with(&record), "{:?}", recording.path());
+    assert!(!record.exists());
+    assert!(session.finish_unwritten().is_none(), "handed out once");
+    let e = recording.write().unwrap_err().to_string();
+    assert!(e.contains("a-file"), "{e}");
+}

@@ -35,7 +35,10 @@ pub struct Ros2Args {
     /// "root_frame", "start", "graspable": [{"name", "position", "orientation" (x, y, z,
     /// w)}] (what a PoseArray on the goals topic places, in order), "goals": [{"name", "position"}], "mode", "rate_hz"}
     /// once every topic exists, then {"ticks", "late_ticks", "published",
-    /// "unreadable", "tick_us": {"median", "p99", "max"}} at the end.
+    /// "unreadable", "tick_us": {"median", "p99", "max"}, "dropped_log_lines",
+    /// "suppressed_log_lines", "stalls", "longest_stall_s", "mode_messages",
+    /// "poses_unchanged", "replans", "stopped_before_start"} at the end (also
+    /// when stopped before the loop started: no start line then).
     #[arg(long)]
     pub json: bool,
 }
@@ -49,6 +52,14 @@ extern "C" fn request_stop(_: libc::c_int) {
 /// Runs the node until stopped; [`Outcome::Unsuccessful`](super::Outcome)
 /// (exit 3) when the problem has no solution (start or goal invalid).
 pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error::Error>> {
+    // First of all: a stop while the goals are planned, or while the node
+    // waits for /robot_description, is a stop like any other (exit 0 and
+    // the report), not the default action's death by signal.
+    // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
+    unsafe {
+        libc::signal(libc::SIGINT, request_stop as *const () as libc::sighandler_t);
+        libc::signal(libc::SIGTERM, request_stop as *const () as libc::sighandler_t);
+    }
     let settings = match &args.config {
         Some(path) => NodeSettings::from_file(path)?,
         None => NodeSettings::default(),
@@ -76,11 +87,6 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
     }
     let preparer = GoalPreparer::new(problem.clone(), args.seed, arbiter_settings, actor);
     let mut control = crate::ros2::ControlLoop::new(&arbiter, &settings)?;
-    // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
-    unsafe {
-        libc::signal(libc::SIGINT, request_stop as *const () as libc::sighandler_t);
-        libc::signal(libc::SIGTERM, request_stop as *const () as libc::sighandler_t);
-    }
     let robot = arbiter.robot();
     let ready = json!({
         "ready": true,
@@ -126,12 +132,28 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
                 "published": report.published,
                 "unreadable": report.unreadable,
                 "tick_us": {"median": median, "p99": p99, "max": max},
+                "dropped_log_lines": report.dropped_log_lines,
+                "suppressed_log_lines": report.suppressed_log_lines,
+                "stalls": report.stalls,
+                "longest_stall_s": report.longest_stall_s,
+                "mode_messages": report.mode_messages,
+                "poses_unchanged": report.poses_unchanged,
+                "replans": report.replans,
+                "stopped_before_start": report.stopped_before_start,
             })
         );
     } else {
         println!(
-            "tandem ros2: {} ticks ({} late), {} commands published, {} unreadable messages; tick median {median:.1} µs, p99 {p99:.1} µs",
-            report.ticks, report.late_ticks, report.published, report.unreadable
+            "tandem ros2: {} ticks ({} late), {} commands published, {} unreadable messages; tick median {median:.1} µs, p99 {p99:.1} µs; \
+             log lines {} dropped, {} suppressed; {} stall(s){}",
+            report.ticks,
+            report.late_ticks,
+            report.published,
+            report.unreadable,
+            report.dropped_log_lines,
+            report.suppressed_log_lines,
+            report.stalls,
+            if report.stopped_before_start { "; stopped before the loop started" } else { "" }
         );
     }
     Ok(super::Outcome::Success)

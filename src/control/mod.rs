@@ -11,7 +11,8 @@
 //! reference by progress (a local search from the previous closest point, so
 //! references that reverse or cross themselves are followed in order), are
 //! O(1) amortised and allocate nothing. [`RobotPolicy`] is the interface the
-//! arbiter queries; [`TrackingPolicy`] implements it.
+//! arbiter queries; [`TrackingPolicy`] implements it. [`timing`] keeps a
+//! control loop's tick durations in fixed memory.
 //!
 //! ```
 //! use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
@@ -31,6 +32,7 @@
 
 mod policy;
 mod robot_policy;
+pub mod timing;
 
 pub use policy::{Feedforward, GainSchedule, PolicyQuery, PolicyWorkspace, TrackingPolicy, TrackingWeights};
 pub use robot_policy::{RobotPolicy, RobotPolicyWorkspace};

@@ -21,9 +21,57 @@ pub const COMMAND_STALE: i8 = 15;
 /// `joint_state_timeout` (or none yet).
 pub const STATE_STALE: i8 = 16;
 
+/// The node's own holds (not the arbiter's), in the order of the `hold`
+/// diagnostic: its value is the index here plus one, 0 when the node did
+/// not hold. `hold_joint` names the arm's joint at fault, when one is.
+pub const HOLDS: [&str; 9] = [
+    "joint states stale",
+    "joint states invalid: one of the arm's joints missing, or lengths that differ",
+    "joint states invalid: a position not finite",
+    "joint states invalid: one of the arm's joints named twice",
+    "command stale",
+    "command invalid: a frame other than the root link or the gripper frame",
+    "command invalid: an unknown joint, lengths that differ or no velocities",
+    "command invalid: a joint named twice",
+    "command invalid: not finite (NaN or infinite)",
+];
+
+// Indices into HOLDS.
+const STATE_STALE_HOLD: usize = 0;
+const STATE_SHAPE: usize = 1;
+const STATE_NOT_FINITE: usize = 2;
+const STATE_DUPLICATE: usize = 3;
+const COMMAND_STALE_HOLD: usize = 4;
+const COMMAND_FRAME: usize = 5;
+const COMMAND_SHAPE: usize = 6;
+const COMMAND_DUPLICATE: usize = 7;
+const COMMAND_NOT_FINITE: usize = 8;
+
+/// Why a mode name was refused (no allocation: the name itself is the
+/// caller's to echo, bounded).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ModeRefusal {
+    /// No mode has the name.
+    Unknown,
+    /// `learned` without an arbitration actor.
+    NeedsActor,
+}
+
+impl std::fmt::Display for ModeRefusal {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ModeRefusal::Unknown => {
+                "unknown arbitration mode (have: direct, blend-timid, blend-aggressive, avoid, natural-gradient, \
+                 natural-gradient-joint, constrained, sos, learned)"
+            }
+            ModeRefusal::NeedsActor => "mode learned needs an arbitration actor (--arbiter)",
+        })
+    }
+}
+
 /// The diagnostics topic's values, in order (`std_msgs/Float64MultiArray`;
 /// the layout's one dimension is labelled with these names).
-pub const DIAGNOSTICS: [&str; 16] = [
+pub const DIAGNOSTICS: [&str; 18] = [
     "tick_us",
     "command_stamp_s",
     "status",
@@ -40,6 +88,8 @@ pub const DIAGNOSTICS: [&str; 16] = [
     "late_ticks",
     "ticks",
     "goal_updates",
+    "hold",
+    "hold_joint",
 ];
 
 /// What the latest command was.
@@ -51,9 +101,9 @@ enum CommandKind {
     /// A twist in the gripper frame: rotated into world axes each tick.
     GripperTwist,
     Joint,
-    /// Unreadable (NaN arrive as values; this is a wrong frame, size or
-    /// joint name): holds with `invalid_command` until the next command.
-    Invalid,
+    /// Refused (the reason an index into [`HOLDS`], the arm's joint at
+    /// fault): holds with `invalid_command` until the next command.
+    Invalid(usize, Option<usize>),
 }
 
 /// What a tick decided.
@@ -68,8 +118,10 @@ pub struct ControlOutput {
     pub code: i8,
     /// The arbiter's status (`None` for the node's own holds, codes 15–16).
     pub status: Option<TickStatus>,
-    /// Why the node held, when it was not the arbiter's decision.
+    /// Why the node held, when it was not the arbiter's decision (one of [`HOLDS`]).
     pub hold_reason: Option<&'static str>,
+    /// The arm's joint (index in the arbiter's joints) the hold is about, if one is.
+    pub hold_joint: Option<usize>,
     /// The stamp of the command this tick used, the first time a tick used
     /// it (s since the epoch, from its header); NaN otherwise.
     pub command_stamp: f64,
@@ -91,9 +143,17 @@ pub struct ControlLoop {
     q: Vec<f64>,
     q_at: Option<Instant>,
     state_valid: bool,
+    /// Why the last joint state is invalid: an index into [`HOLDS`], the joint.
+    state_fault: Option<(usize, Option<usize>)>,
+    /// The first of the arm's joints the last names list twice (found when the names change).
+    state_duplicate: Option<usize>,
+    /// Scratch for a JointJog: which of the arm's joints it named.
+    jog_named: Vec<bool>,
     /// For each of the arbiter's joints, its index in the last JointState's names.
     state_map: Vec<usize>,
+    /// The last JointState's names: the first `state_count` of these.
     state_names: Vec<String>,
+    state_count: usize,
     /// The latest command.
     kind: CommandKind,
     twist: [f64; 6],
@@ -139,8 +199,12 @@ impl ControlLoop {
             q: vec![0.0; n],
             q_at: None,
             state_valid: false,
+            state_fault: None,
+            state_duplicate: None,
+            jog_named: vec![false; n],
             state_map: vec![usize::MAX; n],
             state_names: Vec::new(),
+            state_count: 0,
             kind: CommandKind::None,
             twist: [0.0; 6],
             joint: vec![0.0; n],
@@ -194,11 +258,38 @@ impl ControlLoop {
     /// An unknown name, or `learned` without an actor.
     pub fn set_mode(&mut self, name: &str) -> Result<ArbitrationMode, String> {
         let mode: ArbitrationMode = name.trim().parse().map_err(|e| format!("{e}"))?;
+        self.switch_mode(mode).map_err(|e| e.to_string())?;
+        Ok(mode)
+    }
+
+    /// The mode named `name` (surrounding whitespace ignored), if this
+    /// loop can run it. Allocates nothing, whatever the name.
+    ///
+    /// # Errors
+    /// An unknown name, or `learned` without an actor.
+    pub fn parse_mode(&self, name: &str) -> Result<ArbitrationMode, ModeRefusal> {
+        let name = name.trim();
+        let mode = ArbitrationMode::ALL
+            .into_iter()
+            .chain([ArbitrationMode::Learned])
+            .find(|m| m.as_str() == name)
+            .ok_or(ModeRefusal::Unknown)?;
         if mode == ArbitrationMode::Learned && self.arbiter.arbitration_policy().is_none() {
-            return Err("mode learned needs an arbitration actor (--arbiter)".into());
+            return Err(ModeRefusal::NeedsActor);
+        }
+        Ok(mode)
+    }
+
+    /// Switches to `mode` (from the next tick).
+    ///
+    /// # Errors
+    /// `learned` without an actor.
+    pub fn switch_mode(&mut self, mode: ArbitrationMode) -> Result<(), ModeRefusal> {
+        if mode == ArbitrationMode::Learned && self.arbiter.arbitration_policy().is_none() {
+            return Err(ModeRefusal::NeedsActor);
         }
         self.ws.set_mode(mode);
-        Ok(mode)
+        Ok(())
     }
 
     /// The beliefs over the goals after the last tick.
@@ -207,21 +298,41 @@ impl ControlLoop {
     }
 
     /// Reads a `/joint_states` message received at `now`. Joints the
-    /// arbiter does not drive are ignored; a missing joint, a wrong-length
-    /// position list or a non-finite position makes the state invalid
-    /// (the arm holds) until a good message arrives.
+    /// arbiter does not drive are ignored; a missing joint, one of the
+    /// arm's joints named twice (which value would be the arm's?), a
+    /// wrong-length position list or a non-finite position makes the state
+    /// invalid (the arm holds) until a good message arrives.
     pub fn joint_state(&mut self, msg: &JointState, now: Instant) {
-        if !same_names(&self.state_names, &msg.name) {
-            self.state_names.clear();
-            self.state_names.extend(msg.name.iter().cloned());
+        if !same_names(&self.state_names[..self.state_count], &msg.name) {
+            // Each slot keeps its allocation: once a names list has been
+            // seen, switching back to it allocates nothing.
+            for (i, name) in msg.name.iter().enumerate() {
+                match self.state_names.get_mut(i) {
+                    Some(slot) => slot.clone_from(name),
+                    None => self.state_names.push(name.clone()),
+                }
+            }
+            self.state_count = msg.name.len();
             let joints = self.arbiter.robot().joint_names();
-            for (slot, joint) in self.state_map.iter_mut().zip(joints) {
-                *slot = msg.name.iter().position(|n| n == joint).unwrap_or(usize::MAX);
+            self.state_duplicate = None;
+            for (j, (slot, joint)) in self.state_map.iter_mut().zip(joints).enumerate() {
+                let mut named = msg.name.iter().enumerate().filter(|(_, n)| *n == joint).map(|(i, _)| i);
+                *slot = named.next().unwrap_or(usize::MAX);
+                if named.next().is_some() && self.state_duplicate.is_none() {
+                    self.state_duplicate = Some(j);
+                }
             }
         }
         self.q_at = Some(now);
-        self.state_valid = msg.position.len() == msg.name.len()
-            && self.state_map.iter().all(|&i| msg.position.get(i).is_some_and(|p| p.is_finite()));
+        let missing = self.state_map.iter().position(|&i| i == usize::MAX);
+        self.state_fault = if let Some(j) = self.state_duplicate {
+            Some((STATE_DUPLICATE, Some(j)))
+        } else if missing.is_some() || msg.position.len() != msg.name.len() {
+            Some((STATE_SHAPE, missing))
+        } else {
+            self.state_map.iter().position(|&i| !msg.position[i].is_finite()).map(|j| (STATE_NOT_FINITE, Some(j)))
+        };
+        self.state_valid = self.state_fault.is_none();
         if self.state_valid {
             for (q, &i) in self.q.iter_mut().zip(&self.state_map) {
                 *q = msg.position[i];
@@ -231,37 +342,56 @@ impl ControlLoop {
 
     /// Reads a twist command (MoveIt Servo's `delta_twist_cmds`) received
     /// at `now`: its frame the root link (or empty: the root link) or the
-    /// gripper frame; any other frame is refused (the arm holds with
-    /// `invalid_command`).
+    /// gripper frame; any other frame, or a component that is NaN or
+    /// infinite (even the angular part when only the linear one is
+    /// executed), is refused (the arm holds with `invalid_command`). A
+    /// finite twist faster than `max_speed` keeps its direction at that speed.
     pub fn twist(&mut self, msg: &TwistStamped, now: Instant) {
         let t = &msg.twist;
         self.twist = [t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z];
         let frame = msg.header.frame_id.as_str();
-        self.kind = if frame.is_empty() || frame == self.root_frame {
-            CommandKind::Twist
+        self.kind = if !(frame.is_empty() || frame == self.root_frame || frame == self.gripper_frame) {
+            CommandKind::Invalid(COMMAND_FRAME, None)
+        } else if self.twist.iter().any(|v| !v.is_finite()) {
+            // limit_speed would scale an infinite component to max_speed
+            // along its axis: the arm moved on an input it cannot trust.
+            CommandKind::Invalid(COMMAND_NOT_FINITE, None)
         } else if frame == self.gripper_frame {
             CommandKind::GripperTwist
         } else {
-            CommandKind::Invalid
+            CommandKind::Twist
         };
         self.arrived(&msg.header.stamp, now);
     }
 
     /// Reads a joint command (MoveIt Servo's `delta_joint_cmds`) received
     /// at `now`: velocities for some of the arbiter's joints (the others
-    /// zero). Displacements without velocities, an unknown joint or
-    /// lengths that differ are refused (hold with `invalid_command`).
+    /// zero). Displacements without velocities, an unknown joint, a joint
+    /// named twice, a velocity that is not finite or lengths that differ
+    /// are refused (hold with `invalid_command`).
     pub fn joint_jog(&mut self, msg: &JointJog, now: Instant) {
         self.joint.iter_mut().for_each(|v| *v = 0.0);
+        self.jog_named.iter_mut().for_each(|v| *v = false);
         let joints = self.arbiter.robot().joint_names();
-        let mut ok = msg.velocities.len() == msg.joint_names.len() && !msg.joint_names.is_empty();
+        let mut fault = (msg.velocities.len() != msg.joint_names.len() || msg.joint_names.is_empty())
+            .then_some((COMMAND_SHAPE, None));
         for (name, v) in msg.joint_names.iter().zip(&msg.velocities) {
             match joints.iter().position(|j| j == name) {
-                Some(j) => self.joint[j] = *v,
-                None => ok = false,
+                Some(j) if self.jog_named[j] => {
+                    fault = fault.or(Some((COMMAND_DUPLICATE, Some(j))));
+                }
+                Some(j) if !v.is_finite() => fault = fault.or(Some((COMMAND_NOT_FINITE, Some(j)))),
+                Some(j) => {
+                    self.jog_named[j] = true;
+                    self.joint[j] = *v;
+                }
+                None => fault = fault.or(Some((COMMAND_SHAPE, None))),
             }
         }
-        self.kind = if ok { CommandKind::Joint } else { CommandKind::Invalid };
+        self.kind = match fault {
+            Some((reason, joint)) => CommandKind::Invalid(reason, joint),
+            None => CommandKind::Joint,
+        };
         self.arrived(&msg.header.stamp, now);
     }
 
@@ -284,23 +414,18 @@ impl ControlLoop {
         let period = self.settings.period();
         let fresh =
             |at: Option<Instant>, timeout: f64| at.is_some_and(|t| now.duration_since(t).as_secs_f64() <= timeout);
+        let codes = self.settings.status_codes;
+        let invalid = |status: TickStatus, (reason, joint): (usize, Option<usize>)| {
+            (status_code(status, codes), reason, joint, Some(status))
+        };
         let hold = if !fresh(self.q_at, self.settings.joint_state_timeout) {
-            Some((STATE_STALE, "joint states stale", None))
-        } else if !self.state_valid {
-            Some((
-                status_code(TickStatus::InvalidState, self.settings.status_codes),
-                "joint states invalid",
-                Some(TickStatus::InvalidState),
-            ))
+            Some((STATE_STALE, STATE_STALE_HOLD, None, None))
+        } else if let Some(fault) = self.state_fault {
+            Some(invalid(TickStatus::InvalidState, fault))
         } else if !fresh(self.command_at, self.settings.incoming_command_timeout) || self.kind == CommandKind::None {
-            Some((COMMAND_STALE, "command stale", None))
-        } else if self.kind == CommandKind::Invalid {
-            let status = TickStatus::InvalidCommand;
-            Some((
-                status_code(status, self.settings.status_codes),
-                "command invalid (frame, size or joint name)",
-                Some(status),
-            ))
+            Some((COMMAND_STALE, COMMAND_STALE_HOLD, None, None))
+        } else if let CommandKind::Invalid(reason, joint) = self.kind {
+            Some(invalid(TickStatus::InvalidCommand, (reason, joint)))
         } else {
             None
         };
@@ -317,14 +442,17 @@ impl ControlLoop {
         let mut gripper: [f64; 3] = pose.translation.vector.into();
         let out = &mut self.out;
         out.command_stamp = f64::NAN;
-        if let Some((code, reason, status)) = hold {
+        if let Some((code, reason, joint, status)) = hold {
             // The arbiter's braking step: a controlled stop within the
             // motion limits, then zero (and its next tick continues from it).
             let braking = self.arbiter.hold(&mut self.ws, &self.q, status.unwrap_or(TickStatus::Halted));
             out.qdot.copy_from_slice(braking.qdot);
             out.code = code;
             out.status = status;
-            out.hold_reason = Some(reason);
+            out.hold_reason = Some(HOLDS[reason]);
+            out.hold_joint = joint;
+            out.diagnostics[16] = (reason + 1) as f64;
+            out.diagnostics[17] = joint.map_or(f64::NAN, |j| j as f64);
             // No arbiter tick: nothing to say about distances or the solver.
             out.diagnostics[6..12].iter_mut().for_each(|v| *v = f64::NAN);
         } else {
@@ -354,6 +482,9 @@ impl ControlLoop {
             out.code = status_code(result.status, self.settings.status_codes);
             out.status = Some(result.status);
             out.hold_reason = None;
+            out.hold_joint = None;
+            out.diagnostics[16] = 0.0;
+            out.diagnostics[17] = f64::NAN;
             let d = result.diagnostics;
             out.diagnostics[6] = d.min_distance;
             out.diagnostics[7] = d.rows as f64;

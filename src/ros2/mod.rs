@@ -11,17 +11,24 @@
 //!   or malformed input);
 //! - [`goals`]: goals placed by a PoseArray, re-planned while the node runs;
 //! - [`robot_description`]: the published robot checked against the problem's;
+//! - [`log`]: the node's log, bounded and rate-limited, off the loop's thread;
+//! - [`watchdog`]: a stalled loop reported from the loop's deadline grid;
+//! - [`ticker`]: the loop's bookkeeping besides DDS (mode names, tick
+//!   statistics in fixed memory, holds logged, the watchdog's heartbeat);
 //! - [`node`]: the node on DDS.
 
 pub mod control;
 pub mod goals;
+pub mod log;
 pub mod messages;
 pub mod node;
 pub mod robot_description;
 pub mod settings;
 pub mod status;
+pub mod ticker;
+pub mod watchdog;
 
-pub use control::{COMMAND_STALE, ControlLoop, ControlOutput, DIAGNOSTICS, STATE_STALE};
-pub use goals::GoalPreparer;
+pub use control::{COMMAND_STALE, ControlLoop, ControlOutput, DIAGNOSTICS, HOLDS, ModeRefusal, STATE_STALE};
+pub use goals::{GoalPoses, GoalPreparer};
 pub use node::{NodeError, NodeReport, run_node};
 pub use settings::{CommandOut, NodeSettings};

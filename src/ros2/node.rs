@@ -9,7 +9,7 @@
 //! | --- | --- | --- | --- | --- |
 //! | `joint_topic` | in | best effort | keep last 1 | matches reliable and best-effort publishers (`joint_state_broadcaster` is reliable, drivers often best effort); only the latest state matters |
 //! | twist, joint commands | in | best effort | keep last 10 | matches any publisher (Servo's own reader is the system default, reliable); the latest of a tick's commands is used |
-//! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost |
+//! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost; one name read per tick |
 //! | `goals_topic` | in | reliable | keep last 1 | only the latest poses matter, and they must arrive |
 //! | `command_out_topic` | out | reliable | keep last 1 | the controllers subscribe reliably (system default); a reliable writer matches both kinds of reader |
 //! | status, beliefs, diagnostics | out | reliable | keep last 10 | readable by `ros2 topic echo` with its defaults |
@@ -17,12 +17,15 @@
 //! Every topic is volatile: nothing old is worth delivering to a late joiner.
 
 use super::control::{ControlLoop, DIAGNOSTICS};
-use super::goals::GoalPreparer;
+use super::goals::{GoalPoses, GoalPreparer};
+use super::log::{Echo, LogKind, NodeLog};
 use super::messages::{
     Duration as RosDuration, Float64MultiArray, Header, Int8, JointJog, JointState, JointTrajectory,
     JointTrajectoryPoint, MultiArrayDimension, MultiArrayLayout, PoseArray, StringMessage, TwistStamped,
 };
+use super::robot_description::MAX_ROBOT_DESCRIPTION_BYTES;
 use super::settings::{CommandOut, NodeSettings};
+use super::ticker::Ticker;
 use crate::arbitration::ArbitrationMode;
 use ros2_client::{
     Context, ContextOptions, MessageTypeName, Name, NodeName, NodeOptions, ParameterValue, QosProfile,
@@ -49,15 +52,53 @@ pub enum NodeError {
     /// The DDS participant, a topic, a reader or a writer could not be made.
     #[error("DDS: {0}")]
     Dds(String),
+    /// One of the node's own threads (the log, the watchdog) could not be started.
+    #[error("cannot start the {what} thread: {source}")]
+    Thread {
+        /// Which thread.
+        what: &'static str,
+        /// Why.
+        source: std::io::Error,
+    },
     /// The robot on `robot_description_topic` is not the problem's robot,
     /// or none was published in time.
     #[error("the robot on {topic} is not the problem's robot: {reason}")]
     RobotDescription {
         /// The topic.
         topic: String,
-        /// What differs (the joint, the limit, the pose), or that nothing arrived.
+        /// What differs (the joint, the limit, the pose), or that nothing
+        /// arrived; at most [`REASON_BYTES`] (the URDF's own text, echoed
+        /// by an XML error, is cut).
         reason: String,
     },
+    /// The URDF on `robot_description_topic` is larger than
+    /// [`MAX_ROBOT_DESCRIPTION_BYTES`]: refused unread (a 60 MB one took
+    /// 7 s and 611 MB to parse).
+    #[error("the robot description on {topic} is {bytes} bytes, more than the limit of {limit} bytes: refused")]
+    RobotDescriptionTooLarge {
+        /// The topic.
+        topic: String,
+        /// Its size (bytes).
+        bytes: usize,
+        /// The limit (bytes).
+        limit: usize,
+    },
+}
+
+/// Longest reason of a [`NodeError::RobotDescription`] (bytes).
+pub const REASON_BYTES: usize = 512;
+
+fn bounded_reason(mut reason: String) -> String {
+    if reason.len() > REASON_BYTES {
+        let mut end = REASON_BYTES;
+        while !reason.is_char_boundary(end) {
+            end -= 1;
+        }
+        let total = reason.len();
+        reason.truncate(end);
+        reason.push_str(&format!("… ({total} bytes)"));
+    }
+    reason
 }
 
 /// What a run of the node did.
@@ -71,8 +112,26 @@ pub struct NodeReport {
     pub published: u64,
     /// Messages that could not be read (wrong type on a topic, malformed CDR).
     pub unreadable: u64,
-    /// The tick's own time (µs): median, 99th percentile, largest.
+    /// The tick's own time (µs): median, 99th percentile (both within
+    /// [`QUANTILE_ERROR`](crate::control::timing::QUANTILE_ERROR)), largest.
     pub tick_us: [f64; 3],
+    /// Log lines dropped because stderr was not read fast enough.
+    pub dropped_log_lines: u64,
+    /// Log lines suppressed by the rate limit (one line per kind per second).
+    pub suppressed_log_lines: u64,
+    /// Stalls of the loop the watchdog reported.
+    pub stalls: u64,
+    /// The longest stall (s past the deadline; 0 without one).
+    pub longest_stall_s: f64,
+    /// Mode names read from the mode topic (one a tick at most).
+    pub mode_messages: u64,
+    /// PoseArrays dropped as equal to the goals' poses.
+    pub poses_unchanged: u64,
+    /// Goal preparations started (re-plans).
+    pub replans: u64,
+    /// Stopped (SIGINT, SIGTERM) before the loop started, e.g. while
+    /// waiting for the robot description: no tick ran.
+    pub stopped_before_start: bool,
 }
 
 /// `~/name` resolved against the node (`/ns/node/name`), other names as given.
@@ -94,10 +153,16 @@ fn dds<E: std::fmt::Debug>(what: &str) -> impl FnOnce(E) -> NodeError + '_ {
 /// Runs the node until `stop` is set (or `duration` has passed): reads
 /// the inputs, ticks at the settings' rate, publishes. `ready` is called
 /// once every topic exists. With `preparer`, poses on the goals topic
-/// re-plan the goals (on a thread of their own).
+/// re-plan the goals (on a thread of their own, one preparation at a
+/// time). What the node says goes to stderr through [`NodeLog`], never
+/// from the loop's thread. A stop before the loop starts (while waiting
+/// for the robot description, say) returns a report with
+/// `stopped_before_start`.
 ///
 /// # Errors
-/// A name ROS 2 refuses, or DDS failing to create an entity.
+/// A name ROS 2 refuses, DDS failing to create an entity, a thread that
+/// cannot be started, a robot description that is not the problem's
+/// robot, larger than [`MAX_ROBOT_DESCRIPTION_BYTES`] or not published in time.
 pub fn run_node(
     control: &mut ControlLoop,
     settings: &NodeSettings,
@@ -106,6 +171,9 @@ pub fn run_node(
     preparer: Option<GoalPreparer>,
     ready: impl FnOnce(),
 ) -> Result<NodeReport, NodeError> {
+    // Everything the node says from here on goes through the log: a
+    // stderr nobody reads must not stop it, in any phase.
+    let log = NodeLog::stderr().map_err(|source| NodeError::Thread { what: "log", source })?;
     let context = Context::with_options(ContextOptions::new().domain_id(settings.domain_id))
         .map_err(dds("cannot join the DDS domain"))?;
     let node_name = NodeName::new(&settings.namespace, &settings.node_name).map_err(|e| NodeError::Name {
@@ -118,7 +186,9 @@ pub fn run_node(
     let learned_ok = control.arbiter().arbitration_policy().is_some();
     let parse_mode = move |value: &ParameterValue| -> Result<ArbitrationMode, String> {
         let ParameterValue::String(name) = value else { return Err("mode is a string".into()) };
-        let mode: ArbitrationMode = name.parse().map_err(|e| format!("{e}"))?;
+        // The caller's name is echoed back bounded.
+        let mode: ArbitrationMode =
+            name.parse().map_err(|_| format!("mode '{}': {}", Echo(name), super::control::ModeRefusal::Unknown))?;
         if mode == ArbitrationMode::Learned && !learned_ok {
             return Err("mode learned needs an arbitration actor (--arbiter)".into());
         }
@@ -158,7 +228,7 @@ pub fn run_node(
     let twists = topic!(cartesian_command_in_topic, "geometry_msgs", "TwistStamped", latest(10));
     let jogs = topic!(joint_command_in_topic, "control_msgs", "JointJog", latest(10));
     let modes = topic!(mode_topic, "std_msgs", "String", reliable(1));
-    let goal_poses = topic!(goals_topic, "geometry_msgs", "PoseArray", reliable(1));
+    let poses_topic = topic!(goals_topic, "geometry_msgs", "PoseArray", reliable(1));
     let (out_package, out_type) = match settings.command_out {
         CommandOut::Trajectory => ("trajectory_msgs", "JointTrajectory"),
         CommandOut::Positions | CommandOut::Velocities => ("std_msgs", "Float64MultiArray"),
@@ -175,7 +245,7 @@ pub fn run_node(
     let twist_in = node.create_subscription::<TwistStamped>(&twists, None).map_err(dds("twist reader"))?;
     let jog_in = node.create_subscription::<JointJog>(&jogs, None).map_err(dds("joint command reader"))?;
     let mode_in = node.create_subscription::<StringMessage>(&modes, None).map_err(dds("mode reader"))?;
-    let goals_in = node.create_subscription::<PoseArray>(&goal_poses, None).map_err(dds("goals reader"))?;
+    let goals_in = node.create_subscription::<PoseArray>(&poses_topic, None).map_err(dds("goals reader"))?;
     let status_out = node.create_publisher::<Int8>(&status, None).map_err(dds("status writer"))?;
     let beliefs_out = node.create_publisher::<Float64MultiArray>(&beliefs, None).map_err(dds("beliefs writer"))?;
     let diagnostics_out =
@@ -201,11 +271,19 @@ pub fn run_node(
         let reader =
             node.create_subscription::<StringMessage>(&topic, None).map_err(dds("robot description reader"))?;
         let waited = Instant::now();
+        log.sender().send(format_args!(
+            "waiting up to {} s for the robot description on {}",
+            settings.robot_description_timeout, settings.robot_description_topic
+        ));
         let urdf = loop {
             if let Ok(Some((msg, _))) = reader.take() {
                 break msg.data;
             }
-            if waited.elapsed().as_secs_f64() > settings.robot_description_timeout || stop.load(Ordering::Relaxed) {
+            // A stop is a stop in every phase: exit 0 with the report.
+            if stop.load(Ordering::Relaxed) {
+                return Ok(stopped_before_start(log));
+            }
+            if waited.elapsed().as_secs_f64() > settings.robot_description_timeout {
                 return Err(NodeError::RobotDescription {
                     topic: settings.robot_description_topic.clone(),
                     reason: format!("nothing was published within {} s", settings.robot_description_timeout),
@@ -213,10 +291,23 @@ pub fn run_node(
             }
             std::thread::sleep(Duration::from_millis(10));
         };
+        if urdf.len() > MAX_ROBOT_DESCRIPTION_BYTES {
+            return Err(NodeError::RobotDescriptionTooLarge {
+                topic: settings.robot_description_topic.clone(),
+                bytes: urdf.len(),
+                limit: MAX_ROBOT_DESCRIPTION_BYTES,
+            });
+        }
         let arbiter = control.arbiter();
         super::robot_description::check_robot_description(arbiter.robot(), arbiter.gripper_frame(), &urdf).map_err(
-            |reason| NodeError::RobotDescription { topic: settings.robot_description_topic.clone(), reason },
+            |reason| NodeError::RobotDescription {
+                topic: settings.robot_description_topic.clone(),
+                reason: bounded_reason(reason),
+            },
         )?;
+    }
+    if stop.load(Ordering::Relaxed) {
+        return Ok(stopped_before_start(log));
     }
     // Discovery, parameter services: on a thread of their own.
     let spinner = node.spinner().map_err(dds("cannot start the node's spinner"))?;
@@ -250,14 +341,14 @@ pub fn run_node(
     let (to_preparer, requests) = std::sync::mpsc::channel::<(PoseArray, Vec<f64>)>();
     let (prepared_tx, prepared) = std::sync::mpsc::channel::<Result<(crate::arbitration::Arbiter, f64), String>>();
     let preparing = preparer.is_some();
+    let poses_now = preparer.as_ref().map(GoalPreparer::problem_poses);
     if let Some(preparer) = preparer {
         std::thread::Builder::new()
             .name("ros2-goals".into())
             .spawn(move || {
-                while let Ok(mut request) = requests.recv() {
-                    while let Ok(newer) = requests.try_recv() {
-                        request = newer;
-                    }
+                // One request at a time: the loop sends the next only
+                // when this one's result is back (GoalPoses).
+                while let Ok(request) = requests.recv() {
                     let began = Instant::now();
                     let result = preparer.prepare(&request.0, &request.1).map(|a| (a, began.elapsed().as_secs_f64()));
                     if prepared_tx.send(result).is_err() {
@@ -266,15 +357,20 @@ pub fn run_node(
                 }
             })
             .map_err(dds("cannot start the goal preparation thread"))?;
+    } else {
+        // Poses sent then fail, and the log says goals from poses are off.
+        drop(requests);
     }
-    let mut pending_poses: Option<PoseArray> = None;
+    let mut goal_poses =
+        GoalPoses::new(control.arbiter().robot().description().root_link(), poses_now.unwrap_or_default());
 
     ready();
     let mut report = NodeReport::default();
-    let mut tick_us = Vec::with_capacity(1 << 16);
     let period = Duration::from_secs_f64(settings.period());
     let began = Instant::now();
     let mut deadline = began;
+    let mut ticker =
+        Ticker::new(log, period, began).map_err(|source| NodeError::Thread { what: "watchdog", source })?;
     while !stop.load(Ordering::Relaxed) && duration.is_none_or(|d| began.elapsed() < d) {
         let now = Instant::now();
         if now < deadline {
@@ -293,46 +389,64 @@ pub fn run_node(
         drain(&state_in, &mut report.unreadable, |msg| control.joint_state(&msg, now));
         drain(&twist_in, &mut report.unreadable, |msg| control.twist(&msg, now));
         drain(&jog_in, &mut report.unreadable, |msg| control.joint_jog(&msg, now));
-        while let Ok(Some((msg, _))) = mode_in.take() {
-            match control.set_mode(&msg.data) {
-                Ok(mode) => {
+        // One mode name a tick, as documented: a flood cannot keep the
+        // loop reading (keep-last-1 leaves the newest for the next tick).
+        match mode_in.take() {
+            Ok(Some((msg, _))) => {
+                report.mode_messages += 1;
+                if let Some(mode) = ticker.mode_name(control, &msg.data, now) {
                     let _ = node.set_parameter("mode", ParameterValue::String(mode.as_str().into()));
-                    eprintln!("tandem ros2: mode {mode}");
                 }
-                Err(e) => eprintln!("tandem ros2: mode '{}' refused: {e}", msg.data),
             }
+            Ok(None) => {}
+            Err(_) => report.unreadable += 1,
         }
-        while let Ok(Some((msg, _))) = goals_in.take() {
-            pending_poses = Some(msg);
-        }
+        drain(&goals_in, &mut report.unreadable, |msg| {
+            goal_poses.arrived(msg);
+        });
         // Poses wait for a valid joint state: the references start there.
         if let Some(q) = control.measured()
-            && let Some(poses) = pending_poses.take()
+            && let Some(poses) = goal_poses.start()
             && to_preparer.send((poses, q.to_vec())).is_err()
         {
+            goal_poses.finished(false);
             if preparing {
-                eprintln!("tandem ros2: the goal preparation thread has stopped; the goals stay as they are");
+                ticker.log(
+                    LogKind::GoalsRefused,
+                    now,
+                    format_args!("the goal preparation thread has stopped; the goals stay as they are"),
+                );
             } else {
-                eprintln!("tandem ros2: goals from poses are not enabled");
+                ticker.log(LogKind::GoalsRefused, now, format_args!("goals from poses are not enabled"));
             }
         }
         if let Ok(result) = prepared.try_recv() {
             match result.and_then(|(arbiter, seconds)| control.replace_arbiter(&arbiter).map(|()| seconds)) {
-                Ok(seconds) => eprintln!("tandem ros2: goals re-planned for the new poses in {:.0} ms", seconds * 1e3),
-                Err(e) => eprintln!("tandem ros2: poses refused, the goals are unchanged: {e}"),
+                Ok(seconds) => {
+                    goal_poses.finished(true);
+                    ticker.log(
+                        LogKind::Goals,
+                        now,
+                        format_args!("goals re-planned for the new poses in {:.0} ms", seconds * 1e3),
+                    );
+                }
+                Err(e) => {
+                    goal_poses.finished(false);
+                    ticker.log(LogKind::GoalsRefused, now, format_args!("poses refused, the goals are unchanged: {e}"));
+                }
             }
         }
         if let Some(mode) = pending_mode.try_lock().ok().and_then(|mut p| p.take())
             && mode != control.mode()
-            && control.set_mode(mode.as_str()).is_ok()
+            && control.switch_mode(mode).is_ok()
         {
-            eprintln!("tandem ros2: mode {mode} (parameter)");
+            ticker.log(LogKind::Mode, now, format_args!("mode {mode} (parameter)"));
         }
 
         let has_state = control.has_state();
         let out = control.tick(now);
         report.ticks += 1;
-        tick_us.push(out.diagnostics[0]);
+        ticker.ticked(out, &joints, deadline, Instant::now());
         if has_state {
             match (&trajectory_out, &array_out) {
                 (Some(writer), _) => {
@@ -362,8 +476,28 @@ pub fn run_node(
         array.data.resize(joints.len(), 0.0);
         let _ = writer.publish(array.clone());
     }
-    report.tick_us = crate::sim::percentiles(&tick_us).into();
+    let book = ticker.finish();
+    report.tick_us = book.tick_us;
+    report.dropped_log_lines = book.log.dropped;
+    report.suppressed_log_lines = book.log.suppressed;
+    report.stalls = book.stalls.count;
+    report.longest_stall_s = book.stalls.longest_s;
+    report.poses_unchanged = goal_poses.unchanged;
+    report.replans = goal_poses.started;
     Ok(report)
+}
+
+/// The report of a node stopped before its loop started, its log's last
+/// lines written (for a moment: stderr may not be read).
+fn stopped_before_start(log: NodeLog) -> NodeReport {
+    let counts = log.finish(Duration::from_millis(200));
+    NodeReport {
+        stopped_before_start: true,
+        tick_us: [f64::NAN; 3],
+        dropped_log_lines: counts.dropped,
+        suppressed_log_lines: counts.suppressed,
+        ..NodeReport::default()
+    }
 }
 
 /// `into` = `values` (cleared when `None`), reusing its allocation.
@@ -379,18 +513,38 @@ fn to_duration(seconds: f64) -> RosDuration {
     RosDuration { sec: whole as i32, nanosec: ((seconds - whole) * 1e9).round() as u32 }
 }
 
-/// Takes every sample waiting in `reader`, oldest first, handing each to
-/// `take`; samples that do not decode are counted in `unreadable`.
+/// Samples taken from one reader in one tick at most: a reader's history
+/// holds fewer (keep last 10), so this only bounds a tick that samples
+/// keep arriving into while it reads.
+const DRAIN_LIMIT: usize = 256;
+
+/// Takes the samples waiting in `reader` (up to [`DRAIN_LIMIT`]), oldest
+/// first, handing each to `take`; samples that do not decode are counted in
+/// `unreadable`.
 fn drain<M: 'static + serde::de::DeserializeOwned>(
     reader: &ros2_client::Subscription<M>,
     unreadable: &mut u64,
     mut take: impl FnMut(M),
 ) {
-    loop {
+    for _ in 0..DRAIN_LIMIT {
         match reader.take() {
             Ok(Some((msg, _))) => take(msg),
             Ok(None) => break,
             Err(_) => *unreadable += 1,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reason quoting a hostile URDF is cut at a character boundary, its
+    /// length said; a short one is kept whole.
+    #[test]
+    fn robot_description_reasons_are_bounded() {
+        assert_eq!(bounded_reason("joint panda_joint1 differs".into()), "joint panda_joint1 differs");
+        let long = bounded_reason(format!("not XML: unexpected tag {}", "é".repeat(5_000)));
+        assert!(long.len() <= REASON_BYTES + 20 && long.ends_with("… (10024 bytes)"), "{long}");
     }
 }

@@ -7,6 +7,11 @@
 use crate::robot::{FrameId, KinematicsWorkspace, MeshSearchPath, RobotDescription, RobotModel};
 use rand::{RngExt, SeedableRng};
 
+/// The largest URDF read from `/robot_description` (bytes, 4 MiB): the
+/// Panda's is 30 KB and large robots' some hundreds of KB; a 60 MB one
+/// took 7 s and 611 MB of memory to parse. Larger is refused with its size.
+pub const MAX_ROBOT_DESCRIPTION_BYTES: usize = 4 << 20;
+
 /// Configurations whose gripper poses are compared.
 const SAMPLES: usize = 200;
 /// Largest gripper position difference accepted (m) and rotation (the
@@ -36,9 +41,15 @@ fn kinematics_only(text: &str) -> Result<RobotDescription, String> {
 /// `gripper`).
 ///
 /// # Errors
-/// What differs, naming the joint, the limit or the configuration: the
-/// node must not start.
+/// What differs, naming the joint, the limit or the configuration, or a
+/// text larger than [`MAX_ROBOT_DESCRIPTION_BYTES`]: the node must not start.
 pub fn check_robot_description(model: &RobotModel, gripper: FrameId, text: &str) -> Result<(), String> {
+    if text.len() > MAX_ROBOT_DESCRIPTION_BYTES {
+        return Err(format!(
+            "the description is {} bytes, more than the limit of {MAX_ROBOT_DESCRIPTION_BYTES} bytes",
+            text.len()
+        ));
+    }
     let description = kinematics_only(text)?;
     let names = model.joint_names();
     let theirs = RobotModel::builder(std::sync::Arc::new(description))
@@ -104,5 +115,8 @@ mod tests {
         let e = check_robot_description(&model, gripper, "<robot name='x'><link name='a'/></robot>").unwrap_err();
         assert!(e.contains("lacks the arm's joints"), "{e}");
         assert!(check_robot_description(&model, gripper, "not xml <").unwrap_err().contains("not XML"));
+        let padded = format!("{urdf}<!-- {} -->", "x".repeat(MAX_ROBOT_DESCRIPTION_BYTES));
+        let e = check_robot_description(&model, gripper, &padded).unwrap_err();
+        assert!(e.contains(&format!("{} bytes, more than the limit of 4194304", padded.len())), "{e}");
     }
 }

@@ -47,7 +47,7 @@ pub use protocol::{ClientMessage, MAX_FRAME_BYTES, MAX_MESSAGE_BYTES, parse_clie
 pub use scene_view::{SceneView, ShapeView, StateView};
 #[cfg(feature = "serve")]
 pub use server::{ServeSettings, Server, ServerStats, serve};
-pub use session::{SessionSettings, TeleopSession, TeleopTask};
+pub use session::{Recording, SessionSettings, TeleopSession, TeleopTask};
 
 /// Errors of the teleoperation server and its sessions.
 #[derive(Debug, thiserror::Error)]

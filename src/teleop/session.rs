@@ -415,14 +415,22 @@ impl TeleopSession {
     /// # Errors
     /// Writing the recording.
     pub fn finish(&mut self) -> Result<Option<PathBuf>, TeleopError> {
+        self.finish_unwritten().map(Recording::write).transpose()
+    }
+
+    /// As [`Self::finish`], but the recording is returned to be written
+    /// elsewhere (the server writes it on a blocking thread, so that a
+    /// session's tick never waits for the disk): `None` when there is
+    /// nothing to save. Allocates a copy of the episode; no I/O.
+    pub fn finish_unwritten(&mut self) -> Option<Recording> {
         if !self.driven {
-            return Ok(None);
+            return None;
         }
         if self.outcome.is_none() {
             self.end(Outcome::Failed);
         }
         let (Some(dir), true, false) = (&self.settings.record_dir, self.live.record().steps > 0, self.saved) else {
-            return Ok(None);
+            return None;
         };
         self.saved = true;
         let p = &self.prepared;
@@ -432,11 +440,13 @@ impl TeleopSession {
             record.outcome = reason.outcome();
             record.reason = reason.clone();
         }
-        let label = format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed);
-        std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
-        let path = recording_path(dir, p.task.as_str(), self.episode);
-        crate::sim::write_episodes(&path, &[(label, &record, p.arbiter.settings().period)])?;
-        Ok(Some(path))
+        Some(Recording {
+            dir: dir.clone(),
+            path: recording_path(dir, p.task.as_str(), self.episode),
+            label: format!("teleop/{}/{}/{}", p.task.as_str(), mode.as_str(), p.seed),
+            record,
+            period: p.arbiter.settings().period,
+        })
     }
 
     /// Starts a new episode: on the same prepared task when `task` and
@@ -471,6 +481,35 @@ impl TeleopSession {
         self.episode += 1;
         self.state.status = "waiting";
         self.refresh_state(0.0)
+    }
+}
+
+/// An ended episode not yet written ([`TeleopSession::finish_unwritten`]).
+pub struct Recording {
+    dir: PathBuf,
+    path: PathBuf,
+    label: String,
+    record: crate::sim::EpisodeRecord,
+    /// The control period (s).
+    period: f64,
+}
+
+impl Recording {
+    /// The file it goes to.
+    pub fn path(&self) -> &std::path::Path {
+        &self.path
+    }
+
+    /// Writes it (Parquet, the simulator's episode layout), creating the
+    /// folder; returns the file.
+    ///
+    /// # Errors
+    /// Creating the folder or writing the file.
+    pub fn write(self) -> Result<PathBuf, TeleopError> {
+        let dir = &self.dir;
+        std::fs::create_dir_all(dir).map_err(|source| crate::files::FileError::Io { path: dir.clone(), source })?;
+        crate::sim::write_episodes(&self.path, &[(self.label, &self.record, self.period)])?;
+        Ok(self.path)
     }
 }
 

@@ -2,7 +2,7 @@
 //! rate, states and messages out through the writer task, and the
 //! close handshake.
 
-use super::state::{OpenSession, ServerStats, Shared, keep};
+use super::state::{OpenSession, ServerStats, Shared};
 use crate::teleop::protocol::{ClientMessage, MAX_MESSAGE_BYTES, parse_client_message};
 use crate::teleop::session::{SessionSettings, TeleopSession, TeleopTask};
 use crate::teleop::{StateView, TeleopError};
@@ -112,8 +112,7 @@ impl Connection {
         let mut view = state.clone();
         if let Some(at) = self.unanswered_command.take() {
             view.latency_us = now.duration_since(at).as_secs_f64() * 1e6;
-            let mut samples = self.shared.stats.samples.lock().unwrap_or_else(|e| e.into_inner());
-            keep(&mut samples.latency_us, view.latency_us);
+            self.shared.stats.latency_us.record(view.latency_us);
         }
         self.states.send_replace(Some(json_message("state", &view)));
         self.last_state_sent = Some(now);
@@ -316,33 +315,44 @@ async fn close_handshake(stream: &mut futures_util::stream::SplitStream<WebSocke
 /// Ends the session's episode, saves it, and tells the page how, why and
 /// where. A page that never drove has no episode to end: nothing is saved
 /// or said. Called once per episode: when it ends by itself (at that tick),
-/// else when the page resets or leaves while it runs.
-fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &ServerStats) {
+/// else when the page resets or leaves while it runs. The recording is
+/// written on a blocking thread, the page told when it is: a tick never
+/// waits for the disk (a slow or full one stalled every session on the
+/// runtime's thread).
+fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &Arc<ServerStats>) {
     if !session.driven() {
         return;
     }
-    match session.finish() {
-        Ok(file) => {
-            if file.is_some() {
+    let recording = session.finish_unwritten();
+    let outcome = session.outcome().map_or("failed", |o| o.as_str());
+    let state = session.state();
+    let mut episode = serde_json::json!({
+        "outcome": outcome,
+        "reason": state.reason,
+        "reason_detail": state.reason_detail,
+        "steps": state.steps,
+        "time": state.time,
+        "min_clearance": state.min_clearance,
+        "file": null,
+    });
+    let Some(recording) = recording else {
+        conn.send(json_message("episode", &episode));
+        return;
+    };
+    let (control, stats) = (conn.control.clone(), Arc::clone(stats));
+    // The writer task ends only when this sender is dropped too: a page
+    // that leaves still gets its recording written.
+    tokio::task::spawn_blocking(move || {
+        let text = match recording.write() {
+            Ok(file) => {
                 stats.episodes_saved.fetch_add(1, Ordering::Relaxed);
+                episode["file"] = file.display().to_string().into();
+                json_message("episode", &episode)
             }
-            let outcome = session.outcome().map_or("failed", |o| o.as_str());
-            let state = session.state();
-            conn.send(json_message(
-                "episode",
-                &serde_json::json!({
-                    "outcome": outcome,
-                    "reason": state.reason,
-                    "reason_detail": state.reason_detail,
-                    "steps": state.steps,
-                    "time": state.time,
-                    "min_clearance": state.min_clearance,
-                    "file": file.map(|f| f.display().to_string()),
-                }),
-            ));
-        }
-        Err(e) => conn.send(json_message("error", &serde_json::json!({ "message": format!("{e}") }))),
-    }
+            Err(e) => json_message("error", &serde_json::json!({ "message": format!("{e}") })),
+        };
+        let _ = control.try_send(Outgoing::Text(text));
+    });
 }
 
 /// One control tick and, when due, a state for the page; an episode that
@@ -354,8 +364,7 @@ fn tick(conn: &mut Connection, session: &mut TeleopSession, now: Instant) {
         Ok(state) => {
             if was_running {
                 stats.ticks.fetch_add(1, Ordering::Relaxed);
-                let mut samples = stats.samples.lock().unwrap_or_else(|e| e.into_inner());
-                keep(&mut samples.tick_us, state.tick_us);
+                stats.tick_us.record(state.tick_us);
             }
         }
         Err(e) => conn.error(&format!("the simulator failed: {e}")),
