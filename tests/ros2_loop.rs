@@ -125,8 +125,18 @@ fn the_control_loop_holds_on_stale_or_malformed_input_and_ticks_without_allocati
     let r = robot.frame_pose(&kin, control.arbiter().gripper_frame()).rotation;
     let local = [0.03, -0.02, 0.04];
     let world = r * nalgebra::Vector3::from(local);
+    // Each from rest: a tick continues from the last command (motion limits).
+    let rest = |control: &mut ControlLoop| {
+        control.twist(&twist("", [f64::NAN, 0.0, 0.0]), at(0.36));
+        for _ in 0..50 {
+            control.tick(at(0.36));
+        }
+        assert!(control.tick(at(0.36)).qdot.iter().all(|v| *v == 0.0), "at rest");
+    };
+    rest(&mut control);
     control.twist(&twist("panda_hand_tcp", local), at(0.36));
     let from_local = control.tick(at(0.36)).qdot.clone();
+    rest(&mut control);
     control.twist(&twist("panda_link0", [world.x, world.y, world.z]), at(0.36));
     let from_world = control.tick(at(0.36)).qdot.clone();
     let gap = from_local.iter().zip(&from_world).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);

@@ -286,12 +286,14 @@ fn a_bad_settings_file_is_refused_naming_the_key() {
 fn two_boxes(dir: &std::path::Path) -> std::path::PathBuf {
     let text = std::fs::read_to_string(common::repo().join("problems/panda_grasp_box.toml")).unwrap();
     let urdf = common::repo().join("problems/robots/panda/panda.urdf");
+    let limits = common::repo().join("problems/robots/panda/joint_limits.yaml");
     let second = "[[scene.objects]]\nname = \"box2\"\nshape = \"box\"\nsize = [0.06, 0.06, 0.12]\n\
                   position = [0.5, -0.1, 0.06]\ngrasps = [\n    { name = \"grasp\", position = [0.0, 0.0, 0.046], \
                   rpy = [3.141592653589793, 0.0, 0.0] },\n    { name = \"approach\", position = [0.0, 0.0, 0.15], \
                   rpy = [3.141592653589793, 0.0, 0.0] },\n]\n\n[scene]\nallowed_contacts";
     let text = text
         .replacen("urdf = \"robots/panda/panda.urdf\"", &format!("urdf = {:?}", urdf.display().to_string()), 1)
+        .replacen("\"robots/panda/joint_limits.yaml\"", &format!("{:?}", limits.display().to_string()), 1)
         .replacen("name = \"panda_grasp_box\"", "name = \"panda_grasp_two_boxes\"", 1)
         .replacen("[scene]\nallowed_contacts", second, 1);
     assert!(text.contains("box2") && text.contains(&urdf.display().to_string()));
