@@ -27,6 +27,12 @@ struct Tally {
     violations: usize,
     holds: usize,
     constrained: usize,
+    /// Commands past an acceleration or jerk limit (finite differences at
+    /// the period, from rest after each reset) that are not a category-0
+    /// stop, and those that are (`halted` with zero: the braking step was
+    /// not certified).
+    limit_violations: usize,
+    emergency_stops: usize,
     statuses: std::collections::BTreeMap<&'static str, usize>,
 }
 
@@ -36,6 +42,8 @@ impl Tally {
         self.violations += other.violations;
         self.holds += other.holds;
         self.constrained += other.constrained;
+        self.limit_violations += other.limit_violations;
+        self.emergency_stops += other.emergency_stops;
         for (k, v) in other.statuses {
             *self.statuses.entry(k).or_default() += v;
         }
@@ -120,6 +128,7 @@ fn run_scene(seed: u64, ticks: usize) -> Tally {
     let mut ws = arbiter.workspace();
     let mut tally = Tally::default();
     let (mut velocity, mut next, mut command) = (vec![0.0; 7], vec![0.0; 7], [0.0; 8]);
+    let mut acceleration = [0.0; 7];
     for _ in 0..ticks {
         ws.set_mode(ArbitrationMode::ALL[rng.random_range(0..ArbitrationMode::ALL.len())]);
         let (kind, len) = random_command(&mut rng, &mut command);
@@ -146,6 +155,26 @@ fn run_scene(seed: u64, ticks: usize) -> Tally {
         if out.status == TickStatus::SolverFailed && std::env::var_os("TANDEM_STRESS_DEBUG").is_some() {
             eprintln!("solver failed: {:?} q {q:?} command {human:?}", out.diagnostics);
         }
+        let mut past_limits = false;
+        for (j, l) in panda.motion_limits().iter().enumerate() {
+            let a = (out.qdot[j] - velocity[j]) / dt;
+            let jerk = (a - acceleration[j]) / dt;
+            past_limits |=
+                a.abs() > l.acceleration.max(l.deceleration) * (1.0 + 1e-9) || jerk.abs() > l.jerk * (1.0 + 1e-9);
+            acceleration[j] = a;
+        }
+        if past_limits && out.status == TickStatus::Halted && out.qdot.iter().all(|v| *v == 0.0) {
+            tally.emergency_stops += 1;
+            acceleration = [0.0; 7];
+        } else {
+            tally.limit_violations += usize::from(past_limits);
+            if past_limits && std::env::var_os("TANDEM_STRESS_DEBUG").is_some() {
+                eprintln!(
+                    "past the motion limits: {:?} {:?}\n q {q:?}\n before {velocity:?}\n qdot {:?}",
+                    out.status, out.diagnostics, out.qdot
+                );
+            }
+        }
         velocity.copy_from_slice(out.qdot);
         let mut violated = false;
         for (j, l) in panda.limits().iter().enumerate() {
@@ -161,6 +190,8 @@ fn run_scene(seed: u64, ticks: usize) -> Tally {
         if rng.random_range(0..200) == 0 {
             q = free_q(&panda, &model, &mut cws, &mut rng);
             arbiter.reset(&mut ws);
+            velocity.fill(0.0);
+            acceleration = [0.0; 7];
         } else {
             q.copy_from_slice(&next);
         }
@@ -181,17 +212,20 @@ fn random_ticks_never_violate_hard_constraints() {
         .map(|s| run_scene(s, TICKS_PER_SCENE.min(ticks - s as usize * TICKS_PER_SCENE)))
         .reduce(Tally::default, Tally::add);
     eprintln!(
-        "{} ticks in {} scenes, {:.1} s: {} hard-constraint violations, {} holds, {} constrained; statuses {:?}",
+        "{} ticks in {} scenes, {:.1} s: {} hard-constraint violations, {} motion-limit violations ({} category-0 stops), {} holds, {} constrained; statuses {:?}",
         tally.ticks,
         scenes,
         began.elapsed().as_secs_f64(),
         tally.violations,
+        tally.limit_violations,
+        tally.emergency_stops,
         tally.holds,
         tally.constrained,
         tally.statuses
     );
     assert_eq!(tally.ticks, ticks);
     assert_eq!(tally.violations, 0, "{tally:?}");
+    assert_eq!(tally.limit_violations, 0, "{tally:?}");
     // The walk must reach the constraints, not just drift in free space.
     assert!(tally.constrained * 20 > tally.ticks, "only {} of {} ticks constrained", tally.constrained, tally.ticks);
 }

@@ -336,13 +336,9 @@ impl Arbiter {
     /// margin: those closer than `margin + bound(|u|·dt) · 1.5 + 1 mm`, `u`
     /// the larger of the closed form's and `at_least`. Returns the reach (m).
     fn build_distance_rows(&self, ws: &mut ArbiterWorkspace, rate: f64, at_least: Option<f64>) -> f64 {
-        let dt = self.settings.period;
-        for (d, u) in ws.certify.step.iter_mut().zip(&ws.objective.u0) {
-            *d = u * dt;
-        }
-        let reach = self.collision.displacement_bound(&ws.certify.step).max(at_least.unwrap_or(0.0));
+        let reach = self.reach(ws, false).max(at_least.unwrap_or(0.0));
         let s = &self.settings.safety;
-        let cutoff = s.margin + 1.5 * reach.max(self.braking_reach(ws)) + 1e-3;
+        let cutoff = s.margin + 1.5 * reach + 1e-3;
         let braking = s.motion_limits.then_some((self.robot.motion_limits(), self.settings.period));
         ws.rows.build_distances(&self.collision, &ws.input.kin, cutoff, rate, s, braking);
         reach
@@ -354,27 +350,27 @@ impl Arbiter {
         ws.diagnostics.distance_pairs = ws.rows.count;
     }
 
-    /// How far the robot's geometry can move under the current `u` (m).
+    /// How far the robot's geometry can move under the solved `u` (m).
     fn step_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
-        let dt = self.settings.period;
-        for (d, u) in ws.certify.step.iter_mut().zip(&ws.solve.u) {
-            *d = u * dt;
-        }
-        self.collision.displacement_bound(&ws.certify.step)
+        self.reach(ws, true)
     }
 
-    /// How far the robot's geometry can move while it brakes from this
-    /// tick's bounds (m): the rows must see the pairs the stop approaches.
-    fn braking_reach(&self, ws: &mut ArbiterWorkspace) -> f64 {
-        if !self.settings.safety.motion_limits {
-            return 0.0;
-        }
+    /// How far the robot's geometry can move in one step of a command and,
+    /// with the motion limits, in the stop after it (m): the solved `u`
+    /// (`solved`), else the closed form within this tick's bounds.
+    fn reach(&self, ws: &mut ArbiterWorkspace, solved: bool) -> f64 {
+        let dt = self.settings.period;
+        let limits = self.settings.safety.motion_limits;
         for (j, (d, l)) in ws.certify.step.iter_mut().zip(self.robot.motion_limits()).enumerate() {
-            let (lo, hi) = (ws.rows.lo[j], ws.rows.hi[j]);
-            let v = ws.motion.velocity[j];
-            let dt = self.settings.period;
-            *d = stopping_distance(hi, (hi - v) / dt, l).max(stopping_distance(-lo, (v - lo) / dt, l))
-                + dt * hi.abs().max(lo.abs());
+            let u = if solved { ws.solve.u[j] } else { ws.objective.u0[j] };
+            if !limits {
+                *d = u * dt;
+                continue;
+            }
+            let u = u.clamp(ws.rows.lo[j], ws.rows.hi[j]);
+            let (speed, s) = (u.abs(), if u < 0.0 { -1.0 } else { 1.0 });
+            let accel = s * (u - ws.motion.velocity[j]) / dt;
+            *d = s * (speed * dt + stopping_distance(speed, accel, l));
         }
         self.collision.displacement_bound(&ws.certify.step)
     }
@@ -425,7 +421,7 @@ impl Arbiter {
     /// braking step when it is certified at `q` (or `q` is not known),
     /// else zero; otherwise the certified step. Recorded as executed.
     fn emit<'w>(&self, ws: &'w mut ArbiterWorkspace, q: &[f64], result: Result<TickStatus, TickStatus>) -> Command<'w> {
-        let status = match result {
+        let mut status = match result {
             Ok(status) => status,
             Err(status) => status,
         };
@@ -435,7 +431,9 @@ impl Arbiter {
             let braking = ws.motion.brake.iter().any(|b| *b != 0.0);
             stopped = braking && !self.brake_certified(ws, q);
             if stopped {
+                // A category-0 stop: the braking step is not certified.
                 ws.motion.brake.fill(0.0);
+                status = TickStatus::Halted;
             }
             ws.certify.qdot.copy_from_slice(&ws.motion.brake);
         } else {
