@@ -328,7 +328,9 @@ async function main() {
       window.tandem.sendCommands = false;
       window.tandemNaN = setInterval(() => window.tandemSend({ type: 'command', linear: [NaN, 0, 0] }), 20);
     });
-    await waitFor(page, () => window.tandem.state.status === 'invalid_command', undefined, 5000).catch(() => {});
+    // A hold brakes within the motion limits, then stands still.
+    await waitFor(page, () => window.tandem.state.status === 'invalid_command'
+      && Math.hypot(...window.tandem.state.executed) < 1e-9, undefined, 5000).catch(() => {});
     const held = await page.evaluate(() => window.tandem.state);
     check(held.status === 'invalid_command' && Math.hypot(...held.executed) < 1e-9, `a NaN command holds the arm (status ${held.status})`);
     await page.evaluate(() => { clearInterval(window.tandemNaN); window.tandem.sendCommands = true; });
