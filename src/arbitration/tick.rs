@@ -428,6 +428,7 @@ impl Arbiter {
         let mut stopped = false;
         if status.is_hold() || result.is_err() {
             ws.diagnostics.step_fraction = 0.0;
+            self.keep_brake_within_position_limits(ws, q);
             let braking = ws.motion.brake.iter().any(|b| *b != 0.0);
             stopped = braking && !self.brake_certified(ws, q);
             if stopped {
@@ -444,6 +445,21 @@ impl Arbiter {
         }
         ws.motion.executed(&ws.certify.qdot, self.settings.period, stopped);
         Command { qdot: &ws.certify.qdot, status, diagnostics: ws.diagnostics }
+    }
+
+    /// Clamps the braking step so that it does not carry a joint past its
+    /// position limit (the limit is hard; the motion limits give way to it,
+    /// see the module `motion`). Nothing for a `q` that is not a
+    /// configuration.
+    fn keep_brake_within_position_limits(&self, ws: &mut ArbiterWorkspace, q: &[f64]) {
+        if !finite_of_len(q, self.robot.nq()) {
+            return;
+        }
+        let dt = self.settings.period;
+        for ((b, l), x) in ws.motion.brake.iter_mut().zip(self.robot.limits()).zip(q) {
+            let (up, down) = ((l.upper - x) / dt, (l.lower - x) / dt);
+            *b = b.min(up.max(0.0)).max(down.min(0.0));
+        }
     }
 
     /// Whether the braking step from `q` is certified free (true without
