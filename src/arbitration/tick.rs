@@ -443,6 +443,13 @@ impl Arbiter {
                 *v = b + f * (u - b);
             }
         }
+        // The position limits are hard whatever shaped the command.
+        if finite_of_len(q, self.robot.nq()) {
+            let dt = self.settings.period;
+            for ((v, l), x) in ws.certify.qdot.iter_mut().zip(self.robot.limits()).zip(q) {
+                *v = v.min(((l.upper - x) / dt).max(0.0)).max(((l.lower - x) / dt).min(0.0));
+            }
+        }
         ws.motion.executed(&ws.certify.qdot, self.settings.period, stopped);
         Command { qdot: &ws.certify.qdot, status, diagnostics: ws.diagnostics }
     }
