@@ -443,11 +443,14 @@ impl Arbiter {
                 *v = b + f * (u - b);
             }
         }
-        // The position limits are hard whatever shaped the command.
+        // The position and velocity limits are hard whatever shaped the command.
         if finite_of_len(q, self.robot.nq()) {
             let dt = self.settings.period;
-            for ((v, l), x) in ws.certify.qdot.iter_mut().zip(self.robot.limits()).zip(q) {
-                *v = v.min(((l.upper - x) / dt).max(0.0)).max(((l.lower - x) / dt).min(0.0));
+            let scale = self.settings.safety.velocity_scale;
+            let limits = self.robot.limits().iter().zip(self.robot.motion_limits());
+            for ((v, (l, m)), x) in ws.certify.qdot.iter_mut().zip(limits).zip(q) {
+                let (down, up) = m.velocity_range(*x, scale);
+                *v = v.min(((l.upper - x) / dt).max(0.0)).max(((l.lower - x) / dt).min(0.0)).clamp(down, up);
             }
         }
         ws.motion.executed(&ws.certify.qdot, self.settings.period, stopped);
