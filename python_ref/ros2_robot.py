@@ -5,15 +5,18 @@ DDS, PyPI `cyclonedds`) for `tandem ros2`'s interop test
 Reads one JSON object on stdin:
   {"domain": N, "ready": <the node's --json start line>, "urdf": PATH,
    "command_out": "trajectory" | "velocities", "out_topic": "/...",
-   "node": "/tandem", "scenario": "grasp" | "latency" | "describe" | "hostile",
-   "seconds": S, "command_hz": HZ, "description": PATH}
+   "node": "/tandem", "scenario": "grasp" | "latency" | "describe" | "hostile" | "late",
+   "seconds": S, "command_hz": HZ, "description": PATH, "robot_period_s": S}
 ("describe" publishes the URDF at PATH on /robot_description, transient
 local, and stays for S seconds. "hostile" plays a careless or hostile
 ROS 2 system: joint states naming a joint twice, a JointJog naming one
 twice, an infinite twist, a flood of unknown mode names 10,000 characters
 long at ~1 kHz for "flood_s" seconds (ticks counted from the diagnostics),
 then the same object poses republished at 50 Hz while the operator heads
-for the first goal.)
+for the first goal. "late" plays a robot that executes each trajectory
+point and reports its state one robot step late, every "robot_period_s"
+(the node's period): the operator drives toward the goal, then stops
+sending; every point received is printed, in order, with its phase.)
 and prints one JSON object with what it saw.
 
 The robot publishes /joint_states at 250 Hz (the arm's joints, and the
@@ -247,7 +250,7 @@ def main():
     out_r = DataReader(dp, Topic(dp, "rt" + REQUEST["out_topic"], out_type), qos=reliable)
 
     qdot = np.zeros(model.nv)
-    step = 1.0 / 250.0
+    step = float(REQUEST.get("robot_period_s", 1.0 / 250.0))
     goal = np.array(ready["goals"][0]["position"])
     seen = {"limit_excess": 0.0, "min_distance": math.inf, "commands": 0, "diagnostics": 0, "statuses": 0,
             "goal_updates": 0, "mode_index": -1}
@@ -258,6 +261,7 @@ def main():
     ticks_seen = []
     ticks_at = []  # (arrival, the node's tick count)
     holds = {}  # the diagnostics' hold index -> joints named
+    reanchors = []  # the diagnostics' re-anchor count, per tick
 
     def gripper():
         pin.forwardKinematics(model, data, q)
@@ -269,12 +273,18 @@ def main():
     # What the robot reports instead of its true state, when a phase says so
     # (a function of the true names and positions).
     report = {"states": None}
+    # "late": the state published is the one of the step before; every
+    # point received is kept (phase, positions, velocities, accelerations).
+    late = {"previous": None, "points": [] if REQUEST["scenario"] == "late" else None}
 
     def robot_step(phase, t):
         nonlocal q
         before = q.copy()
         for s in out_r.take(N=1000):
             seen["commands"] += 1
+            if late["points"] is not None and s.points:
+                p = s.points[0]
+                late["points"].append((phase, list(p.positions), list(p.velocities), list(p.accelerations)))
             if out_type is JointTrajectory and s.points:
                 for name, v in zip(s.joint_names, s.points[0].positions):
                     q[model.joints[names.index(name) + 1].idx_q] = v
@@ -288,6 +298,8 @@ def main():
             motion.append((t, phase, change))
         seen["limit_excess"] = max(seen["limit_excess"], float(np.max(np.maximum(q - upper, lower - q))))
         state_names, state_q = names, list(map(float, q))
+        if late["points"] is not None:
+            state_q, late["previous"] = late["previous"] or state_q, state_q
         if report["states"] is not None:
             state_names, state_q = report["states"](state_names, state_q)
         states_w.write(JointState(header=Header(stamp=now_stamp(t)), name=state_names, position=state_q,
@@ -305,6 +317,8 @@ def main():
         ticks_at.append((arrived, d[14]))
         if len(d) > 16:
             holds.setdefault(int(d[16]), set()).add(-1 if math.isnan(d[17]) else int(d[17]))
+        if len(d) > 19:
+            reanchors.append(int(d[19]))
         seen["min_distance"] = min(seen["min_distance"], d[6])
         seen["goal_updates"] = max(seen["goal_updates"], int(d[15]))
         seen["mode_index"] = int(d[12])
@@ -373,6 +387,21 @@ def main():
         stop_listening.set()
         listener.join(timeout=1.0)
         print(json.dumps({"latency_s": latencies, "unanswered": len(sent), "tick_us": ticks_seen, **seen}))
+        return
+
+    if REQUEST["scenario"] == "late":
+        run("idle", 1.5)
+        above = goal + np.array([0.0, 0.0, 0.1])
+
+        def toward(t):
+            d = above - gripper()
+            dist = np.linalg.norm(d)
+            command(t, d / dist * min(0.1, 2.0 * dist) if dist > 1e-9 else np.zeros(3))
+
+        run("driven", REQUEST["seconds"], toward)
+        run("stopped", 1.5)
+        # The node's own count of re-anchorings (the last diagnostics).
+        print(json.dumps({"points": late["points"], "robot_period_s": step, "reanchors": reanchors[-1:], **seen}))
         return
 
     if REQUEST["scenario"] == "hostile":

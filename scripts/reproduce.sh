@@ -109,6 +109,11 @@ gallery() {
   "$bin" plan builtin:panda_reach_obstacle --svg "$out/plan.svg" || status=$?
   "$bin" solve builtin:panda_reach_obstacle --out "$out/solve" || status=$?
   "$bin" policy --time-varying --plot "$out/policy.svg" || status=$?
+  # One 1 kHz episode's accelerations and jerks against the Panda's limits,
+  # with the motion limits and without them (the commands before they existed).
+  "$bin" arbitrate builtin:panda_grasp_box --mode sos --rate 1000 --motion-plot "$out/motion_limits.svg" || status=$?
+  "$bin" arbitrate builtin:panda_grasp_box --mode sos --rate 1000 --no-motion-limits \
+    --motion-plot "$out/motion_limits_off.svg" || status=$?
   return $status
 }
 

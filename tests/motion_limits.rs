@@ -189,6 +189,38 @@ fn a_mode_switch_and_a_reversal_stay_within_the_limits() {
     assert!(audit.peak_acceleration_ratio > 0.5, "the reversals use the limits: {audit:?}");
 }
 
+/// New goals mid-motion (the ROS 2 node's PoseArray, a lift after the
+/// approach): a new arbiter's workspace that continues the old one's
+/// motion starts within the limits from the last command; a fresh one
+/// would bound its first command relative to rest.
+#[test]
+fn a_new_arbiter_mid_motion_continues_the_commanded_motion() {
+    let arbiter = free_arbiter(1000.0, true);
+    let mut ws = arbiter.workspace();
+    let mut q = READY;
+    let mut audit = MotionAudit::new(7);
+    let moving = [0.0, 0.15, -0.1];
+    let mut speed = 0.0_f64;
+    for _ in 0..400 {
+        let (_, qdot) = step(&arbiter, &mut ws, &mut q, HumanCommand::Linear(&moving), &mut audit);
+        speed = qdot.iter().fold(0.0, |m, v| m.max(v.abs()));
+    }
+    assert!(speed > 0.1, "moving at {speed} rad/s");
+    let replanned = free_arbiter(1000.0, true);
+    let mut continued = replanned.workspace();
+    continued.continue_motion(&ws);
+    for _ in 0..400 {
+        step(&replanned, &mut continued, &mut q, HumanCommand::Linear(&moving), &mut audit);
+    }
+    assert_eq!(audit.violations, 0, "{audit:?}");
+    // A fresh workspace starts from rest: its first command is bounded
+    // near zero, a jump down from `speed` the audit sees.
+    let mut fresh = replanned.workspace();
+    let mut jumped = audit.clone();
+    step(&replanned, &mut fresh, &mut q, HumanCommand::Linear(&moving), &mut jumped);
+    assert!(jumped.violations > 0, "{jumped:?}");
+}
+
 #[test]
 fn a_joint_stops_before_its_position_limit() {
     let arbiter = free_arbiter(1000.0, true);

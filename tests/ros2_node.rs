@@ -408,3 +408,105 @@ fn a_stop_while_waiting_for_the_robot_description_exits_0_with_the_report() {
         assert_eq!(report["ticks"], 0, "{report}");
     }
 }
+
+/// A point received: the phase, positions, velocities, accelerations.
+type Point = (String, Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// A robot that executes each trajectory point and reports its state one
+/// period late (any real loop's latency), with the node's limits from its
+/// `joint_limits` parameter (half of Franka's published accelerations and
+/// jerks): every point the node sends has positions, velocities and
+/// accelerations consistent with each other and within those limits; once
+/// the operator stops sending, the stale command brakes within them and
+/// then the points stand still (consecutive points equal within 1e-9 rad).
+/// Before the node integrated its own reference, a hold at the lagging
+/// measurement alternated between two configurations 1.4 mrad apart; with
+/// the reference re-anchored every tick (`max_reference_deviation: 0.0001`,
+/// what the node did before) this test fails: positions and velocities
+/// disagree by 2.3 mrad.
+#[test]
+fn a_robot_reporting_one_period_late_gets_consistent_points_a_braking_stop_and_a_still_hold() {
+    let dir = tempfile::tempdir().unwrap();
+    const ACCELERATION: [f64; 7] = [7.5, 3.75, 5.0, 6.25, 7.5, 10.0, 10.0];
+    const JERK: [f64; 7] = [3750.0, 1875.0, 2500.0, 3125.0, 3750.0, 5000.0, 5000.0];
+    const VELOCITY: [f64; 7] = [2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61];
+    let mut limits = String::from("joint_limits:\n");
+    for j in 0..7 {
+        limits += &format!(
+            "  panda_joint{}:\n    has_acceleration_limits: true\n    max_acceleration: {}\n    has_jerk_limits: true\n    \
+             max_jerk: {}\n",
+            j + 1,
+            ACCELERATION[j],
+            JERK[j]
+        );
+    }
+    std::fs::write(dir.path().join("half_limits.yaml"), limits).unwrap();
+    let rate = 100.0;
+    let dt = 1.0 / rate;
+    let domain = domain(40);
+    let config = format!(
+        "tandem:\n  ros__parameters:\n    domain_id: {domain}\n    rate_hz: {rate}\n    joint_limits: half_limits.yaml\n"
+    );
+    let (mut node, ready, _stdout) = start_node(&config, dir.path());
+    let request = serde_json::json!({
+        "domain": domain, "ready": ready, "urdf": common::repo().join("problems/robots/panda/panda.urdf"),
+        "command_out": "trajectory", "out_topic": "/joint_trajectory_controller/joint_trajectory",
+        "node": "/tandem", "scenario": "late", "seconds": 2.0, "robot_period_s": dt,
+    });
+    let reply = common::run_python("ros2_robot.py", &[], &request.to_string());
+    assert!(sigterm(&mut node).success());
+    let seen: serde_json::Value = serde_json::from_str(&reply).unwrap();
+    let vec = |v: &serde_json::Value| -> Vec<f64> {
+        v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap_or(f64::NAN)).collect()
+    };
+    let points: Vec<Point> = seen["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| (p[0].as_str().unwrap().to_string(), vec(&p[1]), vec(&p[2]), vec(&p[3])))
+        .collect();
+    assert!(points.len() > 300, "{} points", points.len());
+    assert_eq!(seen["reanchors"], serde_json::json!([0]), "the robot followed: no re-anchoring");
+    // Consistency and limits, point by point, from rest.
+    let (mut worst_v, mut worst_a, mut worst_j, mut worst_consistency) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for k in 0..points.len() {
+        let (_, p, v, a) = &points[k];
+        assert!(p.len() == 7 && v.len() == 7 && a.len() == 7, "point {k}: {} {} {}", p.len(), v.len(), a.len());
+        let (v_before, a_before) =
+            if k == 0 { (vec![0.0; 7], vec![0.0; 7]) } else { (points[k - 1].2.clone(), points[k - 1].3.clone()) };
+        for j in 0..7 {
+            worst_v = common::worst(worst_v, v[j].abs() / VELOCITY[j]);
+            worst_a = common::worst(worst_a, a[j].abs() / ACCELERATION[j]);
+            worst_j = common::worst(worst_j, (a[j] - a_before[j]).abs() / dt / JERK[j]);
+            worst_consistency = common::worst(worst_consistency, (a[j] - (v[j] - v_before[j]) / dt).abs() * dt);
+            if k > 0 {
+                worst_consistency = common::worst(worst_consistency, (p[j] - points[k - 1].1[j] - v[j] * dt).abs());
+            }
+        }
+    }
+    let label = format!("velocity {worst_v}, acceleration {worst_a}, jerk {worst_j} of the limits");
+    assert!(worst_v <= 1.0 + 1e-9 && worst_a <= 1.0 + 1e-9 && worst_j <= 1.0 + 1e-9, "{label}");
+    assert!(worst_consistency <= 1e-9, "positions, velocities and accelerations differ by {worst_consistency}");
+    // The arm moved, fast enough that a one-tick stop would have broken the
+    // deceleration limit twice over.
+    let driven: Vec<_> = points.iter().filter(|p| p.0 == "driven").collect();
+    let last = driven.last().expect("points while driven");
+    let braking_ticks = (0..7).map(|j| last.2[j].abs() / (ACCELERATION[j] * dt)).fold(0.0, f64::max);
+    assert!(braking_ticks > 2.0, "the arm was too slow to test braking ({braking_ticks} ticks): {label}");
+    // Then still: from the first point at rest in the stopped phase on,
+    // every point equal to the one before.
+    let stopped: Vec<_> = points.iter().filter(|p| p.0 == "stopped").collect();
+    let rest = stopped.iter().position(|p| p.2.iter().all(|v| *v == 0.0)).expect("the arm came to rest");
+    assert!((rest as f64) * dt < 0.1 + 1.0, "braking took {} s", rest as f64 * dt);
+    let still = &stopped[rest..];
+    assert!(still.len() > 30, "{} points at rest", still.len());
+    let chatter =
+        still.windows(2).flat_map(|w| w[0].1.iter().zip(&w[1].1).map(|(a, b)| (a - b).abs())).fold(0.0, f64::max);
+    println!(
+        "{} points; {label}; consistency {worst_consistency:.1e}; braking {braking_ticks:.1} ticks at the limit, at \
+         rest {:.2} s into the stop; held points differ by {chatter:.1e} rad",
+        points.len(),
+        rest as f64 * dt
+    );
+    assert!(chatter < 1e-9, "consecutive held points differ by {chatter} rad");
+}

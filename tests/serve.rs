@@ -360,6 +360,12 @@ async fn the_server_survives_garbage_floods_and_disconnects() {
     assert_eq!(health["episodes_saved"], 2, "{health}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     assert!(health["tick_us"]["count"].as_u64().unwrap() > 50, "{health}");
+    // Every executed step of every session within the hard and the motion limits.
+    assert_eq!(
+        (health["hard_violations"].as_u64(), health["limit_violations"].as_u64()),
+        (Some(0), Some(0)),
+        "{health}"
+    );
 
     // A reset ends the driven episode; the page is told how and why.
     fresh.send(Message::Text(r#"{"type":"command","linear":[0.01,0,0]}"#.into())).await.unwrap();

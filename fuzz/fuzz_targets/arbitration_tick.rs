@@ -23,6 +23,15 @@
 //! limits, one period of it stays within them and collision-free (checked
 //! by sampling the motion every 2 mrad (or mm), independently of the
 //! arbiter's certification).
+//!
+//! Flag 16 continues the motion instead of reading a state: the arm is
+//! where the last command took it. Along such a chain, begun at rest (flag
+//! 1) from a collision-free state within the limits, every command keeps
+//! the robot's acceleration, deceleration and jerk limits by finite
+//! differences at the period (`|Δq̇|/dt` and `|Δq̈|/dt`, computed here from
+//! the commands, not read from the arbiter), except a category-0 stop — a
+//! `halted` zero command, the documented last resort when not even the
+//! braking step can be certified.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -31,7 +40,7 @@ use std::f64::consts::PI;
 use std::fmt::Write;
 use std::sync::{Arc, Mutex, OnceLock};
 use tandem::arbitration::{
-    Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, HumanCommand, TickInput,
+    Arbiter, ArbiterGoal, ArbiterSettings, ArbiterWorkspace, ArbitrationMode, HumanCommand, TickInput, TickStatus,
 };
 use tandem::collision::{CollisionModel, CollisionWorkspace};
 use tandem::control::{GainSchedule, TrackingPolicy, TrackingWeights};
@@ -51,6 +60,13 @@ struct Setup {
     ws: ArbiterWorkspace,
     model: Arc<CollisionModel>,
     cws: CollisionWorkspace,
+    /// The last tick: where its command took the arm, the command and the
+    /// acceleration that reached it, and whether it is part of a chain
+    /// begun at rest from a free state (see the module docs).
+    last_q: Vec<f64>,
+    last_qdot: Vec<f64>,
+    last_acceleration: Vec<f64>,
+    chain: bool,
 }
 
 impl Setup {
@@ -59,7 +75,17 @@ impl Setup {
         let arbiter = Arbiter::new(model.clone(), tool, goals, ArbiterSettings::default()).expect("arbiter");
         let ws = arbiter.workspace();
         let cws = CollisionWorkspace::new(&model);
-        Setup { arbiter, ws, model, cws }
+        let n = arbiter.robot().nq();
+        Setup {
+            arbiter,
+            ws,
+            model,
+            cws,
+            last_q: vec![0.0; n],
+            last_qdot: vec![0.0; n],
+            last_acceleration: vec![0.0; n],
+            chain: false,
+        }
     }
 }
 
@@ -299,7 +325,7 @@ fn joint_values(bytes: &mut &[u8], limits: &[tandem::robot::JointLimits], out: &
 fuzz_target!(|data: &[u8]| {
     let [index, mode, kind, len, flags, ..] = *data else { return };
     let mut guard = setup(usize::from(index) % POOL).lock().unwrap_or_else(|e| e.into_inner());
-    let Setup { arbiter, ws, model, cws } = &mut *guard;
+    let Setup { arbiter, ws, model, cws, last_q, last_qdot, last_acceleration, chain } = &mut *guard;
     let robot = arbiter.robot().clone();
     let (n, goals) = (robot.nq(), arbiter.goals().len());
     let mut bytes = &data[5..];
@@ -310,8 +336,21 @@ fuzz_target!(|data: &[u8]| {
     values(&mut bytes, velocity);
     values(&mut bytes, &mut command);
     values(&mut bytes, &mut beliefs);
+    let dt = arbiter.settings().period;
+    let within = |q: &[f64]| q.iter().zip(robot.limits()).all(|(x, l)| *x >= l.lower - 1e-9 && *x <= l.upper + 1e-9);
+    let continues = flags & 16 == 16;
+    if continues {
+        for ((x, last), v) in q.iter_mut().zip(last_q.iter()).zip(last_qdot.iter()) {
+            *x = last + dt * v;
+        }
+    }
     if flags & 1 == 1 {
         arbiter.reset(ws);
+        last_qdot.fill(0.0);
+        last_acceleration.fill(0.0);
+        *chain = within(q) && model.collision_free(cws, q).unwrap_or(false);
+    } else if !continues {
+        *chain = false;
     }
     ws.set_mode(ArbitrationMode::ALL[usize::from(mode) % ArbitrationMode::ALL.len()]);
     let values = &command[..usize::from(len) % (MAX_JOINTS + 3)];
@@ -325,14 +364,25 @@ fuzz_target!(|data: &[u8]| {
         command: human,
         beliefs: (flags & 4 == 4).then_some(beliefs),
     };
-    let qdot: Vec<f64> = arbiter.tick(ws, &input).qdot.to_vec();
+    let out = arbiter.tick(ws, &input);
+    let (qdot, status): (Vec<f64>, TickStatus) = (out.qdot.to_vec(), out.status);
     assert_eq!(qdot.len(), n, "one velocity per joint");
     for (v, l) in qdot.iter().zip(robot.limits()) {
         assert!(v.is_finite() && v.abs() <= l.velocity + 1e-9, "command {qdot:?} for {input:?}");
     }
-    let within = |q: &[f64]| q.iter().zip(robot.limits()).all(|(x, l)| *x >= l.lower - 1e-9 && *x <= l.upper + 1e-9);
+    let category_0_stop = status == TickStatus::Halted && qdot.iter().all(|v| *v == 0.0);
+    for (j, l) in robot.motion_limits().iter().enumerate() {
+        let a = (qdot[j] - last_qdot[j]) / dt;
+        let jerk = (a - last_acceleration[j]) / dt;
+        let past = a.abs() > l.acceleration.max(l.deceleration) * (1.0 + 1e-9) || jerk.abs() > l.jerk * (1.0 + 1e-9);
+        assert!(
+            !(*chain && past) || category_0_stop,
+            "joint {j}: acceleration {a}, jerk {jerk} past {l:?} along a chain from rest: {input:?} -> {qdot:?}"
+        );
+        (last_qdot[j], last_acceleration[j]) = (qdot[j], if category_0_stop { 0.0 } else { a });
+    }
+    last_q.copy_from_slice(q);
     if within(q) && model.collision_free(cws, q).unwrap_or(false) {
-        let dt = arbiter.settings().period;
         let next: Vec<f64> = q.iter().zip(&qdot).map(|(x, v)| x + dt * v).collect();
         assert!(within(&next), "leaves the limits: {next:?} for {input:?}");
         assert!(model.motion_free(cws, q, &next, 0.002).unwrap_or(false), "collides: {q:?} -> {next:?}");

@@ -278,6 +278,21 @@ impl Arbiter {
 }
 
 impl ArbiterWorkspace {
+    /// Takes over the arm `from` has been commanding: the next tick
+    /// continues `from`'s executed command sequence (its last velocity and
+    /// acceleration) within the motion limits, instead of starting from
+    /// rest. For a new arbiter mid-motion (new goals, a lift after the
+    /// approach): without it the first command would be bounded relative
+    /// to zero velocity, a jump the arm would see.
+    ///
+    /// # Panics
+    /// Workspaces of arms with different joint counts.
+    pub fn continue_motion(&mut self, from: &ArbiterWorkspace) {
+        assert_eq!(self.motion.velocity.len(), from.motion.velocity.len(), "workspaces of different arms");
+        self.motion.velocity.copy_from_slice(&from.motion.velocity);
+        self.motion.acceleration.copy_from_slice(&from.motion.acceleration);
+    }
+
     /// The mode the next ticks run.
     pub fn mode(&self) -> ArbitrationMode {
         self.mode

@@ -59,14 +59,23 @@ pub struct ArbitrateArgs {
     /// that only avoids obstacles.
     #[arg(long, value_name = "FILE")]
     pub field: Option<PathBuf>,
+    /// Write the executed commands' largest joint acceleration and jerk per
+    /// tick as ratios to the robot's limits (finite differences at the
+    /// period, from rest; 1 is the limit) as SVG: with and without
+    /// `--no-motion-limits`, what the limits change.
+    #[arg(long, value_name = "FILE")]
+    pub motion_plot: Option<PathBuf>,
     /// Print one JSON object: {"problem", "mode", "operator", "seed",
     /// "outcome" (success, collision, timeout or failed), "reason" (the
     /// simulator's, or start_invalid / goal_invalid when the start is
     /// outside the limits or in collision, or no configuration within
     /// limits reaches the goal without collision: no episode ran),
     /// "reason_detail", "steps", "tick_us": {"median", "p99", "max"},
-    /// "hard_violations", "min_clearance_m" (null when no pair can
-    /// collide), "fallbacks"}. Exit status 3 unless the outcome is success.
+    /// "hard_violations", "limit_violations" (commands past an
+    /// acceleration, deceleration or jerk limit), "peak_acceleration_ratio",
+    /// "peak_jerk_ratio" (the largest |q̈| and |q⃛| over their limits),
+    /// "min_clearance_m" (null when no pair can collide), "fallbacks"}.
+    /// Exit status 3 unless the outcome is success.
     #[arg(long)]
     pub json: bool,
 }
@@ -115,6 +124,10 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         let svg = field_svg(&problem, &goals, target, &settings)?;
         std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
+    if let Some(path) = &args.motion_plot {
+        let svg = motion_svg(&problem, &record, &settings, args)?;
+        std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
     let (median, p99, max) = percentiles(&record.tick_us);
     if args.json {
         let json = serde_json::json!({
@@ -128,6 +141,9 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
             "steps": record.steps,
             "tick_us": {"median": median, "p99": p99, "max": max},
             "hard_violations": record.hard_violations,
+            "limit_violations": record.limit_violations,
+            "peak_acceleration_ratio": record.peak_acceleration_ratio,
+            "peak_jerk_ratio": record.peak_jerk_ratio,
             "min_clearance_m": record.min_clearance,
             "fallbacks": record.fallbacks,
         });
@@ -157,7 +173,11 @@ pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::e
         _ => "no collision pair to keep clear".to_string(),
     };
     println!("hard-constraint violations {}, {clearance}, fallbacks {}", record.hard_violations, record.fallbacks);
-    for path in args.plot.iter().chain(&args.field) {
+    println!(
+        "motion-limit violations {} (largest acceleration {:.3} and jerk {:.3} of the limits)",
+        record.limit_violations, record.peak_acceleration_ratio, record.peak_jerk_ratio
+    );
+    for path in args.plot.iter().chain(&args.field).chain(&args.motion_plot) {
         println!("wrote {}", path.display());
     }
     Ok(outcome(&record))
@@ -230,6 +250,46 @@ fn episode_svg(
     let title =
         format!("{}: {} operator, {} ({})", problem.name, args.operator, record.outcome.as_str(), record.reason);
     Ok(render_panels(&title, &[view(0, 1, "from above", "y (m)"), view(0, 2, "from the side", "z (m)")], 480, 440)?)
+}
+
+/// The executed commands' largest acceleration and jerk ratio per tick
+/// (finite differences at the period from rest, over each joint's limits).
+fn motion_svg(
+    problem: &Problem,
+    record: &EpisodeRecord,
+    settings: &ArbiterSettings,
+    args: &ArbitrateArgs,
+) -> Result<String, Box<dyn std::error::Error>> {
+    let (dt, limits) = (settings.period, problem.robot.motion_limits());
+    let n = limits.len();
+    let (mut velocity, mut acceleration) = (vec![0.0; n], vec![0.0; n]);
+    let (mut accelerations, mut jerks) = (Vec::new(), Vec::new());
+    for (k, qdot) in record.qdot.iter().enumerate() {
+        let (mut a_ratio, mut j_ratio) = (0.0f64, 0.0f64);
+        for (j, l) in limits.iter().enumerate() {
+            let a = (qdot[j] - velocity[j]) / dt;
+            a_ratio = a_ratio.max(a.abs() / l.acceleration.max(l.deceleration));
+            j_ratio = j_ratio.max(((a - acceleration[j]) / dt).abs() / l.jerk);
+            (velocity[j], acceleration[j]) = (qdot[j], a);
+        }
+        let t = (k + 1) as f64 * dt;
+        accelerations.push((t, a_ratio));
+        jerks.push((t, j_ratio));
+    }
+    let end = record.qdot.len() as f64 * dt;
+    let limit = [(0.0, 1.0), (end, 1.0)];
+    let panel = |title: &str, y: &str, points: &[(f64, f64)]| {
+        Panel::new(title, "time (s)", y)
+            .with(Series::line("executed, largest over the joints", points, Color::Palette(0)))
+            .with(Series::dashed("limit", &limit, Color::Reference))
+    };
+    let on = if settings.safety.motion_limits { "motion limits on" } else { "motion limits off" };
+    let title = format!(
+        "{}: {} operator, {} at {} Hz, {on}: peak {:.2}× acceleration, {:.2}× jerk",
+        problem.name, args.operator, args.mode, args.rate, record.peak_acceleration_ratio, record.peak_jerk_ratio
+    );
+    let panels = [panel("acceleration", "|q̈| / limit", &accelerations), panel("jerk", "|q⃛| / limit", &jerks)];
+    Ok(render_panels(&title, &panels, 480, 360)?)
 }
 
 /// The dissertation's Fig. 4.2: F⁻¹ ellipses for (a) the goal, (b) every goal

@@ -4,7 +4,7 @@
 
 use super::UrdfArgs;
 use crate::collision::CollisionModel;
-use crate::problem::{JointLimitsFile, apply_builtin_limits};
+use crate::problem::{JointLimitsFile, apply_joint_limits};
 use crate::robot::{Geometry, JointKind, RobotDescription, RobotModel, Srdf};
 use std::fmt::Write;
 use std::path::PathBuf;
@@ -35,10 +35,8 @@ pub(super) fn run(args: &InspectArgs) -> Result<(), Box<dyn std::error::Error>> 
     print!("{}", report(&desc));
     let mut model = RobotModel::builder(Arc::new(desc.clone())).build()?;
     if let Some(limits) = &args.joint_limits {
-        match limits.strip_prefix("builtin:") {
-            Some(name) => apply_builtin_limits(&mut model, name).map_err(|e| format!("--joint-limits: {e}"))?,
-            None => JointLimitsFile::read(limits)?.apply_to(&mut model)?,
-        }
+        apply_joint_limits(&mut model, limits, |f| JointLimitsFile::read(f))
+            .map_err(|e| format!("--joint-limits: {e}"))?;
     }
     print!("{}", motion_limits_report(&model));
     if let Some(path) = &args.srdf {

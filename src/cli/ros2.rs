@@ -64,7 +64,19 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
         Some(path) => NodeSettings::from_file(path)?,
         None => NodeSettings::default(),
     };
-    let problem = super::arbitrate::load(&args.problem)?;
+    let mut problem = super::arbitrate::load(&args.problem)?;
+    if let Some(limits) = &settings.joint_limits {
+        // The node's parameter over the problem's `[robot] joint_limits`.
+        let mut robot = (*problem.robot).clone();
+        crate::problem::apply_joint_limits(&mut robot, limits, |f| crate::problem::JointLimitsFile::read(f)).map_err(
+            |e| {
+                let config = args.config.as_deref().unwrap_or(std::path::Path::new("")).display();
+                format!("{config}: joint_limits: {e}")
+            },
+        )?;
+        problem.robot = std::sync::Arc::new(robot);
+        problem.robot_spec.joint_limits = Some(limits.clone());
+    }
     if let Some(refusal) = start_refusal(&problem)? {
         eprintln!("{}: no node ({}): {}", problem.name, refusal.status, refusal.reason);
         return Ok(super::Outcome::Unsuccessful);

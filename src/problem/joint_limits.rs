@@ -157,6 +157,30 @@ pub fn apply_builtin_limits(robot: &mut RobotModel, name: &str) -> Result<(), St
     robot.apply_motion_limits(sets, &LimitSource::Builtin(known)).map_err(|e| e.to_string())
 }
 
+/// Sets `robot`'s motion limits from `spec`: `builtin:NAME` (see
+/// [`apply_builtin_limits`]) or the path of a `joint_limits.yaml`, read
+/// with `read` (a caller's own resolution of relative paths and of
+/// embedded files).
+///
+/// # Errors
+/// An unknown table (as a [`ProblemError::Invalid`] naming `spec`), or
+/// what reading or applying the file returns.
+pub fn apply_joint_limits(
+    robot: &mut RobotModel,
+    spec: &str,
+    read: impl FnOnce(&str) -> Result<JointLimitsFile, ProblemError>,
+) -> Result<(), ProblemError> {
+    match spec.strip_prefix("builtin:") {
+        Some(name) => apply_builtin_limits(robot, name).map_err(|message| ProblemError::Invalid {
+            file: spec.to_string(),
+            line: None,
+            key: None,
+            message,
+        }),
+        None => read(spec)?.apply_to(robot),
+    }
+}
+
 /// The `joint_limits` mapping: at the root (MoveIt) or under one node's
 /// `ros__parameters` (ros2_control).
 fn find_table<'a>(root: &Node<'a>) -> Result<Node<'a>, ProblemError> {

@@ -26,7 +26,7 @@ mod toml_source;
 
 pub use family::{FamilySample, ProblemFamily, sample_seed};
 pub use grasp::{GraspCriteria, GraspError, GraspJudge, GraspReport, GripperGeometry, grasp_depth};
-pub use joint_limits::{JointLimitsFile, apply_builtin_limits};
+pub use joint_limits::{JointLimitsFile, apply_builtin_limits, apply_joint_limits};
 pub use moveit::{
     MOVEIT_CLEARANCE, MOVEIT_LIMIT_TOLERANCE, MoveItRequest, moveit_request_from_str, read_moveit_request,
 };

@@ -1,9 +1,19 @@
 //! The node's control loop without the middleware: the latest joint state
 //! and command as messages deliver them, then one arbiter tick per period
-//! and what to publish. Holds (zero velocity, the measured position) when
-//! the command or the joint states are stale or malformed, and never
-//! panics on what arrives. Allocation-free after the first messages: the
-//! joint-name mapping is rebuilt only when a message's names change.
+//! and what to publish. Holds (a braking stop within the motion limits,
+//! then still) when the command or the joint states are stale or
+//! malformed, and never panics on what arrives. Allocation-free after the
+//! first messages: the joint-name mapping is rebuilt only when a message's
+//! names change.
+//!
+//! With position outputs the ticks run from the node's *reference*, its own
+//! last commanded positions, not from the measurement: a robot reports its
+//! state a period or more late, and a command integrated from a lagging
+//! measurement moves a held arm back and forth between two readings. The
+//! reference is re-anchored to the measurement when they differ by more
+//! than [`NodeSettings::reference_deviation_limit`] (the robot did not
+//! follow: a reflex, a push, a controller switched off), counted in the
+//! `reanchors` diagnostic.
 
 use super::messages::{JointJog, JointState, Time, TwistStamped};
 use super::settings::NodeSettings;
@@ -71,7 +81,7 @@ impl std::fmt::Display for ModeRefusal {
 
 /// The diagnostics topic's values, in order (`std_msgs/Float64MultiArray`;
 /// the layout's one dimension is labelled with these names).
-pub const DIAGNOSTICS: [&str; 18] = [
+pub const DIAGNOSTICS: [&str; 20] = [
     "tick_us",
     "command_stamp_s",
     "status",
@@ -90,6 +100,8 @@ pub const DIAGNOSTICS: [&str; 18] = [
     "goal_updates",
     "hold",
     "hold_joint",
+    "reference_deviation",
+    "reanchors",
 ];
 
 /// What the latest command was.
@@ -111,9 +123,14 @@ enum CommandKind {
 pub struct ControlOutput {
     /// The joint velocity to execute this period (rad/s or m/s).
     pub qdot: Vec<f64>,
-    /// Where it takes the arm after one period (rad or m): the measured
-    /// configuration plus `qdot` × period.
+    /// Where it takes the arm after one period (rad or m): the
+    /// configuration the tick ran from (the reference with position
+    /// outputs, else the measurement) plus `qdot` × period.
     pub positions: Vec<f64>,
+    /// The change of `qdot` from the previous tick over the period
+    /// (rad/s² or m/s²): a JointTrajectory point's accelerations, consistent
+    /// with its velocities as the next position is with `positions`.
+    pub accelerations: Vec<f64>,
     /// The status topic's value.
     pub code: i8,
     /// The arbiter's status (`None` for the node's own holds, codes 15–16).
@@ -141,6 +158,16 @@ pub struct ControlLoop {
     gripper_frame: String,
     /// Measured configuration and when it arrived.
     q: Vec<f64>,
+    /// The configuration the ticks run from: with position outputs the
+    /// last commanded positions (re-anchored past the deviation limit),
+    /// else the measurement. Valid once a valid joint state has arrived.
+    reference: Vec<f64>,
+    has_reference: bool,
+    /// Whether the reference continues from the last command (position outputs).
+    continue_reference: bool,
+    /// Re-anchor when the reference is farther than this from the measurement (rad or m).
+    reference_limit: f64,
+    reanchors: u64,
     q_at: Option<Instant>,
     state_valid: bool,
     /// Why the last joint state is invalid: an index into [`HOLDS`], the joint.
@@ -186,6 +213,7 @@ impl ControlLoop {
         let out = ControlOutput {
             qdot: vec![0.0; n],
             positions: vec![0.0; n],
+            accelerations: vec![0.0; n],
             command_stamp: f64::NAN,
             ..ControlOutput::default()
         };
@@ -197,6 +225,13 @@ impl ControlLoop {
             gripper_frame: robot.frame_name(gripper).to_string(),
             settings: settings.clone(),
             q: vec![0.0; n],
+            reference: vec![0.0; n],
+            has_reference: false,
+            continue_reference: settings.publishes_positions(),
+            reference_limit: settings.reference_deviation_limit(
+                robot.motion_limits().iter().map(|l| l.velocity).filter(|v| v.is_finite()).fold(0.0, f64::max),
+            ),
+            reanchors: 0,
             q_at: None,
             state_valid: false,
             state_fault: None,
@@ -237,7 +272,10 @@ impl ControlLoop {
         }
         let settings = crate::arbitration::ArbiterSettings { mode: self.ws.mode(), ..*self.arbiter.settings() };
         self.arbiter = arbiter.with_settings(settings).map_err(|e| e.to_string())?;
-        self.ws = self.arbiter.workspace();
+        let mut ws = self.arbiter.workspace();
+        // Mid-motion: the new goals' first command continues the last one.
+        ws.continue_motion(&self.ws);
+        self.ws = ws;
         self.goal_updates += 1;
         Ok(())
     }
@@ -245,6 +283,14 @@ impl ControlLoop {
     /// The measured configuration, when the last joint state was valid.
     pub fn measured(&self) -> Option<&[f64]> {
         self.state_valid.then_some(&self.q[..])
+    }
+
+    /// The configuration the ticks run from (rad or m), once a valid joint
+    /// state has arrived: with position outputs the node's last commanded
+    /// positions (re-anchored to the measurement past
+    /// [`NodeSettings::reference_deviation_limit`]), else the measurement.
+    pub fn reference(&self) -> Option<&[f64]> {
+        self.has_reference.then_some(&self.reference[..])
     }
 
     /// The mode running.
@@ -418,7 +464,25 @@ impl ControlLoop {
         let invalid = |status: TickStatus, (reason, joint): (usize, Option<usize>)| {
             (status_code(status, codes), reason, joint, Some(status))
         };
-        let hold = if !fresh(self.q_at, self.settings.joint_state_timeout) {
+        // The reference: the last command continued, or the measurement
+        // when there is no reference yet, when the robot did not follow,
+        // or with velocity outputs (nothing is integrated there).
+        let state_fresh = fresh(self.q_at, self.settings.joint_state_timeout);
+        let deviation = match self.has_reference && self.state_valid {
+            true => self.reference.iter().zip(&self.q).map(|(r, q)| (r - q).abs()).fold(0.0, f64::max),
+            false => f64::NAN,
+        };
+        if self.state_valid && state_fresh {
+            let reanchor = self.continue_reference
+                && self.has_reference
+                && (deviation > self.reference_limit || deviation.is_nan());
+            if reanchor || !self.continue_reference || !self.has_reference {
+                self.reference.copy_from_slice(&self.q);
+                self.has_reference = true;
+                self.reanchors += u64::from(reanchor);
+            }
+        }
+        let hold = if !state_fresh {
             Some((STATE_STALE, STATE_STALE_HOLD, None, None))
         } else if let Some(fault) = self.state_fault {
             Some(invalid(TickStatus::InvalidState, fault))
@@ -429,23 +493,25 @@ impl ControlLoop {
         } else {
             None
         };
-        // The gripper's pose at the measured configuration, needed before
-        // the tick for twists in its frame and for the diagnostics of a
-        // hold (NaN until a valid state); a tick finds the position itself.
+        // The gripper's pose at the reference, needed before the tick for
+        // twists in its frame and for the diagnostics of a hold (NaN until
+        // a valid state); a tick finds the position itself.
         let robot = self.arbiter.robot();
         let pose_first = hold.is_some() || self.kind == CommandKind::GripperTwist;
-        let pose =
-            match pose_first && self.state_valid && robot.forward_kinematics(&mut self.kinematics, &self.q).is_ok() {
-                true => robot.frame_pose(&self.kinematics, self.gripper),
-                false => nalgebra::IsometryMatrix3::translation(f64::NAN, f64::NAN, f64::NAN),
-            };
+        let pose = match pose_first
+            && self.has_reference
+            && robot.forward_kinematics(&mut self.kinematics, &self.reference).is_ok()
+        {
+            true => robot.frame_pose(&self.kinematics, self.gripper),
+            false => nalgebra::IsometryMatrix3::translation(f64::NAN, f64::NAN, f64::NAN),
+        };
         let mut gripper: [f64; 3] = pose.translation.vector.into();
         let out = &mut self.out;
         out.command_stamp = f64::NAN;
         if let Some((code, reason, joint, status)) = hold {
             // The arbiter's braking step: a controlled stop within the
             // motion limits, then zero (and its next tick continues from it).
-            let braking = self.arbiter.hold(&mut self.ws, &self.q, status.unwrap_or(TickStatus::Halted));
+            let braking = self.arbiter.hold(&mut self.ws, &self.reference, status.unwrap_or(TickStatus::Halted));
             out.qdot.copy_from_slice(braking.qdot);
             out.code = code;
             out.status = status;
@@ -476,7 +542,7 @@ impl ControlLoop {
                 _ if self.settings.angular_commands => HumanCommand::Twist(&twist6),
                 _ => HumanCommand::Linear(&twist6[..3]),
             };
-            let input = TickInput { q: &self.q, velocity: Some(&self.qdot_prev), command, beliefs: None };
+            let input = TickInput { q: &self.reference, velocity: Some(&self.qdot_prev), command, beliefs: None };
             let result = self.arbiter.tick(&mut self.ws, &input);
             out.qdot.copy_from_slice(result.qdot);
             out.code = status_code(result.status, self.settings.status_codes);
@@ -494,10 +560,16 @@ impl ControlLoop {
             out.diagnostics[11] = d.confidence;
             gripper = self.ws.gripper_position();
         }
-        self.qdot_prev.copy_from_slice(&out.qdot);
-        for ((p, q), v) in out.positions.iter_mut().zip(&self.q).zip(&out.qdot) {
-            *p = q + v * period;
+        for (((a, v), before), r) in
+            out.accelerations.iter_mut().zip(&out.qdot).zip(&self.qdot_prev).zip(&mut self.reference)
+        {
+            *a = (v - before) / period;
+            // The next point continues this one: consecutive positions
+            // differ by exactly qdot × period (zero once held).
+            *r += v * period;
         }
+        out.positions.copy_from_slice(&self.reference);
+        self.qdot_prev.copy_from_slice(&out.qdot);
         out.diagnostics[0] = began.elapsed().as_secs_f64() * 1e6;
         out.diagnostics[1] = out.command_stamp;
         out.diagnostics[2] = f64::from(out.code);
@@ -506,12 +578,15 @@ impl ControlLoop {
         out.diagnostics[13] = self.late_ticks as f64;
         out.diagnostics[14] = self.ticks as f64;
         out.diagnostics[15] = self.goal_updates as f64;
+        out.diagnostics[18] = deviation;
+        out.diagnostics[19] = self.reanchors as f64;
         &self.out
     }
 
-    /// Whether a joint state has arrived (the node publishes no command before).
+    /// Whether a valid joint state has arrived (the node publishes no
+    /// command before: positions would be made up).
     pub fn has_state(&self) -> bool {
-        self.q_at.is_some()
+        self.has_reference
     }
 }
 

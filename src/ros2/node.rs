@@ -453,6 +453,10 @@ pub fn run_node(
                     let point = &mut trajectory.points[0];
                     fill(&mut point.positions, settings.publish_joint_positions.then_some(&out.positions[..]));
                     fill(&mut point.velocities, settings.publish_joint_velocities.then_some(&out.qdot[..]));
+                    fill(
+                        &mut point.accelerations,
+                        settings.publish_joint_accelerations.then_some(&out.accelerations[..]),
+                    );
                     let _ = writer.publish(trajectory.clone());
                 }
                 (None, Some(writer)) => {

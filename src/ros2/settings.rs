@@ -75,6 +75,23 @@ pub struct NodeSettings {
     pub publish_joint_positions: bool,
     /// In a trajectory: the point's velocities.
     pub publish_joint_velocities: bool,
+    /// In a trajectory: the point's accelerations (Servo's
+    /// `publish_joint_accelerations`; default true here): the change of
+    /// velocity from the previous point over the period, rad/s².
+    pub publish_joint_accelerations: bool,
+    /// The joints' velocity, acceleration, deceleration and jerk limits:
+    /// a MoveIt / ros2_control `joint_limits.yaml` (relative to the
+    /// settings file's folder) or `builtin:franka_panda` /
+    /// `builtin:franka_fr3`; replaces what the problem's `[robot]
+    /// joint_limits` set for the joints it names. `None`: the problem's.
+    pub joint_limits: Option<String>,
+    /// With position outputs, how far the node's own reference (its last
+    /// commanded positions, which the next point continues from) may be
+    /// from the measured joint positions before it is re-anchored to the
+    /// measurement (rad or m, largest over the joints; 1e-4 to 1). `None`:
+    /// the larger of 0.05 and three periods at the fastest joint's
+    /// velocity limit (see [`reference_deviation_limit`](Self::reference_deviation_limit)).
+    pub max_reference_deviation: Option<f64>,
     /// Status codes (`std_msgs/Int8`; Servo's `status_topic`).
     pub status_topic: String,
     /// Beliefs over the goals (`std_msgs/Float64MultiArray`).
@@ -119,6 +136,9 @@ impl Default for NodeSettings {
             command_out: CommandOut::Trajectory,
             publish_joint_positions: true,
             publish_joint_velocities: true,
+            publish_joint_accelerations: true,
+            joint_limits: None,
+            max_reference_deviation: None,
             status_topic: "~/status".into(),
             beliefs_topic: "~/beliefs".into(),
             diagnostics_topic: "~/diagnostics".into(),
@@ -151,6 +171,9 @@ const KEYS: &[&str] = &[
     "command_out_type",
     "publish_joint_positions",
     "publish_joint_velocities",
+    "publish_joint_accelerations",
+    "joint_limits",
+    "max_reference_deviation",
     "status_topic",
     "beliefs_topic",
     "diagnostics_topic",
@@ -168,7 +191,17 @@ impl NodeSettings {
     /// out-of-range value (naming the file and key).
     pub fn from_file(path: &Path) -> Result<NodeSettings, ProblemError> {
         let (file, doc) = moveit_yaml::load(path)?;
-        NodeSettings::from_yaml(&file, &doc)
+        let mut settings = NodeSettings::from_yaml(&file, &doc)?;
+        // A relative limits file is the settings file's neighbour, as a
+        // problem file's paths are.
+        if let Some(limits) = &mut settings.joint_limits
+            && !limits.starts_with("builtin:")
+            && Path::new(limits.as_str()).is_relative()
+        {
+            let dir = path.parent().unwrap_or(Path::new(""));
+            *limits = dir.join(limits.as_str()).to_string_lossy().into_owned();
+        }
+        Ok(settings)
     }
 
     /// The settings in `text` (YAML) read from `file`.
@@ -243,6 +276,20 @@ impl NodeSettings {
         flag("angular_commands", &mut s.angular_commands)?;
         flag("publish_joint_positions", &mut s.publish_joint_positions)?;
         flag("publish_joint_velocities", &mut s.publish_joint_velocities)?;
+        flag("publish_joint_accelerations", &mut s.publish_joint_accelerations)?;
+        let limits = params.get("joint_limits");
+        if !limits.is_absent() {
+            let text = limits.text()?;
+            if text.trim().is_empty() {
+                return Err(limits.error("must name a joint_limits.yaml or builtin:NAME"));
+            }
+            s.joint_limits = Some(text.to_string());
+        }
+        if !params.get("max_reference_deviation").is_absent() {
+            let mut deviation = 0.0;
+            number("max_reference_deviation", 1e-4..=1.0, &mut deviation)?;
+            s.max_reference_deviation = Some(deviation);
+        }
         let mode = params.get("mode");
         if !mode.is_absent() {
             s.mode = mode.text()?.parse().map_err(|e| mode.error(format!("{e}")))?;
@@ -288,6 +335,26 @@ impl NodeSettings {
     /// The control period (s).
     pub fn period(&self) -> f64 {
         1.0 / self.rate_hz
+    }
+
+    /// Whether the command out carries positions (then the node integrates
+    /// them from its own reference).
+    pub fn publishes_positions(&self) -> bool {
+        match self.command_out {
+            CommandOut::Trajectory => self.publish_joint_positions,
+            CommandOut::Positions => true,
+            CommandOut::Velocities => false,
+        }
+    }
+
+    /// The largest deviation of the reference from the measurement before
+    /// a re-anchor (rad or m), for an arm whose fastest joint's velocity
+    /// limit is `max_velocity` (rad/s or m/s): the setting, or the larger
+    /// of 0.05 and three periods at `max_velocity`. Three periods: a robot
+    /// that reports its state a period or two late at full speed lags by
+    /// less, and is not re-anchored while it follows.
+    pub fn reference_deviation_limit(&self, max_velocity: f64) -> f64 {
+        self.max_reference_deviation.unwrap_or_else(|| (3.0 * max_velocity * self.period()).max(0.05))
     }
 
     /// `base` with these settings' period and modes' centres (the mode
@@ -351,6 +418,12 @@ mod tests {
         assert_eq!(s.status_codes, ServoCodes::Humble);
         assert_eq!(s.command_out_topic, "/forward_velocity_controller/commands");
         assert_eq!(NodeSettings::from_str("rate_hz: 15.0\n", "f").unwrap().rate_hz, 15.0);
+        // The reference's re-anchoring distance: three periods at full speed, at least 5 cm/rad.
+        let at = |text: &str| NodeSettings::from_str(text, "f").unwrap().reference_deviation_limit(2.61);
+        assert_eq!(at("rate_hz: 1000\n"), 0.05);
+        assert!((at("rate_hz: 15\n") - 3.0 * 2.61 / 15.0).abs() < 1e-15);
+        assert_eq!(at("max_reference_deviation: 0.01\n"), 0.01);
+        assert!(!s.publishes_positions() && NodeSettings::default().publishes_positions());
         for (text, says) in [
             ("rate_hz: 5\n", "f: rate_hz: 5 is outside [15, 1000]"),
             ("rate_hz: .nan\n", "rate_hz: must be finite"),
@@ -362,6 +435,10 @@ mod tests {
             ("joint_topic: 'a b'\n", "joint_topic: 'a b' is not a ROS 2 name"),
             ("command_out_type: std_msgs/Float64MultiArray\n", "set exactly one"),
             ("angular_commands: 3\n", "angular_commands: must be true or false"),
+            ("max_reference_deviation: 2\n", "max_reference_deviation: 2 is outside [0.0001, 1]"),
+            ("max_reference_deviation: .nan\n", "max_reference_deviation: must be finite"),
+            ("joint_limits: ''\n", "joint_limits: must name"),
+            ("publish_joint_accelerations: 1\n", "publish_joint_accelerations: must be true or false"),
             ("tandem:\n  parameters: {}\n", "tandem.parameters: unknown key"),
         ] {
             let e = NodeSettings::from_str(text, "f").unwrap_err().to_string();

@@ -346,6 +346,15 @@ impl TeleopSession {
         Ok(&self.state)
     }
 
+    /// The episode's executed steps so far that broke a hard limit
+    /// (position, velocity, collision) and those that broke an
+    /// acceleration, deceleration or jerk limit (see
+    /// [`EpisodeRecord`](crate::sim::EpisodeRecord)).
+    pub fn violations(&self) -> (usize, usize) {
+        let record = self.live.record();
+        (record.hard_violations, record.limit_violations)
+    }
+
     /// When the command the last tick used was received, if that tick was
     /// the first to use it (the start of the command → state latency).
     pub fn used_command_at(&self) -> Option<Instant> {

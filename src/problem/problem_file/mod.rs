@@ -2,7 +2,7 @@
 //! [`Problem`]. Every check names the key it rejects.
 
 use super::grasp::{GraspError, GripperGeometry};
-use super::joint_limits::{JointLimitsFile, apply_builtin_limits};
+use super::joint_limits::{JointLimitsFile, apply_joint_limits};
 use super::toml_source::KeyPath;
 use super::{Goal, Problem, ProblemError, RobotSpec, Source};
 use crate::robot::{JointSelection, MeshSearchPath, RobotDescription, RobotModel, Srdf, TriMesh};
@@ -379,16 +379,14 @@ impl RawRobot {
         })?;
         if let Some(limits) = &self.joint_limits {
             let at = path.key("joint_limits");
-            if let Some(name) = limits.strip_prefix("builtin:") {
-                apply_builtin_limits(&mut robot, name).map_err(|e| src.error(&at, e))?;
-            } else {
-                let file = if src.base.is_none() && limits == "robots/panda/joint_limits.yaml" {
-                    JointLimitsFile::parse(include_str!("../../../problems/robots/panda/joint_limits.yaml"), limits)
+            apply_joint_limits(&mut robot, limits, |file| {
+                if src.base.is_none() && file == "robots/panda/joint_limits.yaml" {
+                    JointLimitsFile::parse(include_str!("../../../problems/robots/panda/joint_limits.yaml"), file)
                 } else {
-                    JointLimitsFile::read(src.resolve(limits))
-                };
-                file.and_then(|f| f.apply_to(&mut robot)).map_err(|e| src.error(&at, e.to_string()))?;
-            }
+                    JointLimitsFile::read(src.resolve(file))
+                }
+            })
+            .map_err(|e| src.error(&at, e.to_string()))?;
         }
         let robot = Arc::new(robot);
         if let Some(g) = &self.gripper {

@@ -511,7 +511,7 @@ fn grasp(r: &mut Running) -> Result<bool, ArbitrationError> {
     #[cfg(feature = "mujoco")]
     if let Some(physics) = r.physics.as_mut() {
         let reason = physics
-            .grasp(&r.arbiter, &mut r.q, &mut r.velocity)
+            .grasp(&r.arbiter, &r.ws, &mut r.q, &mut r.velocity)
             .map_err(|e| crate::settings::InvalidSetting::new("physics", e, "a grasp MuJoCo can simulate"))?;
         r.gripper = gripper_state(r)?;
         return Ok(reason == super::Reason::Success);

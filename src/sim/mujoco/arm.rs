@@ -21,6 +21,10 @@ pub(crate) struct PhysicsArm {
     /// Physics steps run and the wall-clock time inside them (s).
     pub(crate) steps: usize,
     pub(crate) seconds: f64,
+    /// The largest |servo target − measured position| of an arm joint
+    /// after any physics step since the start (rad or m): how closely the
+    /// physical arm tracks the commanded motion.
+    pub(crate) tracking_error: f64,
 }
 
 impl PhysicsArm {
@@ -33,6 +37,7 @@ impl PhysicsArm {
             qdot: vec![0.0; n],
             steps: 0,
             seconds: 0.0,
+            tracking_error: 0.0,
         }
     }
 
@@ -41,7 +46,7 @@ impl PhysicsArm {
         scene.reset(&mut self.data, q);
         self.target.copy_from_slice(q);
         self.qdot.fill(0.0);
-        (self.steps, self.seconds) = (0, 0.0);
+        (self.steps, self.seconds, self.tracking_error) = (0, 0.0, 0.0);
     }
 
     /// MuJoCo's state.
@@ -89,6 +94,13 @@ impl PhysicsArm {
             self.data.step();
             self.seconds += began.elapsed().as_secs_f64();
             self.steps += 1;
+            scene.arm_positions(&self.data, &mut self.measured);
+            for (t, q) in self.target.iter().zip(&self.measured) {
+                // NaN (a diverged simulation) stays NaN.
+                let e = (t - q).abs();
+                self.tracking_error =
+                    if e.is_nan() || self.tracking_error.is_nan() { f64::NAN } else { self.tracking_error.max(e) };
+            }
             if let Some(reason) = robot_collision(scene, &self.data).or_else(|| check(&self.data)) {
                 return Some(reason);
             }

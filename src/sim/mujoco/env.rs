@@ -60,18 +60,21 @@ impl EnvPhysics {
     }
 
     /// Closes, lifts and holds from the current state (the gripper at the
-    /// grasp); `q` and `velocity` follow the arm. Success when the box
-    /// stays lifted.
+    /// grasp, the arm last commanded through `ws`); `q` and `velocity`
+    /// follow the arm. Success when the box stays lifted.
     ///
     /// # Errors
     /// Kinematics refusing a measured configuration.
     pub(crate) fn grasp(
         &mut self,
         arbiter: &Arbiter,
+        ws: &ArbiterWorkspace,
         q: &mut [f64],
         velocity: &mut [f64],
     ) -> Result<Reason, PhysicsError> {
         self.lift.reset(&mut self.lift_ws);
+        // The lift takes over mid-motion: it brakes from the last command.
+        self.lift_ws.continue_motion(ws);
         let mut ticks = Follow { lift: &self.lift, ws: &mut self.lift_ws, q, velocity };
         let (limits, period) = (arbiter.robot().limits(), arbiter.settings().period);
         close_lift_hold(&mut self.arm, &self.scene, limits, period, &self.settings, 0, None, &mut ticks)

@@ -97,6 +97,11 @@ pub struct PhysicsRecord {
     pub physics_steps: usize,
     /// Wall-clock time inside MuJoCo's steps (s).
     pub physics_seconds: f64,
+    /// The largest |servo target − measured position| of an arm joint over
+    /// the episode's physics steps (rad or m): the servo targets integrate
+    /// the commanded joint velocities, so this is how far the physical arm
+    /// lagged the commanded motion.
+    pub tracking_error: f64,
 }
 
 impl PhysicsEpisode<'_> {
@@ -167,6 +172,8 @@ impl PhysicsEpisode<'_> {
             (Some(reason), _) => reason,
             (None, None) => live.reason(crate::sim::Outcome::Timeout, self.target),
             (None, Some(verdict)) => {
+                // The lift takes over mid-motion: it brakes from the last command.
+                pw.lift.continue_motion(ws);
                 let mut sink = Recorder {
                     live: &mut live,
                     arbiter,
@@ -193,6 +200,7 @@ impl PhysicsEpisode<'_> {
             lifted,
             physics_steps: arm.steps,
             physics_seconds: arm.seconds,
+            tracking_error: arm.tracking_error,
         })
     }
 

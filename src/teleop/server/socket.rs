@@ -360,6 +360,7 @@ fn finish_episode(conn: &Connection, session: &mut TeleopSession, stats: &Arc<Se
 fn tick(conn: &mut Connection, session: &mut TeleopSession, now: Instant) {
     let stats = conn.shared.stats.clone();
     let was_running = session.outcome().is_none();
+    let (hard, limits) = session.violations();
     match session.tick(now) {
         Ok(state) => {
             if was_running {
@@ -369,6 +370,9 @@ fn tick(conn: &mut Connection, session: &mut TeleopSession, now: Instant) {
         }
         Err(e) => conn.error(&format!("the simulator failed: {e}")),
     }
+    let (hard_now, limits_now) = session.violations();
+    stats.hard_violations.fetch_add(hard_now.saturating_sub(hard) as u64, Ordering::Relaxed);
+    stats.limit_violations.fetch_add(limits_now.saturating_sub(limits) as u64, Ordering::Relaxed);
     let ended = was_running && session.outcome().is_some();
     // The state carries the newest command: its latency is the one measured.
     if let (true, Some(at)) = (was_running, session.used_command_at()) {

@@ -70,6 +70,10 @@ pub struct ServerStats {
     pub(super) refused_full: AtomicU64,
     pub(super) states_sent: AtomicU64,
     pub(super) episodes_saved: AtomicU64,
+    /// Executed steps that broke a position or velocity limit or collided.
+    pub(super) hard_violations: AtomicU64,
+    /// Executed commands that broke an acceleration, deceleration or jerk limit.
+    pub(super) limit_violations: AtomicU64,
     /// Every session's ticks (µs).
     pub(super) tick_us: TickHistogram,
     /// Command to state latencies (µs).
@@ -108,6 +112,8 @@ impl ServerStats {
             "refused_full": load(&self.refused_full),
             "states_sent": load(&self.states_sent),
             "episodes_saved": load(&self.episodes_saved),
+            "hard_violations": load(&self.hard_violations),
+            "limit_violations": load(&self.limit_violations),
             "tick_us": Percentiles::of(&self.tick_us),
             "latency_us": Percentiles::of(&self.latency_us),
         })
