@@ -31,9 +31,11 @@
 //! # Ok::<(), tandem_solvers::riccati::RiccatiError>(())
 //! ```
 
+mod blocks;
 mod dare;
 mod dense;
 mod finite_horizon;
+mod gemm;
 mod validate;
 
 pub use dare::{DareProblem, DareSettings, DareSolution, DareStats, DareWorkspace, solve_dare};
