@@ -7,7 +7,10 @@
 #   benches/peers/compare_dare.sh
 #
 # Cases: dare/n4_m2 and dare/n30_m10 (seeded random stabilisable systems),
-# dare/n14_m7 (the Panda's per-joint double integrator). The criterion bench
+# dare/n14_m7 (the Panda's per-joint double integrator, solved as seven
+# decoupled joints), dare/n14_m7_dense (the same as one 14-state system) and
+# their warm starts from a nearby P (dare/n14_m7_warm, dare/n14_m7_dense_warm;
+# scipy has no warm start, so its time is a cold solve of the same matrices). The criterion bench
 # writes the matrices to target/peers/dare_cases.json; the peer reads them.
 # Needs the Python reference environment (scripts/test.sh creates it), or
 # TANDEM_PYTHON pointing to a Python with numpy and scipy.
@@ -32,6 +35,9 @@ peer = json.loads((repo / "target/peers/scipy_dare.json").read_text())
 labels = {
     "n4_m2": "random stabilisable, n = 4, m = 2",
     "n14_m7": "Panda double integrator, n = 14, m = 7",
+    "n14_m7_dense": "  the same, dense (no decoupling)",
+    "n14_m7_warm": "  the same, warm start",
+    "n14_m7_dense_warm": "  the same, dense, warm start",
     "n30_m10": "random stabilisable, n = 30, m = 10",
 }
 rows = []

@@ -3,7 +3,9 @@
 //! seeded random stabilisable systems with n = 1 … 30 and m = 1 … n (eight of
 //! them with a cross term N), plus the Panda's per-joint double integrator
 //! (n = 14, m = 7). P and K agree to 2e-10 in relative Frobenius norm
-//! (about 100 times the largest error seen, 2.1e-12; NaN fails).
+//! (about 100 times the largest error seen, 2.1e-12; NaN fails), for the
+//! default solve (the Panda's decouples into its joints), the dense one
+//! (`decouple = false`) and a warm start from 1.05·P.
 //!
 //! The reference Python is `$TANDEM_PYTHON`, else
 //! `<workspace>/python_ref/.venv/bin/python`; when it is missing the test
@@ -149,9 +151,19 @@ fn dare_agrees_with_scipy() {
         if let Some(n) = &case.n {
             problem = problem.with_cross_term(n);
         }
+        let (p_ref, k_ref) = (from_rows(&reference["p"]), from_rows(&reference["k"]));
+        let dense = DareSettings { decouple: false, ..settings.clone() };
+        ws.solve(&problem, &dense).unwrap_or_else(|e| panic!("{} (dense): {e}", case.label));
+        let guess = ws.p() * 1.05;
+        for (path, stats) in [("dense", None), ("warm", Some(ws.solve_warm(&problem, &settings, &guess)))] {
+            if let Some(stats) = stats {
+                stats.unwrap_or_else(|e| panic!("{} ({path}): {e}", case.label));
+            }
+            let (p_err, k_err) = (relative(ws.p(), &p_ref), relative(ws.k(), &k_ref));
+            assert!(p_err < TOLERANCE && k_err < TOLERANCE, "{} ({path}): P error {p_err:e}, K {k_err:e}", case.label);
+        }
         let stats = ws.solve(&problem, &settings).unwrap_or_else(|e| panic!("{}: {e}", case.label));
-        let (p_err, k_err) =
-            (relative(ws.p(), &from_rows(&reference["p"])), relative(ws.k(), &from_rows(&reference["k"])));
+        let (p_err, k_err) = (relative(ws.p(), &p_ref), relative(ws.k(), &k_ref));
         assert!(p_err < TOLERANCE && k_err < TOLERANCE, "{}: P error {p_err:e}, K error {k_err:e}", case.label);
         assert!(stats.closed_loop_spectral_radius < 1.0, "{}", case.label);
         // The bound is an upper estimate, tight to a few per cent.

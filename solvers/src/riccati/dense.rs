@@ -1,121 +1,12 @@
 //! Column-major dense kernels on preallocated nalgebra storage.
 //!
-//! Products go straight to `matrixmultiply` (nalgebra's own backend for
-//! dynamic matrices, with runtime-dispatched AVX2/AVX-512 kernels), which
-//! reads transposed operands through their strides without copying;
-//! factorisations are written here because nalgebra's allocate on every call
-//! and are several times slower at the sizes that matter (n ≤ 30). Every
-//! routine works in place on caller-owned buffers, so the Riccati hot loop
-//! never allocates.
+//! Factorisations are written here because nalgebra's allocate on every
+//! call and are several times slower at the sizes that matter (n ≤ 30);
+//! products are in [`super::gemm`]. Every routine works in place on
+//! caller-owned buffers, so the Riccati hot loop never allocates.
 
+pub(crate) use super::gemm::{Op, gemm, gemm_rows};
 use nalgebra::DMatrix;
-
-/// A read-only operand of [`gemm`]: a matrix, its transpose, or a block of
-/// its columns, described by strides into column-major storage.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Op<'a> {
-    data: &'a [f64],
-    rows: usize,
-    cols: usize,
-    row_stride: usize,
-    col_stride: usize,
-}
-
-impl<'a> Op<'a> {
-    /// `m` as it is.
-    pub(crate) fn n(m: &'a DMatrix<f64>) -> Self {
-        Op { data: m.as_slice(), rows: m.nrows(), cols: m.ncols(), row_stride: 1, col_stride: m.nrows() }
-    }
-
-    /// `mᵀ`, read in place.
-    pub(crate) fn t(m: &'a DMatrix<f64>) -> Self {
-        Op::n(m).transposed()
-    }
-
-    /// Rows `start .. start + count` of `m`.
-    pub(crate) fn rows(m: &'a DMatrix<f64>, start: usize, count: usize) -> Self {
-        Op { data: &m.as_slice()[start..], rows: count, cols: m.ncols(), row_stride: 1, col_stride: m.nrows() }
-    }
-
-    /// The transpose of this operand.
-    pub(crate) fn transposed(self) -> Self {
-        Op { rows: self.cols, cols: self.rows, row_stride: self.col_stride, col_stride: self.row_stride, ..self }
-    }
-
-    /// Whether every addressed element lies inside `data`.
-    fn in_bounds(&self) -> bool {
-        self.rows == 0
-            || self.cols == 0
-            || (self.rows - 1) * self.row_stride + (self.cols - 1) * self.col_stride < self.data.len()
-    }
-}
-
-/// Products with at most this many multiply-adds run as plain loops: below
-/// it, matrixmultiply's packing and per-call buffer allocation cost more
-/// than the arithmetic.
-const SMALL_GEMM: usize = 512;
-
-/// `c ← alpha·a·b + beta·c`; `c` is not read when `beta` is zero.
-///
-/// # Panics
-/// If the shapes do not agree (a programming error inside this crate).
-pub(crate) fn gemm(c: &mut DMatrix<f64>, alpha: f64, a: Op<'_>, b: Op<'_>, beta: f64) {
-    let (rows, cols) = c.shape();
-    gemm_block(c.as_mut_slice(), rows, rows, cols, alpha, a, b, beta);
-}
-
-/// [`gemm`] into rows `first .. first + a.rows` of `c`, all columns.
-pub(crate) fn gemm_rows(c: &mut DMatrix<f64>, first: usize, alpha: f64, a: Op<'_>, b: Op<'_>, beta: f64) {
-    let (ld, cols) = c.shape();
-    assert!(first + a.rows <= ld, "gemm_rows: block outside the matrix");
-    gemm_block(&mut c.as_mut_slice()[first..], ld, a.rows, cols, alpha, a, b, beta);
-}
-
-/// `c ← alpha·a·b + beta·c` for the `m × n` block of `c` with column stride `ld`.
-#[allow(clippy::too_many_arguments)] // a BLAS-style signature reads best here
-fn gemm_block(c: &mut [f64], ld: usize, m: usize, n: usize, alpha: f64, a: Op<'_>, b: Op<'_>, beta: f64) {
-    assert!(a.rows == m && b.cols == n && a.cols == b.rows, "gemm: shapes do not agree");
-    assert!(a.in_bounds() && b.in_bounds(), "gemm: operand outside its storage");
-    if m == 0 || n == 0 {
-        return;
-    }
-    assert!(ld >= m && (n - 1) * ld + m <= c.len(), "gemm: output outside its storage");
-    let k = a.cols;
-    if m * n * k <= SMALL_GEMM {
-        for j in 0..n {
-            for i in 0..m {
-                let dot: f64 = (0..k)
-                    .map(|l| a.data[i * a.row_stride + l * a.col_stride] * b.data[l * b.row_stride + j * b.col_stride])
-                    .sum();
-                let dst = &mut c[j * ld + i];
-                *dst = if beta == 0.0 { alpha * dot } else { alpha * dot + beta * *dst };
-            }
-        }
-        return;
-    }
-    // SAFETY: the assertions above keep every element matrixmultiply reads
-    // (a, b: rows × cols at the given strides) inside its slice and every
-    // element it writes (m × n at column stride ld ≥ m, so no two alias)
-    // inside `c`, a unique borrow that cannot overlap `a` or `b`.
-    unsafe {
-        matrixmultiply::dgemm(
-            m,
-            k,
-            n,
-            alpha,
-            a.data.as_ptr(),
-            a.row_stride as isize,
-            a.col_stride as isize,
-            b.data.as_ptr(),
-            b.row_stride as isize,
-            b.col_stride as isize,
-            beta,
-            c.as_mut_ptr(),
-            1,
-            ld as isize,
-        );
-    }
-}
 
 /// The factor was not positive definite at this pivot.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -397,27 +288,5 @@ mod tests {
         assert!((rhs - x).norm() < 1e-12);
         let mut indefinite = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         assert_eq!(cholesky(&mut indefinite, 0.0), Err(NotPositiveDefinite));
-    }
-
-    #[test]
-    fn gemm_handles_transposes_and_row_blocks() {
-        for (r, k, c) in [(7, 6, 8), (9, 12, 10), (2, 1, 3), (1, 1, 1)] {
-            let a = DMatrix::from_fn(k, r, |i, j| (i * 6 + j) as f64);
-            let b = DMatrix::from_fn(k + 2, c, |i, j| (i + j) as f64 * 0.1);
-            let mut out = DMatrix::from_element(r, c, 1.0);
-            let b_top = b.rows(0, k).into_owned();
-            gemm(&mut out, 2.0, Op::t(&a), Op::n(&b_top), 0.5);
-            let want = a.transpose() * &b_top * 2.0 + DMatrix::from_element(r, c, 0.5);
-            assert!((out - want).norm() < 1e-10);
-            let tall = DMatrix::from_fn(3 * r, c, |i, j| (i * j) as f64 - 1.0);
-            let block = tall.rows(r, r).into_owned();
-            let mut out = DMatrix::zeros(c, c);
-            gemm(&mut out, 1.0, Op::rows(&tall, r, r).transposed(), Op::n(&block), 0.0);
-            assert!((out - block.transpose() * &block).norm() < 1e-10);
-            let mut tall_out = DMatrix::from_element(r + c + 1, c, 3.0);
-            gemm_rows(&mut tall_out, 1, 1.0, Op::n(&block).transposed(), Op::n(&block), 0.0);
-            assert!((tall_out.rows(1, c) - block.transpose() * &block).norm() < 1e-10);
-            assert!(tall_out.row(0).iter().chain(tall_out.rows(c + 1, r).iter()).all(|&v| v == 3.0));
-        }
     }
 }

@@ -10,8 +10,12 @@
 //! (SDA, quadratic convergence), followed by Newton (Hewer) refinement when
 //! the residual calls for it; inputs that have no stabilising solution, or
 //! whose answer cannot be trusted, return a [`RiccatiError`] instead of a
-//! wrong `P`. [`DareWorkspace`] keeps every buffer between solves, so
-//! repeated solves of one size reuse them. [`finite_horizon_riccati`]
+//! wrong `P`. A problem that splits into unconnected groups of states and
+//! inputs (a per-joint model) is solved group by group
+//! ([`DareSettings::decouple`]); [`DareWorkspace::solve_warm`] starts Newton
+//! from a given `P` and falls back to the cold solve when that does not
+//! lead to the stabilising solution. [`DareWorkspace`] keeps every buffer
+//! between solves, so repeated solves of one size reuse them. [`finite_horizon_riccati`]
 //! gives the time-varying gains of a finite horizon, with constant or
 //! time-varying `A_t`, `B_t` (e.g. linearised along a reference).
 //!
@@ -31,9 +35,11 @@
 //! # Ok::<(), tandem_solvers::riccati::RiccatiError>(())
 //! ```
 
+mod blocks;
 mod dare;
 mod dense;
 mod finite_horizon;
+mod gemm;
 mod validate;
 
 pub use dare::{DareProblem, DareSettings, DareSolution, DareStats, DareWorkspace, solve_dare};

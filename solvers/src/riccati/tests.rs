@@ -220,3 +220,114 @@ fn finite_horizon_time_varying_matches_constant_and_checks_steps() {
     let err = finite_horizon_riccati(&LinearDynamics::constant(&a, &b), &q, &dmatrix![-1.0], &q, 3).unwrap_err();
     assert_eq!(err, RiccatiError::NotPositiveDefinite { matrix: "R" });
 }
+
+/// Seven joints, x = [q, q̇], dt = 0.01 s, per-joint weights (the Panda's case when uniform).
+fn joints(position: &[f64], control: f64) -> (DMatrix<f64>, DMatrix<f64>, DMatrix<f64>, DMatrix<f64>) {
+    let j = position.len();
+    let (a, b) = super::double_integrator(j, 0.01);
+    let q = DMatrix::from_diagonal(&nalgebra::DVector::from_fn(2 * j, |k, _| if k < j { position[k] } else { 1.0 }));
+    (a, b, q, DMatrix::identity(j, j) * control)
+}
+
+fn dense_settings() -> DareSettings {
+    DareSettings { decouple: false, ..settings() }
+}
+
+#[test]
+fn decoupled_groups_match_the_dense_solve() {
+    let uniform = joints(&[100.0; 7], 0.1);
+    let distinct = joints(&[100.0, 50.0, 100.0, 20.0, 7.0, 100.0, 1.0], 0.1);
+    for (a, b, q, r) in [uniform, distinct] {
+        let problem = DareProblem::new(&a, &b, &q, &r);
+        let dense = solve_dare(&problem, &dense_settings()).expect("solvable");
+        let split = solve_dare(&problem, &settings()).expect("solvable");
+        assert!(rel(&split.p, &dense.p) < 1e-12 && rel(&split.k, &dense.k) < 1e-12);
+        assert!(split.residual < 1e-13, "{}", split.residual);
+        assert!((split.closed_loop_spectral_radius - dense.closed_loop_spectral_radius).abs() < 0.01);
+        // Off-block entries are exactly zero.
+        assert_eq!(split.p[(0, 1)], 0.0);
+        assert_eq!(split.k[(0, 1)], 0.0);
+    }
+    // Groups interleaved by a permutation, with a cross term and a coupled R
+    // block: two groups {x0, x2; u1} and {x1, x3; u0, u2}.
+    let a = dmatrix![1.0, 0.0, 0.1, 0.0; 0.0, 0.9, 0.0, 0.2; 0.3, 0.0, 1.1, 0.0; 0.0, 0.1, 0.0, 1.2];
+    let b = dmatrix![0.0, 1.0, 0.0; 0.5, 0.0, 0.0; 0.0, 0.2, 0.0; 0.0, 0.0, 1.0];
+    let q = dmatrix![2.0, 0.0, 0.5, 0.0; 0.0, 1.0, 0.0, 0.0; 0.5, 0.0, 1.0, 0.0; 0.0, 0.0, 0.0, 3.0];
+    let r = dmatrix![1.0, 0.0, 0.3; 0.0, 2.0, 0.0; 0.3, 0.0, 1.0];
+    let n = dmatrix![0.0, 0.1, 0.0; 0.05, 0.0, 0.0; 0.0, 0.0, 0.0; 0.0, 0.0, 0.1];
+    let problem = DareProblem::new(&a, &b, &q, &r).with_cross_term(&n);
+    let dense = solve_dare(&problem, &dense_settings()).expect("solvable");
+    let split = solve_dare(&problem, &settings()).expect("solvable");
+    assert!(rel(&split.p, &dense.p) < 1e-12 && rel(&split.k, &dense.k) < 1e-12);
+    assert!(split.residual < 1e-13);
+    // A group that cannot be stabilised fails the whole solve, as densely.
+    // (x1 unstable, driven by nothing: x3 no longer acts on it, u0 no longer on x1.)
+    let mut bad = a.clone();
+    bad[(1, 1)] = 2.0;
+    bad[(1, 3)] = 0.0;
+    let b_bad = dmatrix![0.0, 1.0, 0.0; 0.0, 0.0, 0.0; 0.0, 0.2, 0.0; 0.0, 0.0, 1.0];
+    let err = solve_dare(&DareProblem::new(&bad, &b_bad, &q, &r), &settings()).unwrap_err();
+    assert!(matches!(err, RiccatiError::NotStabilisable { .. }), "{err}");
+}
+
+#[test]
+fn warm_start_equals_the_cold_solve() {
+    for decouple in [true, false] {
+        let s = DareSettings { decouple, ..settings() };
+        let (a, b, q, r) = joints(&[100.0; 7], 0.1);
+        let (a2, b2, q2, r2) = joints(&[101.0, 100.0, 99.5, 100.0, 100.0, 100.5, 100.0], 0.101);
+        let nearby = solve_dare(&DareProblem::new(&a2, &b2, &q2, &r2), &s).expect("solvable");
+        let problem = DareProblem::new(&a, &b, &q, &r);
+        let cold = solve_dare(&problem, &s).expect("solvable");
+        let mut ws = DareWorkspace::new(14, 7);
+        let stats = ws.solve_warm(&problem, &s, &nearby.p).expect("solvable");
+        assert_eq!(stats.iterations, 0, "decouple = {decouple}: Newton alone converged");
+        assert!((1..=4).contains(&stats.refinement_steps), "{}", stats.refinement_steps);
+        assert!(rel(ws.p(), &cold.p) < 1e-10 && rel(ws.k(), &cold.k) < 1e-10);
+        assert!(stats.residual <= s.refinement_threshold && stats.closed_loop_spectral_radius < 1.0);
+        // From the answer itself: no step at all.
+        let again = ws.solve_warm(&problem, &s, &cold.p).expect("solvable");
+        assert_eq!((again.iterations, again.refinement_steps), (0, 0));
+    }
+}
+
+#[test]
+fn warm_start_from_a_bad_guess_is_still_right_or_an_error() {
+    // Scalar a = 2: the DARE's other root is negative and anti-stabilising.
+    let (a, b, q, r) = (dmatrix![2.0], dmatrix![1.0], dmatrix![1.0], dmatrix![1.0]);
+    let problem = DareProblem::new(&a, &b, &q, &r);
+    let p = scalar_p(2.0, 1.0, 1.0, 1.0);
+    // The roots of p² − 4p − 1 (b²p² + (r(1 − a²) − qb²)p − qr) sum to 4.
+    let other = dmatrix![4.0 - p];
+    assert!((other[(0, 0)].powi(2) - 4.0 * other[(0, 0)] - 1.0).abs() < 1e-12);
+    let mut ws = DareWorkspace::new(1, 1);
+    for guess in [other, dmatrix![0.0], dmatrix![-50.0], dmatrix![1e12]] {
+        ws.solve_warm(&problem, &settings(), &guess).expect("solvable");
+        assert!((ws.p()[(0, 0)] - p).abs() < 1e-10 * p, "from {guess}: {}", ws.p());
+    }
+    // A non-stabilising P for the Panda (zero: K = 0, the double integrator is marginal).
+    let (a, b, q, r) = joints(&[100.0; 7], 0.1);
+    let problem = DareProblem::new(&a, &b, &q, &r);
+    let cold = solve_dare(&problem, &settings()).expect("solvable");
+    for decouple in [true, false] {
+        let s = DareSettings { decouple, ..settings() };
+        let mut ws = DareWorkspace::new(14, 7);
+        ws.solve_warm(&problem, &s, &DMatrix::zeros(14, 14)).expect("solvable");
+        assert!(rel(ws.p(), &cold.p) < 1e-10);
+        ws.solve_warm(&problem, &s, &(&cold.p * -1.0)).expect("solvable");
+        assert!(rel(ws.p(), &cold.p) < 1e-10);
+    }
+    // No stabilising solution: the cold solve's error, whatever the guess.
+    let (a, b, q, r) = (dmatrix![2.0, 0.0; 0.0, 0.5], dmatrix![0.0; 1.0], DMatrix::identity(2, 2), dmatrix![1.0]);
+    let err = ws.solve_warm(&DareProblem::new(&a, &b, &q, &r), &settings(), &DMatrix::identity(2, 2)).unwrap_err();
+    assert!(matches!(err, RiccatiError::NotStabilisable { .. }), "{err}");
+    // A malformed guess is named.
+    let (a, b, q, r) = double_integrator(0.1);
+    let problem = DareProblem::new(&a, &b, &q, &r);
+    let err = ws.solve_warm(&problem, &settings(), &DMatrix::zeros(3, 3)).unwrap_err();
+    assert!(matches!(err, RiccatiError::DimensionMismatch { matrix: "P0", .. }), "{err}");
+    let err = ws.solve_warm(&problem, &settings(), &dmatrix![f64::NAN, 0.0; 0.0, 1.0]).unwrap_err();
+    assert!(matches!(err, RiccatiError::NonFinite { matrix: "P0", .. }), "{err}");
+    let err = ws.solve_warm(&problem, &settings(), &dmatrix![1.0, 1.0; 0.0, 1.0]).unwrap_err();
+    assert!(matches!(err, RiccatiError::NotSymmetric { matrix: "P0", .. }), "{err}");
+}
