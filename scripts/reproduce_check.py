@@ -37,6 +37,8 @@ PUBLISHED_FIGURES = {
     "learned_authority.svg": "learned/authority.svg",
     "metric_field.svg": "figures/metric_field.svg",
     "policy.svg": "figures/policy.svg",
+    "motion_limits.svg": "figures/motion_limits.svg",
+    "motion_limits_off.svg": "figures/motion_limits_off.svg",
 }
 
 BLOCK = re.compile(r"<!-- reproduce: ([a-z-]+) -->\n```text\n(.*?)```\n<!-- /reproduce -->", re.S)
