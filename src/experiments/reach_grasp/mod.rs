@@ -337,6 +337,9 @@ pub struct Cell {
     pub peak_ratios: [f64; 2],
     /// The episodes that did not succeed, by reason.
     pub reasons: BTreeMap<&'static str, usize>,
+    /// Mean duration of the successful episodes (s): the time to grasp;
+    /// `None` without a success.
+    pub time_to_grasp: Option<f64>,
 }
 
 impl ReachGraspResults {
@@ -360,12 +363,15 @@ impl ReachGraspResults {
             c.peak_ratios[1] = c.peak_ratios[1].max(e.peak_jerk_ratio);
             if e.outcome != Outcome::Success {
                 *c.reasons.entry(e.reason.as_str()).or_default() += 1;
+            } else {
+                *c.time_to_grasp.get_or_insert(0.0) += e.duration;
             }
             count += 1;
         }
         if count > 0 {
             c.cos = c.cos.map(|x| x / count as f64);
         }
+        c.time_to_grasp = c.time_to_grasp.map(|t| t / c.success as f64);
         c
     }
 
@@ -393,7 +399,8 @@ impl Experiment for ReachGraspSettings {
     /// "step_seconds"}, "results": [{"arm", "operator", "method",
     /// "success", "collision", "timeout", "failed", "cos_sim": [x, y, z],
     /// "hard_violations", "limit_violations", "peak_acceleration_ratio",
-    /// "peak_jerk_ratio", "reasons", and with physics "kinematic_judge":
+    /// "peak_jerk_ratio", "time_to_grasp_s" (the successes' mean duration,
+    /// null without one), "reasons", and with physics "kinematic_judge":
     /// {"both", "kinematic_only", "physics_only", "neither",
     /// "never_closed"}}], "resampled_tasks", "seconds", "tick_us"}`.
     fn json(&self, r: &ReachGraspResults) -> serde_json::Value {
@@ -408,7 +415,8 @@ impl Experiment for ReachGraspSettings {
                         "success": c.success, "collision": c.collision, "timeout": c.timeout, "failed": c.failed,
                         "cos_sim": c.cos, "hard_violations": c.hard_violations,
                         "limit_violations": c.limit_violations, "peak_acceleration_ratio": c.peak_ratios[0],
-                        "peak_jerk_ratio": c.peak_ratios[1], "reasons": c.reasons,
+                        "peak_jerk_ratio": c.peak_ratios[1], "time_to_grasp_s": c.time_to_grasp,
+                        "reasons": c.reasons,
                     });
                     if s.simulator != Simulator::Kinematic {
                         let cell = r.episodes.iter().filter(|e| e.arm == arm && e.operator == o && e.method == m);
