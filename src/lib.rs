@@ -19,6 +19,7 @@
 //! - [`trajectory`]: the one joint trajectory type and its CSV / Parquet files;
 //! - `figures` (feature `experiments`): the SVG toolkit, one style;
 //! - [`scene`]: shapes, obstacles, graspable objects;
+//! - [`point_cloud`]: a sensor's points from PLY and PCD files;
 //! - [`collision`]: the collision model of a robot in its scene, signed
 //!   distances (cross-checked against coal), certified motion checks;
 //! - [`problem`]: problem files, families, MoveIt import, grasp goals and judge;
@@ -70,6 +71,7 @@ pub mod komo;
 pub mod learn;
 pub mod pipeline;
 pub mod plan;
+pub mod point_cloud;
 pub mod problem;
 pub mod robot;
 #[cfg(feature = "ros2")]

@@ -17,7 +17,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("files", &["files"]),
     ("trajectory", &["trajectory"]),
     ("figures", &["figures"]),
-    ("geometry", &["scene"]),
+    ("geometry", &["scene", "point_cloud"]),
     ("collision", &["collision"]),
     ("problems", &["problem"]),
     ("planning", &["plan"]),
