@@ -11,10 +11,15 @@
 //!
 //! The points are in the frame the file gives them in (the sensor's or the
 //! robot's root frame: a file says nothing about it); placing them is the
-//! caller's (see [`PointCloud::transformed`]).
+//! caller's (see [`PointCloud::transformed`]). [`PointCloud::filtered`]
+//! crops, range-limits and thins a cloud, and says how much the point
+//! radius must grow for the thinned cloud to stand for the whole.
 
+mod filter;
 mod pcd;
 mod ply;
+
+pub use filter::{FilterReport, FilterSettings};
 
 use std::path::Path;
 

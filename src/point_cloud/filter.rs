@@ -1,0 +1,186 @@
+//! Thinning a cloud before it becomes an obstacle: a workspace crop, a
+//! range window around the sensor, and a minimum-distance filter.
+//!
+//! **Why the filter keeps the checks sound.** The minimum-distance filter
+//! keeps the first point (in file order) of each cell of a grid of edge
+//! `spacing / √3`; a removed point shares its cell with a kept one, so it
+//! lies within `spacing` of it. A robot sphere that clears every kept
+//! point by `point_radius + spacing` therefore clears every removed point
+//! by `point_radius`: whoever uses the thinned cloud as obstacles must
+//! inflate its points by [`FilterReport::radius_margin`] (= `spacing`).
+
+use super::{PointCloud, PointCloudError};
+use std::collections::HashSet;
+
+/// How to thin a cloud (all in m, in the cloud's frame).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FilterSettings {
+    /// Keep only points inside this axis-aligned box (min, max corners);
+    /// `None`: no crop.
+    pub crop: Option<([f64; 3], [f64; 3])>,
+    /// The sensor's position, for [`Self::range`].
+    pub sensor: [f64; 3],
+    /// Keep only points whose distance from `sensor` is within this window
+    /// (a depth camera's reliable range, e.g. 0.3–3 m for a RealSense
+    /// D435); `None`: no window.
+    pub range: Option<(f64, f64)>,
+    /// The minimum-distance filter's spacing: every removed point lies
+    /// within it of a kept point; 0: no thinning.
+    pub spacing: f64,
+}
+
+impl Default for FilterSettings {
+    fn default() -> Self {
+        FilterSettings { crop: None, sensor: [0.0; 3], range: None, spacing: 0.0 }
+    }
+}
+
+/// What a filter removed, step by step, and what it asks of the user.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FilterReport {
+    /// Points given.
+    pub input: usize,
+    /// Removed by the crop box.
+    pub cropped: usize,
+    /// Removed by the range window.
+    pub out_of_range: usize,
+    /// Removed by the minimum-distance filter.
+    pub thinned: usize,
+    /// Points kept.
+    pub kept: usize,
+    /// How much to add to the point radius so that the kept points stand
+    /// for the removed ones (m): the spacing (see the module docs).
+    pub radius_margin: f64,
+}
+
+impl FilterSettings {
+    /// Checks the settings: a crop box with min ≤ max, a range window
+    /// 0 ≤ near ≤ far, a spacing finite and ≥ 0, everything finite.
+    ///
+    /// # Errors
+    /// The first setting out of range, by name.
+    pub fn validate(&self) -> Result<(), PointCloudError> {
+        let bad = |m: String| Err(PointCloudError::new("point cloud filter", None, m));
+        if let Some((lo, hi)) = self.crop
+            && !(0..3).all(|k| lo[k].is_finite() && hi[k].is_finite() && lo[k] <= hi[k])
+        {
+            return bad(format!("crop: {lo:?} to {hi:?} is not a box (finite, min ≤ max)"));
+        }
+        if !self.sensor.iter().all(|x| x.is_finite()) {
+            return bad(format!("sensor: {:?} is not a position", self.sensor));
+        }
+        if let Some((near, far)) = self.range
+            && !(near.is_finite() && far.is_finite() && 0.0 <= near && near <= far)
+        {
+            return bad(format!("range: {near} to {far} is not a window (0 ≤ near ≤ far)"));
+        }
+        if !(self.spacing.is_finite() && self.spacing >= 0.0) {
+            return bad(format!("spacing: {} must be finite and ≥ 0", self.spacing));
+        }
+        Ok(())
+    }
+}
+
+impl PointCloud {
+    /// The cloud cropped, range-limited and thinned by `settings`, in that
+    /// order, with what each step removed. Deterministic: the kept points
+    /// are in file order, the first of each cell.
+    ///
+    /// # Errors
+    /// Settings out of range ([`FilterSettings::validate`]).
+    pub fn filtered(&self, settings: &FilterSettings) -> Result<(PointCloud, FilterReport), PointCloudError> {
+        settings.validate()?;
+        let mut report = FilterReport { input: self.len(), radius_margin: settings.spacing, ..FilterReport::default() };
+        let inside = |p: &[f64; 3]| settings.crop.is_none_or(|(lo, hi)| (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]));
+        let in_range = |p: &[f64; 3]| {
+            settings.range.is_none_or(|(near, far)| {
+                let d = (0..3).map(|k| (p[k] - settings.sensor[k]).powi(2)).sum::<f64>().sqrt();
+                near <= d && d <= far
+            })
+        };
+        let cell = settings.spacing / 3f64.sqrt();
+        let mut taken: HashSet<[i64; 3]> = HashSet::new();
+        let mut kept = PointCloud { points: Vec::new(), dropped: self.dropped };
+        for p in &self.points {
+            if !inside(p) {
+                report.cropped += 1;
+            } else if !in_range(p) {
+                report.out_of_range += 1;
+            } else if cell > 0.0 && !taken.insert(p.map(|x| (x / cell).floor() as i64)) {
+                report.thinned += 1;
+            } else {
+                kept.points.push(*p);
+            }
+        }
+        report.kept = kept.len();
+        Ok((kept, report))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A seeded cloud: a dense patch (a table seen by a camera) and a few
+    /// points far away.
+    fn cloud() -> PointCloud {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut points: Vec<[f64; 3]> = (0..4000).map(|_| [next() * 0.4, next() * 0.4, 0.7 + next() * 0.01]).collect();
+        points.extend([[5.0, 0.0, 0.0], [0.0, 0.0, 0.1]]);
+        PointCloud::from_points(points)
+    }
+
+    #[test]
+    fn every_removed_point_lies_within_the_spacing_of_a_kept_one() {
+        let cloud = cloud();
+        for spacing in [0.005, 0.02, 0.1] {
+            let (kept, report) = cloud.filtered(&FilterSettings { spacing, ..FilterSettings::default() }).unwrap();
+            assert_eq!(report.kept + report.thinned, cloud.len());
+            assert!(report.thinned > 0 && report.radius_margin == spacing);
+            let worst = cloud
+                .points
+                .iter()
+                .map(|p| {
+                    kept.points
+                        .iter()
+                        .map(|q| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
+                        .fold(f64::INFINITY, f64::min)
+                })
+                .fold(0.0, f64::max);
+            assert!(worst <= spacing, "spacing {spacing}: a removed point {worst} m from every kept one");
+            // Deterministic, and the same again.
+            assert_eq!(kept, cloud.filtered(&FilterSettings { spacing, ..FilterSettings::default() }).unwrap().0);
+        }
+    }
+
+    #[test]
+    fn crop_and_range_remove_what_they_say() {
+        let cloud = cloud();
+        let settings = FilterSettings {
+            crop: Some(([-1.0, -1.0, 0.05], [1.0, 1.0, 2.0])),
+            sensor: [0.0, 0.0, 0.0],
+            range: Some((0.3, 3.0)),
+            spacing: 0.0,
+        };
+        let (kept, report) = cloud.filtered(&settings).unwrap();
+        // The far point is cropped; the one 0.1 m from the sensor is too near.
+        assert_eq!((report.cropped, report.out_of_range, report.thinned, report.kept), (1, 1, 0, 4000));
+        assert_eq!(kept.len(), 4000);
+        for (bad, says) in [
+            (FilterSettings { spacing: -1.0, ..settings }, "spacing: -1"),
+            (FilterSettings { spacing: f64::NAN, ..settings }, "spacing: NaN"),
+            (FilterSettings { range: Some((2.0, 1.0)), ..settings }, "range: 2 to 1"),
+            (FilterSettings { crop: Some(([1.0; 3], [0.0; 3])), ..settings }, "crop:"),
+            (FilterSettings { sensor: [f64::INFINITY, 0.0, 0.0], ..settings }, "sensor:"),
+        ] {
+            let e = cloud.filtered(&bad).unwrap_err().to_string();
+            assert!(e.contains(says), "{e}");
+        }
+    }
+}
