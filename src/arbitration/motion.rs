@@ -200,6 +200,9 @@ pub struct MotionAudit {
     pub peak_acceleration_ratio: f64,
     /// The largest `|q⃛| / jerk limit` seen.
     pub peak_jerk_ratio: f64,
+    /// The last command's largest acceleration and jerk ratios over the
+    /// joints (as the peaks, for that command alone).
+    pub last_ratios: [f64; 2],
 }
 
 impl MotionAudit {
@@ -211,6 +214,7 @@ impl MotionAudit {
             violations: 0,
             peak_acceleration_ratio: 0.0,
             peak_jerk_ratio: 0.0,
+            last_ratios: [0.0; 2],
         }
     }
 
@@ -218,6 +222,7 @@ impl MotionAudit {
     /// returns whether it broke one.
     pub fn observe(&mut self, qdot: &[f64], dt: f64, limits: &[JointMotionLimits]) -> bool {
         let mut broke = false;
+        self.last_ratios = [0.0; 2];
         for (j, (&u, l)) in qdot.iter().zip(limits).enumerate() {
             let (v, a) = (self.velocity[j], self.acceleration[j]);
             let acc = (u - v) / dt;
@@ -227,6 +232,7 @@ impl MotionAudit {
             let (ra, rj) = (acc.abs() / limit, jerk.abs() / l.jerk);
             self.peak_acceleration_ratio = self.peak_acceleration_ratio.max(ra);
             self.peak_jerk_ratio = self.peak_jerk_ratio.max(rj);
+            self.last_ratios = [self.last_ratios[0].max(ra), self.last_ratios[1].max(rj)];
             broke |= ra > 1.0 + 1e-9 || rj > 1.0 + 1e-9 || !acc.is_finite();
             self.velocity[j] = u;
             self.acceleration[j] = acc;

@@ -253,7 +253,8 @@ fn episode_svg(
 }
 
 /// The executed commands' largest acceleration and jerk ratio per tick
-/// (finite differences at the period from rest, over each joint's limits).
+/// (finite differences at the period from rest, over each joint's limits:
+/// [`MotionAudit`](crate::arbitration::MotionAudit)).
 fn motion_svg(
     problem: &Problem,
     record: &EpisodeRecord,
@@ -261,20 +262,14 @@ fn motion_svg(
     args: &ArbitrateArgs,
 ) -> Result<String, Box<dyn std::error::Error>> {
     let (dt, limits) = (settings.period, problem.robot.motion_limits());
-    let n = limits.len();
-    let (mut velocity, mut acceleration) = (vec![0.0; n], vec![0.0; n]);
+    // The episode's own audit, command by command (as a controller sees it).
+    let mut audit = crate::arbitration::MotionAudit::new(limits.len());
     let (mut accelerations, mut jerks) = (Vec::new(), Vec::new());
     for (k, qdot) in record.qdot.iter().enumerate() {
-        let (mut a_ratio, mut j_ratio) = (0.0f64, 0.0f64);
-        for (j, l) in limits.iter().enumerate() {
-            let a = (qdot[j] - velocity[j]) / dt;
-            a_ratio = a_ratio.max(a.abs() / l.acceleration.max(l.deceleration));
-            j_ratio = j_ratio.max(((a - acceleration[j]) / dt).abs() / l.jerk);
-            (velocity[j], acceleration[j]) = (qdot[j], a);
-        }
+        audit.observe(qdot, dt, limits);
         let t = (k + 1) as f64 * dt;
-        accelerations.push((t, a_ratio));
-        jerks.push((t, j_ratio));
+        accelerations.push((t, audit.last_ratios[0]));
+        jerks.push((t, audit.last_ratios[1]));
     }
     let end = record.qdot.len() as f64 * dt;
     let limit = [(0.0, 1.0), (end, 1.0)];

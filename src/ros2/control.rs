@@ -285,14 +285,6 @@ impl ControlLoop {
         self.state_valid.then_some(&self.q[..])
     }
 
-    /// The configuration the ticks run from (rad or m), once a valid joint
-    /// state has arrived: with position outputs the node's last commanded
-    /// positions (re-anchored to the measurement past
-    /// [`NodeSettings::reference_deviation_limit`]), else the measurement.
-    pub fn reference(&self) -> Option<&[f64]> {
-        self.has_reference.then_some(&self.reference[..])
-    }
-
     /// The mode running.
     pub fn mode(&self) -> ArbitrationMode {
         self.ws.mode()
@@ -469,7 +461,14 @@ impl ControlLoop {
         // or with velocity outputs (nothing is integrated there).
         let state_fresh = fresh(self.q_at, self.settings.joint_state_timeout);
         let deviation = match self.has_reference && self.state_valid {
-            true => self.reference.iter().zip(&self.q).map(|(r, q)| (r - q).abs()).fold(0.0, f64::max),
+            // NaN stays NaN (f64::max would drop it): a reference that is
+            // not finite is re-anchored below.
+            true => self
+                .reference
+                .iter()
+                .zip(&self.q)
+                .map(|(r, q)| (r - q).abs())
+                .fold(0.0, |m: f64, d| if m.is_nan() || d.is_nan() { f64::NAN } else { m.max(d) }),
             false => f64::NAN,
         };
         if self.state_valid && state_fresh {

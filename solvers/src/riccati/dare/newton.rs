@@ -21,22 +21,8 @@ impl DareWorkspace {
         if !residual.is_finite() {
             return None; // R + BᵀP₀B is not positive definite: no gain to start from
         }
-        let mut steps = 0;
-        while residual > settings.refinement_threshold && steps < MAX_WARM_STEPS {
-            steps += 1;
-            self.p_prev.copy_from(&self.p);
-            self.k_prev.copy_from(&self.k);
-            let terms = self.residual_terms;
-            let next = if self.newton_step() { self.gain_and_residual() } else { f64::NAN };
-            if next.is_nan() || next >= residual {
-                // Stalled at rounding level (or diverging): keep the better P.
-                self.p.copy_from(&self.p_prev);
-                self.k.copy_from(&self.k_prev);
-                self.residual_terms = terms;
-                break;
-            }
-            residual = next;
-        }
+        let steps;
+        (residual, steps) = self.newton_steps(settings.refinement_threshold, MAX_WARM_STEPS, residual);
         if residual.is_nan() || residual > settings.residual_tolerance {
             return None;
         }
@@ -69,19 +55,25 @@ impl DareWorkspace {
         true
     }
 
-    /// Newton steps `P ← P + X`, `X − SᵀXS = Res(P)`, `S = A − BK`, while
-    /// the residual is above the threshold and improving; returns the final
-    /// residual and the steps attempted.
-    pub(super) fn refine(&mut self, settings: &DareSettings, mut residual: f64) -> (f64, usize) {
+    /// The refinement after doubling: [`Self::newton_steps`] up to the
+    /// settings' threshold and step count.
+    pub(super) fn refine(&mut self, settings: &DareSettings, residual: f64) -> (f64, usize) {
+        self.newton_steps(settings.refinement_threshold, settings.max_refinement_steps, residual)
+    }
+
+    /// Newton steps `P ← P + X`, `X − SᵀXS = Res(P)`, `S = A − BK`, at most
+    /// `max_steps`, while the residual is above `threshold` and improving;
+    /// returns the final residual and the steps attempted.
+    fn newton_steps(&mut self, threshold: f64, max_steps: usize, mut residual: f64) -> (f64, usize) {
         let mut steps = 0;
-        while residual > settings.refinement_threshold && steps < settings.max_refinement_steps {
+        while residual > threshold && steps < max_steps {
             steps += 1;
             self.p_prev.copy_from(&self.p);
             self.k_prev.copy_from(&self.k);
             let terms = self.residual_terms;
             let next = if self.newton_step() { self.gain_and_residual() } else { f64::NAN };
             if next.is_nan() || next >= residual {
-                // A step that does not help means rounding dominates: keep the better answer.
+                // Stalled at rounding level (or diverging): keep the better answer.
                 self.p.copy_from(&self.p_prev);
                 self.k.copy_from(&self.k_prev);
                 self.residual_terms = terms;
