@@ -18,8 +18,10 @@
 mod filter;
 mod pcd;
 mod ply;
+mod tree;
 
 pub use filter::{FilterReport, FilterSettings};
+pub use tree::PointTree;
 
 use std::path::Path;
 

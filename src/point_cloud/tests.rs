@@ -179,3 +179,81 @@ fn files_are_read_by_extension_or_first_bytes_and_placed_by_a_pose() {
     }
     assert_eq!(PointCloud::from_points([[f64::NAN, 0.0, 0.0], [0.0; 3]]).dropped, 1);
 }
+
+/// Random points in a 1 m cube, some repeated (ties) and a flat patch
+/// (a degenerate box side), from a fixed seed.
+fn scattered(n: usize, seed: u64) -> Vec<[f64; 3]> {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut points: Vec<[f64; 3]> = (0..n).map(|_| [rng.random(), rng.random(), rng.random()]).collect();
+    points.extend_from_within(..n / 10);
+    points.extend((0..n / 10).map(|_| [rng.random(), rng.random(), 0.5]));
+    points
+}
+
+fn brute_nearest(points: &[[f64; 3]], p: &[f64; 3]) -> (f64, usize) {
+    let d2 = |q: &[f64; 3]| (0..3).map(|i| (q[i] - p[i]).powi(2)).sum::<f64>();
+    // First of the nearest, as the tree's ties may name another: compare distances.
+    points.iter().enumerate().map(|(i, q)| (d2(q), i)).fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a })
+}
+
+#[test]
+fn tree_answers_as_brute_force_does() {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    for n in [0, 1, 5, 8, 9, 100, 2000] {
+        let points = scattered(n, n as u64);
+        let tree = PointTree::new(&points);
+        assert_eq!(tree.len(), points.len());
+        for _ in 0..300 {
+            let p: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.5..1.5));
+            let cap: f64 = rng.random_range(0.0..0.6);
+            let (d2, _) = brute_nearest(&points, &p);
+            match tree.nearest(&p, f64::INFINITY) {
+                Some((t2, i)) => {
+                    assert_eq!(t2, d2);
+                    assert_eq!((0..3).map(|k| (points[i][k] - p[k]).powi(2)).sum::<f64>(), d2);
+                }
+                None => assert!(points.is_empty()),
+            }
+            assert_eq!(tree.nearest(&p, cap).map(|(t2, _)| t2), (d2 < cap * cap).then_some(d2));
+            assert_eq!(tree.any_closer(&p, cap), d2 < cap * cap, "n {n}, p {p:?}, cap {cap}");
+            // A ball of radius 0.1 about p, distances to its surface.
+            let ball = |q: [f64; 3]| (0..3).map(|k| (q[k] - p[k]).powi(2)).sum::<f64>().sqrt() - 0.1;
+            let near = tree.nearest_to(&p, 0.1, cap, ball).map(|(d, _)| d);
+            let expected = (d2.sqrt() - 0.1 < cap).then_some(d2.sqrt() - 0.1);
+            assert_eq!(near.is_some(), expected.is_some());
+            if let (Some(a), Some(b)) = (near, expected) {
+                assert!((a - b).abs() < 1e-15, "{a} vs {b}");
+            }
+            let mut seen = 0;
+            tree.any_near(&p, 0.1, cap, |_| {
+                seen += 1;
+                false
+            });
+            let within = points.iter().filter(|q| ball(**q) <= cap).count();
+            assert_eq!(seen, within);
+        }
+        if !points.is_empty() {
+            let (lo, hi) = tree.bounds().unwrap();
+            assert!(points.iter().all(|q| (0..3).all(|k| lo[k] <= q[k] && q[k] <= hi[k])));
+        }
+    }
+}
+
+#[test]
+fn tree_is_never_free_at_nan_and_skips_non_finite_points() {
+    let tree = PointTree::new(&[[0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0], [1.0, f64::INFINITY, 0.0], [5.0, 5.0, 5.0]]);
+    assert_eq!(tree.len(), 2);
+    let nan = [f64::NAN, 0.0, 0.0];
+    assert!(tree.any_closer(&nan, 0.01));
+    assert!(tree.nearest(&nan, 1.0).unwrap().0.is_nan());
+    assert!(tree.nearest_to(&nan, 0.1, 1.0, |_| 0.0).unwrap().0.is_nan());
+    // Indices are the input's.
+    assert_eq!(tree.nearest(&[4.0, 5.0, 5.0], f64::INFINITY), Some((1.0, 3)));
+    // Same points, same tree.
+    let points = scattered(500, 3);
+    let (a, b) = (PointTree::new(&points), PointTree::new(&points));
+    assert!(a.points().zip(b.points()).all(|(x, y)| x == y));
+    assert!(PointTree::new(&[]).nearest(&[0.0; 3], f64::INFINITY).is_none());
+}
