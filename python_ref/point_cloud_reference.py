@@ -9,6 +9,11 @@ Writes, in DIR, a cloud of N seeded random points (float32 x, y, z in
 extra uint8 or float field beside them) in each format, and prints one
 JSON object: {"files": {name: path}, "points": [[x, y, z], ...] (the
 float32 values written, as float64, NaN as null)}.
+
+With {"points": [[x, y, z], ...], "queries": [[x, y, z], ...]} instead, it
+answers nearest-point queries with SciPy's cKDTree (exact Euclidean
+nearest neighbours): {"distances": [...], "indices": [...],
+"scipy_version": str}, for tests/point_cloud_collision.rs.
 """
 import json
 import os
@@ -19,6 +24,17 @@ import plyfile
 import pypcd4
 
 request = json.load(sys.stdin)
+if "queries" in request:
+    import scipy
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(np.asarray(request["points"], dtype=float))
+    distances, indices = tree.query(np.asarray(request["queries"], dtype=float), k=1)
+    json.dump(
+        {"distances": distances.tolist(), "indices": indices.tolist(), "scipy_version": scipy.__version__},
+        sys.stdout,
+    )
+    sys.exit(0)
 rng = np.random.default_rng(request["seed"])
 n = request["points"]
 xyz = rng.uniform(-2.0, 2.0, size=(n, 3)).astype(np.float32)

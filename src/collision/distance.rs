@@ -5,6 +5,7 @@
 //! every other pair goes through parry3d's GJK (separated) and EPA
 //! (penetrating). All results are in world coordinates.
 
+use crate::point_cloud::PointTree;
 use crate::scene::Shape;
 use nalgebra::{IsometryMatrix3, Point3, UnitQuaternion, Vector3};
 use parry3d_f64::query;
@@ -54,6 +55,8 @@ pub fn signed_distance(
     pose_b: &IsometryMatrix3<f64>,
 ) -> SignedDistance {
     match (a, b) {
+        (_, Shape::Points { points, radius }) => to_points(a, pose_a, points, *radius, pose_b),
+        (Shape::Points { points, radius }, _) => to_points(b, pose_b, points, *radius, pose_a).flipped(),
         (Shape::Sphere { radius }, _) => point_to_shape(&pose_a.translation.vector.into(), *radius, b, pose_b),
         (_, Shape::Sphere { radius }) => {
             point_to_shape(&pose_b.translation.vector.into(), *radius, a, pose_a).flipped()
@@ -77,6 +80,11 @@ pub fn closer_than(
     pose_b: &IsometryMatrix3<f64>,
     threshold: f64,
 ) -> bool {
+    match (a, b) {
+        (_, Shape::Points { points, radius }) => return near_points(a, pose_a, points, *radius, pose_b, threshold),
+        (Shape::Points { points, radius }, _) => return near_points(b, pose_b, points, *radius, pose_a, threshold),
+        _ => {}
+    }
     let analytic = matches!(a, Shape::Sphere { .. })
         || matches!(b, Shape::Sphere { .. })
         || matches!((a, b), (Shape::Capsule { .. }, Shape::Capsule { .. }));
@@ -95,6 +103,83 @@ pub fn closer_than(
     })
 }
 
+/// `a` (at `pose_a`) against the balls of `radius` at `points` (placed by
+/// `pose_b`): the nearest ball's distance; +∞ (witnesses at the shapes'
+/// origins) when there is no point.
+fn to_points(
+    a: &Shape,
+    pose_a: &IsometryMatrix3<f64>,
+    points: &PointTree,
+    radius: f64,
+    pose_b: &IsometryMatrix3<f64>,
+) -> SignedDistance {
+    let ball = |p: [f64; 3]| IsometryMatrix3::from_parts((pose_b * Point3::from(p)).coords.into(), pose_b.rotation);
+    let center = pose_b.inverse_transform_point(&pose_a.translation.vector.into());
+    let local = [center.x, center.y, center.z];
+    let nearest = match a {
+        Shape::Sphere { .. } => points.nearest(&local, f64::INFINITY).map(|(_, i)| i),
+        // Two clouds: the nearest pair, point by point of the first.
+        Shape::Points { points: first, radius: ra } => {
+            let mut best = (f64::INFINITY, None);
+            for (p, _) in first.points() {
+                let pose = IsometryMatrix3::from_parts((pose_a * Point3::from(p)).coords.into(), pose_a.rotation);
+                let d = to_points(&Shape::Sphere { radius: *ra }, &pose, points, radius, pose_b);
+                if d.distance < best.0 || d.distance.is_nan() {
+                    best = (d.distance, Some(d));
+                }
+            }
+            return best.1.unwrap_or_else(|| nothing(pose_a, pose_b));
+        }
+        _ => {
+            let sphere = Shape::Sphere { radius };
+            let exact = |p| signed_distance(a, pose_a, &sphere, &ball(p)).distance;
+            points.nearest_to(&local, a.bounding_radius(), f64::INFINITY, exact).map(|(_, i)| i)
+        }
+    };
+    match nearest {
+        Some(k) => signed_distance(a, pose_a, &Shape::Sphere { radius }, &ball(points.point(k).0)),
+        None => nothing(pose_a, pose_b),
+    }
+}
+
+/// The distance to an empty cloud: +∞, witnesses at the shapes' origins.
+fn nothing(pose_a: &IsometryMatrix3<f64>, pose_b: &IsometryMatrix3<f64>) -> SignedDistance {
+    SignedDistance {
+        distance: f64::INFINITY,
+        point_a: pose_a.translation.vector.into(),
+        point_b: pose_b.translation.vector.into(),
+        normal: Vector3::z(),
+    }
+}
+
+/// Whether `a` comes closer than `threshold` (m) to a ball of `radius` at
+/// one of `points` (placed by `pose_b`).
+fn near_points(
+    a: &Shape,
+    pose_a: &IsometryMatrix3<f64>,
+    points: &PointTree,
+    radius: f64,
+    pose_b: &IsometryMatrix3<f64>,
+    threshold: f64,
+) -> bool {
+    let center = pose_b.inverse_transform_point(&pose_a.translation.vector.into());
+    let local = [center.x, center.y, center.z];
+    match a {
+        Shape::Sphere { radius: ra } => points.any_closer(&local, ra + radius + threshold),
+        Shape::Points { points: first, radius: ra } => first.points().any(|(p, _)| {
+            let c = pose_b.inverse_transform_point(&(pose_a * Point3::from(p)));
+            points.any_closer(&[c.x, c.y, c.z], ra + radius + threshold)
+        }),
+        _ => {
+            let sphere = Shape::Sphere { radius };
+            points.any_near(&local, a.bounding_radius() + radius, threshold, |p| {
+                let pose = IsometryMatrix3::from_parts((pose_b * Point3::from(p)).coords.into(), pose_b.rotation);
+                closer_than(a, pose_a, &sphere, &pose, threshold)
+            })
+        }
+    }
+}
+
 /// A ball of `radius` at `center` against a shape.
 fn point_to_shape(center: &Point3<f64>, radius: f64, b: &Shape, pose_b: &IsometryMatrix3<f64>) -> SignedDistance {
     let surface = match b {
@@ -106,6 +191,10 @@ fn point_to_shape(center: &Point3<f64>, radius: f64, b: &Shape, pose_b: &Isometr
         Shape::Box { half_extents } => in_shape_frame(pose_b, center, |p| point_box(p, half_extents)),
         Shape::Cylinder { radius: rb, half_length } => {
             in_shape_frame(pose_b, center, |p| point_cylinder(p, *rb, *half_length))
+        }
+        Shape::Points { points, radius: rb } => {
+            let pose = IsometryMatrix3::translation(center.x, center.y, center.z);
+            return to_points(&Shape::Sphere { radius }, &pose, points, *rb, pose_b);
         }
         Shape::Convex(_) => {
             return general(
@@ -256,6 +345,9 @@ fn with_parry<R>(shape: &Shape, f: impl FnOnce(&dyn parry3d_f64::shape::Shape) -
         Shape::Box { half_extents } => f(&Cuboid::new(v(half_extents))),
         Shape::Cylinder { radius, half_length } => f(&Cylinder::new(*half_length, *radius)),
         Shape::Convex(hull) => f(&hull.polyhedron),
+        // Point clouds never reach parry3d: `signed_distance` and
+        // `closer_than` take them ball by ball first.
+        Shape::Points { radius, .. } => f(&Ball::new(*radius)),
     }
 }
 
@@ -299,7 +391,7 @@ fn surface(shape: &Shape, pose: &IsometryMatrix3<f64>, p: &Point3<f64>) -> Optio
         Shape::Cylinder { radius, half_length } => {
             in_shape_frame(pose, p, |l| point_cylinder(l, *radius, *half_length)).point
         }
-        Shape::Convex(_) => return None,
+        Shape::Convex(_) | Shape::Points { .. } => return None,
     })
 }
 

@@ -71,7 +71,7 @@ fn shape_json(name: &str, shape: &Shape, pose: &nalgebra::IsometryMatrix3<f64>) 
         Shape::Capsule { radius, half_length } => {
             json!({"shape": "capsule", "radius": radius, "length": 2.0 * half_length})
         }
-        Shape::Convex(_) => return None,
+        Shape::Convex(_) | Shape::Points { .. } => return None,
     };
     v.as_object_mut()?.extend(extra.as_object()?.clone());
     Some(v)

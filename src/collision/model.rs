@@ -422,6 +422,20 @@ fn world_aabb(shape: &Shape, pose: &IsometryMatrix3<f64>) -> (Point3<f64>, Point
             }
             return (lo.into(), hi.into());
         }
+        // The corners of the points' box, placed, grown by the radius (an
+        // empty cloud: an inverted box, which nothing meets).
+        Shape::Points { points, radius } => {
+            let (mut lo, mut hi) = (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY));
+            if let Some((a, b)) = points.bounds() {
+                for k in 0..8 {
+                    let corner = Point3::from(std::array::from_fn(|i| if k >> i & 1 == 1 { b[i] } else { a[i] }));
+                    let w = pose * corner;
+                    lo = lo.inf(&(w.coords - Vector3::repeat(*radius)));
+                    hi = hi.sup(&(w.coords + Vector3::repeat(*radius)));
+                }
+            }
+            return (lo.into(), hi.into());
+        }
     };
     let c = pose.translation.vector;
     ((c - half).into(), (c + half).into())

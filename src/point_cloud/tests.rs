@@ -212,7 +212,9 @@ fn tree_answers_as_brute_force_does() {
             match tree.nearest(&p, f64::INFINITY) {
                 Some((t2, i)) => {
                     assert_eq!(t2, d2);
-                    assert_eq!((0..3).map(|k| (points[i][k] - p[k]).powi(2)).sum::<f64>(), d2);
+                    let (q, input) = tree.point(i);
+                    assert_eq!(q, points[input]);
+                    assert_eq!((0..3).map(|k| (q[k] - p[k]).powi(2)).sum::<f64>(), d2);
                 }
                 None => assert!(points.is_empty()),
             }
@@ -249,8 +251,9 @@ fn tree_is_never_free_at_nan_and_skips_non_finite_points() {
     assert!(tree.any_closer(&nan, 0.01));
     assert!(tree.nearest(&nan, 1.0).unwrap().0.is_nan());
     assert!(tree.nearest_to(&nan, 0.1, 1.0, |_| 0.0).unwrap().0.is_nan());
-    // Indices are the input's.
-    assert_eq!(tree.nearest(&[4.0, 5.0, 5.0], f64::INFINITY), Some((1.0, 3)));
+    // Tree order names the input's index.
+    let (d2, k) = tree.nearest(&[4.0, 5.0, 5.0], f64::INFINITY).unwrap();
+    assert_eq!((d2, tree.point(k)), (1.0, ([5.0, 5.0, 5.0], 3)));
     // Same points, same tree.
     let points = scattered(500, 3);
     let (a, b) = (PointTree::new(&points), PointTree::new(&points));

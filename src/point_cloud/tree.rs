@@ -44,6 +44,8 @@ pub struct PointTree {
     /// Each tree-order point's index in the input.
     index: Vec<u32>,
     nodes: Vec<Node>,
+    /// Largest distance of a point from the origin (m).
+    reach: f64,
 }
 
 /// Squared distance from `p` to the box `lo..hi` (0 inside).
@@ -60,7 +62,7 @@ fn box_distance_squared(p: &[f64; 3], lo: &[f64; 3], hi: &[f64; 3]) -> f64 {
 impl PointTree {
     /// Builds the tree over `points` (m). Points with a non-finite
     /// coordinate are left out (a [`PointCloud`](super::PointCloud) has
-    /// none); query answers name points by their index in `points`.
+    /// none); [`point`](Self::point) gives each point's index in `points`.
     ///
     /// # Panics
     /// More than `u32::MAX` points.
@@ -78,6 +80,7 @@ impl PointTree {
         tree.y = order.iter().map(|&i| points[i as usize][1]).collect();
         tree.z = order.iter().map(|&i| points[i as usize][2]).collect();
         tree.index = order;
+        tree.reach = tree.points().map(|(p, _)| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()).fold(0.0, f64::max);
         tree
     }
 
@@ -118,6 +121,12 @@ impl PointTree {
     /// True when the tree holds no point.
     pub fn is_empty(&self) -> bool {
         self.index.is_empty()
+    }
+
+    /// Largest distance of a point from the origin of the cloud's frame
+    /// (m; 0 when empty).
+    pub fn reach(&self) -> f64 {
+        self.reach
     }
 
     /// The box around every point (m), `None` when empty.
@@ -212,11 +221,12 @@ impl PointTree {
 
     /// The point nearest `p` among those closer than `cap` (m; pass
     /// `f64::INFINITY` for the nearest of all): its squared distance (m²)
-    /// and input index, `None` when there is none. A `p` with a NaN
+    /// and place in tree order (see [`point`](Self::point)), `None` when
+    /// there is none. A `p` with a NaN
     /// coordinate gets `Some((NaN, ·))` from a non-empty tree.
     pub fn nearest(&self, p: &[f64; 3], cap: f64) -> Option<(f64, usize)> {
         if p.iter().any(|c| c.is_nan()) {
-            return self.index.first().map(|&i| (f64::NAN, i as usize));
+            return (!self.is_empty()).then_some((f64::NAN, 0));
         }
         // Shared by the walk's two closures.
         let best = Cell::new((cap * cap, usize::MAX));
@@ -237,13 +247,13 @@ impl PointTree {
             },
         );
         let best = best.get();
-        (best.1 != usize::MAX).then(|| (best.0, self.index[best.1] as usize))
+        (best.1 != usize::MAX).then_some(best)
     }
 
     /// The point nearest a shape whose points all lie within `reach` (m)
     /// of `center`, among those `distance` says are closer than `cap`:
     /// `distance(point)` (m, the shape's exact distance to a point) and
-    /// the point's input index; `None` when no point is closer than `cap`.
+    /// the point's place in tree order; `None` when no point is closer than `cap`.
     /// Points farther than `cap + reach` from `center` are never handed to
     /// `distance`. A `center` with a NaN coordinate gets `Some((NaN, ·))`.
     pub fn nearest_to(
@@ -254,7 +264,7 @@ impl PointTree {
         mut distance: impl FnMut([f64; 3]) -> f64,
     ) -> Option<(f64, usize)> {
         if center.iter().any(|c| c.is_nan()) {
-            return self.index.first().map(|&i| (f64::NAN, i as usize));
+            return (!self.is_empty()).then_some((f64::NAN, 0));
         }
         let best = Cell::new((cap, usize::MAX));
         // A point at |p − center| = ρ is at least ρ − reach from the shape.
@@ -278,7 +288,7 @@ impl PointTree {
             },
         );
         let best = best.get();
-        (best.1 != usize::MAX).then(|| (best.0, self.index[best.1] as usize))
+        (best.1 != usize::MAX).then_some(best)
     }
 
     /// Calls `visit` with every point within `reach + margin` (m) of

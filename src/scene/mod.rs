@@ -143,6 +143,10 @@ pub enum SceneError {
     /// A pose with NaN or infinite entries.
     #[error("'{0}' has a non-finite pose")]
     NonFinitePose(String),
+    /// A movable object whose shape is a point cloud (objects are grasped
+    /// and carried: they must be convex).
+    #[error("'{0}' is a point cloud: only obstacles may be point clouds")]
+    PointCloudObject(String),
     /// Attaching an object that is already attached, or detaching a free one.
     #[error("object '{name}' is {state}")]
     AttachmentState {
@@ -185,9 +189,13 @@ impl Scene {
     /// Adds a movable object.
     ///
     /// # Errors
-    /// As [`add_obstacle`](Self::add_obstacle); grasp poses must be finite too.
+    /// As [`add_obstacle`](Self::add_obstacle); grasp poses must be finite
+    /// too, and the shape convex (not [`Shape::Points`]).
     pub fn add_object(&mut self, object: SceneObject) -> Result<(), SceneError> {
         self.check_new(&object.name, &object.shape, &object.pose)?;
+        if !object.shape.is_convex() {
+            return Err(SceneError::PointCloudObject(object.name));
+        }
         if object.grasps.iter().any(|g| !finite_pose(&g.pose)) {
             return Err(SceneError::NonFinitePose(object.name));
         }

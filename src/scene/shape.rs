@@ -5,6 +5,7 @@
 //! (see [`signed_distance`](crate::collision::signed_distance)). Meshes
 //! become their convex hull, held as a parry3d polyhedron.
 
+use crate::point_cloud::PointTree;
 use crate::robot::{Geometry, TriMesh};
 use nalgebra::{Point3, Vector3};
 use parry3d_f64::shape::ConvexPolyhedron;
@@ -31,8 +32,9 @@ pub enum ShapeError {
     },
 }
 
-/// A convex collision shape in its own frame (metres). Axial shapes
-/// (capsule, cylinder) are centred on the origin along z.
+/// A collision shape in its own frame (metres): a convex one, or a point
+/// cloud's balls. Axial shapes (capsule, cylinder) are centred on the
+/// origin along z.
 #[derive(Debug, Clone)]
 pub enum Shape {
     /// A ball about the origin.
@@ -61,6 +63,18 @@ pub enum Shape {
     },
     /// The convex hull of a mesh.
     Convex(Arc<ConvexHull>),
+    /// A ball of `radius` at every point of a cloud (a depth camera's view
+    /// of what is around the robot): the union is not convex, so only
+    /// obstacles may have this shape, and its distance to another shape
+    /// is the smallest over the balls.
+    Points {
+        /// The points, in the shape's frame (the sensor's, placed by the
+        /// obstacle's pose), in a tree for nearest-point queries.
+        points: Arc<PointTree>,
+        /// Radius of every ball (m): the sensor's noise and the filtering's
+        /// spacing margin (see [`FilterReport`](crate::point_cloud::FilterReport)).
+        radius: f64,
+    },
 }
 
 /// The convex hull of a point set, with its bounding radius about the
@@ -146,7 +160,24 @@ impl Shape {
         }))
     }
 
-    /// Short kind name: `sphere`, `capsule`, `box`, `cylinder`, `convex`.
+    /// Balls of `radius` (m) at `points` (m, the shape's frame; non-finite
+    /// ones left out).
+    ///
+    /// # Errors
+    /// A radius that is not finite and positive.
+    pub fn points(points: &[[f64; 3]], radius: f64) -> Result<Shape, ShapeError> {
+        let shape = Shape::Points { points: Arc::new(PointTree::new(points)), radius };
+        shape.validate()?;
+        Ok(shape)
+    }
+
+    /// True for a convex shape (every kind but [`Shape::Points`]).
+    pub fn is_convex(&self) -> bool {
+        !matches!(self, Shape::Points { .. })
+    }
+
+    /// Short kind name: `sphere`, `capsule`, `box`, `cylinder`, `convex`,
+    /// `points`.
     pub fn kind_name(&self) -> &'static str {
         match self {
             Shape::Sphere { .. } => "sphere",
@@ -154,6 +185,7 @@ impl Shape {
             Shape::Box { .. } => "box",
             Shape::Cylinder { .. } => "cylinder",
             Shape::Convex(_) => "convex",
+            Shape::Points { .. } => "points",
         }
     }
 
@@ -165,6 +197,7 @@ impl Shape {
             Shape::Box { half_extents } => half_extents.norm(),
             Shape::Cylinder { radius, half_length } => radius.hypot(*half_length),
             Shape::Convex(hull) => hull.radius,
+            Shape::Points { points, radius } => points.reach() + radius,
         }
     }
 
@@ -185,13 +218,18 @@ impl Shape {
                 .iter()
                 .map(|p| p.x * d.x + p.y * d.y + p.z * d.z)
                 .fold(f64::NEG_INFINITY, f64::max),
+            Shape::Points { points, radius } => {
+                points.points().map(|(p, _)| p[0] * d.x + p[1] * d.y + p[2] * d.z).fold(f64::NEG_INFINITY, f64::max)
+                    + radius * d.norm()
+            }
         }
     }
 
     /// Edge lengths of the shape's bounding box in its own frame (m): the
     /// box itself, `2r × 2r × 2r` for a sphere, `2r × 2r × length` for a
     /// cylinder (length + 2r for a capsule); a convex hull reports the cube
-    /// around its bounding ball.
+    /// around its bounding ball, a point cloud the origin-centred box
+    /// around its balls.
     pub fn extents(&self) -> Vector3<f64> {
         match self {
             Shape::Sphere { radius } => Vector3::repeat(2.0 * radius),
@@ -201,6 +239,10 @@ impl Shape {
             Shape::Box { half_extents } => 2.0 * half_extents,
             Shape::Cylinder { radius, half_length } => Vector3::new(2.0 * radius, 2.0 * radius, 2.0 * half_length),
             Shape::Convex(hull) => Vector3::repeat(2.0 * hull.radius),
+            Shape::Points { points, radius } => match points.bounds() {
+                Some((lo, hi)) => Vector3::from_fn(|i, _| 2.0 * (lo[i].abs().max(hi[i].abs()) + radius)),
+                None => Vector3::zeros(),
+            },
         }
     }
 
@@ -208,7 +250,8 @@ impl Shape {
     /// its frame has the shape's silhouette as convex hull: a box's
     /// corners, a hull's vertices, and for round parts 48 points on each
     /// circle that bounds them seen along x, y or z (exact along those
-    /// axes; along others, within 0.2 % of the radius).
+    /// axes; along others, within 0.2 % of the radius); a point cloud's
+    /// points (its balls' centres).
     pub fn silhouette_points(&self) -> Vec<Point3<f64>> {
         const N: usize = 48;
         // The three great circles of a ball of `radius` about `centre`.
@@ -241,8 +284,106 @@ impl Shape {
                 }
             }
             Shape::Convex(hull) => out.extend(hull.polyhedron.points().iter().map(|p| Point3::new(p.x, p.y, p.z))),
+            Shape::Points { points, .. } => out.extend(points.points().map(|(p, _)| Point3::from(p))),
         }
         out
+    }
+
+    /// Points on the shape's surface (m, its frame) such that every point
+    /// of the surface lies within `spacing` (m) of one of them: a grid of
+    /// cell centres on each flat face, bands of rings on round parts, cells
+    /// at most `spacing` on a side (so the covering radius is at most
+    /// `spacing / √2` along the surface). The points a depth camera would
+    /// give of the shape, all around and without noise; `None` for a hull
+    /// or a point cloud, or a `spacing` that is not finite and positive.
+    pub fn surface_points(&self, spacing: f64) -> Option<Vec<Point3<f64>>> {
+        if !(spacing.is_finite() && spacing > 0.0) {
+            return None;
+        }
+        let count = |length: f64| ((length / spacing).ceil() as usize).max(1);
+        let mut out: Vec<Point3<f64>> = Vec::new();
+        // Cell centres of an n × m grid over [−a, a] × [−b, b].
+        let grid = |a: f64, b: f64, out: &mut Vec<(f64, f64)>| {
+            let (n, m) = (count(2.0 * a), count(2.0 * b));
+            for i in 0..n {
+                for j in 0..m {
+                    out.push((-a + (i as f64 + 0.5) * 2.0 * a / n as f64, -b + (j as f64 + 0.5) * 2.0 * b / m as f64));
+                }
+            }
+        };
+        // A ring of radius ρ at height z, points at most `spacing` apart.
+        let ring = |rho: f64, z: f64, out: &mut Vec<Point3<f64>>| {
+            let n = count(std::f64::consts::TAU * rho);
+            for k in 0..n {
+                let (s, c) = (std::f64::consts::TAU * (k as f64 + 0.5) / n as f64).sin_cos();
+                out.push(Point3::new(rho * c, rho * s, z));
+            }
+        };
+        // Latitude bands of a ball of radius r about (0, 0, z0), polar angle
+        // θ from `from` to `to`: each band's ring at its middle, as many
+        // points as its widest circle needs.
+        let bands = |r: f64, z0: f64, (from, to): (f64, f64), out: &mut Vec<Point3<f64>>| {
+            let n = count(r * (to - from));
+            for k in 0..n {
+                let (a, b) = (from + (to - from) * k as f64 / n as f64, from + (to - from) * (k + 1) as f64 / n as f64);
+                let middle = 0.5 * (a + b);
+                let widest = if a <= std::f64::consts::FRAC_PI_2 && b >= std::f64::consts::FRAC_PI_2 {
+                    r
+                } else {
+                    r * a.sin().max(b.sin())
+                };
+                let ring_count = count(std::f64::consts::TAU * widest);
+                for j in 0..ring_count {
+                    let (s, c) = (std::f64::consts::TAU * (j as f64 + 0.5) / ring_count as f64).sin_cos();
+                    let rho = r * middle.sin();
+                    out.push(Point3::new(rho * c, rho * s, z0 + r * middle.cos()));
+                }
+            }
+        };
+        let mut flat = Vec::new();
+        match self {
+            Shape::Box { half_extents: h } => {
+                for axis in 0..3 {
+                    let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+                    flat.clear();
+                    grid(h[u], h[v], &mut flat);
+                    for sign in [-1.0, 1.0] {
+                        for &(a, b) in &flat {
+                            let mut p = Point3::origin();
+                            (p[axis], p[u], p[v]) = (sign * h[axis], a, b);
+                            out.push(p);
+                        }
+                    }
+                }
+            }
+            Shape::Sphere { radius } => bands(*radius, 0.0, (0.0, std::f64::consts::PI), &mut out),
+            Shape::Cylinder { radius, half_length } | Shape::Capsule { radius, half_length } => {
+                let n = count(2.0 * half_length);
+                for k in 0..n {
+                    ring(*radius, -half_length + (k as f64 + 0.5) * 2.0 * half_length / n as f64, &mut out);
+                }
+                if matches!(self, Shape::Capsule { .. }) {
+                    bands(*radius, *half_length, (0.0, std::f64::consts::FRAC_PI_2), &mut out);
+                    bands(*radius, -half_length, (std::f64::consts::FRAC_PI_2, std::f64::consts::PI), &mut out);
+                } else {
+                    // Caps: annuli of width at most `spacing`, each ring at its middle.
+                    let m = count(*radius);
+                    for k in 0..m {
+                        let rho = (k as f64 + 0.5) * radius / m as f64;
+                        let outer = (k + 1) as f64 * radius / m as f64;
+                        let n = count(std::f64::consts::TAU * outer);
+                        for z in [-*half_length, *half_length] {
+                            for j in 0..n {
+                                let (s, c) = (std::f64::consts::TAU * (j as f64 + 0.5) / n as f64).sin_cos();
+                                out.push(Point3::new(rho * c, rho * s, z));
+                            }
+                        }
+                    }
+                }
+            }
+            Shape::Convex(_) | Shape::Points { .. } => return None,
+        }
+        Some(out)
     }
 
     /// Checks that every dimension is finite and positive.
@@ -266,6 +407,7 @@ impl Shape {
                 check("cylinder length", *half_length)
             }
             Shape::Convex(_) => Ok(()),
+            Shape::Points { radius, .. } => check("point radius", *radius),
         }
     }
 

@@ -62,6 +62,13 @@ pub enum GeometryView {
         /// xyz triples.
         points: Vec<f32>,
     },
+    /// A point cloud's balls: their centres and one radius.
+    Points {
+        /// xyz triples (m, shape frame).
+        points: Vec<f32>,
+        /// Radius of every ball (m).
+        radius: f64,
+    },
 }
 
 /// A robot link's shapes.
@@ -218,6 +225,10 @@ fn world_geometry(shape: &Shape) -> GeometryView {
         Shape::Convex(hull) => {
             GeometryView::Hull { points: hull.points().into_iter().flat_map(|p| p.map(|v| v as f32)).collect() }
         }
+        Shape::Points { points, radius } => GeometryView::Points {
+            points: points.points().flat_map(|(p, _)| p.map(|v| v as f32)).collect(),
+            radius: *radius,
+        },
     }
 }
 

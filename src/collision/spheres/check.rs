@@ -151,6 +151,16 @@ impl<T: Real> StaticShape<T> {
             StaticKind::Cylinder { frame, radius, half_length } => {
                 (cylinder_distance_squared(&to_local(p, frame), *radius, *half_length), T::ZERO)
             }
+            StaticKind::Cloud { frame, points, radius } => {
+                let p = p.map(|c| c.map(T::to_f64));
+                let local = to_local(&p, frame);
+                let d2 = build(|l| {
+                    let at = [local[0][l], local[1][l], local[2][l]];
+                    // An empty cloud is never near.
+                    T::of(points.nearest(&at, f64::INFINITY).map_or(f64::INFINITY, |(d2, _)| d2))
+                });
+                (d2, *radius)
+            }
         }
     }
 
@@ -170,6 +180,9 @@ impl<T: Real> StaticShape<T> {
             StaticKind::Cylinder { frame, radius, half_length } => {
                 cylinder_approach_local(&to_local(p, frame), *radius, *half_length, &rotate_to_local(v, frame))
             }
+            // The distance to a union of balls is not convex along a
+            // motion: no rate, so certification keeps its first-order room.
+            StaticKind::Cloud { .. } => [T::of(f64::NAN); LANES],
         }
     }
 }

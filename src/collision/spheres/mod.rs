@@ -186,6 +186,13 @@ enum StaticKind<T = f64> {
         radius: T,
         half_length: T,
     },
+    /// Balls of `radius` at a cloud's points; `frame` places the points
+    /// (queried in f64 in either precision: the tree is f64).
+    Cloud {
+        frame: lanes::Frame,
+        points: std::sync::Arc<crate::point_cloud::PointTree>,
+        radius: T,
+    },
 }
 
 /// Up to [`LANES`] static shapes a group is checked
@@ -369,6 +376,9 @@ impl StaticShape {
             }
             Shape::Cylinder { radius, half_length } => {
                 StaticKind::Cylinder { frame: lanes::Frame::new(rotation, translation), radius, half_length }
+            }
+            Shape::Points { ref points, radius } => {
+                StaticKind::Cloud { frame: lanes::Frame::new(rotation, translation), points: points.clone(), radius }
             }
             Shape::Convex(_) => return None,
         };

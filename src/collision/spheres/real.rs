@@ -45,6 +45,8 @@ pub(crate) trait Real:
     const NEG_INFINITY: Self;
     /// `x`, rounded to this type.
     fn of(x: f64) -> Self;
+    /// The value in f64 (exact).
+    fn to_f64(self) -> f64;
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     fn copysign(self, sign: Self) -> Self;
@@ -65,6 +67,10 @@ macro_rules! real_basics {
         #[inline(always)]
         fn of(x: f64) -> $t {
             x as $t
+        }
+        #[inline(always)]
+        fn to_f64(self) -> f64 {
+            self as f64
         }
         #[inline(always)]
         fn sqrt(self) -> $t {

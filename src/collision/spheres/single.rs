@@ -241,6 +241,9 @@ impl StaticShape {
             StaticKind::Cylinder { frame, radius, half_length } => {
                 StaticKind::Cylinder { frame: frame.single(), radius: *radius as f32, half_length: *half_length as f32 }
             }
+            StaticKind::Cloud { frame, points, radius } => {
+                StaticKind::Cloud { frame: frame.clone(), points: points.clone(), radius: *radius as f32 }
+            }
         };
         StaticShape { kind, lo: single(&self.lo), hi: single(&self.hi) }
     }

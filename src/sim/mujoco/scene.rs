@@ -447,6 +447,11 @@ fn geom_xml(
         Shape::Capsule { radius, half_length } => format!(r#"{placed} type="capsule" size="{radius} {half_length}""#),
         Shape::Cylinder { radius, half_length } => format!(r#"{placed} type="cylinder" size="{radius} {half_length}""#),
         Shape::Box { half_extents: h } => format!(r#"{placed} type="box" size="{} {} {}""#, h.x, h.y, h.z),
+        Shape::Points { .. } => {
+            return Err(PhysicsError::Settings(format!(
+                "'{name}' is a point cloud: MuJoCo simulates the world itself, not a sensor's view of it (give its obstacles as shapes)"
+            )));
+        }
         Shape::Convex(hull) => {
             let vertices: Vec<String> = hull.points().iter().map(|v| format!("{} {} {}", v[0], v[1], v[2])).collect();
             let _ = write!(assets, r#"<mesh name="{name}_hull" vertex="{}"/>"#, vertices.join(" "));
