@@ -35,6 +35,9 @@ pub struct ArbitrateArgs {
     pub centers: super::arbiter_args::CenterArgs,
     #[command(flatten)]
     pub motion: super::arbiter_args::MotionLimitArgs,
+    /// Point clouds added to the problem's scene.
+    #[command(flatten)]
+    pub clouds: super::PointCloudArgs,
     /// Simulated operator: straightline (straight at the grasp point) or
     /// approach (to a point 10 cm above it, then down).
     #[arg(long, default_value = "approach", value_parser = ["straightline", "approach"])]
@@ -82,7 +85,7 @@ pub struct ArbitrateArgs {
 
 /// Runs the episode; [`Outcome::Unsuccessful`](super::Outcome) (exit 3) unless it succeeds.
 pub(super) fn run(args: &ArbitrateArgs) -> Result<super::Outcome, Box<dyn std::error::Error>> {
-    let problem = load(&args.problem)?;
+    let problem = super::problem_args::load(&args.problem, &args.clouds)?;
     if let Some(refusal) = start_refusal(&problem)? {
         return Ok(refused(&problem, &refusal, args));
     }
@@ -210,13 +213,6 @@ fn refused(problem: &Problem, refusal: &Refusal, args: &ArbitrateArgs) -> super:
 
 fn outcome(record: &EpisodeRecord) -> super::Outcome {
     if record.outcome == crate::sim::Outcome::Success { super::Outcome::Success } else { super::Outcome::Unsuccessful }
-}
-
-pub(super) fn load(path: &std::path::Path) -> Result<Problem, Box<dyn std::error::Error>> {
-    match path.to_str().and_then(|p| p.strip_prefix("builtin:")) {
-        Some(name) => Ok(Problem::builtin(name)?),
-        None => Ok(Problem::from_file(path)?),
-    }
 }
 
 /// Top and side views of the executed gripper path and the reference's.

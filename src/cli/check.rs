@@ -222,7 +222,17 @@ fn print_text(r: &Report) {
         }
     }
     println!("robot: {} active joints ({})", p.robot.nq(), p.robot.joint_names().join(", "));
-    let obstacles: Vec<&str> = p.scene.obstacles().iter().map(|o| o.name.as_str()).collect();
+    let obstacles: Vec<String> = p
+        .scene
+        .obstacles()
+        .iter()
+        .map(|o| match &o.shape {
+            crate::scene::Shape::Points { points, radius } => {
+                format!("{} ({} points, radius {radius} m)", o.name, points.len())
+            }
+            _ => o.name.clone(),
+        })
+        .collect();
     let objects: Vec<&str> = p.scene.objects().iter().map(|o| o.name.as_str()).collect();
     println!("scene: obstacles [{}], objects [{}]", obstacles.join(", "), objects.join(", "));
     let q: Vec<String> = r.q.iter().map(|v| format!("{v:.4}")).collect();

@@ -32,7 +32,7 @@ mod ros2;
 mod serve;
 mod solve;
 
-pub use problem_args::{MoveItArgs, ProblemArgs};
+pub use problem_args::{MoveItArgs, PointCloudArgs, ProblemArgs};
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;

@@ -36,6 +36,11 @@ pub(super) fn why_invalid(
         return Ok(None);
     };
     let (a, b) = model.pair_names(closest.pair);
+    // A cloud names its point, the one to look for in the file.
+    let b = match model.nearest_cloud_point(&ws, &closest) {
+        Some((i, p)) => format!("{b} (point {i}, at [{:.3}, {:.3}, {:.3}] m)", p[0], p[1], p[2]),
+        None => b.to_string(),
+    };
     let d = closest.signed.distance;
     let margin = problem.planner.clearance;
     Ok(if d < 0.0 {

@@ -20,6 +20,9 @@ pub struct Ros2Args {
     /// Without it, the defaults: 100 Hz, mode sos, MoveIt Servo's topics.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// Point clouds added to the problem's scene.
+    #[command(flatten)]
+    pub clouds: super::PointCloudArgs,
     /// The trained arbitration actor for mode `learned` (`tandem learn arbitration`).
     #[arg(long, value_name = "FILE")]
     pub arbiter: Option<PathBuf>,
@@ -64,7 +67,7 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
         Some(path) => NodeSettings::from_file(path)?,
         None => NodeSettings::default(),
     };
-    let mut problem = super::arbitrate::load(&args.problem)?;
+    let mut problem = super::problem_args::load(&args.problem, &args.clouds)?;
     if let Some(limits) = &settings.joint_limits {
         // The node's parameter over the problem's `[robot] joint_limits`.
         let mut robot = (*problem.robot).clone();

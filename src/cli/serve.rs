@@ -17,6 +17,9 @@ pub struct ServeArgs {
     /// Port to listen on (0: any free port; the address is printed).
     #[arg(long, default_value_t = 8080)]
     pub port: u16,
+    /// Point clouds added to the problem's scene (with a problem only).
+    #[command(flatten)]
+    pub clouds: super::PointCloudArgs,
     /// Address to listen on. The default serves this machine only; give
     /// 0.0.0.0 to let others on the network drive the arm.
     #[arg(long, default_value = "127.0.0.1")]
@@ -69,7 +72,11 @@ pub struct ServeArgs {
 /// # Errors
 /// A bad problem or actor file, or a port that cannot be bound.
 pub fn run(args: &ServeArgs) -> Result<(), Box<dyn std::error::Error>> {
-    let problem = args.problem.as_deref().map(super::arbitrate::load).transpose()?.map(Arc::new);
+    if args.problem.is_none() && !args.clouds.point_clouds.is_empty() {
+        return Err("--point-cloud needs a problem: the default one is re-sampled every episode".into());
+    }
+    let problem =
+        args.problem.as_deref().map(|p| super::problem_args::load(p, &args.clouds)).transpose()?.map(Arc::new);
     let actor = match &args.arbiter {
         Some(path) => Some(Arc::new(crate::learn::ArbitrationActor::load(path)?) as _),
         None => None,

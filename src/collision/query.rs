@@ -375,6 +375,21 @@ impl CollisionModel {
         &ws.poses[object]
     }
 
+    /// For a distance `d` to a point cloud obstacle (as returned with
+    /// `ws`), the cloud's point it was measured to: its index in the cloud
+    /// as given and its world position (m); `None` for other pairs.
+    pub fn nearest_cloud_point(&self, ws: &CollisionWorkspace, d: &PairDistance) -> Option<(usize, [f64; 3])> {
+        let (_, j) = self.pair_objects(d.pair);
+        let crate::scene::Shape::Points { points, radius } = &self.objects[j].shape else { return None };
+        // The witness lies on the nearest ball, `radius` (+ padding) short of its centre.
+        let centre = d.signed.point_b + d.signed.normal * (radius + self.objects[j].padding);
+        let local = ws.poses[j].inverse_transform_point(&centre);
+        let (_, k) = points.nearest(&[local.x, local.y, local.z], f64::INFINITY)?;
+        let (p, index) = points.point(k);
+        let world = ws.poses[j] * Point3::from(p);
+        Some((index, [world.x, world.y, world.z]))
+    }
+
     /// Shape of object `object`.
     pub fn object_shape(&self, object: usize) -> &crate::scene::Shape {
         &self.objects[object].shape

@@ -21,6 +21,7 @@ mod shape;
 
 pub use shape::{ConvexHull, Shape, ShapeError};
 
+use crate::point_cloud::PointCloud;
 use crate::robot::suggest_names;
 use nalgebra::{IsometryMatrix3, Rotation3, Vector3};
 use thiserror::Error;
@@ -50,6 +51,21 @@ impl Obstacle {
     /// An obstacle of `shape` at `pose`.
     pub fn new(name: impl Into<String>, shape: Shape, pose: IsometryMatrix3<f64>) -> Obstacle {
         Obstacle { name: name.into(), shape, pose }
+    }
+
+    /// Balls of `radius` (m) at the points of `cloud` (in the sensor's
+    /// frame), the sensor at `pose` (world): what a depth camera saw, as an
+    /// obstacle.
+    ///
+    /// # Errors
+    /// A radius that is not finite and positive.
+    pub fn point_cloud(
+        name: impl Into<String>,
+        cloud: &PointCloud,
+        radius: f64,
+        pose: IsometryMatrix3<f64>,
+    ) -> Result<Obstacle, ShapeError> {
+        Ok(Obstacle::new(name, Shape::points(&cloud.points, radius)?, pose))
     }
 
     /// A table top: a horizontal slab of `size` (x, y) and `thickness` (m)

@@ -67,6 +67,23 @@ pub(crate) struct RawScene {
     pub(crate) objects: Vec<RawBody>,
     #[serde(default)]
     allowed_contacts: Vec<[String; 2]>,
+    #[serde(default)]
+    point_clouds: Vec<RawPointCloud>,
+}
+
+/// A point cloud file as an obstacle: balls of `point_radius` at its
+/// points, placed by the sensor's pose.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawPointCloud {
+    name: Option<String>,
+    file: String,
+    point_radius: f64,
+    spacing: Option<f64>,
+    #[serde(default)]
+    position: [f64; 3],
+    rpy: Option<[f64; 3]>,
+    quaternion: Option<[f64; 4]>,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -463,6 +480,35 @@ impl RawScene {
             let shape = check.shape(&p, b)?;
             let pose = check.pose(&p, &b.position, &b.rpy, &b.quaternion)?;
             scene.add_obstacle(Obstacle::new(b.name.clone(), shape, pose)).map_err(|e| err(&p.key("name"), e))?;
+        }
+        for (i, c) in self.point_clouds.iter().enumerate() {
+            let p = path.key("point_clouds").index(i);
+            let radius = check.positive(&p.key("point_radius"), c.point_radius)?;
+            let pose = check.pose(&p, &c.position, &c.rpy, &c.quaternion)?;
+            let cloud = crate::point_cloud::PointCloud::read(check.src.resolve(&c.file))
+                .map_err(|e| check.src.error(&p.key("file"), e.to_string()))?;
+            // Thinned, every removed point lies within the spacing of a kept
+            // one: the kept points' balls grow by it to cover theirs.
+            let (cloud, margin) = match c.spacing {
+                Some(spacing) => {
+                    check.positive(&p.key("spacing"), spacing)?;
+                    let settings = crate::point_cloud::FilterSettings { spacing, ..Default::default() };
+                    let (kept, report) =
+                        cloud.filtered(&settings).map_err(|e| check.src.error(&p.key("spacing"), e.to_string()))?;
+                    (kept, report.radius_margin)
+                }
+                None => (cloud, 0.0),
+            };
+            let name = c.name.clone().unwrap_or_else(|| {
+                let taken = |n: &str| scene.obstacle(n).is_some() || scene.object(n).is_some();
+                (0..)
+                    .map(|k| if k == 0 { "point_cloud".to_string() } else { format!("point_cloud_{k}") })
+                    .find(|n| !taken(n))
+                    .unwrap_or_default()
+            });
+            let obstacle = Obstacle::point_cloud(name, &cloud, radius + margin, pose)
+                .map_err(|e| check.src.error(&p.key("point_radius"), e.to_string()))?;
+            scene.add_obstacle(obstacle).map_err(|e| err(&p.key("name"), e))?;
         }
         for (i, b) in self.objects.iter().enumerate() {
             let p = path.key("objects").index(i);
