@@ -272,3 +272,46 @@ fn demo_runs_the_reach_and_grasp_end_to_end() {
     }
     assert!(!text.contains("join this command as they land"), "{text}");
 }
+
+#[test]
+fn point_clouds_join_the_scene_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = |name: &str, points: &[[f64; 3]]| {
+        let mut text = format!(
+            "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nend_header\n",
+            points.len()
+        );
+        for p in points {
+            text.push_str(&format!("{} {} {}\n", p[0], p[1], p[2]));
+        }
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    // A sheet of points far from the arm, and one through the hand at the start.
+    let far: Vec<[f64; 3]> = (0..100).map(|k| [-0.6, -0.5 + 0.01 * k as f64, 0.5]).collect();
+    let far = ply("far.ply", &far);
+    let o = tandem(&["check", "builtin:panda_reach", "--point-cloud", &far, "--point-radius", "0.02"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(stdout(&o).contains("far (100 points, radius 0.02 m)"), "{}", stdout(&o));
+    assert!(stdout(&o).contains("collision-free: yes"));
+    let o = tandem(&["check", "builtin:panda_reach", "--q", "0,-0.785,0,-2.356,0,1.571,0.785", "--point-cloud", &far]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // The hand of the ready pose is at (0.307, 0, 0.590): points through it.
+    let hand: Vec<[f64; 3]> = (0..50).map(|k| [0.2 + 0.005 * k as f64, 0.0, 0.59]).collect();
+    let hand = ply("hand.ply", &hand);
+    let o = tandem(&["plan", "builtin:panda_reach", "--point-cloud", &far, "--point-cloud", &hand, "--json"]);
+    assert_eq!(o.status.code(), Some(3), "{}{}", stdout(&o), stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(v["status"], "start_invalid");
+    let reason = v["reason"].as_str().unwrap();
+    assert!(reason.contains("hand (point ") && reason.contains(" m)"), "{reason}");
+    // A broken file names itself and the line.
+    let bad = dir.path().join("bad.ply");
+    std::fs::write(&bad, "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\n1\n").unwrap();
+    let o = tandem(&["check", "builtin:panda_reach", "--point-cloud", bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("bad.ply"), "{}", stderr(&o));
+    let o = tandem(&["check", "builtin:panda_reach", "--point-cloud", &far, "--point-radius", "-1"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+}

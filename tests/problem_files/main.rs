@@ -11,6 +11,7 @@ use tempfile::TempDir;
 
 mod errors;
 mod family_errors;
+mod point_clouds;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))

@@ -485,13 +485,15 @@ impl RawScene {
             let p = path.key("point_clouds").index(i);
             let radius = check.positive(&p.key("point_radius"), c.point_radius)?;
             let pose = check.pose(&p, &c.position, &c.rpy, &c.quaternion)?;
+            if let Some(spacing) = c.spacing {
+                check.positive(&p.key("spacing"), spacing)?;
+            }
             let cloud = crate::point_cloud::PointCloud::read(check.src.resolve(&c.file))
                 .map_err(|e| check.src.error(&p.key("file"), e.to_string()))?;
             // Thinned, every removed point lies within the spacing of a kept
             // one: the kept points' balls grow by it to cover theirs.
             let (cloud, margin) = match c.spacing {
                 Some(spacing) => {
-                    check.positive(&p.key("spacing"), spacing)?;
                     let settings = crate::point_cloud::FilterSettings { spacing, ..Default::default() };
                     let (kept, report) =
                         cloud.filtered(&settings).map_err(|e| check.src.error(&p.key("spacing"), e.to_string()))?;
