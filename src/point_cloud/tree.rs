@@ -195,16 +195,16 @@ impl PointTree {
     }
 
     /// True when some point lies closer than `distance` (m) to `p` (all
-    /// of its coordinates in the cloud's frame); true for a `p` with a
-    /// NaN coordinate.
+    /// of its coordinates in the cloud's frame); true for a `p` or a
+    /// `distance` with a NaN.
     pub fn any_closer(&self, p: &[f64; 3], distance: f64) -> bool {
-        if p.iter().any(|c| c.is_nan()) {
+        if p.iter().any(|c| c.is_nan()) || distance.is_nan() {
             return !self.is_empty();
         }
-        let limit = distance * distance;
-        if !(distance > 0.0) {
+        if distance <= 0.0 {
             return false;
         }
+        let limit = distance * distance;
         self.walk(
             p,
             |d2| d2 < limit,
