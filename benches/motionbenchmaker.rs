@@ -16,6 +16,13 @@
 //! `--plain`: plain RRT-Connect (step 0.5 rad, no balancing, no
 //! dynamic-domain sampling), the planner before those were added.
 //!
+//! `--pointcloud SPACING`: every scene as a depth camera all around would
+//! see it — its obstacles replaced by points `SPACING` m apart on their
+//! surfaces (`Shape::surface_points`), balls of `SPACING / √2` (the
+//! samples' covering radius, so the balls cover the surfaces) — and the
+//! figures gain "build" (the point tree and the collision model, timed)
+//! and "build + planning + simplification".
+//!
 //! `--set DIR --urdf FILE --srdf FILE --robot NAME`: another
 //! MotionBenchMaker set instead of the vendored Panda one: every problem of
 //! `DIR/<family>_<NAME>/{scene,request}NNNN.yaml` (VAMP ships such sets
@@ -55,6 +62,8 @@ fn benchmark(args: &[String], per_family: usize) -> (Benchmark, Vec<(String, usi
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let plain = args.iter().any(|a| a == "--plain");
+    let cloud_spacing = option(&args, "--pointcloud");
+    let (mut builds, mut with_build, mut cloud_points) = (Vec::new(), Vec::new(), Vec::new());
     // `cargo test --all-targets` runs bench targets without `--bench`: a
     // smoke run of one problem per family then, not the whole benchmark.
     let per_family = if full_run() { option(&args, "--per-family").map_or(usize::MAX, |n| n as usize) } else { 1 };
@@ -81,7 +90,18 @@ fn main() {
                 }
             };
             problem.planner.time_limit = time_limit;
+            let started = std::time::Instant::now();
+            if let Some(spacing) = cloud_spacing {
+                problem.scene =
+                    problem.scene.sampled_as_points("camera", spacing, spacing / 2f64.sqrt()).expect("primitives");
+                if let Some(o) = problem.scene.obstacle("camera")
+                    && let tandem::scene::Shape::Points { points, .. } = &o.shape
+                {
+                    cloud_points.push(points.len() as f64);
+                }
+            }
             let mut planner = ProblemPlanner::new(&problem, Some(seed)).expect("planner");
+            let build = started.elapsed().as_secs_f64();
             if plain {
                 make_plain(&mut planner);
             }
@@ -90,6 +110,8 @@ fn main() {
                 let p = report.planning_time.as_secs_f64();
                 planning.push(p);
                 total.push(p + report.simplify_time.as_secs_f64());
+                builds.push(build);
+                with_build.push(build + p + report.simplify_time.as_secs_f64());
                 lengths.push(path_length(&report.path));
                 iterations.push(report.result.iterations as f64);
             } else {
@@ -104,6 +126,16 @@ fn main() {
     println!("| figure | median | mean | 95th pct |\n| --- | --- | --- | --- |");
     let p = row("planning time", &mut planning);
     let t = row("planning + simplification", &mut total);
+    let clouds = cloud_spacing.map(|spacing| {
+        let (points, _) = median_mean(&mut cloud_points);
+        println!(
+            "(scenes as point clouds: {spacing} m apart, balls of {:.4} m, {points:.0} points median)",
+            spacing / 2f64.sqrt()
+        );
+        let b = row("build (tree + collision model)", &mut builds);
+        let w = row("build + planning + simplification", &mut with_build);
+        serde_json::json!({"spacing_m": spacing, "points_median": points, "build": b, "build_plan_simplify": w})
+    });
     let (its, mean_its) = median_mean(&mut iterations);
     println!("| RRT iterations | {its:.0} | {mean_its:.0} | |");
     println!("| solved | {} of {runs} | | |", planning.len());
@@ -122,12 +154,17 @@ fn main() {
     }
     let out = serde_json::json!({"solved": planning.len(), "planning": p, "total": t, "unsolved": failed,
         "time_limit_s": time_limit, "seeds": seeds, "mean_path_length_rad": mean_length,
-        "iterations": {"median": its, "mean": mean_its}});
+        "iterations": {"median": its, "mean": mean_its}, "point_cloud": clouds});
     if !full_run() {
         return;
     }
     let peers = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/peers");
     std::fs::create_dir_all(&peers).expect("target/peers");
-    let default = peers.join(if plain { "motionbenchmaker_plain.json" } else { "motionbenchmaker.json" });
+    let name = match (plain, cloud_spacing.is_some()) {
+        (true, _) => "motionbenchmaker_plain.json",
+        (false, true) => "motionbenchmaker_pointcloud.json",
+        (false, false) => "motionbenchmaker.json",
+    };
+    let default = peers.join(name);
     std::fs::write(text(&args, "--out").map_or(default, PathBuf::from), out.to_string()).expect("write results");
 }

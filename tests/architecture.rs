@@ -17,7 +17,9 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("files", &["files"]),
     ("trajectory", &["trajectory"]),
     ("figures", &["figures"]),
-    ("geometry", &["scene", "point_cloud"]),
+    // A scene's point cloud obstacles hold a point tree: clouds first.
+    ("point clouds", &["point_cloud"]),
+    ("geometry", &["scene"]),
     ("collision", &["collision"]),
     ("problems", &["problem"]),
     ("planning", &["plan"]),

@@ -163,6 +163,15 @@ pub enum SceneError {
     /// and carried: they must be convex).
     #[error("'{0}' is a point cloud: only obstacles may be point clouds")]
     PointCloudObject(String),
+    /// An obstacle [`Scene::sampled_as_points`] cannot sample (a hull or a
+    /// cloud).
+    #[error("obstacle '{name}' is a {kind}: only primitives are sampled into points")]
+    NotSampled {
+        /// The obstacle's name.
+        name: String,
+        /// Its shape's kind.
+        kind: &'static str,
+    },
     /// Attaching an object that is already attached, or detaching a free one.
     #[error("object '{name}' is {state}")]
     AttachmentState {
@@ -228,6 +237,42 @@ impl Scene {
             return Err(SceneError::NonFinitePose(name.to_string()));
         }
         Ok(())
+    }
+
+    /// The scene as a depth camera all around it would see it: its
+    /// obstacles replaced by one obstacle `name` of balls of `radius` (m)
+    /// at points `spacing` (m) apart on their surfaces
+    /// ([`Shape::surface_points`]: every surface point lies within
+    /// `spacing / √2` of one, so balls at least that wide cover the
+    /// surfaces). Objects stay as they are; contacts allowed with an
+    /// obstacle are allowed with the cloud.
+    ///
+    /// # Errors
+    /// An obstacle that is a hull or a cloud, a spacing or a radius that is
+    /// not finite and positive.
+    pub fn sampled_as_points(&self, name: &str, spacing: f64, radius: f64) -> Result<Scene, SceneError> {
+        if !(spacing.is_finite() && spacing > 0.0) {
+            let source = Box::new(ShapeError::InvalidShape { what: "point spacing", value: spacing });
+            return Err(SceneError::Shape { name: name.to_string(), source });
+        }
+        let mut points = Vec::new();
+        for o in &self.obstacles {
+            let unsampled = || SceneError::NotSampled { name: o.name.clone(), kind: o.shape.kind_name() };
+            let surface = o.shape.surface_points(spacing).ok_or_else(unsampled)?;
+            points.extend(surface.iter().map(|p| -> [f64; 3] { (o.pose * p).coords.into() }));
+        }
+        let shape = Shape::points(&points, radius)
+            .map_err(|e| SceneError::Shape { name: name.to_string(), source: Box::new(e) })?;
+        let mut scene = Scene::new();
+        scene.add_obstacle(Obstacle::new(name, shape, IsometryMatrix3::identity()))?;
+        for object in &self.objects {
+            scene.add_object(object.clone())?;
+        }
+        for (a, b) in &self.allowed {
+            let named = |n: &String| if self.obstacle(n).is_some() { name.to_string() } else { n.clone() };
+            scene.allow_contact(named(a), named(b));
+        }
+        Ok(scene)
     }
 
     /// Lets `a` and `b` (robot link, obstacle or object names) touch: the

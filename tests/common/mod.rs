@@ -149,22 +149,8 @@ pub fn assert_motion_keeps(
 }
 
 /// `scene` as a depth camera all around it would see it: one obstacle,
-/// `camera`, of balls of `radius` (m) at points `spacing` (m) apart on
-/// every obstacle's surface ([`Shape::surface_points`]); contacts allowed
-/// with an obstacle are allowed with the cloud. Objects are left out.
+/// `camera`, of balls of `radius` (m) at points `spacing` (m) apart on its
+/// obstacles' surfaces ([`Scene::sampled_as_points`](tandem::scene::Scene::sampled_as_points)).
 pub fn sampled_scene(scene: &tandem::scene::Scene, spacing: f64, radius: f64) -> tandem::scene::Scene {
-    use tandem::scene::{Obstacle, Scene, Shape};
-    let mut points = Vec::new();
-    for o in scene.obstacles() {
-        let surface = o.shape.surface_points(spacing).expect("primitive obstacles");
-        points.extend(surface.iter().map(|p| -> [f64; 3] { (o.pose * p).coords.into() }));
-    }
-    let mut cloud = Scene::new();
-    let shape = Shape::points(&points, radius).unwrap();
-    cloud.add_obstacle(Obstacle::new("camera", shape, nalgebra::IsometryMatrix3::identity())).unwrap();
-    for (a, b) in scene.allowed_contacts() {
-        let named = |n: &str| if scene.obstacle(n).is_some() { "camera".to_string() } else { n.to_string() };
-        cloud.allow_contact(named(a), named(b));
-    }
-    cloud
+    scene.sampled_as_points("camera", spacing, radius).unwrap()
 }
