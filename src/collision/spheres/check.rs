@@ -144,6 +144,26 @@ impl<T: Real> StaticShape<T> {
     /// shape's core, and the radius the core is swept by (m).
     #[inline(always)]
     pub(super) fn core_distance_squared(&self, p: &[Lane<T>; 3]) -> (Lane<T>, T) {
+        self.core_distance_squared_within(p, T::INFINITY)
+    }
+
+    /// The radius the shape's core is swept by (m).
+    #[inline(always)]
+    fn core_radius(&self) -> T {
+        match &self.kind {
+            StaticKind::Sphere { radius, .. } | StaticKind::Capsule { radius, .. } | StaticKind::Cloud { radius, .. } => {
+                *radius
+            }
+            StaticKind::Box { .. } | StaticKind::Cylinder { .. } => T::ZERO,
+        }
+    }
+
+    /// [`core_distance_squared`](Self::core_distance_squared), exact for
+    /// the lanes closer than `cap2` (m²) to the core and at least `cap2`
+    /// for the others: a cloud's nearest-point search prunes everything
+    /// farther (the other kinds are exact anyway).
+    #[inline(always)]
+    pub(super) fn core_distance_squared_within(&self, p: &[Lane<T>; 3], cap2: T) -> (Lane<T>, T) {
         match &self.kind {
             StaticKind::Sphere { center, radius } => (point_distance_squared(p, center), *radius),
             StaticKind::Capsule { a, ab, len2, radius } => (segment_distance_squared(p, a, ab, *len2), *radius),
@@ -154,10 +174,13 @@ impl<T: Real> StaticShape<T> {
             StaticKind::Cloud { frame, points, radius } => {
                 let p = p.map(|c| c.map(T::to_f64));
                 let local = to_local(&p, frame);
+                // Rounded up a little: the cap must not cut off a lane the
+                // caller would count as within it.
+                let cap = cap2.to_f64().sqrt() * (1.0 + 1e-6) + 1e-9;
                 let d2 = build(|l| {
                     let at = [local[0][l], local[1][l], local[2][l]];
-                    // An empty cloud is never near.
-                    T::of(points.nearest(&at, f64::INFINITY).map_or(f64::INFINITY, |(d2, _)| d2))
+                    // Nothing within the cap (or an empty cloud): beyond it.
+                    T::of(points.nearest(&at, cap).map_or(f64::INFINITY, |(d2, _)| d2))
                 });
                 (d2, *radius)
             }
@@ -403,15 +426,18 @@ impl<T: Real> SphereModel<T> {
         flags: &mut Flags<T>,
     ) -> bool {
         let (group, shape, center) = (&self.groups[g], &self.statics[o], *self.group_center(ws, g));
-        let (d2, radius) = shape.core_distance_squared(&center);
-        if all_beyond(&d2, &self.pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g])) {
+        let radius = shape.core_radius();
+        let pass = self.pass_limit::<CERTIFY>(ws, group.radius + radius, ws.group_sweep[g]);
+        let (d2, _) = shape.core_distance_squared_within(&center, lane_max(&pass));
+        if all_beyond(&d2, &pass) {
             return false;
         }
         self.place_clusters(ws, g);
         for c in group.clusters.clone() {
             let cluster = &self.clusters[c];
-            let (d2, radius) = shape.core_distance_squared(&ws.cluster_centers[c]);
-            if all_beyond(&d2, &self.pass_limit::<CERTIFY>(ws, cluster.radius + radius, ws.cluster_sweep[c])) {
+            let pass = self.pass_limit::<CERTIFY>(ws, cluster.radius + radius, ws.cluster_sweep[c]);
+            let (d2, _) = shape.core_distance_squared_within(&ws.cluster_centers[c], lane_max(&pass));
+            if all_beyond(&d2, &pass) {
                 continue;
             }
             let sweep = if CERTIFY { self.tight_sweep(ws, c, 0) } else { [T::ZERO; LANES] };
@@ -421,8 +447,10 @@ impl<T: Real> SphereModel<T> {
             }
             self.place_spheres(ws, c);
             for s in cluster.spheres.clone() {
-                let (d2, radius) = shape.core_distance_squared(&ws.centers[s]);
                 let reach = self.spheres[s].reach + radius;
+                // Beyond what `screen` passes, the distance is not needed.
+                let cap2 = lane_max(&self.pass_limit_lanes::<CERTIFY>(ws, reach, &sweep));
+                let (d2, _) = shape.core_distance_squared_within(&ws.centers[s], cap2);
                 let Some(short) = self.screen::<CERTIFY>(ws, &d2, reach, &sweep, flags) else { return true };
                 if !short.contains(&true) {
                     continue;
