@@ -143,6 +143,7 @@ impl<T: Real> StaticShape<T> {
     /// Squared distance (m², negative inside) from each lane's point to the
     /// shape's core, and the radius the core is swept by (m).
     #[inline(always)]
+    #[cfg(test)]
     pub(super) fn core_distance_squared(&self, p: &[Lane<T>; 3]) -> (Lane<T>, T) {
         self.core_distance_squared_within(p, T::INFINITY)
     }
@@ -151,9 +152,9 @@ impl<T: Real> StaticShape<T> {
     #[inline(always)]
     fn core_radius(&self) -> T {
         match &self.kind {
-            StaticKind::Sphere { radius, .. } | StaticKind::Capsule { radius, .. } | StaticKind::Cloud { radius, .. } => {
-                *radius
-            }
+            StaticKind::Sphere { radius, .. }
+            | StaticKind::Capsule { radius, .. }
+            | StaticKind::Cloud { radius, .. } => *radius,
             StaticKind::Box { .. } | StaticKind::Cylinder { .. } => T::ZERO,
         }
     }
