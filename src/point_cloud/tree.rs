@@ -33,8 +33,8 @@ struct Node {
     right: u32,
 }
 
-/// A static k-d tree over points (m, in the cloud's frame); see the
-/// [module documentation](self).
+/// A static k-d tree over points (m, in the cloud's frame); the
+/// [`crate::point_cloud`] module says how it is built and queried.
 #[derive(Debug, Clone, Default)]
 pub struct PointTree {
     /// Coordinates of the points in tree order.
