@@ -1,10 +1,13 @@
 //! Shared by the MotionBenchMaker benches: the problem set, unpacking, and
 //! the percentile table.
 
+use nalgebra::IsometryMatrix3;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use tandem::plan::ProblemPlanner;
+use tandem::point_cloud::{FilterSettings, PointCloud};
 use tandem::problem::Problem;
+use tandem::scene::{Obstacle, Scene};
 
 pub const FAMILIES: [&str; 7] =
     ["bookshelf_small", "bookshelf_tall", "bookshelf_thin", "box", "cage", "table_pick", "table_under_pick"];
@@ -131,4 +134,88 @@ pub fn median_mean(values: &mut [f64]) -> (f64, f64) {
     values.sort_by(f64::total_cmp);
     let median = values.get(values.len() / 2).copied().unwrap_or(f64::NAN);
     (median, values.iter().sum::<f64>() / values.len().max(1) as f64)
+}
+
+/// `--clouds DIR`: scenes from files of points, filtered and built as a
+/// robot that sees its world would (see the motionbenchmaker bench).
+#[allow(dead_code)] // only the Panda bench reads clouds
+pub struct CloudPipeline {
+    dir: PathBuf,
+    /// Balls' radius as the sensor's points are (m), before the filter's margin.
+    point_radius: f64,
+    /// The crop, range window and minimum-distance filter.
+    filter: FilterSettings,
+    /// Whether the balls leave out the filter's margin (`--no-margin`).
+    no_margin: bool,
+}
+
+#[allow(dead_code)] // only the Panda bench reads clouds
+impl CloudPipeline {
+    /// The pipeline `--clouds DIR [--point-radius R] [--filter SPACING]
+    /// [--cull REACH] [--no-margin]` asks for, if any.
+    pub fn from_args(args: &[String]) -> Option<CloudPipeline> {
+        let dir = PathBuf::from(text(args, "--clouds")?);
+        let point_radius = option(args, "--point-radius").unwrap_or(0.0025);
+        let spacing = option(args, "--filter").unwrap_or(0.02);
+        let reach = option(args, "--cull").unwrap_or(1.19);
+        let cull = reach > 0.0;
+        let filter = FilterSettings {
+            crop: cull.then_some(([-reach; 3], [reach; 3])),
+            sensor: [0.0; 3],
+            range: cull.then_some((0.0, reach)),
+            spacing,
+        };
+        filter.validate().expect("filter settings");
+        assert!(point_radius.is_finite() && point_radius > 0.0, "--point-radius must be positive");
+        Some(CloudPipeline { dir, point_radius, filter, no_margin: args.iter().any(|a| a == "--no-margin") })
+    }
+
+    /// The points of problem `k` of `family`, if its file is there.
+    pub fn read(&self, family: &str, k: usize) -> Option<PointCloud> {
+        let path = self.dir.join(family).join(format!("{k:04}.ply"));
+        path.exists().then(|| PointCloud::read(&path).unwrap_or_else(|e| panic!("{e}")))
+    }
+
+    /// The points the filter keeps (the timed step "filter").
+    pub fn filter(&self, cloud: &PointCloud) -> PointCloud {
+        cloud.filtered(&self.filter).expect("validated settings").0
+    }
+
+    /// The balls' radius (m): the point radius plus, unless `--no-margin`,
+    /// what the filter asks for the kept points to stand for the removed
+    /// ones (its `radius_margin`, the spacing).
+    pub fn radius(&self) -> f64 {
+        self.point_radius + if self.no_margin { 0.0 } else { self.filter.spacing }
+    }
+
+    /// `scene` with its obstacles replaced by the balls at `kept` (objects
+    /// kept; contacts allowed with an obstacle allowed with the cloud).
+    pub fn scene(&self, scene: &Scene, kept: &PointCloud) -> Scene {
+        let name = "camera";
+        let cloud = Obstacle::point_cloud(name, kept, self.radius(), IsometryMatrix3::identity()).expect("radius");
+        let mut out = Scene::new();
+        out.add_obstacle(cloud).expect("the cloud");
+        for object in scene.objects() {
+            out.add_object(object.clone()).expect("an object of a valid scene");
+        }
+        for (a, b) in scene.allowed_contacts() {
+            let named = |n: &String| if scene.obstacle(n).is_some() { name.to_string() } else { n.clone() };
+            out.allow_contact(named(a), named(b));
+        }
+        out
+    }
+
+    /// One line saying the settings.
+    pub fn describe(&self) -> String {
+        let cull = self.filter.range.map_or("no cull".to_string(), |(_, r)| format!("culled beyond {r} m"));
+        let margin = if self.no_margin { ", no margin: certified against the kept points only" } else { "" };
+        format!("{cull}, minimum-distance filter at {} m, balls of {} m{margin}", self.filter.spacing, self.radius())
+    }
+
+    /// The settings, as JSON.
+    pub fn settings_json(&self) -> serde_json::Value {
+        serde_json::json!({"dir": self.dir.display().to_string(), "point_radius_m": self.point_radius,
+            "filter_spacing_m": self.filter.spacing, "cull_m": self.filter.range.map(|(_, r)| r),
+            "ball_radius_m": self.radius(), "margin": !self.no_margin})
+    }
 }
