@@ -159,8 +159,8 @@ impl<T: Real> StaticShape<T> {
         }
     }
 
-    /// [`core_distance_squared`](Self::core_distance_squared), exact for
-    /// the lanes closer than `cap2` (m²) to the core and at least `cap2`
+    /// Squared distance (m², negative inside) from each lane's point to the
+    /// shape's core and the core's swept radius (m), exact for the lanes closer than `cap2` (m²) to the core and at least `cap2`
     /// for the others: a cloud's nearest-point search prunes everything
     /// farther (the other kinds are exact anyway).
     #[inline(always)]
@@ -189,8 +189,8 @@ impl<T: Real> StaticShape<T> {
     }
 
     /// Per lane, `e · v` where `e` is the offset from the core's point
-    /// nearest `p` to `p` (so `|e|` is the distance of
-    /// [`core_distance_squared`](Self::core_distance_squared)) and `v` the
+    /// nearest `p` to `p` (so `|e|` is the distance to the core, as in
+    /// [`core_distance_squared_within`](Self::core_distance_squared_within)) and `v` the
     /// point's velocity: the distance's rate of change times `|e|`.
     /// Meaningless for points inside the core.
     #[inline(always)]
