@@ -5,7 +5,7 @@ DDS, PyPI `cyclonedds`) for `tandem ros2`'s interop test
 Reads one JSON object on stdin:
   {"domain": N, "ready": <the node's --json start line>, "urdf": PATH,
    "command_out": "trajectory" | "velocities", "out_topic": "/...",
-   "node": "/tandem", "scenario": "grasp" | "latency" | "describe" | "hostile" | "late",
+   "node": "/tandem", "scenario": "grasp" | "latency" | "describe" | "hostile" | "late" | "camera",
    "seconds": S, "command_hz": HZ, "description": PATH, "robot_period_s": S}
 ("describe" publishes the URDF at PATH on /robot_description, transient
 local, and stays for S seconds. "hostile" plays a careless or hostile
@@ -16,7 +16,14 @@ then the same object poses republished at 50 Hz while the operator heads
 for the first goal. "late" plays a robot that executes each trajectory
 point and reports its state one robot step late, every "robot_period_s"
 (the node's period): the operator drives toward the goal, then stops
-sending; every point received is printed, in order, with its phase.)
+sending; every point received is printed, in order, with its phase.
+"camera" plays a depth camera on "cloud_topic" too: first nothing, then
+at 10 Hz a PointCloud2 of a 30 x 30 cm wall of points across the
+operator's straight path to the goal, and of the arm itself (its frames'
+origins at the configuration the robot is in), then nothing again; the
+operator drives at the goal throughout. It reports, per phase, the codes
+and motion, and the smallest distance from any of Pinocchio's frame
+origins on the arm to a wall point.)
 and prints one JSON object with what it saw.
 
 The robot publishes /joint_states at 250 Hz (the arm's joints, and the
@@ -61,7 +68,7 @@ os.environ["CYCLONEDDS_URI"] = "file://" + _config.name
 from cyclonedds.core import Policy, Qos  # noqa: E402  (after the configuration)
 from cyclonedds.domain import DomainParticipant  # noqa: E402
 from cyclonedds.idl import IdlStruct  # noqa: E402
-from cyclonedds.idl.types import float64, int8, int32, sequence, uint32  # noqa: E402
+from cyclonedds.idl.types import float64, int8, int32, sequence, uint8, uint32  # noqa: E402
 from cyclonedds.pub import DataWriter  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
@@ -203,6 +210,39 @@ def stamp_seconds(stamp):
 @dataclass
 class String_(IdlStruct, typename="std_msgs::msg::dds_::String_"):
     data: str
+
+
+@dataclass
+class PointField(IdlStruct, typename="sensor_msgs::msg::dds_::PointField_"):
+    name: str
+    offset: uint32
+    datatype: uint8
+    count: uint32
+
+
+@dataclass
+class PointCloud2(IdlStruct, typename="sensor_msgs::msg::dds_::PointCloud2_"):
+    header: Header
+    height: uint32
+    width: uint32
+    fields: sequence[PointField]
+    is_bigendian: bool
+    point_step: uint32
+    row_step: uint32
+    data: sequence[uint8]
+    is_dense: bool
+
+
+def point_cloud(points, frame):
+    """A PointCloud2 as a depth camera driver lays it out: x, y, z FLOAT32
+    and an rgb field after a 4-byte gap (point_step 20), unorganised."""
+    n = len(points)
+    rows = np.zeros(n, dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("pad", "<u4"), ("rgb", "<f4")])
+    rows["x"], rows["y"], rows["z"] = points[:, 0], points[:, 1], points[:, 2]
+    fields = [PointField(name="x", offset=0, datatype=7, count=1), PointField(name="y", offset=4, datatype=7, count=1),
+              PointField(name="z", offset=8, datatype=7, count=1), PointField(name="rgb", offset=16, datatype=7, count=1)]
+    return PointCloud2(header=Header(frame_id=frame), height=1, width=n, fields=fields, is_bigendian=False,
+                       point_step=20, row_step=20 * n, data=list(rows.tobytes()), is_dense=True)
 
 
 def describe():
@@ -404,6 +444,10 @@ def main():
         print(json.dumps({"points": late["points"], "robot_period_s": step, "reanchors": reanchors[-1:], **seen}))
         return
 
+    if REQUEST["scenario"] == "camera":
+        camera(run, seen, log, motion, command, dp, ready, gripper, lambda: q.copy(), model, data, goal)
+        return
+
     if REQUEST["scenario"] == "hostile":
         hostile(run, report, seen, log, motion, ticks_at, holds, command, goals_w, mode_w, ready, dp, node, gripper)
         return
@@ -551,6 +595,69 @@ def hostile(run, report, seen, log, motion, ticks_at, holds, command, goals_w, m
         "goal_updates_under_republish": seen["goal_updates"] - updates_before,
         "largest_belief": max((b[0] for b in beliefs), default=math.nan),
         "beliefs_seen": len(beliefs),
+        **seen,
+    }))
+
+
+def camera(run, seen, log, motion, command, dp, ready, gripper, configuration, model, data, goal):
+    """The camera scenario (see the module's docstring)."""
+    cloud_w = DataWriter(dp, Topic(dp, "rt" + REQUEST["cloud_topic"], PointCloud2),
+                         qos=Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1)))
+    start = gripper()
+    above = goal + np.array([0.0, 0.0, 0.1])
+    d = (above - start) / np.linalg.norm(above - start)
+    centre = start + d * min(REQUEST["wall_at_m"], 0.5 * np.linalg.norm(above - start))
+    # Two unit vectors across the path span the wall.
+    u = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(d, u)
+    grid = np.arange(-0.15, 0.1501, 0.01)
+    wall = np.array([centre + a * u + b * v for a in grid for b in grid])
+    arm_frames = [f for f in range(model.nframes) if model.frames[f].name.startswith("panda_")
+                  and model.frames[f].name not in ("panda_link0",)]
+    closest = {"m": math.inf}
+
+    def toward(t):
+        dd = above - gripper()
+        dist = np.linalg.norm(dd)
+        command(t, dd / dist * min(0.1, 2.0 * dist) if dist > 1e-9 else np.zeros(3))
+
+    def frame_origins():
+        pin.forwardKinematics(model, data, configuration())
+        pin.updateFramePlacements(model, data)
+        return np.array([data.oMf[f].translation for f in arm_frames])
+
+    def watch():
+        origins = frame_origins()
+        gap = np.min(np.linalg.norm(origins[:, None, :] - wall[None, :, :], axis=2))
+        closest["m"] = min(closest["m"], float(gap))
+
+    k = {"n": 0}
+
+    def seeing(t):
+        toward(t)
+        watch()
+        k["n"] += 1
+        if k["n"] % 5 == 0:  # every 100 ms (the operator runs every 5th robot step)
+            cloud_w.write(point_cloud(np.vstack([wall, frame_origins()]), ready["root_frame"]))
+
+    run("dark", 1.5, toward)
+    run("seeing", REQUEST["seconds"], seeing)
+    run("blind", 1.0, lambda t: (toward(t), watch()))
+    codes = {}
+    for _, phase, code in log:
+        codes.setdefault(phase, {}).setdefault(str(code), 0)
+        codes[phase][str(code)] += 1
+    blind_motion = [t for t, ph, _ in motion if ph == "blind"]
+    blind_began = min([t for t, ph, _ in log if ph == "blind"], default=math.nan)
+    print(json.dumps({
+        "codes": codes,
+        "moved_in": sorted({ph for _, ph, _ in motion}),
+        "travel_m": float(np.linalg.norm(gripper() - start)),
+        "wall_from_start_m": float(np.dot(centre - start, d)),
+        "gripper_past_wall_m": float(np.dot(gripper() - centre, d)),
+        "closest_origin_to_wall_m": closest["m"],
+        "last_blind_motion_s": (max(blind_motion) - blind_began) if blind_motion else 0.0,
         **seen,
     }))
 

@@ -1,5 +1,5 @@
 //! tandem's ROS 2 messages against an independent serializer: each message
-//! type, drawn at random 40 times (empty arrays and strings, non-ASCII
+//! type (the camera's PointCloud2, Image and CameraInfo too), drawn at random 40 times (empty arrays and strings, non-ASCII
 //! names, subnormal, huge and negative-zero numbers included), encodes to
 //! the same bytes as PyPI `rosbags` writes from the same values
 //! (python_ref/ros2_reference.py), and both decode back to the values.
@@ -109,7 +109,69 @@ fn draw(rng: &mut ChaCha8Rng) -> Vec<Drawn> {
         drawn("std_msgs/msg/Int8", Int8 { data: rng.random() }),
         drawn("std_msgs/msg/String", StringMessage { data: text(rng) }),
         drawn("geometry_msgs/msg/PoseArray", PoseArray { header: header(rng), poses }),
+        drawn(
+            "sensor_msgs/msg/PointCloud2",
+            PointCloud2 {
+                header: header(rng),
+                height: rng.random(),
+                width: rng.random(),
+                fields: (0..rng.random_range(0..4))
+                    .map(|_| PointField {
+                        name: text(rng),
+                        offset: rng.random(),
+                        datatype: rng.random(),
+                        count: rng.random(),
+                    })
+                    .collect(),
+                is_bigendian: rng.random(),
+                point_step: rng.random(),
+                row_step: rng.random(),
+                data: bytes(rng),
+                is_dense: rng.random(),
+            },
+        ),
+        drawn(
+            "sensor_msgs/msg/Image",
+            Image {
+                header: header(rng),
+                height: rng.random(),
+                width: rng.random(),
+                encoding: text(rng),
+                is_bigendian: rng.random(),
+                step: rng.random(),
+                data: bytes(rng),
+            },
+        ),
+        drawn(
+            "sensor_msgs/msg/CameraInfo",
+            CameraInfo {
+                header: header(rng),
+                height: rng.random(),
+                width: rng.random(),
+                distortion_model: text(rng),
+                d: numbers(rng),
+                k: std::array::from_fn(|_| number(rng)),
+                r: std::array::from_fn(|_| number(rng)),
+                p: std::array::from_fn(|_| number(rng)),
+                binning_x: rng.random(),
+                binning_y: rng.random(),
+                roi: RegionOfInterest {
+                    x_offset: rng.random(),
+                    y_offset: rng.random(),
+                    height: rng.random(),
+                    width: rng.random(),
+                    do_rectify: rng.random(),
+                },
+            },
+        ),
     ]
+}
+
+/// Bytes of a point cloud's or an image's data: none, a few, or an odd
+/// count past a CDR alignment.
+fn bytes(rng: &mut ChaCha8Rng) -> Vec<u8> {
+    let n = [0, 1, 7, 12, 61][rng.random_range(0..5)];
+    (0..n).map(|_| rng.random()).collect()
 }
 
 #[test]

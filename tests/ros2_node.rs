@@ -13,7 +13,7 @@ mod common;
 use std::io::{BufRead, BufReader, Write};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use tandem::ros2::{COMMAND_STALE, HOLDS, STATE_STALE};
+use tandem::ros2::{COMMAND_STALE, HOLDS, POINT_CLOUD_STALE, STATE_STALE};
 
 /// A DDS domain of this test process's own, so that concurrent runs on one
 /// machine do not meet.
@@ -61,6 +61,24 @@ fn start_node_with(
     let ready: serde_json::Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("start line {line:?}: {e}"));
     assert_eq!(ready["ready"], true);
     (node, ready, stdout)
+}
+
+/// Runs python_ref/ros2_robot.py with `request` against the started node,
+/// then stops the node (it must exit 0): what the script saw and the
+/// node's report.
+fn play(
+    request: &serde_json::Value,
+    node: &mut Node,
+    stdout: &mut BufReader<std::process::ChildStdout>,
+) -> (serde_json::Value, serde_json::Value) {
+    let reply = common::run_python("ros2_robot.py", &[], &request.to_string());
+    let seen: serde_json::Value = serde_json::from_str(&reply).unwrap();
+    let status = sigterm(node);
+    assert!(status.success(), "the node exited with {status} after SIGTERM: {seen}");
+    let mut line = String::new();
+    stdout.read_line(&mut line).unwrap();
+    let report: serde_json::Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("report {line:?}: {e}"));
+    (seen, report)
 }
 
 fn sigterm(node: &mut Node) -> std::process::ExitStatus {
@@ -326,13 +344,7 @@ fn a_hostile_peer_and_a_stderr_nobody_reads_neither_stop_the_loop_nor_move_the_a
         "command_out": "trajectory", "out_topic": "/joint_trajectory_controller/joint_trajectory",
         "node": "/tandem", "scenario": "hostile", "flood_s": 3.0, "republish_s": 4.0,
     });
-    let reply = common::run_python("ros2_robot.py", &[], &request.to_string());
-    let seen: serde_json::Value = serde_json::from_str(&reply).unwrap();
-    let status = sigterm(&mut node);
-    assert!(status.success(), "the node exited with {status} after SIGTERM: {seen}");
-    let mut line = String::new();
-    stdout.read_line(&mut line).unwrap();
-    let report: serde_json::Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("report {line:?}: {e}"));
+    let (seen, report) = play(&request, &mut node, &mut stdout);
     drop(unread);
     let label = format!("{seen}\nreport: {report}");
     // The loop kept its rate under the flood (100 Hz; it fell to 0 when
@@ -509,4 +521,60 @@ fn a_robot_reporting_one_period_late_gets_consistent_points_a_braking_stop_and_a
         rest as f64 * dt
     );
     assert!(chatter < 1e-9, "consecutive held points differ by {chatter} rad");
+}
+
+/// A depth camera on Cyclone DDS: a `PointCloud2` (FLOAT32 x, y, z and an
+/// rgb field after a gap) of a wall across the operator's straight path,
+/// with points on the arm itself. Before the first cloud the node holds
+/// (17); then the arm drives at the wall and stops short of it — every
+/// one of Pinocchio's frame origins on the arm farther from every wall
+/// point than the points' radius (an origin lies inside the arm's body,
+/// so a smaller gap would be a contact), tandem's own distance never
+/// negative — while its own points are self-filtered (else it would be in
+/// collision and could not move); when the clouds stop, it holds again.
+#[test]
+fn a_point_cloud_topic_puts_a_wall_in_front_of_the_moving_arm_and_the_arm_keeps_clear() {
+    let dir = tempfile::tempdir().unwrap();
+    let domain = domain(30);
+    let (radius, max_age) = (0.01, 0.5);
+    let config = format!(
+        "domain_id: {domain}\nrate_hz: 100\nmode: direct\npoint_cloud_topic: /camera/points\n\
+         point_radius: {radius}\npoint_cloud_spacing: 0.01\npoint_cloud_max_age: {max_age}\n"
+    );
+    let (mut node, ready, mut stdout) = start_node(&config, dir.path());
+    let request = serde_json::json!({
+        "domain": domain, "ready": ready, "urdf": common::repo().join("problems/robots/panda/panda.urdf"),
+        "command_out": "trajectory", "out_topic": "/joint_trajectory_controller/joint_trajectory",
+        "node": "/tandem", "scenario": "camera", "cloud_topic": "/camera/points", "seconds": 6.0, "wall_at_m": 0.12,
+    });
+    let (seen, report) = play(&request, &mut node, &mut stdout);
+    let label = format!("{seen}\nreport: {report}");
+    let codes = |phase: &str| -> Vec<i64> {
+        seen["codes"][phase].as_object().map_or(Vec::new(), |m| m.keys().map(|k| k.parse().unwrap()).collect())
+    };
+    let moved: Vec<&str> = seen["moved_in"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    let stale = POINT_CLOUD_STALE as i64;
+    // No cloud yet: held, whatever the operator commands.
+    assert!(codes("dark").contains(&stale), "{label}");
+    assert!(codes("dark").iter().all(|c| [stale, STATE_STALE as i64].contains(c)), "{label}");
+    assert!(!moved.contains(&"dark"), "{label}");
+    // Seeing: it moved toward the wall and stopped short of it.
+    assert!(moved.contains(&"seeing"), "{label}");
+    assert!(codes("seeing").iter().all(|c| [0, 1, 4, 5, 10, stale].contains(c)), "{label}");
+    let travel = seen["travel_m"].as_f64().unwrap();
+    let gap = seen["closest_origin_to_wall_m"].as_f64().unwrap();
+    eprintln!(
+        "gripper travel {travel:.3} m toward a wall {:.3} m ahead; closest frame origin {gap:.4} m from it",
+        seen["wall_from_start_m"]
+    );
+    assert!(travel > 0.04, "{label}");
+    assert!(seen["gripper_past_wall_m"].as_f64().unwrap() < 0.0, "{label}");
+    assert!(gap > radius, "{label}");
+    assert!(seen["min_distance"].as_f64().unwrap() >= 0.0, "{label}");
+    // Blind: the cloud goes stale and the arm holds (a braking stop).
+    assert!(codes("blind").contains(&stale), "{label}");
+    assert!(seen["last_blind_motion_s"].as_f64().unwrap() <= max_age + 0.1, "{label}");
+    let clouds = report["point_clouds"].as_u64().unwrap();
+    assert!(clouds >= 20, "{clouds} clouds swapped in: {label}");
+    assert_eq!(report["point_clouds_refused"], 0, "{label}");
 }

@@ -177,6 +177,30 @@ impl Arbiter {
     pub fn collision_model(&self) -> &Arc<CollisionModel> {
         &self.collision
     }
+
+    /// The same goals, policies and settings against `collision`, another
+    /// collision model of the same robot (the scene with a new point
+    /// cloud, say). Cheap: shares the rest. A workspace of this arbiter
+    /// made by [`Self::workspace`] is ready; one of the old arbiter must
+    /// take [`Self::safety_rows`] first
+    /// ([`ArbiterWorkspace::swap_safety_rows`](super::ArbiterWorkspace::swap_safety_rows)),
+    /// which keeps everything else it holds (beliefs, motion, mode).
+    ///
+    /// # Errors
+    /// [`ArbitrationError::OtherRobot`] for a model whose robot has other joints.
+    pub fn with_collision_model(&self, collision: Arc<CollisionModel>) -> Result<Arbiter, ArbitrationError> {
+        if collision.robot().joint_names() != self.robot.joint_names() {
+            return Err(ArbitrationError::OtherRobot);
+        }
+        Ok(Arbiter {
+            robot: self.robot.clone(),
+            collision,
+            gripper: self.gripper,
+            goals: self.goals.clone(),
+            settings: self.settings,
+            learned: self.learned.clone(),
+        })
+    }
 }
 
 /// Whether the human command is a task command, and its dimension.

@@ -142,6 +142,10 @@ pub enum ArbitrationError {
         /// The policy's task dimensions.
         task_dims: usize,
     },
+    /// A collision model of another robot than the arbiter's (other
+    /// joints).
+    #[error("the collision model is of another robot: its joints differ from the arbiter's")]
+    OtherRobot,
     /// The problem names no gripper frame (`robot.gripper`).
     #[error("the problem names no gripper frame (robot.gripper): task commands and intent need one")]
     NoGripper,

@@ -146,6 +146,11 @@ impl SafetyRows {
         }
     }
 
+    /// The arm's joint count these rows are for.
+    pub fn joints(&self) -> usize {
+        self.n
+    }
+
     /// Bounds `lo ≤ u ≤ hi` from the velocity limits and from the position
     /// limits reached in one period `dt`. Outside its limits, a joint must
     /// move back toward them (as fast as its velocity limit allows). With

@@ -251,7 +251,7 @@ impl Arbiter {
                 conic: false,
                 damped: false,
             },
-            rows: SafetyRows::new(n, self.settings.safety.max_distance_rows, &self.collision),
+            rows: self.safety_rows(),
             solve: SolveStage {
                 active: Vec::with_capacity(max_rows + self.settings.safety.max_distance_rows),
                 g: vec![0.0; max_rows * n],
@@ -277,7 +277,31 @@ impl Arbiter {
     }
 }
 
+impl Arbiter {
+    /// The hard-constraint rows' scratch for this arbiter's collision
+    /// model (allocates): what a workspace of an arbiter of the same goals
+    /// takes in [`ArbiterWorkspace::swap_safety_rows`] when the model
+    /// changes. Build it off the control loop's thread.
+    pub fn safety_rows(&self) -> SafetyRows {
+        SafetyRows::new(self.robot.nq(), self.settings.safety.max_distance_rows, &self.collision)
+    }
+}
+
 impl ArbiterWorkspace {
+    /// Exchanges this workspace's hard-constraint rows with `rows` (made by
+    /// [`Arbiter::safety_rows`] for the arbiter the next ticks use, one
+    /// from [`Arbiter::with_collision_model`]): the old rows come back in
+    /// `rows`, to be dropped off the loop's thread. Everything else — the
+    /// beliefs, the policies' states, the motion, the mode — carries over.
+    /// Allocates nothing.
+    ///
+    /// # Panics
+    /// Rows of an arm with another joint count.
+    pub fn swap_safety_rows(&mut self, rows: &mut SafetyRows) {
+        assert_eq!(self.rows.joints(), rows.joints(), "safety rows of different arms");
+        std::mem::swap(&mut self.rows, rows);
+    }
+
     /// Takes over the arm `from` has been commanding: the next tick
     /// continues `from`'s executed command sequence (its last velocity and
     /// acceleration) within the motion limits, instead of starting from

@@ -40,7 +40,8 @@ pub struct Ros2Args {
     /// once every topic exists, then {"ticks", "late_ticks", "published",
     /// "unreadable", "tick_us": {"median", "p99", "max"}, "dropped_log_lines",
     /// "suppressed_log_lines", "stalls", "longest_stall_s", "mode_messages",
-    /// "poses_unchanged", "replans", "stopped_before_start"} at the end (also
+    /// "poses_unchanged", "replans", "point_clouds", "point_clouds_refused",
+    /// "stopped_before_start"} at the end (also
     /// when stopped before the loop started: no start line then).
     #[arg(long)]
     pub json: bool,
@@ -154,6 +155,8 @@ pub(super) fn run(args: &Ros2Args) -> Result<super::Outcome, Box<dyn std::error:
                 "mode_messages": report.mode_messages,
                 "poses_unchanged": report.poses_unchanged,
                 "replans": report.replans,
+                "point_clouds": report.point_clouds,
+                "point_clouds_refused": report.point_clouds_refused,
                 "stopped_before_start": report.stopped_before_start,
             })
         );

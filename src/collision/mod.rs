@@ -36,6 +36,7 @@ mod geometry;
 mod model;
 mod motion;
 mod query;
+mod self_filter;
 mod spheres;
 
 pub use distance::{SignedDistance, closer_than, signed_distance};

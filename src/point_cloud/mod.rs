@@ -14,12 +14,15 @@
 //! caller's (see [`PointCloud::transformed`]). [`PointCloud::filtered`]
 //! crops, range-limits and thins a cloud, and says how much the point
 //! radius must grow for the thinned cloud to stand for the whole.
+//! [`DepthProjection`] turns a depth camera's images into points.
 
+mod depth;
 mod filter;
 mod pcd;
 mod ply;
 mod tree;
 
+pub use depth::{CameraIntrinsics, DepthProjection};
 pub use filter::{FilterReport, FilterSettings};
 pub use tree::PointTree;
 

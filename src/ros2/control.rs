@@ -30,11 +30,14 @@ pub const COMMAND_STALE: i8 = 15;
 /// The status code of a hold for joint states older than
 /// `joint_state_timeout` (or none yet).
 pub const STATE_STALE: i8 = 16;
+/// The status code of a hold for a point cloud older than
+/// `point_cloud_max_age` (or none yet) with `point_cloud_stale: hold`.
+pub const POINT_CLOUD_STALE: i8 = 17;
 
 /// The node's own holds (not the arbiter's), in the order of the `hold`
 /// diagnostic: its value is the index here plus one, 0 when the node did
 /// not hold. `hold_joint` names the arm's joint at fault, when one is.
-pub const HOLDS: [&str; 9] = [
+pub const HOLDS: [&str; 10] = [
     "joint states stale",
     "joint states invalid: one of the arm's joints missing, or lengths that differ",
     "joint states invalid: a position not finite",
@@ -44,6 +47,7 @@ pub const HOLDS: [&str; 9] = [
     "command invalid: an unknown joint, lengths that differ or no velocities",
     "command invalid: a joint named twice",
     "command invalid: not finite (NaN or infinite)",
+    "point cloud stale",
 ];
 
 // Indices into HOLDS.
@@ -56,6 +60,7 @@ const COMMAND_FRAME: usize = 5;
 const COMMAND_SHAPE: usize = 6;
 const COMMAND_DUPLICATE: usize = 7;
 const COMMAND_NOT_FINITE: usize = 8;
+const CLOUD_STALE_HOLD: usize = 9;
 
 /// Why a mode name was refused (no allocation: the name itself is the
 /// caller's to echo, bounded).
@@ -81,7 +86,7 @@ impl std::fmt::Display for ModeRefusal {
 
 /// The diagnostics topic's values, in order (`std_msgs/Float64MultiArray`;
 /// the layout's one dimension is labelled with these names).
-pub const DIAGNOSTICS: [&str; 20] = [
+pub const DIAGNOSTICS: [&str; 21] = [
     "tick_us",
     "command_stamp_s",
     "status",
@@ -102,6 +107,7 @@ pub const DIAGNOSTICS: [&str; 20] = [
     "hold_joint",
     "reference_deviation",
     "reanchors",
+    "point_cloud_age_s",
 ];
 
 /// What the latest command was.
@@ -194,6 +200,12 @@ pub struct ControlLoop {
     ticks: u64,
     late_ticks: u64,
     goal_updates: u64,
+    /// When the point cloud in the arbiter's scene arrived (`None`: no cloud yet).
+    cloud_at: Option<Instant>,
+    /// Hold when the cloud is older than this (s); `None`: never.
+    cloud_hold_after: Option<f64>,
+    /// Goal updates accepted; a cloud built for other goals is not swapped in.
+    goal_generation: u64,
 }
 
 impl ControlLoop {
@@ -251,6 +263,9 @@ impl ControlLoop {
             ticks: 0,
             late_ticks: 0,
             goal_updates: 0,
+            cloud_at: None,
+            cloud_hold_after: settings.camera.hold_after(),
+            goal_generation: 0,
             arbiter,
         })
     }
@@ -278,6 +293,51 @@ impl ControlLoop {
         self.ws = ws;
         self.goal_updates += 1;
         Ok(())
+    }
+
+    /// Swaps in `arbiter` — the same goals against a scene with a new
+    /// point cloud that arrived at `cloud_at`, from
+    /// [`Arbiter::with_collision_model`] — and its hard-constraint `rows`
+    /// (from [`Arbiter::safety_rows`]), from the next tick. Everything else
+    /// carries over: the beliefs, the motion, the mode. The old arbiter and
+    /// rows are left in `arbiter` and `rows`, for the caller to drop off
+    /// the loop's thread. Allocates nothing.
+    ///
+    /// Swaps nothing (and returns false) when `arbiter` was built for
+    /// other goals than the loop's (`generation` is not
+    /// [`Self::goal_generation`]: the goals changed while the cloud was
+    /// being built) or for another robot.
+    pub fn swap_collision(
+        &mut self,
+        arbiter: &mut Arbiter,
+        rows: &mut crate::arbitration::SafetyRows,
+        generation: u64,
+        cloud_at: Instant,
+    ) -> bool {
+        if generation != self.goal_generation
+            || arbiter.robot().joint_names() != self.arbiter.robot().joint_names()
+            || rows.joints() != self.arbiter.robot().nq()
+        {
+            return false;
+        }
+        self.ws.swap_safety_rows(rows);
+        self.cloud_at = Some(cloud_at);
+        std::mem::swap(&mut self.arbiter, arbiter);
+        true
+    }
+
+    /// Goal updates accepted so far ([`Self::accept_goals`]).
+    pub fn goal_generation(&self) -> u64 {
+        self.goal_generation
+    }
+
+    /// Notes that the arbiter of goal update `generation` (just given to
+    /// [`Self::replace_arbiter`]) keeps the cloud that arrived at `cloud_at`.
+    pub fn accept_goals(&mut self, generation: u64, cloud_at: Option<Instant>) {
+        self.goal_generation = generation;
+        if cloud_at.is_some() {
+            self.cloud_at = cloud_at;
+        }
     }
 
     /// The measured configuration, when the last joint state was valid.
@@ -485,6 +545,8 @@ impl ControlLoop {
             Some((STATE_STALE, STATE_STALE_HOLD, None, None))
         } else if let Some(fault) = self.state_fault {
             Some(invalid(TickStatus::InvalidState, fault))
+        } else if self.cloud_hold_after.is_some_and(|age| !fresh(self.cloud_at, age)) {
+            Some((POINT_CLOUD_STALE, CLOUD_STALE_HOLD, None, None))
         } else if !fresh(self.command_at, self.settings.incoming_command_timeout) || self.kind == CommandKind::None {
             Some((COMMAND_STALE, COMMAND_STALE_HOLD, None, None))
         } else if let CommandKind::Invalid(reason, joint) = self.kind {
@@ -579,6 +641,7 @@ impl ControlLoop {
         out.diagnostics[15] = self.goal_updates as f64;
         out.diagnostics[18] = deviation;
         out.diagnostics[19] = self.reanchors as f64;
+        out.diagnostics[20] = self.cloud_at.map_or(f64::NAN, |t| now.saturating_duration_since(t).as_secs_f64());
         &self.out
     }
 

@@ -37,6 +37,11 @@ impl GoalPreparer {
         GoalPreparer { problem, seed, settings, actor }
     }
 
+    /// The problem the goals are prepared in (objects at the problem's poses).
+    pub fn problem(&self) -> &Problem {
+        &self.problem
+    }
+
     /// The objects a PoseArray places, in order: the problem's objects
     /// with its goal's grasp frame (the goal alone when it is not a grasp).
     pub fn graspable(&self) -> Vec<String> {
@@ -69,6 +74,22 @@ impl GoalPreparer {
     /// that is not finite or whose quaternion is not unit (within 1e-3), a
     /// start or goal without a solution (the reason), arbiter errors.
     pub fn prepare(&self, poses: &PoseArray, start: &[f64]) -> Result<Arbiter, String> {
+        self.prepare_around(poses, start, None).map(|(arbiter, _)| arbiter)
+    }
+
+    /// [`prepare`](Self::prepare) with `cloud` (a camera's points as an
+    /// obstacle) in the scene: the references are planned around it and
+    /// the arbiter's constraints keep it. Also returns the problem with
+    /// the objects at their new poses, without the cloud.
+    ///
+    /// # Errors
+    /// As [`prepare`](Self::prepare).
+    pub fn prepare_around(
+        &self,
+        poses: &PoseArray,
+        start: &[f64],
+        cloud: Option<&crate::scene::Obstacle>,
+    ) -> Result<(Arbiter, Problem), String> {
         let root = self.problem.robot.description().root_link();
         let frame = poses.header.frame_id.as_str();
         if !(frame.is_empty() || frame == root) {
@@ -96,6 +117,10 @@ impl GoalPreparer {
             problem.scene.set_object_pose(name, placed).map_err(|e| format!("pose {k} ({name}): {e}"))?;
         }
         problem.start = start.to_vec();
+        let placed = problem.clone();
+        if let Some(cloud) = cloud {
+            problem.scene.add_obstacle(cloud.clone()).map_err(|e| e.to_string())?;
+        }
         let options =
             GoalSettings { seed: Some(self.seed), objects: GoalObjects::AllGraspable, ..GoalSettings::default() };
         let goals = problem_goals(&problem, &options).map_err(|e| e.to_string())?;
@@ -103,7 +128,7 @@ impl GoalPreparer {
         if let Some(actor) = &self.actor {
             arbiter = arbiter.with_arbitration_policy(actor.clone()).map_err(|e| e.to_string())?;
         }
-        Ok(arbiter)
+        Ok((arbiter, placed))
     }
 }
 

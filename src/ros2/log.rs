@@ -64,11 +64,22 @@ pub enum LogKind {
     GoalsRefused,
     /// The node holds the arm for a reason of its own (stale or invalid input).
     Hold,
+    /// A new point cloud in the scene.
+    PointCloud,
+    /// A camera message refused.
+    PointCloudRefused,
 }
 
 impl LogKind {
-    const ALL: [LogKind; 5] =
-        [LogKind::Mode, LogKind::ModeRefused, LogKind::Goals, LogKind::GoalsRefused, LogKind::Hold];
+    const ALL: [LogKind; 7] = [
+        LogKind::Mode,
+        LogKind::ModeRefused,
+        LogKind::Goals,
+        LogKind::GoalsRefused,
+        LogKind::Hold,
+        LogKind::PointCloud,
+        LogKind::PointCloudRefused,
+    ];
 
     fn index(self) -> usize {
         self as usize
@@ -81,6 +92,8 @@ impl LogKind {
             LogKind::Goals => "goal update",
             LogKind::GoalsRefused => "pose refusal",
             LogKind::Hold => "hold",
+            LogKind::PointCloud => "point cloud",
+            LogKind::PointCloudRefused => "camera message refusal",
         }
     }
 }

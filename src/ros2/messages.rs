@@ -254,3 +254,103 @@ pub struct PoseArray {
     /// The poses.
     pub poses: Vec<Pose>,
 }
+
+/// `sensor_msgs/PointField`: one field of a [`PointCloud2`]'s points.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PointField {
+    /// The field's name (`x`, `y`, `z`, `rgb`, `intensity`, …).
+    pub name: String,
+    /// Its offset in a point (bytes).
+    pub offset: u32,
+    /// Its type: 1 INT8, 2 UINT8, 3 INT16, 4 UINT16, 5 INT32, 6 UINT32,
+    /// 7 FLOAT32, 8 FLOAT64.
+    pub datatype: u8,
+    /// Elements in the field.
+    pub count: u32,
+}
+
+/// `sensor_msgs/PointCloud2`: points as rows of bytes, laid out by `fields`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PointCloud2 {
+    /// Time and frame of the points.
+    pub header: Header,
+    /// Rows (1 for an unorganised cloud).
+    pub height: u32,
+    /// Points per row.
+    pub width: u32,
+    /// The layout of a point.
+    pub fields: Vec<PointField>,
+    /// Byte order of `data`.
+    pub is_bigendian: bool,
+    /// Bytes per point.
+    pub point_step: u32,
+    /// Bytes per row.
+    pub row_step: u32,
+    /// `height × row_step` bytes.
+    pub data: Vec<u8>,
+    /// True when no point is invalid (NaN).
+    pub is_dense: bool,
+}
+
+/// `sensor_msgs/Image`: here a depth image (REP 118: `32FC1` in m,
+/// `16UC1` in mm, NaN or 0 where the camera has no depth).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Image {
+    /// Time of the image and its camera's optical frame.
+    pub header: Header,
+    /// Rows.
+    pub height: u32,
+    /// Columns.
+    pub width: u32,
+    /// Pixel encoding (`32FC1`, `16UC1`, …).
+    pub encoding: String,
+    /// Byte order of `data` (non-zero: big endian).
+    pub is_bigendian: u8,
+    /// Bytes per row.
+    pub step: u32,
+    /// `height × step` bytes.
+    pub data: Vec<u8>,
+}
+
+/// `sensor_msgs/RegionOfInterest`.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct RegionOfInterest {
+    /// Left column (pixels).
+    pub x_offset: u32,
+    /// Top row (pixels).
+    pub y_offset: u32,
+    /// Rows (0: the whole image).
+    pub height: u32,
+    /// Columns (0: the whole image).
+    pub width: u32,
+    /// Whether the region is to be rectified.
+    pub do_rectify: bool,
+}
+
+/// `sensor_msgs/CameraInfo`: a camera's calibration.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CameraInfo {
+    /// Time and the camera's optical frame.
+    pub header: Header,
+    /// Image rows of the calibration.
+    pub height: u32,
+    /// Image columns of the calibration.
+    pub width: u32,
+    /// `plumb_bob` (d: k1, k2, t1, t2, k3), `rational_polynomial`, …; empty
+    /// for none.
+    pub distortion_model: String,
+    /// The distortion coefficients.
+    pub d: Vec<f64>,
+    /// The intrinsic matrix K, row-major (fx 0 cx; 0 fy cy; 0 0 1).
+    pub k: [f64; 9],
+    /// The rectification rotation, row-major.
+    pub r: [f64; 9],
+    /// The projection matrix of the rectified image, row-major 3 × 4.
+    pub p: [f64; 12],
+    /// Horizontal binning (0 or 1: none).
+    pub binning_x: u32,
+    /// Vertical binning (0 or 1: none).
+    pub binning_y: u32,
+    /// The region of the full image this one is.
+    pub roi: RegionOfInterest,
+}

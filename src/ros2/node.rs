@@ -11,16 +11,18 @@
 //! | twist, joint commands | in | best effort | keep last 10 | matches any publisher (Servo's own reader is the system default, reliable); the latest of a tick's commands is used |
 //! | `mode_topic` | in | reliable | keep last 1 | a mode switch must not be lost; one name read per tick |
 //! | `goals_topic` | in | reliable | keep last 1 | only the latest poses matter, and they must arrive |
+//! | `point_cloud_topic`, `depth_image_topic`, `camera_info_topic` | in | best effort | keep last 1 | matches camera drivers (sensor-data QoS); only the latest frame matters; read by the camera worker, never the loop |
 //! | `command_out_topic` | out | reliable | keep last 1 | the controllers subscribe reliably (system default); a reliable writer matches both kinds of reader |
 //! | status, beliefs, diagnostics | out | reliable | keep last 10 | readable by `ros2 topic echo` with its defaults |
 //!
 //! Every topic is volatile: nothing old is worth delivering to a late joiner.
 
+use super::camera::{CameraLink, CameraReaders, SceneState};
 use super::control::{ControlLoop, DIAGNOSTICS};
 use super::goals::{GoalPoses, GoalPreparer};
 use super::log::{Echo, LogKind, NodeLog};
 use super::messages::{
-    Duration as RosDuration, Float64MultiArray, Header, Int8, JointJog, JointState, JointTrajectory,
+    CameraInfo, Duration as RosDuration, Float64MultiArray, Header, Image, Int8, JointJog, JointState, JointTrajectory,
     JointTrajectoryPoint, MultiArrayDimension, MultiArrayLayout, PoseArray, StringMessage, TwistStamped,
 };
 use super::robot_description::MAX_ROBOT_DESCRIPTION_BYTES;
@@ -49,6 +51,10 @@ pub enum NodeError {
         /// Why.
         reason: String,
     },
+    /// A camera topic without the problem to put its points in (no goal
+    /// preparer given).
+    #[error("a camera topic needs the problem's scene: run the node with goals from poses enabled")]
+    CameraWithoutScene,
     /// The DDS participant, a topic, a reader or a writer could not be made.
     #[error("DDS: {0}")]
     Dds(String),
@@ -129,6 +135,10 @@ pub struct NodeReport {
     pub poses_unchanged: u64,
     /// Goal preparations started (re-plans).
     pub replans: u64,
+    /// Point clouds swapped into the scene.
+    pub point_clouds: u64,
+    /// Camera messages refused (bad layout, no camera info, …).
+    pub point_clouds_refused: u64,
     /// Stopped (SIGINT, SIGTERM) before the loop started, e.g. while
     /// waiting for the robot description: no tick ran.
     pub stopped_before_start: bool,
@@ -316,6 +326,51 @@ pub fn run_node(
         .spawn(move || futures::executor::block_on(spinner.spin()))
         .map_err(dds("cannot start the spinner thread"))?;
 
+    // The camera: its readers go to a worker thread of their own.
+    let camera = &settings.camera;
+    let readers = match (&camera.point_cloud_topic, &camera.depth_image_topic) {
+        (Some(topic), _) => {
+            let name = resolve(topic, settings, "point_cloud_topic")?;
+            let t = node
+                .create_topic(&name, MessageTypeName::new("sensor_msgs", "PointCloud2"), &latest(1))
+                .map_err(dds("cannot create the topic point_cloud_topic"))?;
+            Some(CameraReaders::Cloud(Box::new(node.create_subscription(&t, None).map_err(dds("point cloud reader"))?)))
+        }
+        (None, Some(topic)) => {
+            let name = resolve(topic, settings, "depth_image_topic")?;
+            let t = node
+                .create_topic(&name, MessageTypeName::new("sensor_msgs", "Image"), &latest(1))
+                .map_err(dds("cannot create the topic depth_image_topic"))?;
+            let images = node.create_subscription::<Image>(&t, None).map_err(dds("depth image reader"))?;
+            let name = resolve(&camera.camera_info_topic, settings, "camera_info_topic")?;
+            let t = node
+                .create_topic(&name, MessageTypeName::new("sensor_msgs", "CameraInfo"), &latest(1))
+                .map_err(dds("cannot create the topic camera_info_topic"))?;
+            let infos = node.create_subscription::<CameraInfo>(&t, None).map_err(dds("camera info reader"))?;
+            Some(CameraReaders::Depth(Box::new((images, infos))))
+        }
+        (None, None) => None,
+    };
+    let loop_settings = *control.arbiter().settings();
+    let camera_link = match readers {
+        None => None,
+        Some(readers) => {
+            let preparer = preparer.as_ref().ok_or(NodeError::CameraWithoutScene)?;
+            let arbiter = control.arbiter().with_settings(loop_settings).map_err(|e| NodeError::Dds(e.to_string()))?;
+            let scene = SceneState {
+                problem: preparer.problem().clone(),
+                targets: preparer.graspable(),
+                arbiter,
+                generation: 0,
+                cloud: None,
+            };
+            let link = CameraLink::start(readers, camera.clone(), scene)
+                .map_err(|source| NodeError::Thread { what: "camera", source })?;
+            Some(link)
+        }
+    };
+    let shared_scene = camera_link.as_ref().map(|c| c.scene.clone());
+
     let joints: Vec<String> = control.arbiter().robot().joint_names().to_vec();
     let goals = control.arbiter().goals().len() as u32;
     // The messages, allocated once and refilled every tick.
@@ -339,7 +394,8 @@ pub fn run_node(
     // Goal preparation: the latest poses and the measured configuration go
     // to a thread that plans, optimizes and builds the new arbiter.
     let (to_preparer, requests) = std::sync::mpsc::channel::<(PoseArray, Vec<f64>)>();
-    let (prepared_tx, prepared) = std::sync::mpsc::channel::<Result<(crate::arbitration::Arbiter, f64), String>>();
+    type Prepared = (crate::arbitration::Arbiter, f64, u64, Option<Instant>);
+    let (prepared_tx, prepared) = std::sync::mpsc::channel::<Result<Prepared, String>>();
     let preparing = preparer.is_some();
     let poses_now = preparer.as_ref().map(GoalPreparer::problem_poses);
     if let Some(preparer) = preparer {
@@ -348,9 +404,24 @@ pub fn run_node(
             .spawn(move || {
                 // One request at a time: the loop sends the next only
                 // when this one's result is back (GoalPoses).
+                let mut generation = 0;
                 while let Ok(request) = requests.recv() {
                     let began = Instant::now();
-                    let result = preparer.prepare(&request.0, &request.1).map(|a| (a, began.elapsed().as_secs_f64()));
+                    // With a camera: planned around its latest cloud, and
+                    // the scene's goals are these from now on.
+                    let cloud = shared_scene.as_ref().and_then(|s| s.lock().ok().and_then(|s| s.cloud.clone()));
+                    let result = preparer
+                        .prepare_around(&request.0, &request.1, cloud.as_ref().map(|(o, _)| o))
+                        .and_then(|(arbiter, problem)| {
+                            generation += 1;
+                            if let Some(scene) = &shared_scene {
+                                let mut scene = scene.lock().map_err(|_| "the scene's lock is poisoned".to_string())?;
+                                scene.arbiter = arbiter.with_settings(loop_settings).map_err(|e| e.to_string())?;
+                                scene.problem = problem;
+                                scene.generation = generation;
+                            }
+                            Ok((arbiter, began.elapsed().as_secs_f64(), generation, cloud.map(|(_, at)| at)))
+                        });
                     if prepared_tx.send(result).is_err() {
                         break;
                     }
@@ -421,7 +492,12 @@ pub fn run_node(
             }
         }
         if let Ok(result) = prepared.try_recv() {
-            match result.and_then(|(arbiter, seconds)| control.replace_arbiter(&arbiter).map(|()| seconds)) {
+            let accepted = result.and_then(|(arbiter, seconds, generation, cloud_at)| {
+                control.replace_arbiter(&arbiter)?;
+                control.accept_goals(generation, cloud_at);
+                Ok(seconds)
+            });
+            match accepted {
                 Ok(seconds) => {
                     goal_poses.finished(true);
                     ticker.log(
@@ -434,6 +510,47 @@ pub fn run_node(
                     goal_poses.finished(false);
                     ticker.log(LogKind::GoalsRefused, now, format_args!("poses refused, the goals are unchanged: {e}"));
                 }
+            }
+        }
+        if let Some(camera) = &camera_link {
+            if let Some(q) = control.measured() {
+                camera.measured(q);
+            }
+            match camera.updates.try_recv() {
+                Ok(Ok(mut update)) => {
+                    let swapped = control.swap_collision(
+                        &mut update.arbiter,
+                        &mut update.rows,
+                        update.generation,
+                        update.arrived,
+                    );
+                    if swapped {
+                        report.point_clouds += 1;
+                        let r = update.report;
+                        ticker.log(
+                            LogKind::PointCloud,
+                            now,
+                            format_args!(
+                                "point cloud: {} points kept of {} ({} invalid, {} cropped, {} thinned, {} on the arm), \
+                                 in the scene {:.1} ms after arrival",
+                                r.kept,
+                                r.points + r.invalid,
+                                r.invalid,
+                                r.cropped,
+                                r.thinned,
+                                r.on_robot,
+                                r.build_ms
+                            ),
+                        );
+                    }
+                    // The old model (or the unused new one) is freed by the worker.
+                    let _ = camera.freed.send((update.arbiter, update.rows));
+                }
+                Ok(Err(reason)) => {
+                    report.point_clouds_refused += 1;
+                    ticker.log(LogKind::PointCloudRefused, now, format_args!("camera message refused: {reason}"));
+                }
+                Err(_) => {}
             }
         }
         if let Some(mode) = pending_mode.try_lock().ok().and_then(|mut p| p.take())

@@ -112,6 +112,8 @@ pub struct NodeSettings {
     /// no check). When positive, the node starts only if the published
     /// robot has the problem's joints, limits and gripper pose.
     pub robot_description_timeout: f64,
+    /// The camera whose points become the scene's point cloud (off by default).
+    pub camera: super::camera::CameraSettings,
 }
 
 impl Default for NodeSettings {
@@ -146,6 +148,7 @@ impl Default for NodeSettings {
             goals_topic: "~/goals".into(),
             robot_description_topic: "/robot_description".into(),
             robot_description_timeout: 0.0,
+            camera: super::camera::CameraSettings::default(),
         }
     }
 }
@@ -216,7 +219,8 @@ impl NodeSettings {
     fn from_yaml(file: &str, doc: &yaml_rust2::Yaml) -> Result<NodeSettings, ProblemError> {
         let root = Node::root(file, doc);
         let params = parameters_of(root)?;
-        params.fields("the node's parameters", KEYS)?;
+        let keys: Vec<&str> = KEYS.iter().chain(&super::camera::CAMERA_KEYS).copied().collect();
+        params.fields("the node's parameters", &keys)?;
         let mut s = NodeSettings::default();
         let text = |key: &str, into: &mut String| -> Result<(), ProblemError> {
             let n = params.get(key);
@@ -290,6 +294,7 @@ impl NodeSettings {
             number("max_reference_deviation", 1e-4..=1.0, &mut deviation)?;
             s.max_reference_deviation = Some(deviation);
         }
+        s.camera = super::camera::CameraSettings::read(&params, topic_or_name)?;
         let mode = params.get("mode");
         if !mode.is_absent() {
             s.mode = mode.text()?.parse().map_err(|e| mode.error(format!("{e}")))?;
