@@ -149,9 +149,11 @@ function buildScene(scene) {
     return group;
   });
   gripperLinksChosen = false;
+  page.cloudPoints = 0;
   for (const body of scene.obstacles) {
     const mesh = shapeMesh(body.shape, obstacleMaterial);
     if (mesh) { mesh.name = body.name; mesh.userData.frame = true; sceneRoot.add(mesh); }
+    if (mesh?.isPoints) page.cloudPoints += mesh.geometry.getAttribute('position').count;
   }
   for (const body of scene.objects) {
     // A goal's object in the goal's colour; any other object in the objects' one.

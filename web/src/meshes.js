@@ -59,6 +59,16 @@ export function shapeMesh(shape, material) {
       geometry = new ConvexGeometry(points);
       break;
     }
+    case 'points': {
+      // A cloud's balls as dots of their diameter (in m, shrinking with
+      // distance): thousands of spheres would stall the page.
+      const cloud = new THREE.BufferGeometry();
+      cloud.setAttribute('position', new THREE.Float32BufferAttribute(shape.points, 3));
+      const dots = new THREE.PointsMaterial({ color: material.color, size: 2 * shape.radius, sizeAttenuation: true });
+      const points = new THREE.Points(cloud, dots);
+      setPose(points, shape.pose);
+      return points;
+    }
     default: return null;
   }
   const mesh = new THREE.Mesh(geometry, material);

@@ -18,7 +18,7 @@
 
 import { chromium } from 'playwright-core';
 import { spawn, spawnSync } from 'node:child_process';
-import { mkdtempSync, readdirSync, existsSync } from 'node:fs';
+import { mkdtempSync, readdirSync, existsSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
 import { join, resolve } from 'node:path';
 
@@ -63,9 +63,9 @@ function check(condition, what) {
 }
 const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 
-async function startServer(recordDir) {
+async function startServer(recordDir, args = []) {
   if (!existsSync(bin)) throw new Error(`no tandem binary at ${bin} (cargo build first, or --bin PATH)`);
-  const server = spawn(bin, ['serve', '--port', '0', '--record-dir', recordDir], { stdio: ['ignore', 'pipe', 'inherit'] });
+  const server = spawn(bin, ['serve', ...args, '--port', '0', '--record-dir', recordDir], { stdio: ['ignore', 'pipe', 'inherit'] });
   const address = await new Promise((resolveAddress, reject) => {
     let out = '';
     server.stdout.on('data', (chunk) => {
@@ -181,6 +181,39 @@ async function drive(page, seconds, screenshotPath = null) {
   }
   for (const key of down) await page.keyboard.up(key);
   return seen;
+}
+
+// `tandem serve PROBLEM --point-cloud FILE`: the cloud's points reach the
+// page and are drawn, every one, and the arm still drives beside them.
+async function checkPointCloud(browser) {
+  const recordDir = mkdtempSync(join(tmpdir(), 'tandem-teleop-cloud-'));
+  // A wall behind the robot (x = -0.5 m), 2 cm apart, as an ASCII PLY.
+  const wall = [];
+  for (let i = 0; i <= 30; i++) for (let j = 0; j <= 30; j++) wall.push(`-0.5 ${(-0.3 + 0.02 * i).toFixed(3)} ${(0.1 + 0.02 * j).toFixed(3)}`);
+  const cloud = join(recordDir, 'wall.ply');
+  writeFileSync(cloud, `ply\nformat ascii 1.0\nelement vertex ${wall.length}\nproperty float x\nproperty float y\nproperty float z\nend_header\n${wall.join('\n')}\n`);
+  const { server, address } = await startServer(recordDir, ['builtin:panda_grasp_box', '--point-cloud', cloud, '--point-radius', '0.01']);
+  try {
+    const page = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+    const errors = [];
+    page.on('pageerror', (e) => errors.push(String(e)));
+    await page.goto(`http://${address}`);
+    await waitFor(page, () => window.tandem.scene && window.tandem.state);
+    const seen = await page.evaluate(() => {
+      const body = window.tandem.scene.obstacles.find((o) => o.shape.kind === 'points');
+      return { name: body?.name, sent: body ? body.shape.points.length / 3 : 0, radius: body?.shape.radius, drawn: window.tandem.cloudPoints };
+    });
+    check(seen.name === 'wall' && seen.sent === wall.length && seen.drawn === wall.length && seen.radius === 0.01,
+      `--point-cloud: the cloud reaches the page and is drawn (${seen.name}: ${seen.drawn} of ${seen.sent} points, radius ${seen.radius} m)`);
+    await page.keyboard.down('KeyR');
+    await waitFor(page, () => window.tandem.state.steps > 5, undefined, 10000).catch(() => {});
+    await page.keyboard.up('KeyR');
+    check(await page.evaluate(() => window.tandem.state.steps > 5), 'the arm drives with the cloud in the scene');
+    check(errors.length === 0, `no script errors with a cloud (${errors.join('; ')})`);
+    await page.close();
+  } finally {
+    server.kill('SIGTERM');
+  }
 }
 
 async function main() {
@@ -370,6 +403,7 @@ async function main() {
     const stats = await (await fetch(`${base}/stats`)).json();
     check(stats.sessions_open >= 1 && stats.ticks > 100, `the server is healthy (${stats.ticks} ticks, tick median ${stats.tick_us.median.toFixed(0)} µs, latency median ${stats.latency_us.median.toFixed(0)} µs)`);
     check(consoleErrors.length === 0, `no script errors on the page (${consoleErrors.join('; ')})`);
+    await checkPointCloud(browser);
   } finally {
     await browser.close();
     server.kill('SIGTERM');
