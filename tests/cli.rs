@@ -297,6 +297,20 @@ fn point_clouds_join_the_scene_from_the_command_line() {
     assert!(stdout(&o).contains("collision-free: yes"));
     let o = tandem(&["check", "builtin:panda_reach", "--q", "0,-0.785,0,-2.356,0,1.571,0.785", "--point-cloud", &far]);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    // Optimization and shared control with the cloud in the scene: the
+    // trajectory and every tick keep clear of it.
+    // (problems/clouds/pillar.ply stands beside panda_reach's way.)
+    let pillar = common::repo().join("problems/clouds/pillar.ply");
+    let o = tandem(&["solve", "builtin:panda_reach", "--point-cloud", pillar.to_str().unwrap(), "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!((v["status"].as_str(), v["collision_free"].as_bool()), (Some("converged"), Some(true)), "{v}");
+    let o =
+        tandem(&["arbitrate", "builtin:panda_grasp_box", "--operator", "approach", "--point-cloud", &far, "--json"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!((v["outcome"].as_str(), v["hard_violations"].as_u64()), (Some("success"), Some(0)), "{v}");
+    assert!(v["min_clearance_m"].as_f64().is_some_and(|d| d >= 0.0), "{v}");
     // The hand of the ready pose is at (0.307, 0, 0.590): points through it.
     let hand: Vec<[f64; 3]> = (0..50).map(|k| [0.2 + 0.005 * k as f64, 0.0, 0.59]).collect();
     let hand = ply("hand.ply", &hand);

@@ -2,15 +2,17 @@
 //! range window around the sensor, and a minimum-distance filter.
 //!
 //! **Why the filter keeps the checks sound.** The minimum-distance filter
-//! keeps the first point (in file order) of each cell of a grid of edge
-//! `spacing / √3`; a removed point shares its cell with a kept one, so it
-//! lies within `spacing` of it. A robot sphere that clears every kept
+//! goes through the points in file order and keeps a point unless a point
+//! already kept lies within `spacing` of it (a grid of edge `spacing`
+//! finds those among the 27 cells around it): every removed point lies
+//! within `spacing` of a kept one, and no two kept points are closer than
+//! `spacing`. A robot sphere that clears every kept
 //! point by `point_radius + spacing` therefore clears every removed point
 //! by `point_radius`: whoever uses the thinned cloud as obstacles must
 //! inflate its points by [`FilterReport::radius_margin`] (= `spacing`).
 
 use super::{PointCloud, PointCloudError};
-use std::collections::HashSet;
+use std::collections::HashMap;
 
 /// How to thin a cloud (all in m, in the cloud's frame).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,7 +86,7 @@ impl FilterSettings {
 impl PointCloud {
     /// The cloud cropped, range-limited and thinned by `settings`, in that
     /// order, with what each step removed. Deterministic: the kept points
-    /// are in file order, the first of each cell.
+    /// are in file order, each farther than `spacing` from those before it.
     ///
     /// # Errors
     /// Settings out of range ([`FilterSettings::validate`]).
@@ -98,19 +100,46 @@ impl PointCloud {
                 near <= d && d <= far
             })
         };
-        let cell = settings.spacing / 3f64.sqrt();
-        let mut taken: HashSet<[i64; 3]> = HashSet::new();
+        let spacing = settings.spacing;
+        let spacing2 = spacing * spacing;
+        // Kept points by grid cell of edge `spacing`: the first kept point
+        // of each cell, then each kept point's next in its cell (u32::MAX
+        // ends a chain). A point's neighbours within `spacing` lie in the
+        // 27 cells around its own.
+        let mut first: HashMap<[i64; 3], u32> = HashMap::new();
+        let mut next: Vec<u32> = Vec::new();
         let mut kept = PointCloud { points: Vec::new(), dropped: self.dropped };
         for p in &self.points {
             if !inside(p) {
                 report.cropped += 1;
-            } else if !in_range(p) {
-                report.out_of_range += 1;
-            } else if cell > 0.0 && !taken.insert(p.map(|x| (x / cell).floor() as i64)) {
-                report.thinned += 1;
-            } else {
-                kept.points.push(*p);
+                continue;
             }
+            if !in_range(p) {
+                report.out_of_range += 1;
+                continue;
+            }
+            if spacing > 0.0 {
+                let cell = p.map(|x| (x / spacing).floor() as i64);
+                let near = (0..27).any(|n| {
+                    let at = [cell[0] + n % 3 - 1, cell[1] + (n / 3) % 3 - 1, cell[2] + n / 9 - 1];
+                    let mut k = first.get(&at).copied().unwrap_or(u32::MAX);
+                    while k != u32::MAX {
+                        let q = &kept.points[k as usize];
+                        if (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>() <= spacing2 {
+                            return true;
+                        }
+                        k = next[k as usize];
+                    }
+                    false
+                });
+                if near {
+                    report.thinned += 1;
+                    continue;
+                }
+                let index = kept.points.len() as u32;
+                next.push(first.insert(cell, index).unwrap_or(u32::MAX));
+            }
+            kept.points.push(*p);
         }
         report.kept = kept.len();
         Ok((kept, report))
@@ -154,6 +183,13 @@ mod tests {
                 })
                 .fold(0.0, f64::max);
             assert!(worst <= spacing, "spacing {spacing}: a removed point {worst} m from every kept one");
+            // A minimum-distance filter: no two kept points within the spacing.
+            for (i, p) in kept.points.iter().enumerate() {
+                for q in &kept.points[..i] {
+                    let d = (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt();
+                    assert!(d > spacing, "spacing {spacing}: kept points {d} m apart");
+                }
+            }
             // Deterministic, and the same again.
             assert_eq!(kept, cloud.filtered(&FilterSettings { spacing, ..FilterSettings::default() }).unwrap().0);
         }

@@ -18,12 +18,14 @@
 
 mod depth;
 mod filter;
+mod octomap;
 mod pcd;
 mod ply;
 mod tree;
 
 pub use depth::{CameraIntrinsics, DepthProjection};
 pub use filter::{FilterReport, FilterSettings};
+pub use octomap::OCTOMAP_MAX_CELLS;
 pub use tree::PointTree;
 
 use std::path::Path;

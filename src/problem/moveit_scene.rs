@@ -28,8 +28,11 @@
 //!   [`MoveItScene::warnings`], as MoveIt keeps and ignores them (an ACM
 //!   saved for a robot with a gripper, loaded for the arm alone); so are
 //!   unknown `touch_links`.
+//! - `world.octomap`: a binary `OcTree` (as MoveIt's occupancy map
+//!   monitor publishes it), its occupied cells an obstacle `octomap` of
+//!   balls covering them ([`PointCloud::from_octomap_binary`](crate::point_cloud::PointCloud::from_octomap_binary)).
 //! - Refused unless neutral: `link_padding` (must be 0), `link_scale` (1),
-//!   `world.octomap` (no data), multi-DOF transforms (identity).
+//!   multi-DOF transforms (identity).
 //!   Ignored: `name`, `robot_model_name`, `object_colors`, `is_diff`,
 //!   object `type` and subframes.
 
@@ -166,17 +169,14 @@ fn scene_from_yaml(
     neutral_links(&root)?;
     let world = root.get("world");
     world.fields("the world", &["collision_objects", "octomap"])?;
-    let octomap = world.get("octomap");
-    octomap.fields("an octomap", &["header", "origin", "octomap"])?;
-    let data = octomap.get("octomap").get("data");
-    if !data.items()?.is_empty() {
-        return Err(data.error("octomaps are not supported: give the obstacles as collision objects"));
-    }
     let mut objects: Vec<MoveItObject> = Vec::new();
     for object in world.get("collision_objects").items()? {
         apply(&object, &frames, &mut objects)?;
     }
     let mut scene = Scene::new();
+    if let Some(octomap) = octomap(&world.get("octomap"), &frames)? {
+        scene.add_obstacle(octomap).map_err(|e| root.error(format!("the octomap: {e}")))?;
+    }
     for o in &objects {
         for (k, (shape, pose)) in o.shapes.iter().enumerate() {
             let obstacle = Obstacle::new(shape_name(&o.id, k), shape.clone(), o.pose * pose);
@@ -187,6 +187,48 @@ fn scene_from_yaml(
     attached_objects(&root.get("robot_state"), robot, &mut scene, &mut warnings)?;
     allowed_collisions(&root.get("allowed_collision_matrix"), robot, &mut scene, &mut warnings)?;
     Ok(MoveItScene { scene, warnings })
+}
+
+/// `world.octomap` (`octomap_msgs/OctomapWithPose`): its occupied cells as
+/// an obstacle named `octomap`, a ball around each cell's centre that
+/// covers the cell (radius `resolution × √3 / 2`), placed by `origin` in
+/// the header's frame; `None` without data.
+fn octomap(node: &Node, frames: &Frames) -> Result<Option<Obstacle>, ProblemError> {
+    node.fields("an octomap with its pose", &["header", "origin", "octomap"])?;
+    let map = node.get("octomap");
+    map.fields("an octomap", &["header", "binary", "id", "resolution", "data"])?;
+    let data = map.get("data");
+    let bytes: Vec<u8> = data
+        .numbers()?
+        .iter()
+        .map(|&v| match v {
+            // int8 in the message; 0–255 accepted as the same bytes.
+            v if v.fract() == 0.0 && (-128.0..=255.0).contains(&v) => Ok(v as i64 as u8),
+            v => Err(data.error(format!("{v} is not a byte (int8)"))),
+        })
+        .collect::<Result<_, _>>()?;
+    if bytes.is_empty() {
+        return Ok(None);
+    }
+    let binary = map.get("binary");
+    if binary.value.as_bool() != Some(true) {
+        return Err(binary.error(
+            "only binary octomaps are read (binary: true, as MoveIt's occupancy map monitor publishes): a full \
+             map's occupancy values are not",
+        ));
+    }
+    let id = map.required("id")?;
+    if id.text()? != "OcTree" {
+        return Err(id.error(format!("octree type '{}' (only OcTree is read)", id.text()?)));
+    }
+    let resolution = map.required("resolution")?;
+    let cloud = crate::point_cloud::PointCloud::from_octomap_binary(&bytes, resolution.number()?, node.file)
+        .map_err(|e| data.error(e.message))?;
+    let frame = frames.resolve(&node.get("header"), node.header_frame()?)?;
+    let origin = node.get("origin");
+    let origin = if origin.is_absent() { IsometryMatrix3::identity() } else { origin.pose()? };
+    let radius = resolution.number()? * 3f64.sqrt() / 2.0;
+    Obstacle::point_cloud("octomap", &cloud, radius, frame * origin).map(Some).map_err(|e| data.error(e.to_string()))
 }
 
 /// Obstacle names of an object's shapes: `id`, then `id/1`, `id/2`, ….
