@@ -192,6 +192,27 @@ pub(crate) fn write_pose(pose: &IsometryMatrix3<f64>, out: &mut [f64]) {
     out[12..16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
 }
 
+/// A pose from a row-major homogeneous 4 × 4 matrix argument `what`: a
+/// rotation (orthonormal, determinant 1, within 1e-6), a finite
+/// translation and a last row of 0, 0, 0, 1.
+pub(crate) fn pose_from_matrix(what: &str, m: &Matrix<'_>) -> PyResult<IsometryMatrix3<f64>> {
+    if (m.rows, m.cols) != (4, 4) {
+        return Err(PyValueError::new_err(format!("{what} must be a 4 × 4 matrix, got {} × {}", m.rows, m.cols)));
+    }
+    let a = m.as_slice();
+    let h = nalgebra::Matrix4::from_row_slice(a);
+    let r = h.fixed_view::<3, 3>(0, 0).into_owned();
+    let orthonormal = (r.transpose() * r - nalgebra::Matrix3::identity()).abs().max() < 1e-6 && r.determinant() > 0.0;
+    let last = (a[12], a[13], a[14], a[15]) == (0.0, 0.0, 0.0, 1.0);
+    if !(a.iter().all(|v| v.is_finite()) && orthonormal && last) {
+        return Err(PyValueError::new_err(format!(
+            "{what} must be a homogeneous transform (a rotation, a finite translation, last row 0, 0, 0, 1), got {a:?}"
+        )));
+    }
+    let rotation = nalgebra::Rotation3::from_matrix_unchecked(r);
+    Ok(IsometryMatrix3::from_parts(nalgebra::Translation3::new(a[3], a[7], a[11]), rotation))
+}
+
 /// A pose as a new 4 × 4 array.
 pub(crate) fn pose_matrix<'py>(py: Python<'py>, pose: &IsometryMatrix3<f64>) -> Bound<'py, PyArray2<f64>> {
     matrix_with(py, 4, 4, |out| write_pose(pose, out))

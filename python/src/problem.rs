@@ -1,7 +1,7 @@
 //! `tandem.Problem` and `tandem.ProblemFamily`: problem files (TOML),
 //! the shipped problems, MoveIt inputs, and families sampled by id.
 
-use crate::arrays::{Vector, pose_matrix, vector};
+use crate::arrays::{Matrix, Vector, pose_matrix, vector};
 use crate::collision::PyCollisionModel;
 use crate::errors::PyResultExt;
 use crate::robot::PyRobotModel;
@@ -99,6 +99,55 @@ impl PyProblem {
         }
         let mut problem = (*self.problem).clone();
         problem.start = q.to_vec();
+        Ok(PyProblem::new(problem))
+    }
+
+    /// The same problem with ``points`` (an N × 3 array of float64, m) as
+    /// an obstacle named ``name``: a ball of ``point_radius`` (m) at each
+    /// point. The points are in the frame ``pose`` (a 4 × 4 homogeneous
+    /// matrix, world frame; the identity by default: world points) places,
+    /// a depth camera's for instance. Rows with a NaN or infinite value are
+    /// dropped. With ``spacing`` (m) the cloud is thinned first by the
+    /// minimum-distance filter and the balls grow by the spacing, so that
+    /// they still cover every point (docs/point_clouds.md).
+    #[pyo3(signature = (points, point_radius, *, name="point_cloud", spacing=None, pose=None))]
+    fn with_point_cloud(
+        &self,
+        py: Python<'_>,
+        points: Matrix<'_>,
+        point_radius: f64,
+        name: &str,
+        spacing: Option<f64>,
+        pose: Option<Matrix<'_>>,
+    ) -> PyResult<PyProblem> {
+        use pyo3::exceptions::PyValueError;
+        if points.cols != 3 && points.rows > 0 {
+            return Err(PyValueError::new_err(format!("points must be N × 3 (x, y, z), got {} columns", points.cols)));
+        }
+        if !(point_radius.is_finite() && point_radius > 0.0) {
+            return Err(PyValueError::new_err(format!("point_radius must be finite and positive, got {point_radius}")));
+        }
+        let pose = match pose {
+            None => nalgebra::IsometryMatrix3::identity(),
+            Some(m) => crate::arrays::pose_from_matrix("pose", &m)?,
+        };
+        let cloud = tandem::point_cloud::PointCloud::from_points(
+            (0..points.rows).map(|i| <[f64; 3]>::try_from(points.row(i)).unwrap_or([f64::NAN; 3])),
+        );
+        let mut problem = (*self.problem).clone();
+        py.detach(|| {
+            let (cloud, margin) = match spacing {
+                Some(spacing) => {
+                    let settings = tandem::point_cloud::FilterSettings { spacing, ..Default::default() };
+                    let (kept, report) = cloud.filtered(&settings).map_err(|e| PyValueError::new_err(e.message))?;
+                    (kept, report.radius_margin)
+                }
+                None => (cloud, 0.0),
+            };
+            let obstacle = tandem::scene::Obstacle::point_cloud(name, &cloud, point_radius + margin, pose)
+                .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            problem.scene.add_obstacle(obstacle).py()
+        })?;
         Ok(PyProblem::new(problem))
     }
 

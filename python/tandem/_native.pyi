@@ -214,6 +214,15 @@ class Problem:
     @staticmethod
     def from_moveit(urdf: _PathLike, srdf: _PathLike, scene: _PathLike, request: _PathLike) -> Problem: ...
     def with_start(self, q: _ArrayLike) -> Problem: ...
+    def with_point_cloud(
+        self,
+        points: _MatrixLike,
+        point_radius: float,
+        *,
+        name: str = "point_cloud",
+        spacing: Optional[float] = None,
+        pose: Optional[_MatrixLike] = None,
+    ) -> Problem: ...
     @property
     def name(self) -> str: ...
     @property

@@ -242,3 +242,41 @@ def test_moveit_inputs(tmp_path, pin_panda):
     (tmp_path / "bad.yaml").write_text(files["request.yaml"].split("goal_constraints")[0])
     with pytest.raises(tandem.ProblemError, match="bad.yaml"):
         tandem.Problem.from_moveit(PANDA_URDF, srdf, scene, tmp_path / "bad.yaml")
+
+
+def test_point_clouds_from_numpy_are_obstacles():
+    """An N x 3 array as a problem's obstacle: a wall far from the arm
+    plans and keeps clear; points through the hand at the start make it
+    start_invalid; a sensor pose places the points; NaN rows are dropped;
+    thinning only brings obstacles closer; bad arrays are refused."""
+    base = tandem.Problem.builtin("panda_reach")
+    grid = np.array([[-0.6, -0.5 + 0.02 * i, 0.1 + 0.02 * j] for i in range(51) for j in range(40)])
+    walled = base.with_point_cloud(grid, 0.01, name="wall")
+    assert any(o["name"] == "wall" and o["shape"] == "points" for o in walled.obstacles)
+    result = tandem.plan(walled, seed=1)
+    assert result.solved and result.certified
+    assert walled.collision_model().path_free(result.path, resolution=0.002)
+    # The same wall in a camera's frame: 1 m along x, turned 90 degrees about z.
+    pose = np.array([[0.0, -1.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    local = (grid - pose[:3, 3]) @ pose[:3, :3]  # world = R local + t
+    seen = base.with_point_cloud(np.vstack([local, [[np.nan, 0.0, 0.0]]]), 0.01, name="wall", pose=pose)
+
+    def to_wall(problem):
+        pairs = problem.collision_model().distances(base.start)
+        return min(d.distance for d in pairs if "wall" in d.bodies)
+
+    d_world, d_seen = to_wall(walled), to_wall(seen)
+    assert 0.3 < d_world and abs(d_world - d_seen) < 1e-9, (d_world, d_seen)
+    # Thinned at 5 cm the balls grow by 5 cm: closer than the full cloud, by at most the spacing.
+    d_thin = to_wall(base.with_point_cloud(grid, 0.01, name="wall", spacing=0.05))
+    assert d_world - 0.05 - 1e-9 <= d_thin <= d_world, (d_world, d_thin)
+    hand = np.array([[0.2 + 0.005 * k, 0.0, 0.59] for k in range(50)])
+    blocked = tandem.plan(base.with_point_cloud(hand, 0.01, name="hand"), seed=1)
+    assert blocked.status == "start_invalid"
+    for bad, kwargs in [(grid[:, :2], {}), (grid, {"pose": np.eye(3)}), (grid, {"pose": 2 * np.eye(4)})]:
+        with pytest.raises(ValueError):
+            base.with_point_cloud(bad, 0.01, **kwargs)
+    with pytest.raises(ValueError):
+        base.with_point_cloud(grid, -1.0)
+    with pytest.raises(tandem.ProblemError):
+        walled.with_point_cloud(grid, 0.01, name="wall")
