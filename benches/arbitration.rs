@@ -21,7 +21,11 @@
 //! forced-solve DirectControl problems (objective, every constraint row)
 //! are written as JSON for `benches/peers/compare_arbitration.sh`.
 
+#[path = "support/recorded.rs"]
+mod recorded;
+
 use criterion::Criterion;
+use recorded::{Recorded, recorded_ticks};
 use std::hint::black_box;
 use std::time::Instant;
 use tandem::arbitration::{
@@ -31,13 +35,6 @@ use tandem::arbitration::{
 use tandem::learn::{ARBITRATION_FORMAT, ARBITRATION_FORMAT_VERSION, ArbitrationActor, ArbitrationMeta};
 use tandem::problem::Problem;
 use tandem::sim::{Approach, Episode, EpisodeSettings, TaskJudge};
-
-/// One recorded tick: state, velocity, operator command.
-struct Recorded {
-    q: Vec<f64>,
-    velocity: Vec<f64>,
-    command: [f64; 3],
-}
 
 struct Setup {
     problem: Problem,
@@ -61,13 +58,7 @@ fn setup() -> Setup {
     let record = episode.run(&mut arbiter.workspace(), &mut Approach::default(), &mut judge).expect("episode");
     assert!(record.steps > 0, "the recorded episode has no ticks ({})", record.outcome.as_str());
     let dt = arbiter.settings().period;
-    let ticks = (0..record.steps)
-        .map(|t| Recorded {
-            q: record.q[t].clone(),
-            velocity: record.q[t].iter().zip(&record.q[t + 1]).map(|(a, b)| (b - a) / dt).collect(),
-            command: record.human[t],
-        })
-        .collect::<Vec<_>>();
+    let ticks = recorded_ticks(&record, dt);
     eprintln!("recorded {} ticks ({})", ticks.len(), record.outcome.as_str());
     Setup { problem, goals, ticks }
 }

@@ -132,6 +132,19 @@ fn nearest_distances_match_scipy_and_gradients_match_finite_differences() {
     );
     assert!(worst < DISTANCE_TOLERANCE, "distances differ from SciPy's by {worst}");
     assert!(gradients_checked > 60, "{gradients_checked} gradients checked");
+    // With a cutoff (the arbiter's rows, the optimizer's feature: a cloud's
+    // nearest point is searched for only within it), exactly the pairs and
+    // distances of the full list below the cutoff.
+    for q in &configs {
+        let all = model.distances(&mut ws, q, f64::INFINITY).unwrap().to_vec();
+        for cutoff in [0.0, 0.02, 0.1] {
+            let want: Vec<_> =
+                all.iter().filter(|d| d.signed.distance < cutoff).map(|d| (d.pair, d.signed.distance)).collect();
+            let got: Vec<_> =
+                model.distances(&mut ws, q, cutoff).unwrap().iter().map(|d| (d.pair, d.signed.distance)).collect();
+            assert_eq!(got, want, "cutoff {cutoff}");
+        }
+    }
     // Boolean checks agree with the distances.
     for q in &configs {
         let free = model.collision_free(&mut ws, q).unwrap();

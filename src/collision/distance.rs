@@ -54,9 +54,25 @@ pub fn signed_distance(
     b: &Shape,
     pose_b: &IsometryMatrix3<f64>,
 ) -> SignedDistance {
+    signed_distance_within(a, pose_a, b, pose_b, f64::INFINITY)
+}
+
+/// [`signed_distance`], except that a point cloud's nearest point is only
+/// searched for within `cap` (m) of the other shape: when none is that
+/// close, the distance is +∞ (witnesses at the shapes' origins). Other
+/// pairs are exact at any distance. For callers that keep only pairs
+/// closer than a cutoff: an uncapped search on a large cloud costs many
+/// times a capped one that finds nothing.
+pub fn signed_distance_within(
+    a: &Shape,
+    pose_a: &IsometryMatrix3<f64>,
+    b: &Shape,
+    pose_b: &IsometryMatrix3<f64>,
+    cap: f64,
+) -> SignedDistance {
     match (a, b) {
-        (_, Shape::Points { points, radius }) => to_points(a, pose_a, points, *radius, pose_b),
-        (Shape::Points { points, radius }, _) => to_points(b, pose_b, points, *radius, pose_a).flipped(),
+        (_, Shape::Points { points, radius }) => to_points(a, pose_a, points, *radius, pose_b, cap),
+        (Shape::Points { points, radius }, _) => to_points(b, pose_b, points, *radius, pose_a, cap).flipped(),
         (Shape::Sphere { radius }, _) => point_to_shape(&pose_a.translation.vector.into(), *radius, b, pose_b),
         (_, Shape::Sphere { radius }) => {
             point_to_shape(&pose_b.translation.vector.into(), *radius, a, pose_a).flipped()
@@ -105,25 +121,29 @@ pub fn closer_than(
 
 /// `a` (at `pose_a`) against the balls of `radius` at `points` (placed by
 /// `pose_b`): the nearest ball's distance; +∞ (witnesses at the shapes'
-/// origins) when there is no point.
+/// origins) when there is no ball within `cap` (m) of `a`.
 fn to_points(
     a: &Shape,
     pose_a: &IsometryMatrix3<f64>,
     points: &PointTree,
     radius: f64,
     pose_b: &IsometryMatrix3<f64>,
+    cap: f64,
 ) -> SignedDistance {
+    // Rounded up a little: a ball the caller counts as within the cap must
+    // not be cut off.
+    let cap = cap * (1.0 + 1e-9) + 1e-12;
     let ball = |p: [f64; 3]| IsometryMatrix3::from_parts((pose_b * Point3::from(p)).coords.into(), pose_b.rotation);
     let center = pose_b.inverse_transform_point(&pose_a.translation.vector.into());
     let local = [center.x, center.y, center.z];
     let nearest = match a {
-        Shape::Sphere { .. } => points.nearest(&local, f64::INFINITY).map(|(_, i)| i),
+        Shape::Sphere { radius: ra } => points.nearest(&local, cap + ra + radius).map(|(_, i)| i),
         // Two clouds: the nearest pair, point by point of the first.
         Shape::Points { points: first, radius: ra } => {
             let mut best = (f64::INFINITY, None);
             for (p, _) in first.points() {
                 let pose = IsometryMatrix3::from_parts((pose_a * Point3::from(p)).coords.into(), pose_a.rotation);
-                let d = to_points(&Shape::Sphere { radius: *ra }, &pose, points, radius, pose_b);
+                let d = to_points(&Shape::Sphere { radius: *ra }, &pose, points, radius, pose_b, cap);
                 if d.distance < best.0 || d.distance.is_nan() {
                     best = (d.distance, Some(d));
                 }
@@ -133,7 +153,7 @@ fn to_points(
         _ => {
             let sphere = Shape::Sphere { radius };
             let exact = |p| signed_distance(a, pose_a, &sphere, &ball(p)).distance;
-            points.nearest_to(&local, a.bounding_radius(), f64::INFINITY, exact).map(|(_, i)| i)
+            points.nearest_to(&local, a.bounding_radius(), cap, exact).map(|(_, i)| i)
         }
     };
     match nearest {
@@ -194,7 +214,7 @@ fn point_to_shape(center: &Point3<f64>, radius: f64, b: &Shape, pose_b: &Isometr
         }
         Shape::Points { points, radius: rb } => {
             let pose = IsometryMatrix3::translation(center.x, center.y, center.z);
-            return to_points(&Shape::Sphere { radius }, &pose, points, *rb, pose_b);
+            return to_points(&Shape::Sphere { radius }, &pose, points, *rb, pose_b, f64::INFINITY);
         }
         Shape::Convex(_) => {
             return general(

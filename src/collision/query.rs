@@ -4,7 +4,7 @@
 //! allocates once the workspace exists (penetrating box/cylinder/hull pairs,
 //! which need EPA, excepted).
 
-use super::distance::{SignedDistance, closer_than, signed_distance};
+use super::distance::{SignedDistance, closer_than, signed_distance_within};
 use super::geometry::Group;
 use super::model::CollisionModel;
 use super::spheres::{SphereWorkspace, Verdict};
@@ -187,9 +187,17 @@ impl CollisionModel {
 
     /// Exact signed distance of pair `pair` at the placed poses.
     pub(crate) fn pair_distance(&self, ws: &CollisionWorkspace, pair: usize) -> PairDistance {
+        self.pair_distance_within(ws, pair, f64::INFINITY)
+    }
+
+    /// [`pair_distance`](Self::pair_distance) for a caller that keeps it
+    /// only when below `cutoff` (m): a cloud's nearest point is searched for
+    /// within it (+∞ when none is that close).
+    fn pair_distance_within(&self, ws: &CollisionWorkspace, pair: usize, cutoff: f64) -> PairDistance {
         let [i, j] = self.pairs[pair].map(|k| k as usize);
         let (oi, oj) = (&self.objects[i], &self.objects[j]);
-        let mut d = signed_distance(&oi.shape, &ws.poses[i], &oj.shape, &ws.poses[j]);
+        let cap = cutoff + oi.padding + oj.padding;
+        let mut d = signed_distance_within(&oi.shape, &ws.poses[i], &oj.shape, &ws.poses[j], cap);
         // Padding inflates each shape along the normal.
         d.distance -= oi.padding + oj.padding;
         d.point_a += d.normal * oi.padding;
@@ -293,7 +301,7 @@ impl CollisionModel {
                     if !ws.near[j] || prunes(self.object_bound(ws, i, j), cutoff) {
                         continue;
                     }
-                    let d = self.pair_distance(ws, gp.pairs.start + k * objects_b.len() + l);
+                    let d = self.pair_distance_within(ws, gp.pairs.start + k * objects_b.len() + l, cutoff);
                     if d.signed.distance < cutoff {
                         ws.distances.push(d);
                     }
@@ -354,7 +362,7 @@ impl CollisionModel {
                 if prunes(self.object_bound(ws, i, j), limit(&best)) {
                     continue;
                 }
-                let d = self.pair_distance(ws, pair);
+                let d = self.pair_distance_within(ws, pair, limit(&best));
                 if d.signed.distance < limit(&best) {
                     best = Some(d);
                 }

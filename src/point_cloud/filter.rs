@@ -91,58 +91,93 @@ impl PointCloud {
     /// # Errors
     /// Settings out of range ([`FilterSettings::validate`]).
     pub fn filtered(&self, settings: &FilterSettings) -> Result<(PointCloud, FilterReport), PointCloudError> {
-        settings.validate()?;
-        let mut report = FilterReport { input: self.len(), radius_margin: settings.spacing, ..FilterReport::default() };
-        let inside = |p: &[f64; 3]| settings.crop.is_none_or(|(lo, hi)| (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]));
-        let in_range = |p: &[f64; 3]| {
-            settings.range.is_none_or(|(near, far)| {
-                let d = (0..3).map(|k| (p[k] - settings.sensor[k]).powi(2)).sum::<f64>().sqrt();
-                near <= d && d <= far
-            })
-        };
-        let spacing = settings.spacing;
-        let spacing2 = spacing * spacing;
-        // Kept points by grid cell of edge `spacing`: the first kept point
-        // of each cell, then each kept point's next in its cell (u32::MAX
-        // ends a chain). A point's neighbours within `spacing` lie in the
-        // 27 cells around its own.
-        let mut first: HashMap<[i64; 3], u32> = HashMap::new();
-        let mut next: Vec<u32> = Vec::new();
-        let mut kept = PointCloud { points: Vec::new(), dropped: self.dropped };
+        let mut thinning = Thinning::new(settings)?;
         for p in &self.points {
-            if !inside(p) {
-                report.cropped += 1;
-                continue;
-            }
-            if !in_range(p) {
-                report.out_of_range += 1;
-                continue;
-            }
-            if spacing > 0.0 {
-                let cell = p.map(|x| (x / spacing).floor() as i64);
-                let near = (0..27).any(|n| {
-                    let at = [cell[0] + n % 3 - 1, cell[1] + (n / 3) % 3 - 1, cell[2] + n / 9 - 1];
-                    let mut k = first.get(&at).copied().unwrap_or(u32::MAX);
-                    while k != u32::MAX {
-                        let q = &kept.points[k as usize];
-                        if (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>() <= spacing2 {
-                            return true;
-                        }
-                        k = next[k as usize];
-                    }
-                    false
-                });
-                if near {
-                    report.thinned += 1;
-                    continue;
-                }
-                let index = kept.points.len() as u32;
-                next.push(first.insert(cell, index).unwrap_or(u32::MAX));
-            }
-            kept.points.push(*p);
+            thinning.offer(*p);
         }
-        report.kept = kept.len();
-        Ok((kept, report))
+        thinning.kept.dropped = self.dropped;
+        Ok(thinning.finish())
+    }
+}
+
+/// The filter's state while points stream through it: what it kept and,
+/// by grid cell of edge `spacing`, the first kept point of each cell and
+/// each kept point's next in its cell (`u32::MAX` ends a chain). A point's
+/// neighbours within `spacing` lie in the 27 cells around its own.
+pub(super) struct Thinning {
+    settings: FilterSettings,
+    report: FilterReport,
+    first: HashMap<[i64; 3], u32>,
+    next: Vec<u32>,
+    kept: PointCloud,
+}
+
+impl Thinning {
+    pub(super) fn new(settings: &FilterSettings) -> Result<Thinning, PointCloudError> {
+        settings.validate()?;
+        Ok(Thinning {
+            settings: *settings,
+            report: FilterReport { radius_margin: settings.spacing, ..FilterReport::default() },
+            first: HashMap::new(),
+            next: Vec::new(),
+            kept: PointCloud::default(),
+        })
+    }
+
+    /// Crops, range-limits and thins one finite point.
+    fn offer(&mut self, p: [f64; 3]) {
+        let s = &self.settings;
+        self.report.input += 1;
+        if s.crop.is_some_and(|(lo, hi)| !(0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k])) {
+            self.report.cropped += 1;
+            return;
+        }
+        let in_range = |(near, far): (f64, f64)| {
+            let d = (0..3).map(|k| (p[k] - s.sensor[k]).powi(2)).sum::<f64>().sqrt();
+            near <= d && d <= far
+        };
+        if s.range.is_some_and(|r| !in_range(r)) {
+            self.report.out_of_range += 1;
+            return;
+        }
+        let spacing = s.spacing;
+        if spacing > 0.0 {
+            let cell = p.map(|x| (x / spacing).floor() as i64);
+            let near = (0..27).any(|n| {
+                let at = [cell[0] + n % 3 - 1, cell[1] + (n / 3) % 3 - 1, cell[2] + n / 9 - 1];
+                let mut k = self.first.get(&at).copied().unwrap_or(u32::MAX);
+                while k != u32::MAX {
+                    let q = &self.kept.points[k as usize];
+                    if (0..3).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>() <= spacing * spacing {
+                        return true;
+                    }
+                    k = self.next[k as usize];
+                }
+                false
+            });
+            if near {
+                self.report.thinned += 1;
+                return;
+            }
+            let index = self.kept.points.len() as u32;
+            self.next.push(self.first.insert(cell, index).unwrap_or(u32::MAX));
+        }
+        self.kept.points.push(p);
+    }
+
+    pub(super) fn finish(mut self) -> (PointCloud, FilterReport) {
+        self.report.kept = self.kept.len();
+        (self.kept, self.report)
+    }
+}
+
+impl super::PointSink for Thinning {
+    fn push(&mut self, p: [f64; 3]) {
+        if p.iter().all(|x| x.is_finite()) {
+            self.offer(p);
+        } else {
+            self.kept.dropped += 1;
+        }
     }
 }
 
@@ -163,6 +198,28 @@ mod tests {
         let mut points: Vec<[f64; 3]> = (0..4000).map(|_| [next() * 0.4, next() * 0.4, 0.7 + next() * 0.01]).collect();
         points.extend([[5.0, 0.0, 0.0], [0.0, 0.0, 0.1]]);
         PointCloud::from_points(points)
+    }
+
+    #[test]
+    fn streaming_a_file_through_the_filter_keeps_what_filtering_it_whole_keeps() {
+        let cloud = cloud();
+        let mut text = format!(
+            "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nend_header\n",
+            cloud.len() + 1
+        );
+        for p in &cloud.points {
+            text += &format!("{:?} {:?} {:?}\n", p[0], p[1], p[2]);
+        }
+        text += "nan 0 0\n";
+        let path = std::env::temp_dir().join(format!("tandem-filter-{}.ply", std::process::id()));
+        std::fs::write(&path, text).unwrap();
+        let crop = Some(([0.0, 0.0, 0.0], [0.3, 0.4, 1.0]));
+        let settings = FilterSettings { spacing: 0.02, crop, ..FilterSettings::default() };
+        let whole = PointCloud::read(&path).unwrap().filtered(&settings).unwrap();
+        let streamed = PointCloud::read_filtered(&path, &settings).unwrap();
+        std::fs::remove_file(&path).ok();
+        assert_eq!(whole, streamed);
+        assert!(streamed.0.dropped == 1 && streamed.1.cropped > 0 && streamed.1.thinned > 0, "{:?}", streamed.1);
     }
 
     #[test]

@@ -30,6 +30,40 @@ pub use tree::PointTree;
 
 use std::path::Path;
 
+/// Where a parser puts the points it reads, in file order (non-finite
+/// ones included: the sink counts them).
+pub(crate) trait PointSink {
+    /// One point as the file gives it.
+    fn push(&mut self, p: [f64; 3]);
+    /// Room for `n` more points (a hint).
+    fn reserve(&mut self, _n: usize) {}
+}
+
+impl PointSink for PointCloud {
+    fn push(&mut self, p: [f64; 3]) {
+        PointCloud::push(self, p);
+    }
+
+    fn reserve(&mut self, n: usize) {
+        self.points.reserve(n.min(1 << 24));
+    }
+}
+
+/// Parses the file at `path` (by its extension, else by its first bytes)
+/// into `sink`.
+fn read_into(path: &Path, sink: &mut impl PointSink) -> Result<(), PointCloudError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| PointCloudError::new(&file, None, format!("cannot read: {e}")))?;
+    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("ply") => ply::parse(&bytes, &file, sink),
+        Some("pcd") => pcd::parse(&bytes, &file, sink),
+        _ if bytes.starts_with(b"ply") => ply::parse(&bytes, &file, sink),
+        _ if bytes.starts_with(b"# .PCD") || bytes.starts_with(b"VERSION") => pcd::parse(&bytes, &file, sink),
+        _ => Err(PointCloudError::new(&file, None, "neither a PLY nor a PCD file (by extension or first bytes)")),
+    }
+}
+
 /// A set of points (m), in one frame.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct PointCloud {
@@ -66,17 +100,9 @@ impl PointCloud {
     /// The file unreadable, of another format, or malformed (naming the
     /// file and line or point).
     pub fn read(path: impl AsRef<Path>) -> Result<PointCloud, PointCloudError> {
-        let path = path.as_ref();
-        let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| PointCloudError::new(&file, None, format!("cannot read: {e}")))?;
-        let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        match extension.as_deref() {
-            Some("ply") => PointCloud::from_ply(&bytes, &file),
-            Some("pcd") => PointCloud::from_pcd(&bytes, &file),
-            _ if bytes.starts_with(b"ply") => PointCloud::from_ply(&bytes, &file),
-            _ if bytes.starts_with(b"# .PCD") || bytes.starts_with(b"VERSION") => PointCloud::from_pcd(&bytes, &file),
-            _ => Err(PointCloudError::new(&file, None, "neither a PLY nor a PCD file (by extension or first bytes)")),
-        }
+        let mut cloud = PointCloud::default();
+        read_into(path.as_ref(), &mut cloud)?;
+        Ok(cloud)
     }
 
     /// Parses a PLY file's bytes, naming it `file` in errors.
@@ -84,7 +110,9 @@ impl PointCloud {
     /// # Errors
     /// As [`Self::read`].
     pub fn from_ply(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudError> {
-        ply::parse(bytes, file)
+        let mut cloud = PointCloud::default();
+        ply::parse(bytes, file, &mut cloud)?;
+        Ok(cloud)
     }
 
     /// Parses a PCD file's bytes, naming it `file` in errors.
@@ -92,7 +120,9 @@ impl PointCloud {
     /// # Errors
     /// As [`Self::read`].
     pub fn from_pcd(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudError> {
-        pcd::parse(bytes, file)
+        let mut cloud = PointCloud::default();
+        pcd::parse(bytes, file, &mut cloud)?;
+        Ok(cloud)
     }
 
     /// The cloud from points given directly (m), non-finite ones dropped.
@@ -124,6 +154,23 @@ impl PointCloud {
         } else {
             self.dropped += 1;
         }
+    }
+
+    /// Reads a `.ply` or `.pcd` file as [`Self::read`] does and filters it
+    /// as [`Self::filtered`] does, point by point as they are parsed: only
+    /// the file's bytes and the kept points are held, never the whole
+    /// cloud (a 10-million-point cloud thinned to a few thousand points
+    /// needs the file's size and a little more).
+    ///
+    /// # Errors
+    /// As [`Self::read`] and [`FilterSettings::validate`].
+    pub fn read_filtered(
+        path: impl AsRef<Path>,
+        settings: &FilterSettings,
+    ) -> Result<(PointCloud, FilterReport), PointCloudError> {
+        let mut filter = filter::Thinning::new(settings)?;
+        read_into(path.as_ref(), &mut filter)?;
+        Ok(filter.finish())
     }
 
     /// The number of points kept.

@@ -3,7 +3,7 @@
 //! fields, little-endian) or `binary_compressed` body (LZF-compressed, one
 //! field's values after another).
 
-use super::{PointCloud, PointCloudError, Scalar, header_lines};
+use super::{PointCloudError, PointSink, Scalar, header_lines};
 
 /// One field: its name, scalar type and count (values per point).
 #[derive(Debug, Clone)]
@@ -13,7 +13,7 @@ struct Field {
     count: usize,
 }
 
-pub(super) fn parse(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudError> {
+pub(super) fn parse(bytes: &[u8], file: &str, cloud: &mut impl PointSink) -> Result<(), PointCloudError> {
     let err = |line: Option<usize>, m: String| PointCloudError::new(file, line, m);
     let (lines, body) = header_lines(bytes, file, |l| l.starts_with("DATA"))?;
     let mut names: Vec<String> = Vec::new();
@@ -107,7 +107,7 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudEr
         offsets.push(record);
         record += f.scalar.size() * f.count;
     }
-    let mut cloud = PointCloud { points: Vec::with_capacity(count.min(1 << 24)), dropped: 0 };
+    cloud.reserve(count);
     match data {
         "ascii" => {
             let text =
@@ -179,7 +179,7 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudEr
         }
         other => return Err(err(Some(data_line), format!("DATA '{other}' is not ascii, binary or binary_compressed"))),
     }
-    Ok(cloud)
+    Ok(())
 }
 
 /// LZF decompression (liblzf's format, as PCL writes it) of `input` into

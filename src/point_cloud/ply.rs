@@ -2,7 +2,7 @@
 //! then the `vertex` element's `x`, `y`, `z`; other elements (faces) are
 //! read past, lists included.
 
-use super::{PointCloud, PointCloudError, Scalar, header_lines};
+use super::{PointCloudError, PointSink, Scalar, header_lines};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Format {
@@ -40,7 +40,7 @@ fn scalar(name: &str) -> Option<Scalar> {
     })
 }
 
-pub(super) fn parse(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudError> {
+pub(super) fn parse(bytes: &[u8], file: &str, cloud: &mut impl PointSink) -> Result<(), PointCloudError> {
     let err = |line: Option<usize>, m: String| PointCloudError::new(file, line, m);
     let (lines, body) = header_lines(bytes, file, |l| l == "end_header")?;
     if lines.first().map(|(_, l)| l.trim()) != Some("ply") {
@@ -97,7 +97,7 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudEr
         }
     };
     let xyz = [axis("x")?, axis("y")?, axis("z")?];
-    let mut cloud = PointCloud { points: Vec::with_capacity(v.count.min(1 << 24)), dropped: 0 };
+    cloud.reserve(v.count);
     let mut values = vec![0.0; v.properties.len()];
     match format {
         Format::Ascii => {
@@ -164,7 +164,7 @@ pub(super) fn parse(bytes: &[u8], file: &str) -> Result<PointCloud, PointCloudEr
             }
         }
     }
-    Ok(cloud)
+    Ok(())
 }
 
 /// A list's length from its count field: a whole number, not negative.

@@ -488,19 +488,15 @@ impl RawScene {
             if let Some(spacing) = c.spacing {
                 check.positive(&p.key("spacing"), spacing)?;
             }
-            let cloud = crate::point_cloud::PointCloud::read(check.src.resolve(&c.file))
+            // Thinned (as it is read: a large file is never held whole),
+            // every removed point lies within the spacing of a kept one: the
+            // kept points' balls grow by it to cover theirs.
+            let file = check.src.resolve(&c.file);
+            let settings =
+                crate::point_cloud::FilterSettings { spacing: c.spacing.unwrap_or(0.0), ..Default::default() };
+            let (cloud, report) = crate::point_cloud::PointCloud::read_filtered(&file, &settings)
                 .map_err(|e| check.src.error(&p.key("file"), e.to_string()))?;
-            // Thinned, every removed point lies within the spacing of a kept
-            // one: the kept points' balls grow by it to cover theirs.
-            let (cloud, margin) = match c.spacing {
-                Some(spacing) => {
-                    let settings = crate::point_cloud::FilterSettings { spacing, ..Default::default() };
-                    let (kept, report) =
-                        cloud.filtered(&settings).map_err(|e| check.src.error(&p.key("spacing"), e.to_string()))?;
-                    (kept, report.radius_margin)
-                }
-                None => (cloud, 0.0),
-            };
+            let margin = report.radius_margin;
             let name = c.name.clone().unwrap_or_else(|| {
                 let taken = |n: &str| scene.obstacle(n).is_some() || scene.object(n).is_some();
                 (0..)
