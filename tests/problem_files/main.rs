@@ -255,8 +255,16 @@ fn readme_examples() -> Vec<String> {
 
 #[test]
 fn readme_examples_load() {
-    let examples = readme_examples();
-    assert_eq!(examples.len(), 2, "a problem and a family example");
+    let mut examples = readme_examples();
+    assert_eq!(examples.len(), 3, "a point cloud section, a problem and a family example");
+    // The point cloud section, added to panda_reach.toml: the pillar's
+    // 2,500 points as balls of 1 cm.
+    let clouds = examples.remove(0);
+    let reach = std::fs::read_to_string(shipped("panda_reach.toml")).unwrap() + "\n" + &clouds;
+    let with_cloud = Problem::from_str_with(&reach, "README point cloud", Some(&repo().join("problems")))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let cloud = with_cloud.scene.obstacle("point_cloud").expect("the cloud's obstacle");
+    assert!(matches!(&cloud.shape, Shape::Points { points, radius } if points.len() == 2500 && *radius == 0.01));
     let problem = Problem::from_str_with(&examples[0], "README problem", Some(&repo().join("problems")))
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(problem.scene.objects().len(), 1);
