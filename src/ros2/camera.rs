@@ -26,7 +26,7 @@ use crate::problem::{Problem, ProblemError};
 use crate::scene::Obstacle;
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::mpsc::{Receiver, Sender};
+use std::sync::mpsc::{Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -319,8 +319,9 @@ fn latest<M: 'static + serde::de::DeserializeOwned>(
 pub struct CameraLink {
     /// New collision models, or why a message was refused.
     pub updates: Receiver<Result<CloudUpdate, CloudRefusal>>,
-    /// What the loop swapped out, to be freed by the worker.
-    pub freed: Sender<(Arbiter, SafetyRows)>,
+    /// What the loop swapped out, to be freed by the worker (bounded and
+    /// preallocated: the loop's `try_send` neither blocks nor allocates).
+    pub freed: SyncSender<(Arbiter, SafetyRows)>,
     /// The scene shared with the goal preparation.
     pub scene: Arc<Mutex<SceneState>>,
     measured: Arc<Mutex<Option<Vec<f64>>>>,
@@ -333,8 +334,11 @@ impl CameraLink {
     /// # Errors
     /// The thread could not be started.
     pub fn start(readers: CameraReaders, settings: CameraSettings, scene: SceneState) -> std::io::Result<CameraLink> {
-        let (updates_tx, updates) = std::sync::mpsc::channel();
-        let (freed, freed_rx) = std::sync::mpsc::channel();
+        // Bounded both ways, so that nothing the loop touches allocates: one
+        // update waits for the loop (the worker blocks until it is taken),
+        // and the worker drains what comes back every few milliseconds.
+        let (updates_tx, updates) = std::sync::mpsc::sync_channel(1);
+        let (freed, freed_rx) = std::sync::mpsc::sync_channel(8);
         let scene = Arc::new(Mutex::new(scene));
         let measured = Arc::new(Mutex::new(None));
         let stop = Arc::new(AtomicBool::new(false));
@@ -373,7 +377,7 @@ fn run_camera(
     settings: CameraSettings,
     scene: Arc<Mutex<SceneState>>,
     measured: Arc<Mutex<Option<Vec<f64>>>>,
-    updates: Sender<Result<CloudUpdate, CloudRefusal>>,
+    updates: SyncSender<Result<CloudUpdate, CloudRefusal>>,
     freed: Receiver<(Arbiter, SafetyRows)>,
     stop: &AtomicBool,
 ) {

@@ -543,8 +543,10 @@ pub fn run_node(
                             ),
                         );
                     }
-                    // The old model (or the unused new one) is freed by the worker.
-                    let _ = camera.freed.send((update.arbiter, update.rows));
+                    // The old model (or the unused new one) is freed by the
+                    // worker; never waited for (a full queue, which the
+                    // worker's draining makes rare, frees it here).
+                    let _ = camera.freed.try_send((update.arbiter, update.rows));
                 }
                 Ok(Err(reason)) => {
                     report.point_clouds_refused += 1;
