@@ -69,6 +69,7 @@ pub mod figures;
 pub mod files;
 pub mod komo;
 pub mod learn;
+pub mod perception;
 pub mod pipeline;
 pub mod plan;
 pub mod point_cloud;

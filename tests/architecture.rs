@@ -21,6 +21,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("point clouds", &["point_cloud"]),
     ("geometry", &["scene"]),
     ("collision", &["collision"]),
+    ("perception", &["perception"]),
     ("problems", &["problem"]),
     ("planning", &["plan"]),
     ("optimization", &["komo"]),

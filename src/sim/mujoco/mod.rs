@@ -20,11 +20,13 @@
 //! the same library a Rust user links.
 
 mod arm;
+mod camera;
 #[cfg(feature = "experiments")]
 mod env;
 mod episode;
 mod scene;
 
+pub use camera::{RayCastCamera, RayCastFrame};
 #[cfg(feature = "experiments")]
 pub(crate) use env::EnvPhysics;
 pub use episode::{PhysicsEpisode, PhysicsRecord, PhysicsWorkspace, lift_arbiter};
