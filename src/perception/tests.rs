@@ -364,3 +364,68 @@ fn icp_on_a_sphere_keeps_its_free_rotation_finite_and_refuses_bad_input() {
     assert!(point_to_plane_icp(&surface, &points, &start, &bad).is_err());
     assert!(SurfaceModel::new(vec![[0.0; 3]], vec![[0.0; 3]]).is_err());
 }
+
+#[test]
+fn segmentation_finds_one_cluster_per_object_on_the_table() {
+    let k = CameraIntrinsics::realsense_d435_640x480();
+    let cam = DepthCamera::looking_at(k, [0.0, -0.5, 0.6], [0.0, 0.0, 0.0], [0.0, 0.0, 1.0]).unwrap();
+    let (w, h) = cam.size();
+    let mut depth = vec![f32::NAN; w * h];
+    let mut ws = RenderWorkspace::default();
+    let full = PixelWindow::full(&cam);
+    // The table: a slab whose top is z = 0; two boxes resting on it, 6 cm apart.
+    let table = box_mesh([0.5, 0.5, 0.02]);
+    render_mesh(
+        &cam,
+        &table,
+        &IsometryMatrix3::translation(0.0, 0.0, -0.02),
+        full,
+        &RenderSettings::default(),
+        &mut ws,
+        &mut depth,
+    );
+    let boxes = [
+        IsometryMatrix3::from_parts(Translation3::new(-0.06, 0.0, 0.03), Rotation3::from_euler_angles(0.0, 0.0, 0.4)),
+        IsometryMatrix3::from_parts(Translation3::new(0.08, 0.05, 0.025), Rotation3::from_euler_angles(0.0, 0.0, -0.2)),
+    ];
+    let sizes = [[0.03, 0.02, 0.03], [0.025, 0.025, 0.025]];
+    for (pose, s) in boxes.iter().zip(sizes) {
+        render_mesh(&cam, &box_mesh(s), pose, full, &RenderSettings::default(), &mut ws, &mut depth);
+    }
+    let image = DepthImage { width: w, height: h, depth };
+    let mut points = vec![];
+    image.points(&cam, &mut points);
+    // A few stray points floating above the table: speckle.
+    points.extend([([0.2, 0.2, 0.1], 0), ([0.2, 0.201, 0.1], 1), ([0.201, 0.2, 0.1], 2)]);
+    let settings = SegmentSettings::for_table([-0.4, -0.4], [0.4, 0.4], 0.0);
+    let (segments, report) = segment_objects(&points, None, &settings).unwrap();
+    assert_eq!(segments.len(), 2, "{report:?}");
+    // The speckle, and a lone pixel or two on a side face seen edge-on
+    // (its pixels land more than a cell apart).
+    assert!((3..=6).contains(&report.rejected), "{report:?}");
+    for s in &segments {
+        // Every point belongs to one box (inside it, grown by rounding).
+        let owner: Vec<usize> = s
+            .points
+            .iter()
+            .map(|p| {
+                (0..2)
+                    .find(|&b| {
+                        let q = boxes[b].inverse() * Point3::from(*p);
+                        (0..3).all(|i| q[i].abs() <= sizes[b][i] + 1e-6)
+                    })
+                    .expect("a point on neither box")
+            })
+            .collect();
+        assert!(owner.iter().all(|&o| o == owner[0]));
+        assert!(s.points.len() > 200, "{}", s.points.len());
+        assert_eq!(s.points.len(), s.pixels.len());
+        let c = s.centroid();
+        assert!((c[0] - boxes[owner[0]].translation.x).abs() < 0.03);
+    }
+    // The same points, the same segments.
+    let (again, _) = segment_objects(&points, None, &settings).unwrap();
+    assert_eq!(again, segments);
+    let bad = SegmentSettings { cluster_distance: 0.0, ..settings };
+    assert!(segment_objects(&points, None, &bad).is_err());
+}
