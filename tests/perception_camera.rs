@@ -140,3 +140,84 @@ fn ray_cast_depth_matches_the_rasteriser_and_closed_forms() {
     // collides with): the floor is seen inside the notch.
     assert!(notch > 20, "{notch} floor pixels in the notch");
 }
+
+/// The reach-and-grasp world (Panda, table, box) with a mesh beside the
+/// box, seen by a D435 across the table with the arm reaching into view:
+/// the mesh body sits where the rasteriser puts it, and segmentation finds
+/// the box and the mesh, the arm's points removed, each segment's pixels
+/// the ground truth's.
+#[test]
+fn the_camera_sees_the_objects_and_segmentation_separates_them_from_the_arm() {
+    use tandem::collision::{CollisionModel, CollisionWorkspace};
+    use tandem::perception::{DepthImage, DepthSensorSettings, SegmentSettings, apply_sensor_model, segment_objects};
+    use tandem::problem::Problem;
+    use tandem::sim::PhysicsSettings;
+    use tandem::sim::mujoco::{GeomRole, PhysicsScene, SceneMesh};
+
+    let problem = Problem::builtin("panda_grasp_box").unwrap();
+    let mesh = l_prism();
+    let pose =
+        IsometryMatrix3::from_parts(Translation3::new(0.55, -0.15, 0.0), Rotation3::from_euler_angles(0.0, 0.0, 0.3));
+    let extra = [SceneMesh { name: "l", mesh: &mesh, pose, mass: 0.2 }];
+    let scene = PhysicsScene::with_meshes(&problem, 0.01, &PhysicsSettings::default(), &extra).unwrap();
+    assert_eq!(scene.object_names(), ["box", "l"]);
+    let mut data = scene.data();
+    // The arm reaching forward over the table, in the camera's view.
+    let q = [0.0, 0.5, 0.0, -1.6, 0.0, 2.1, 0.785];
+    scene.reset(&mut data, &q);
+    data.forward();
+    let cam = DepthCamera::looking_at(
+        CameraIntrinsics::realsense_d435_640x480(),
+        [1.15, 0.0, 0.55],
+        [0.5, 0.0, 0.05],
+        [0.0, 0.0, 1.0],
+    )
+    .unwrap();
+    let mut rays = RayCastCamera::new(cam, 4.0);
+    let mut frame = RayCastFrame::default();
+    rays.render(&mut data, &mut frame);
+    let role = |k: usize| frame.geom[k].map(|g| scene.role(g));
+    let count = |r: GeomRole| (0..frame.geom.len()).filter(|&k| role(k) == Some(r)).count();
+    let (robot_px, box_px, l_px) = (count(GeomRole::Robot), count(GeomRole::Object(0)), count(GeomRole::Object(1)));
+    eprintln!("robot {robot_px} px, box {box_px} px, L {l_px} px, table {} px", count(GeomRole::Obstacle));
+    assert!(robot_px > 2000 && box_px > 500 && l_px > 500);
+
+    // The mesh body where the rasteriser draws the mesh at its pose.
+    let mut raster = vec![f32::NAN; 640 * 480];
+    render_mesh(
+        &cam,
+        &mesh,
+        &pose,
+        PixelWindow::full(&cam),
+        &RenderSettings::default(),
+        &mut RenderWorkspace::default(),
+        &mut raster,
+    );
+    let worst = (0..raster.len())
+        .filter(|&k| role(k) == Some(GeomRole::Object(1)) && raster[k].is_finite())
+        .map(|k| (frame.depth.depth[k] - raster[k]).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-6, "{worst:e} m");
+
+    // Through the sensor model, then segmentation with the arm filtered out.
+    let mut seen = DepthImage::default();
+    let settings = DepthSensorSettings::default();
+    apply_sensor_model(&cam, &frame.depth, &frame.cos_incidence, &settings, 5, &mut seen).unwrap();
+    let mut points = vec![];
+    seen.points(&cam, &mut points);
+    let collision = CollisionModel::builder(problem.robot.clone()).build().unwrap();
+    let mut ws = CollisionWorkspace::new(&collision);
+    let seg = SegmentSettings::for_table([-0.4, -0.8], [1.0, 0.8], 0.0);
+    let (segments, report) = segment_objects(&points, Some((&collision, &mut ws, &q)), &seg).unwrap();
+    eprintln!(
+        "{} segments of {:?} points; {report:?}",
+        segments.len(),
+        segments.iter().map(|s| s.points.len()).collect::<Vec<_>>()
+    );
+    assert!(report.robot > 1000, "{report:?}");
+    assert_eq!(segments.len(), 2);
+    for (s, object) in segments.iter().zip([0, 1]) {
+        let own = s.pixels.iter().filter(|&&k| role(k) == Some(GeomRole::Object(object))).count();
+        assert!(own * 100 >= s.pixels.len() * 98, "segment {object}: {own} of {} pixels its own", s.pixels.len());
+    }
+}

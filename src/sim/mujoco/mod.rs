@@ -30,7 +30,7 @@ pub use camera::{RayCastCamera, RayCastFrame};
 #[cfg(feature = "experiments")]
 pub(crate) use env::EnvPhysics;
 pub use episode::{PhysicsEpisode, PhysicsRecord, PhysicsWorkspace, lift_arbiter};
-pub use scene::{GeomRole, PhysicsScene};
+pub use scene::{GeomRole, PhysicsScene, SceneMesh};
 
 use crate::robot::RobotModel;
 use mujoco_rs::prelude::*;

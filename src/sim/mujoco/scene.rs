@@ -48,6 +48,19 @@ const PANDA_FINGER_BOXES: [([f64; 3], f64, [f64; 3]); 4] = [
     ([0.0, 7.58e-3, 45.25e-3], 0.0, [17.5e-3, 15.2e-3, 18.5e-3]),
 ];
 
+/// A triangle mesh as a free body of the physics scene.
+#[derive(Debug, Clone, Copy)]
+pub struct SceneMesh<'a> {
+    /// Its name (bodies and geoms are `object_{name}`).
+    pub name: &'a str,
+    /// Its surface, in its own frame (m).
+    pub mesh: &'a crate::perception::TriangleMesh,
+    /// Where it starts in the world.
+    pub pose: IsometryMatrix3<f64>,
+    /// Its mass (kg).
+    pub mass: f64,
+}
+
 /// Which part of the world a MuJoCo geom belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GeomRole {
@@ -103,6 +116,22 @@ impl PhysicsScene {
     /// Bad settings, an unreadable URDF, MuJoCo refusing the model, a joint
     /// missing from it.
     pub fn new(problem: &Problem, period: f64, settings: &PhysicsSettings) -> Result<PhysicsScene, PhysicsError> {
+        PhysicsScene::with_meshes(problem, period, settings, &[])
+    }
+
+    /// As [`Self::new`], with free bodies of triangle meshes beside the
+    /// problem's objects (the perception experiment's seven objects): they
+    /// follow the problem's objects in [`Self::object_names`] and in
+    /// [`GeomRole::Object`]'s index.
+    ///
+    /// # Errors
+    /// As [`Self::new`]; a mesh of a non-positive or non-finite mass.
+    pub fn with_meshes(
+        problem: &Problem,
+        period: f64,
+        settings: &PhysicsSettings,
+        meshes: &[SceneMesh<'_>],
+    ) -> Result<PhysicsScene, PhysicsError> {
         settings.validate().map_err(PhysicsError::Settings)?;
         if !(period.is_finite() && period > 0.0) {
             return Err(PhysicsError::Settings(format!("control period {period} s must be finite and positive")));
@@ -112,7 +141,7 @@ impl PhysicsScene {
         let robot = &problem.robot;
         let urdf = with_contact_fingers(&robot_urdf(robot)?)?;
         let robot_xml = robot_mjcf(&urdf)?;
-        let xml = scene_mjcf(&robot_xml, problem, timestep, settings)?;
+        let xml = scene_mjcf(&robot_xml, problem, meshes, timestep, settings)?;
         let model = MjModel::from_xml_string(&xml).map_err(|e| PhysicsError::Compile(format!("{e:?}")))?;
         let joint = |name: &str| {
             model
@@ -152,13 +181,14 @@ impl PhysicsScene {
         }
         let mut objects = vec![];
         let mut object_names = vec![];
-        for object in problem.scene.objects() {
+        let placed = problem.scene.objects().iter().map(|o| (o.name.as_str(), &o.pose));
+        for (name, pose) in placed.chain(meshes.iter().map(|m| (m.name, &m.pose))) {
             let body = model
-                .name_to_id(MjtObjBase::mjOBJ_BODY, &format!("object_{}", object.name))
-                .ok_or_else(|| PhysicsError::Missing { kind: "body", name: object.name.clone() })?;
+                .name_to_id(MjtObjBase::mjOBJ_BODY, &format!("object_{name}"))
+                .ok_or_else(|| PhysicsError::Missing { kind: "body", name: name.to_string() })?;
             let adr = qposadr[model.body_jntadr()[body] as usize] as usize;
-            objects.push((body, adr, pose7(&object.pose)));
-            object_names.push(object.name.clone());
+            objects.push((body, adr, pose7(pose)));
+            object_names.push(name.to_string());
         }
         let robot_root = model
             .name_to_id(MjtObjBase::mjOBJ_BODY, robot.description().links().first().map_or("", |l| l.name.as_str()))
@@ -350,6 +380,7 @@ fn robot_mjcf(urdf: &str) -> Result<String, PhysicsError> {
 fn scene_mjcf(
     robot: &str,
     problem: &Problem,
+    meshes: &[SceneMesh<'_>],
     timestep: f64,
     settings: &PhysicsSettings,
 ) -> Result<String, PhysicsError> {
@@ -376,6 +407,53 @@ fn scene_mjcf(
             world,
             r#"    <body name="object_{}" pos="{} {} {}" quat="{} {} {} {}"><freejoint name="object_{}"/><geom {geom} contype="3" conaffinity="3" condim="4" friction="{mu} 0.005 0.0001" density="{}"/></body>"#,
             o.name, p[0], p[1], p[2], p[3], p[4], p[5], p[6], o.name, settings.object_density
+        );
+    }
+    for m in meshes {
+        if !(m.mass.is_finite() && m.mass > 0.0) {
+            return Err(PhysicsError::Settings(format!(
+                "mesh '{}' has mass {} kg (finite and positive)",
+                m.name, m.mass
+            )));
+        }
+        let vertices: Vec<String> = m.mesh.vertices.iter().map(|v| format!("{} {} {}", v[0], v[1], v[2])).collect();
+        let faces: Vec<String> = m.mesh.triangles.iter().map(|t| format!("{} {} {}", t[0], t[1], t[2])).collect();
+        // `shell`: MuJoCo need not find a closed volume (the body's
+        // inertia is given below); contacts use the mesh's convex hull,
+        // rays its triangles.
+        let _ = write!(
+            assets,
+            r#"<mesh name="mesh_{}" vertex="{}" face="{}" inertia="shell"/>"#,
+            m.name,
+            vertices.join(" "),
+            faces.join(" ")
+        );
+        // A solid box of the mesh's bounds, for the inertia.
+        let (lo, hi) = m.mesh.vertices.iter().fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), v| {
+            ([lo[0].min(v[0]), lo[1].min(v[1]), lo[2].min(v[2])], [hi[0].max(v[0]), hi[1].max(v[1]), hi[2].max(v[2])])
+        });
+        let e = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+        let c = [(hi[0] + lo[0]) / 2.0, (hi[1] + lo[1]) / 2.0, (hi[2] + lo[2]) / 2.0];
+        let i = |a: f64, b: f64| m.mass * (a * a + b * b) / 12.0;
+        let p = pose7(&m.pose);
+        let _ = writeln!(
+            world,
+            r#"    <body name="object_{n}" pos="{} {} {}" quat="{} {} {} {}"><freejoint name="object_{n}"/><inertial pos="{} {} {}" mass="{}" diaginertia="{} {} {}"/><geom name="object_{n}" type="mesh" mesh="mesh_{n}" contype="3" conaffinity="3" condim="4" friction="{mu} 0.005 0.0001"/></body>"#,
+            p[0],
+            p[1],
+            p[2],
+            p[3],
+            p[4],
+            p[5],
+            p[6],
+            c[0],
+            c[1],
+            c[2],
+            m.mass,
+            i(e[1], e[2]),
+            i(e[0], e[2]),
+            i(e[0], e[1]),
+            n = m.name
         );
     }
     if !assets.is_empty() {
