@@ -5,7 +5,8 @@ Reads one JSON object on stdin and prints one:
 
 - {"method": "cpd", "fixed": [[x, y, z], ...], "moving": [...],
   "rotation": 3x3 (column convention, T(y) = s R y + t), "translation": [3],
-  "scale": s, "w": w, "max_iterations": K, "tolerance": tol}
+  "scale": s, "w": w, "max_iterations": K, "tolerance": tol,
+  "sigma2": initial σ² (optional; pycpd's own start is from the unmoved Y)}
   → pycpd's RigidRegistration (it always estimates the scale):
   {"rotation", "translation", "scale", "variance", "iterations", "seconds",
   "pycpd_version"} in the same column convention.
@@ -40,6 +41,7 @@ if request["method"] == "cpd":
         w=float(request["w"]),
         max_iterations=int(request["max_iterations"]),
         tolerance=float(request["tolerance"]),
+        sigma2=request.get("sigma2"),
     )
     start = time.perf_counter()
     reg.register()

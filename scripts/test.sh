@@ -55,7 +55,7 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; 
   "$venv/bin/pip" install --quiet --disable-pip-version-check -r python_ref/requirements.txt
   echo "$want" > "$stamp"
 fi
-"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake, rosbags, cyclonedds, mujoco, plyfile, pypcd4, octomap" \
+"$venv/bin/python" -c "import pinocchio, casadi, scipy, numpy, pyarrow, cmake, rosbags, cyclonedds, mujoco, plyfile, pypcd4, octomap, pycpd, small_gicp" \
   || { echo "error: the Python reference environment in $venv is broken; delete it and re-run" >&2; exit 1; }
 
 # The Python package's environment: pytest and ray in python/.venv, which

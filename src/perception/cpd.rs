@@ -14,8 +14,7 @@
 //! Nothing of `P` (M × N) is stored: each iteration walks the data once,
 //! one row of M posteriors at a time, and accumulates what the M-step
 //! needs. The cost is M·N exponentials an iteration — a few hundred points
-//! on either side keep it under a millisecond
-//! ([`CpdSettings::max_points`]).
+//! on either side keep it near a millisecond.
 
 use super::PerceptionError;
 use nalgebra::{Matrix3, Vector3};

@@ -9,7 +9,9 @@
 //! with its nearest model point within
 //! [`IcpSettings::max_correspondence_distance`], and takes the
 //! Gauss-Newton step of `Σ (n·(T⁻¹x − y))²` over a left perturbation of
-//! `T⁻¹`. It stops when a step moves less than both tolerances.
+//! `T⁻¹`, damped as Levenberg-Marquardt's (a step that raises the cost is
+//! refused and the next one shorter). It stops when a step moves less than
+//! both tolerances.
 
 use super::PerceptionError;
 use crate::point_cloud::PointTree;
@@ -127,7 +129,7 @@ pub struct IcpResult {
     pub paired_fraction: f64,
     /// Iterations run.
     pub iterations: usize,
-    /// Whether a step went below both tolerances.
+    /// Whether a proposed step went below both tolerances.
     pub converged: bool,
 }
 
@@ -157,22 +159,33 @@ pub fn point_to_plane_icp(
     let cap = settings.max_correspondence_distance;
     let mut iterations = 0;
     let mut converged = false;
+    let (mut h, mut g, mut cost, _) = normal_equations(model, points, &inv, cap);
+    // Levenberg-Marquardt's damping, relative to JᵀJ's largest diagonal:
+    // a step that raises the cost (pairs changing under it) is refused and
+    // the next one shorter, so the pose settles instead of cycling between
+    // two sets of pairs. A sphere leaves its rotation free, a cylinder its
+    // spin: the damping also keeps those steps finite.
+    let mut lambda = 1e-6;
     while iterations < settings.max_iterations {
-        let (h, g, _, _) = normal_equations(model, points, &inv, cap);
         iterations += 1;
-        // A sphere leaves its rotation free, a cylinder its spin: a small
-        // damping keeps the step finite without moving the fixed point.
-        let damping = 1e-9 * (0..6).map(|i| h[(i, i)]).fold(0.0, f64::max).max(1e-30);
-        let Some(chol) = (h + Matrix6::identity() * damping).cholesky() else {
+        let scale = (0..6).map(|i| h[(i, i)]).fold(0.0, f64::max).max(1e-30);
+        let Some(chol) = (h + Matrix6::identity() * (lambda * scale)).cholesky() else {
             break;
         };
         let step = -chol.solve(&g);
         let omega = Vector3::new(step[0], step[1], step[2]);
         let v = Vector3::new(step[3], step[4], step[5]);
-        inv = IsometryMatrix3::from_parts(Translation3::from(v), Rotation3::new(omega)) * inv;
         if v.norm() < settings.translation_tolerance && omega.norm() < settings.rotation_tolerance {
             converged = true;
             break;
+        }
+        let candidate = IsometryMatrix3::from_parts(Translation3::from(v), Rotation3::new(omega)) * inv;
+        let (h2, g2, cost2, _) = normal_equations(model, points, &candidate, cap);
+        if cost2 <= cost {
+            (inv, h, g, cost) = (candidate, h2, g2, cost2);
+            lambda = (lambda / 3.0).max(1e-12);
+        } else {
+            lambda *= 4.0;
         }
     }
     let (_, _, sum_sq, paired) = normal_equations(model, points, &inv, cap);

@@ -13,6 +13,10 @@
 //!   one cluster per object.
 //! - [`cpd`]: rigid coherent point drift, the dissertation's *mesh_pose*.
 //! - [`icp`]: point-to-plane ICP.
+//! - [`estimate`]: a segment labelled and posed (ICP from upright
+//!   hypotheses, scored against the image), *mesh_pose* by CPD.
+//! - [`track`]: a particle filter over the 6-D pose, DBOT's manner.
+//! - [`metrics`]: ADD, ADD-S and their AUC.
 //!
 //! Frames: an object's mesh is given in its own frame (origin at the
 //! centre of its base, z up, so that it rests on the plane z = 0; m); a
@@ -21,23 +25,28 @@
 
 pub mod camera;
 pub mod cpd;
+pub mod estimate;
 pub mod icp;
 pub mod mesh;
+pub mod metrics;
 pub mod objects;
 pub mod render;
 pub mod segment;
 pub mod sensor;
 #[cfg(test)]
 mod tests;
+pub mod track;
 
 pub use camera::{DepthCamera, DepthImage};
 pub use cpd::{CpdResult, CpdSettings, CpdWorkspace, rigid_cpd};
+pub use estimate::{Detection, EstimateSettings, EstimateWorkspace, ObjectLibrary, detect, mask_pose, mesh_pose};
 pub use icp::{IcpResult, IcpSettings, SurfaceModel, point_to_plane_icp};
 pub use mesh::TriangleMesh;
 pub use objects::{ObjectModel, Symmetry, catalog};
 pub use render::{PixelWindow, RenderSettings, RenderWorkspace, render_mesh};
 pub use segment::{Segment, SegmentReport, SegmentSettings, segment_objects};
 pub use sensor::{DepthSensorSettings, apply_sensor_model};
+pub use track::{TrackSettings, Tracker};
 
 /// Why a perception input was refused.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -231,7 +231,7 @@ pub fn apply_sensor_model(
 }
 
 /// A standard normal draw (Box-Muller, one of the pair).
-fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
     let u: f64 = rng.random_range(f64::EPSILON..1.0);
     let v: f64 = rng.random_range(0.0..1.0);
     (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
