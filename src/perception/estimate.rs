@@ -177,7 +177,7 @@ pub fn detect(
     let points = thinned(segment, settings.max_points)?;
     let mut best: Option<Detection> = None;
     for k in 0..library.len() {
-        let d = fit_object(segment, &points, camera, image, library, k, settings, ws)?;
+        let d = fit_points(segment, &points, camera, image, library, k, settings, ws)?;
         if best.is_none_or(|b| d.score > b.score) {
             best = Some(d);
         }
@@ -185,9 +185,26 @@ pub fn detect(
     Ok(best.filter(|b| b.score >= settings.min_score))
 }
 
-/// The best ICP fit of object `k` to the segment over the hypotheses.
+/// Object `k` fitted to the segment: the best ICP fit over the upright
+/// hypotheses, scored (see the module docs), whatever its score.
+///
+/// # Errors
+/// An empty segment.
+pub fn fit_object(
+    segment: &Segment,
+    camera: &DepthCamera,
+    image: &DepthImage,
+    library: &ObjectLibrary,
+    k: usize,
+    settings: &EstimateSettings,
+    ws: &mut EstimateWorkspace,
+) -> Result<Detection, PerceptionError> {
+    let points = thinned(segment, settings.max_points)?;
+    fit_points(segment, &points, camera, image, library, k, settings, ws)
+}
+
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn fit_object(
+fn fit_points(
     segment: &Segment,
     points: &[[f64; 3]],
     camera: &DepthCamera,
@@ -198,7 +215,7 @@ pub(crate) fn fit_object(
     ws: &mut EstimateWorkspace,
 ) -> Result<Detection, PerceptionError> {
     let mut best: Option<Detection> = None;
-    for start in hypotheses(segment, library.object(k), settings) {
+    for start in hypotheses(segment, camera, library.object(k), settings) {
         let r = point_to_plane_icp(library.surface(k), points, &start, &settings.icp)?;
         let d = score(segment, points, camera, image, library, k, &r.pose, settings, ws);
         if best.is_none_or(|b| d.score > b.score) {
@@ -225,7 +242,7 @@ pub fn mesh_pose(
 ) -> Result<Detection, PerceptionError> {
     let points = thinned(segment, settings.max_points.min(300))?;
     let mut best: Option<Detection> = None;
-    for start in hypotheses(segment, library.object(k), settings) {
+    for start in hypotheses(segment, camera, library.object(k), settings) {
         let initial = (*start.rotation.matrix(), start.translation.vector, 1.0);
         let r = rigid_cpd(&points, &library.entries[k].sparse, initial, &settings.cpd, &mut ws.cpd)?;
         let pose = IsometryMatrix3::from_parts(
@@ -249,23 +266,38 @@ fn thinned(segment: &Segment, max: usize) -> Result<Vec<[f64; 3]>, PerceptionErr
     Ok(segment.points.iter().step_by(stride).copied().collect())
 }
 
-/// The upright starts: base on the table under the segment's centroid,
-/// yaws over the symmetry period.
-fn hypotheses(segment: &Segment, object: &ObjectModel, settings: &EstimateSettings) -> Vec<IsometryMatrix3<f64>> {
+/// The upright starts: base on the table under the segment's centroid and
+/// behind it (seen from the camera, the visible surface of a solid lies
+/// about 0.6 of its half-width in front of its axis, 2/π for a cylinder;
+/// that of an open bowl, whose far inner wall is seen too, nearer the
+/// axis), yaws over the symmetry period.
+fn hypotheses(
+    segment: &Segment,
+    camera: &DepthCamera,
+    object: &ObjectModel,
+    settings: &EstimateSettings,
+) -> Vec<IsometryMatrix3<f64>> {
     let c = segment.centroid();
+    let (lo, hi) = object.mesh.bounds();
+    let half_width = 0.5 * (hi[0] - lo[0]).min(hi[1] - lo[1]);
+    let eye = camera.pose.translation.vector;
+    let away = nalgebra::Vector2::new(c[0] - eye.x, c[1] - eye.y);
+    let away = if away.norm() > 1e-9 { away.normalize() } else { nalgebra::Vector2::zeros() };
     let (count, period) = match object.symmetry {
         Symmetry::RevolutionZ | Symmetry::Sphere => (1, 0.0),
         Symmetry::Cube => (settings.yaw_hypotheses.div_ceil(4).max(1), std::f64::consts::FRAC_PI_2),
         Symmetry::None => (settings.yaw_hypotheses.max(1), std::f64::consts::TAU),
     };
-    (0..count)
-        .map(|i| {
-            IsometryMatrix3::from_parts(
-                Translation3::new(c[0], c[1], settings.table_height),
+    let mut starts = Vec::with_capacity(2 * count);
+    for behind in [0.0, 0.6 * half_width] {
+        for i in 0..count {
+            starts.push(IsometryMatrix3::from_parts(
+                Translation3::new(c[0] + behind * away.x, c[1] + behind * away.y, settings.table_height),
                 Rotation3::from_euler_angles(0.0, 0.0, period * i as f64 / count as f64),
-            )
-        })
-        .collect()
+            ));
+        }
+    }
+    starts
 }
 
 /// `fit` and `explained` of object `k` at `pose` (see the module docs).

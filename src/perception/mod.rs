@@ -39,7 +39,9 @@ pub mod track;
 
 pub use camera::{DepthCamera, DepthImage};
 pub use cpd::{CpdResult, CpdSettings, CpdWorkspace, rigid_cpd};
-pub use estimate::{Detection, EstimateSettings, EstimateWorkspace, ObjectLibrary, detect, mask_pose, mesh_pose};
+pub use estimate::{
+    Detection, EstimateSettings, EstimateWorkspace, ObjectLibrary, detect, fit_object, mask_pose, mesh_pose,
+};
 pub use icp::{IcpResult, IcpSettings, SurfaceModel, point_to_plane_icp};
 pub use mesh::TriangleMesh;
 pub use objects::{ObjectModel, Symmetry, catalog};
