@@ -18,6 +18,9 @@
 //!   the figure against the dissertation's "seven objects per core at 10
 //!   Hz" (a frame must take under 100 ms).
 //!
+//! Under `cargo test --all-targets` (no `--bench` argument) a smoke run:
+//! the first segments only, one run each, one tracking frame.
+//!
 //! `--cases FILE` writes, per object, one CPD and one ICP problem (the
 //! points, the start, the settings) for benches/peers/compare_registration.sh.
 
@@ -72,8 +75,17 @@ fn text(args: &[String], name: &str) -> Option<String> {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let quick = args.iter().any(|a| a == "--quick");
-    let runs = if quick { 3 } else { 30 };
+    // Under `cargo test --all-targets` (no `--bench`): a smoke run, one
+    // object, one run of each stage, one tracking frame.
+    let smoke = !args.iter().any(|a| a == "--bench");
+    let quick = smoke || args.iter().any(|a| a == "--quick");
+    let runs = if smoke {
+        1
+    } else if quick {
+        3
+    } else {
+        30
+    };
     let problem = Problem::builtin("panda_grasp_box").unwrap();
     let library = ObjectLibrary::new(catalog()).unwrap();
     let objects: Vec<_> = LAYOUT.iter().map(|(n, ..)| tandem::perception::objects::object(n).unwrap()).collect();
@@ -125,7 +137,7 @@ fn main() {
     let mut trackers = vec![];
     let mut cases = vec![];
     let mut labels = vec![];
-    for s in &segments {
+    for s in segments.iter().take(if smoke { 2 } else { usize::MAX }) {
         let Some(GeomRole::Object(o)) = frame.geom[s.pixels[s.pixels.len() / 2]].map(|g| scene.role(g)) else {
             continue;
         };
@@ -195,7 +207,13 @@ fn main() {
                     "tandem_ms": icp_ms},
         }));
     }
-    let frames = if quick { 3 } else { 50 };
+    let frames = if smoke {
+        1
+    } else if quick {
+        3
+    } else {
+        50
+    };
     let mut track_t = vec![];
     for f in 0..frames {
         apply_sensor_model(&cam, &frame.depth, &frame.cos_incidence, &sensor, 1000 + f, &mut image).unwrap();

@@ -25,12 +25,15 @@ out = []
 for case in cases:
     c = case["cpd"]
     times = []
+    # pycpd takes only a positive semi-definite start rotation: the model
+    # is moved to the start instead (CPD's steps do not depend on where the
+    # model's frame is), the same problem.
+    r0 = np.asarray(c["rotation"], dtype=float)
+    moved = np.asarray(c["moving"], dtype=float) @ r0.T + np.asarray(c["translation"], dtype=float)
     for _ in range(runs):
         reg = RigidRegistration(
             X=np.asarray(c["fixed"], dtype=float),
-            Y=np.asarray(c["moving"], dtype=float),
-            R=np.asarray(c["rotation"], dtype=float).T.copy(),
-            t=np.asarray(c["translation"], dtype=float).reshape(1, 3),
+            Y=moved,
             s=1.0,
             w=c["w"],
             max_iterations=c["max_iterations"],
