@@ -127,6 +127,8 @@ impl TrackSettings {
 pub struct Tracker {
     settings: TrackSettings,
     mesh: TriangleMesh,
+    /// The mesh's farthest vertex from its origin (m): its bounding sphere.
+    radius: f64,
     /// The coarse camera of the likelihood.
     coarse: DepthCamera,
     poses: Vec<IsometryMatrix3<f64>>,
@@ -174,9 +176,11 @@ impl Tracker {
         let coarse = DepthCamera::new(coarse_k, camera.pose)?;
         let (w, h) = coarse.size();
         let n = settings.particles;
+        let radius = mesh.vertices.iter().map(|v| Vector3::from(*v).norm()).fold(0.0, f64::max);
         let mut tracker = Tracker {
             settings,
             mesh,
+            radius,
             coarse,
             poses: vec![initial; n],
             spare: vec![initial; n],
@@ -296,7 +300,7 @@ impl Tracker {
 
     /// The coarse pixels the model's bounding sphere may cover at `pose`.
     fn window_of(&self, pose: &IsometryMatrix3<f64>, cw: usize, ch: usize) -> PixelWindow {
-        let radius = self.mesh.vertices.iter().map(|v| Vector3::from(*v).norm()).fold(0.0, f64::max);
+        let radius = self.radius;
         let c = self.coarse.pose.inverse() * (pose * Point3::origin());
         let k = &self.coarse.intrinsics;
         if c.z <= radius + 1e-3 {
